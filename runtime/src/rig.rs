@@ -1,0 +1,108 @@
+//! The interface between a generated rig and the runtime.
+//!
+//! A rig with `N` joints and an `M`-dimensional task space (the operational point the
+//! impedance controllers act on) implements [`RigModel<N, M>`]. The terms are those of the
+//! paper's eq. (1) and (2): inertia matrix `D(q)`, Coriolis/centrifugal matrix `C(q, q̇)`,
+//! viscous damping `B` (diagonal), gravity `g(q)`, task position `p(q)`, Jacobian `J(q)` and
+//! `J̇(q, q̇)`. Matrices are row-major `[[S; cols]; rows]`.
+
+use crate::Real;
+
+/// Everything the control laws need at one state, computed in one pass so that common
+/// subexpressions (sines, cosines, products) are shared across the terms.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RigTerms<S, const N: usize, const M: usize> {
+    /// Inertia matrix `D(q)` (symmetric positive definite), kg·m² or kg.
+    pub inertia_matrix: [[S; N]; N],
+    /// Coriolis and centrifugal torques `C(q, q̇) q̇`, N·m or N.
+    pub coriolis_times_qdot: [S; N],
+    /// Gravity torques `g(q) = ∂V/∂q`, N·m or N.
+    pub gravity: [S; N],
+    /// Task-space position `p(q)` of the operational point.
+    pub position: [S; M],
+    /// Task Jacobian `J(q) = ∂p/∂q`, `M` rows by `N` columns.
+    pub jacobian: [[S; N]; M],
+    /// `J̇(q, q̇) q̇`, the velocity-product term of eq. (2).
+    pub jacobian_dot_times_qdot: [S; M],
+}
+
+/// One joint's drive train: motor, gearhead, sensors and limits, all in SI units.
+///
+/// Torques on the joint side are `gear_ratio * efficiency * torque_constant * current`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriveTrain<S> {
+    /// Motor turns per joint turn (N).
+    pub gear_ratio: S,
+    /// Gearhead efficiency in (0, 1].
+    pub efficiency: S,
+    /// Motor torque constant k_t, N·m/A.
+    pub torque_constant: S,
+    /// Armature resistance R, Ω.
+    pub resistance: S,
+    /// Armature inductance L, H.
+    pub inductance: S,
+    /// Rotor inertia J_m, kg·m² (the reflected N²·J_m is already part of `D`).
+    pub rotor_inertia: S,
+    /// Largest joint-side torque the controller may command, N·m (or N for prismatic joints).
+    pub torque_limit: S,
+    /// Largest motor current the controller may command, A.
+    pub current_limit: S,
+    /// Supply voltage that bounds the current loop's output, V.
+    pub supply_voltage: S,
+    /// Encoder counts per motor turn (after quadrature decoding).
+    pub encoder_counts_per_turn: u32,
+    /// Lower joint limit, rad or m.
+    pub position_lower: S,
+    /// Upper joint limit, rad or m.
+    pub position_upper: S,
+}
+
+/// A rig: the model-specific terms of the paper's eq. (1)–(2), implemented by generated code.
+///
+/// `N` is the number of joints (generalised coordinates), `M` the task-space dimension.
+/// Every method is allocation-free straight-line arithmetic; none of them panics.
+pub trait RigModel<const N: usize, const M: usize> {
+    /// The scalar type the rig was generated for (`f32` or `f64`).
+    type Scalar: Real;
+
+    /// The model's name.
+    const NAME: &'static str;
+    /// Current-loop sample rate, Hz.
+    const CURRENT_LOOP_HZ: u32;
+    /// Impedance (outer) loop sample rate, Hz.
+    const IMPEDANCE_LOOP_HZ: u32;
+
+    /// Inertia matrix `D(q)`.
+    fn inertia_matrix(&self, q: &[Self::Scalar; N]) -> [[Self::Scalar; N]; N];
+    /// Coriolis/centrifugal matrix `C(q, q̇)` from the Christoffel symbols of `D`.
+    fn coriolis_matrix(
+        &self,
+        q: &[Self::Scalar; N],
+        qd: &[Self::Scalar; N],
+    ) -> [[Self::Scalar; N]; N];
+    /// `C(q, q̇) q̇`.
+    fn coriolis_times_qdot(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N])
+        -> [Self::Scalar; N];
+    /// Gravity vector `g(q)`.
+    fn gravity(&self, q: &[Self::Scalar; N]) -> [Self::Scalar; N];
+    /// Diagonal of the viscous damping matrix `B`.
+    fn damping(&self) -> [Self::Scalar; N];
+    /// Task-space position `p(q)`.
+    fn position(&self, q: &[Self::Scalar; N]) -> [Self::Scalar; M];
+    /// Task Jacobian `J(q)`.
+    fn jacobian(&self, q: &[Self::Scalar; N]) -> [[Self::Scalar; N]; M];
+    /// Time derivative of the Jacobian `J̇(q, q̇)`.
+    fn jacobian_dot(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N])
+        -> [[Self::Scalar; N]; M];
+    /// `J̇(q, q̇) q̇`.
+    fn jacobian_dot_times_qdot(
+        &self,
+        q: &[Self::Scalar; N],
+        qd: &[Self::Scalar; N],
+    ) -> [Self::Scalar; M];
+    /// All terms one control tick needs, sharing common subexpressions.
+    fn terms(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N])
+        -> RigTerms<Self::Scalar, N, M>;
+    /// The drive train of each joint.
+    fn drives(&self) -> [DriveTrain<Self::Scalar>; N];
+}
