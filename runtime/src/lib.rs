@@ -10,8 +10,16 @@
 #![no_std]
 #![deny(missing_docs)]
 
+pub mod control;
+pub mod current_loop;
+pub mod estimation;
+pub mod linalg;
 pub mod real;
+pub mod render;
 pub mod rig;
+pub mod safety;
+pub mod schedule;
+pub mod tick;
 
 pub use real::Real;
 pub use rig::{DriveTrain, RigModel, RigTerms};

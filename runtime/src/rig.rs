@@ -81,8 +81,11 @@ pub trait RigModel<const N: usize, const M: usize> {
         qd: &[Self::Scalar; N],
     ) -> [[Self::Scalar; N]; N];
     /// `C(q, q̇) q̇`.
-    fn coriolis_times_qdot(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N])
-        -> [Self::Scalar; N];
+    fn coriolis_times_qdot(
+        &self,
+        q: &[Self::Scalar; N],
+        qd: &[Self::Scalar; N],
+    ) -> [Self::Scalar; N];
     /// Gravity vector `g(q)`.
     fn gravity(&self, q: &[Self::Scalar; N]) -> [Self::Scalar; N];
     /// Diagonal of the viscous damping matrix `B`.
@@ -101,8 +104,7 @@ pub trait RigModel<const N: usize, const M: usize> {
         qd: &[Self::Scalar; N],
     ) -> [Self::Scalar; M];
     /// All terms one control tick needs, sharing common subexpressions.
-    fn terms(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N])
-        -> RigTerms<Self::Scalar, N, M>;
+    fn terms(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N]) -> RigTerms<Self::Scalar, N, M>;
     /// The drive train of each joint.
     fn drives(&self) -> [DriveTrain<Self::Scalar>; N];
 }

@@ -1,0 +1,55 @@
+//! Build-script helper: generates a rig's code into `OUT_DIR` from `build.rs`.
+//!
+//! ```no_run
+//! // build.rs
+//! fn main() {
+//!     let out = std::path::PathBuf::from(std::env::var("OUT_DIR").unwrap());
+//!     hapticgen_codegen::build::generate(
+//!         "models/parallel_link_2dof.yaml",
+//!         Some("horizontal"),
+//!         hapticgen_codegen::Scalar::F32,
+//!         &out.join("parallel_link.rs"),
+//!     )
+//!     .unwrap_or_else(|e| panic!("{e}"));
+//! }
+//! ```
+//! and in the crate: `include!(concat!(env!("OUT_DIR"), "/parallel_link.rs"));`.
+
+use std::path::Path;
+
+use crate::{Diagnostics, Scalar};
+
+/// Generates the code of `model` (path relative to the current directory, which is the
+/// package root in a build script) into `out_file`, printing `cargo:rerun-if-changed` for the
+/// model. The file is rewritten only when its content changes.
+pub fn generate(
+    model: impl AsRef<Path>,
+    variant: Option<&str>,
+    scalar: Scalar,
+    out_file: &Path,
+) -> Result<(), Diagnostics> {
+    let model = model.as_ref();
+    println!("cargo:rerun-if-changed={}", model.display());
+    let text = generate_text(model, variant, scalar)?;
+    let unchanged = std::fs::read_to_string(out_file).map(|old| old == text).unwrap_or(false);
+    if !unchanged {
+        std::fs::write(out_file, text).map_err(|e| Diagnostic {
+            file: out_file.display().to_string(),
+            line: 1,
+            column: 1,
+            path: String::new(),
+            message: format!("cannot write the generated file: {e}"),
+            hint: None,
+        })?;
+    }
+    Ok(())
+}
+
+/// The text `generate` writes: header plus formatted items.
+pub fn generate_text(model: &Path, variant: Option<&str>, scalar: Scalar) -> Result<String, Diagnostics> {
+    let display = model.display().to_string();
+    let loaded = crate::model::load_file(model, &display, variant)?;
+    Ok(crate::generate_model(loaded, scalar).file_text())
+}
+
+use crate::Diagnostic;

@@ -1,0 +1,790 @@
+//! Emission of straight-line Rust from the derived mechanics.
+//!
+//! For each quantity of eq. (1)–(2) (`D`, `C`, `C q̇`, `g`, `B`, `p`, `J`, `J̇`, `J̇ q̇`) and
+//! for the fused per-tick `terms` function, the polynomials go into one hash-consed DAG, and
+//! each node used more than once becomes a named `let`. Sines and cosines of each angle are
+//! computed once per function. The items implement `::hapticgen_runtime::RigModel`; everything
+//! that is the same for every rig stays in the runtime.
+
+use std::collections::HashMap;
+
+use proc_macro2::{Ident, Span, TokenStream};
+use quote::{format_ident, quote};
+
+use crate::mechanics::Mechanics;
+use crate::model::{JointKind, Model};
+use crate::sym::dag::{Dag, Node, NodeId, OpCounts};
+use crate::sym::poly::{Atom, Poly};
+
+/// The floating-point type of the generated code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Scalar {
+    /// Single precision (Cortex-M4F firmware).
+    F32,
+    /// Double precision (host).
+    F64,
+}
+
+impl Scalar {
+    /// `f32` or `f64`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Scalar::F32 => "f32",
+            Scalar::F64 => "f64",
+        }
+    }
+
+    fn tokens(self) -> TokenStream {
+        match self {
+            Scalar::F32 => quote!(f32),
+            Scalar::F64 => quote!(f64),
+        }
+    }
+
+    /// A literal of this type.
+    pub fn literal(self, value: f64) -> TokenStream {
+        let magnitude = value.abs();
+        let text = match self {
+            Scalar::F32 => format!("{:?}_f32", magnitude as f32),
+            Scalar::F64 => format!("{magnitude:?}_f64"),
+        };
+        let lit = syn::LitFloat::new(&text, Span::call_site());
+        if value < 0.0 {
+            quote!(-#lit)
+        } else {
+            quote!(#lit)
+        }
+    }
+}
+
+/// The shape of a function's result.
+#[derive(Clone, Copy, Debug)]
+pub enum Shape {
+    /// `S`.
+    Scalar,
+    /// `[S; n]`.
+    Vector(usize),
+    /// `[[S; cols]; rows]`.
+    Matrix(usize, usize),
+}
+
+/// One emitted function: its name, documentation and output polynomials (row-major).
+pub struct FunctionSpec<'a> {
+    /// Rust name.
+    pub name: String,
+    /// Doc comment.
+    pub doc: String,
+    /// Result shape.
+    pub shape: Shape,
+    /// The polynomials, row-major.
+    pub outputs: Vec<&'a Poly>,
+    /// Takes `qd` (the trait signature may require it even if unused).
+    pub takes_qd: bool,
+}
+
+/// Names of inputs and how the generated code reads them.
+struct Naming<'m> {
+    model: &'m Model,
+}
+
+impl Naming<'_> {
+    fn atom_name(&self, atom: Atom) -> String {
+        let joint = |j: u16| self.model.joints[usize::from(j)].name.clone();
+        match atom {
+            Atom::Sin(j) => format!("sin_{}", joint(j)),
+            Atom::Cos(j) => format!("cos_{}", joint(j)),
+            // `q` and `qd` name the input arrays, so a joint called so gets a suffix.
+            Atom::Q(j) => match joint(j).as_str() {
+                "q" | "qd" => format!("{}_value", joint(j)),
+                name => name.to_string(),
+            },
+            Atom::Qd(j) => format!("{}_dot", joint(j)),
+            Atom::Param(k) => self.model.tunable[usize::from(k)].name.clone(),
+        }
+    }
+}
+
+/// Emits the body of one or more outputs sharing one DAG.
+struct BodyEmitter<'m> {
+    dag: Dag,
+    naming: Naming<'m>,
+    scalar: Scalar,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Precedence {
+    Sum,
+    Product,
+    Unary,
+    Atomic,
+}
+
+impl<'m> BodyEmitter<'m> {
+    fn new(model: &'m Model, scalar: Scalar) -> Self {
+        Self {
+            dag: Dag::new(),
+            naming: Naming { model },
+            scalar,
+        }
+    }
+
+    /// A descriptive name for a node, if a short one exists.
+    fn describe(&self, id: NodeId, names: &HashMap<NodeId, String>) -> Option<String> {
+        let name_of = |x: NodeId| -> Option<String> {
+            if let Some(n) = names.get(&x) {
+                return Some(n.clone());
+            }
+            match self.dag.nodes()[x] {
+                Node::Input(a) => Some(self.naming.atom_name(a)),
+                other => self.angle_identity(other, &|j| self.naming.model.joints[usize::from(j)].name.clone()),
+            }
+        };
+        let node = self.dag.nodes()[id];
+        let joint = |j: u16| self.naming.model.joints[usize::from(j)].name.clone();
+        // Angle-sum identities get their mathematical names.
+        if let Some(name) = self.angle_identity(node, &joint) {
+            return Some(name);
+        }
+        let name = match node {
+            Node::Mul(a, b) if a == b => format!("{}_sq", name_of(a)?),
+            Node::Mul(a, b) => {
+                let (ca, cb) = (self.dag.constant_value(a), self.dag.constant_value(b));
+                match (ca, cb) {
+                    (Some(_), None) => format!("scaled_{}", name_of(b)?),
+                    (None, Some(_)) => format!("scaled_{}", name_of(a)?),
+                    _ => format!("{}_{}", name_of(a)?, name_of(b)?),
+                }
+            }
+            Node::Add(a, b) => format!("{}_plus_{}", name_of(a)?, name_of(b)?),
+            Node::Sub(a, b) => format!("{}_minus_{}", name_of(a)?, name_of(b)?),
+            Node::Neg(a) => format!("minus_{}", name_of(a)?),
+            _ => return None,
+        };
+        (name.len() <= 32).then_some(name)
+    }
+
+    /// `cos q_i cos q_j ± sin q_i sin q_j` and `sin q_i cos q_j ± cos q_i sin q_j`.
+    fn angle_identity(&self, node: Node, joint: &dyn Fn(u16) -> String) -> Option<String> {
+        let product = |x: NodeId| -> Option<(Atom, Atom)> {
+            match self.dag.nodes()[x] {
+                Node::Mul(a, b) => match (self.dag.nodes()[a], self.dag.nodes()[b]) {
+                    (Node::Input(p), Node::Input(q)) => Some((p, q)),
+                    _ => None,
+                },
+                _ => None,
+            }
+        };
+        let (a, b, plus) = match node {
+            Node::Add(a, b) => (a, b, true),
+            Node::Sub(a, b) => (a, b, false),
+            _ => return None,
+        };
+        let (p1, p2) = (product(a)?, product(b)?);
+        let sort = |(x, y): (Atom, Atom)| if x <= y { (x, y) } else { (y, x) };
+        let (p1, p2) = (sort(p1), sort(p2));
+        use Atom::{Cos, Sin};
+        match (p1, p2) {
+            // c_i c_j ∓ s_i s_j = cos(q_i ± q_j)
+            ((Cos(i), Cos(j)), (Sin(k), Sin(l))) if i == k && j == l && i != j => Some(format!(
+                "cos_{}_{}_{}",
+                joint(i),
+                if plus { "minus" } else { "plus" },
+                joint(j)
+            )),
+            // s_i c_j − c_i s_j = sin(q_i − q_j); s_i c_j + c_i s_j = sin(q_i + q_j)
+            ((Sin(i), Cos(j)), (Sin(k), Cos(l))) | ((Cos(j), Sin(i)), (Cos(l), Sin(k)))
+                if i == l && j == k && i != j =>
+            {
+                Some(format!("sin_{}_{}_{}", joint(i), if plus { "plus" } else { "minus" }, joint(j)))
+            }
+            _ => None,
+        }
+    }
+
+    /// Emits `let` statements for shared nodes and the expressions of `roots`.
+    fn emit(&self, roots: &[NodeId], context: &str) -> (TokenStream, Vec<TokenStream>, OpCounts) {
+        let order = self.dag.reachable(roots);
+        let mut uses: HashMap<NodeId, usize> = HashMap::new();
+        for &id in &order {
+            match self.dag.nodes()[id] {
+                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => {
+                    *uses.entry(a).or_default() += 1;
+                    *uses.entry(b).or_default() += 1;
+                }
+                Node::Neg(a) => *uses.entry(a).or_default() += 1,
+                _ => {}
+            }
+        }
+        for &r in roots {
+            *uses.entry(r).or_default() += 1;
+        }
+        let mut names: HashMap<NodeId, String> = HashMap::new();
+        let mut taken: HashMap<String, usize> = HashMap::new();
+        let mut statements = TokenStream::new();
+        let mut part = 0usize;
+        // Inputs first (coordinates, sines and cosines, velocities), then intermediates.
+        let mut order = order;
+        order.sort_by_key(|&id| match self.dag.nodes()[id] {
+            Node::Input(a) => (0, Some(a), id),
+            _ => (1, None, id),
+        });
+        for &id in &order {
+            let node = self.dag.nodes()[id];
+            let bind = match node {
+                Node::Const(_) => false,
+                Node::Input(Atom::Param(_)) => false,
+                Node::Input(_) => true,
+                _ => uses.get(&id).copied().unwrap_or(0) >= 2,
+            };
+            if !bind {
+                continue;
+            }
+            let base = match node {
+                Node::Input(a) => self.naming.atom_name(a),
+                _ => self.describe(id, &names).unwrap_or_else(|| {
+                    part += 1;
+                    format!("{context}_part{part}")
+                }),
+            };
+            let count = taken.entry(base.clone()).or_default();
+            *count += 1;
+            let name = if *count == 1 { base } else { format!("{base}_{count}") };
+            let ident = format_ident!("{}", name);
+            let value = match node {
+                Node::Input(Atom::Sin(j)) => {
+                    let j = unsuffixed(usize::from(j));
+                    quote!(::hapticgen_runtime::Real::sin(q[#j]))
+                }
+                Node::Input(Atom::Cos(j)) => {
+                    let j = unsuffixed(usize::from(j));
+                    quote!(::hapticgen_runtime::Real::cos(q[#j]))
+                }
+                Node::Input(Atom::Q(j)) => {
+                    let j = unsuffixed(usize::from(j));
+                    quote!(q[#j])
+                }
+                Node::Input(Atom::Qd(j)) => {
+                    let j = unsuffixed(usize::from(j));
+                    quote!(qd[#j])
+                }
+                _ => self.expression(id, &names, true).0,
+            };
+            statements.extend(quote!(let #ident = #value;));
+            names.insert(id, name);
+        }
+        let outputs = roots.iter().map(|&r| self.expression(r, &names, false).0).collect();
+        (statements, outputs, self.dag.count(roots))
+    }
+
+    fn expression(&self, id: NodeId, names: &HashMap<NodeId, String>, top: bool) -> (TokenStream, Precedence) {
+        if !top {
+            if let Some(name) = names.get(&id) {
+                let ident = format_ident!("{}", name);
+                return (quote!(#ident), Precedence::Atomic);
+            }
+        }
+        let wrap = |(t, p): (TokenStream, Precedence), need: Precedence| {
+            if p < need {
+                quote!((#t))
+            } else {
+                t
+            }
+        };
+        match self.dag.nodes()[id] {
+            Node::Const(bits) => {
+                let v = f64::from_bits(bits);
+                (self.scalar.literal(v), if v < 0.0 { Precedence::Unary } else { Precedence::Atomic })
+            }
+            Node::Input(Atom::Param(k)) => {
+                let ident = format_ident!("{}", self.naming.model.tunable[usize::from(k)].name);
+                (quote!(self.#ident), Precedence::Atomic)
+            }
+            Node::Input(a) => {
+                let ident = format_ident!("{}", self.naming.atom_name(a));
+                (quote!(#ident), Precedence::Atomic)
+            }
+            Node::Add(a, b) => {
+                let x = wrap(self.expression(a, names, false), Precedence::Sum);
+                let y = wrap(self.expression(b, names, false), Precedence::Sum);
+                (quote!(#x + #y), Precedence::Sum)
+            }
+            Node::Sub(a, b) => {
+                let x = wrap(self.expression(a, names, false), Precedence::Sum);
+                let y = wrap(self.expression(b, names, false), Precedence::Product);
+                (quote!(#x - #y), Precedence::Sum)
+            }
+            Node::Mul(a, b) => {
+                // Constants first reads naturally: `0.15_f64 * cos_q1`.
+                let (a, b) = if self.dag.constant_value(b).is_some() { (b, a) } else { (a, b) };
+                let x = wrap(self.expression(a, names, false), Precedence::Product);
+                let y = wrap(self.expression(b, names, false), Precedence::Unary);
+                (quote!(#x * #y), Precedence::Product)
+            }
+            Node::Neg(a) => {
+                let x = wrap(self.expression(a, names, false), Precedence::Atomic);
+                (quote!(-#x), Precedence::Unary)
+            }
+        }
+    }
+}
+
+/// An integer literal without a type suffix (`2`, not `2usize`).
+fn unsuffixed(n: usize) -> proc_macro2::Literal {
+    proc_macro2::Literal::usize_unsuffixed(n)
+}
+
+fn shape_tokens(shape: Shape, scalar: Scalar) -> TokenStream {
+    let s = scalar.tokens();
+    match shape {
+        Shape::Scalar => s,
+        Shape::Vector(n) => {
+            let n = unsuffixed(n);
+            quote!([#s; #n])
+        }
+        Shape::Matrix(r, c) => {
+            let (r, c) = (unsuffixed(r), unsuffixed(c));
+            quote!([[#s; #c]; #r])
+        }
+    }
+}
+
+fn shape_value(shape: Shape, outputs: &[TokenStream]) -> TokenStream {
+    match shape {
+        Shape::Scalar => outputs[0].clone(),
+        Shape::Vector(_) => quote!([#(#outputs),*]),
+        Shape::Matrix(_, c) => {
+            let rows = outputs.chunks(c.max(1)).map(|row| quote!([#(#row),*]));
+            quote!([#(#rows),*])
+        }
+    }
+}
+
+fn uses_atom(dag: &Dag, roots: &[NodeId], pred: impl Fn(Atom) -> bool) -> bool {
+    dag.reachable(roots)
+        .into_iter()
+        .any(|id| matches!(dag.nodes()[id], Node::Input(a) if pred(a)))
+}
+
+/// Emits one method; returns it with its operation counts.
+pub fn function(model: &Model, scalar: Scalar, spec: &FunctionSpec<'_>) -> (TokenStream, OpCounts) {
+    let mut body = BodyEmitter::new(model, scalar);
+    let roots: Vec<NodeId> = spec.outputs.iter().map(|p| body.dag.polynomial(p)).collect();
+    let (statements, outputs, counts) = body.emit(&roots, &spec.name);
+    let value = shape_value(spec.shape, &outputs);
+    let ret = shape_tokens(spec.shape, scalar);
+    let n = unsuffixed(model.joints.len());
+    let s = scalar.tokens();
+    let q_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Sin(_) | Atom::Cos(_) | Atom::Q(_)));
+    let qd_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Qd(_)));
+    let q = if q_used { quote!(q) } else { quote!(_q) };
+    let qd = if qd_used { quote!(qd) } else { quote!(_qd) };
+    let name = format_ident!("{}", spec.name);
+    let doc = &spec.doc;
+    let args = if spec.takes_qd {
+        quote!(&self, #q: &[#s; #n], #qd: &[#s; #n])
+    } else {
+        quote!(&self, #q: &[#s; #n])
+    };
+    let tokens = quote! {
+        #[doc = #doc]
+        #[inline]
+        #[must_use]
+        pub fn #name(#args) -> #ret {
+            #statements
+            #value
+        }
+    };
+    (tokens, counts)
+}
+
+/// Operation counts of each emitted function and of the fused tick.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct Stats {
+    /// Per function, in emission order.
+    pub functions: Vec<(String, OpCounts)>,
+}
+
+fn camel_case(name: &str) -> String {
+    name.split('_')
+        .filter(|p| !p.is_empty())
+        .map(|p| {
+            let mut c = p.chars();
+            match c.next() {
+                Some(f) => f.to_ascii_uppercase().to_string() + c.as_str(),
+                None => String::new(),
+            }
+        })
+        .collect()
+}
+
+/// The Rust type name of a model's rig struct.
+pub fn rig_type_name(model: &Model) -> String {
+    camel_case(&model.name)
+}
+
+fn row_major(m: &[Vec<Poly>]) -> Vec<&Poly> {
+    m.iter().flatten().collect()
+}
+
+/// The specs of every per-quantity function (shared by emission and statistics).
+pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpec<'a>> {
+    let n = mech.joints;
+    let m = mech.task_dim;
+    let task_doc = match &model.task {
+        crate::model::TaskSpec::Point(i) => format!("the point `{}`", model.points[*i].name),
+        crate::model::TaskSpec::Joints(j) => format!(
+            "the joint coordinates {}",
+            j.iter().map(|&k| format!("`{}`", model.joints[k].name)).collect::<Vec<_>>().join(", ")
+        ),
+    };
+    let mut specs = vec![
+        FunctionSpec {
+            name: "inertia_matrix".into(),
+            doc: " Inertia matrix `D(q)` of eq. (1), from the kinetic energy of every body plus the reflected rotor inertias `N² J_m`.".into(),
+            shape: Shape::Matrix(n, n),
+            outputs: row_major(&mech.inertia_matrix),
+            takes_qd: false,
+        },
+        FunctionSpec {
+            name: "coriolis_matrix".into(),
+            doc: " Coriolis/centrifugal matrix `C(q, q̇)` of eq. (1), from the Christoffel symbols of `D`.".into(),
+            shape: Shape::Matrix(n, n),
+            outputs: row_major(&mech.coriolis_matrix),
+            takes_qd: true,
+        },
+        FunctionSpec {
+            name: "coriolis_times_qdot".into(),
+            doc: " Coriolis and centrifugal torques `C(q, q̇) q̇`.".into(),
+            shape: Shape::Vector(n),
+            outputs: mech.coriolis_times_qdot.iter().collect(),
+            takes_qd: true,
+        },
+        FunctionSpec {
+            name: "gravity".into(),
+            doc: " Gravity torques `g(q) = ∂V/∂q` of eq. (1).".into(),
+            shape: Shape::Vector(n),
+            outputs: mech.gravity.iter().collect(),
+            takes_qd: false,
+        },
+        FunctionSpec {
+            name: "potential_energy".into(),
+            doc: " Gravitational potential energy `V(q)`, J (zero at the origin of the base frame).".into(),
+            shape: Shape::Scalar,
+            outputs: vec![&mech.potential_energy],
+            takes_qd: false,
+        },
+        FunctionSpec {
+            name: "position".into(),
+            doc: format!(" Task position `p(q)`: {task_doc}."),
+            shape: Shape::Vector(m),
+            outputs: mech.task.position.iter().collect(),
+            takes_qd: false,
+        },
+        FunctionSpec {
+            name: "jacobian".into(),
+            doc: " Task Jacobian `J(q) = ∂p/∂q` (eq. (2), eq. (15) for the parallel link).".into(),
+            shape: Shape::Matrix(m, n),
+            outputs: row_major(&mech.task.jacobian),
+            takes_qd: false,
+        },
+        FunctionSpec {
+            name: "jacobian_dot".into(),
+            doc: " Time derivative of the task Jacobian `J̇(q, q̇)`.".into(),
+            shape: Shape::Matrix(m, n),
+            outputs: row_major(&mech.task.jacobian_dot),
+            takes_qd: true,
+        },
+        FunctionSpec {
+            name: "jacobian_dot_times_qdot".into(),
+            doc: " `J̇(q, q̇) q̇`, the velocity term of eq. (2) and (4).".into(),
+            shape: Shape::Vector(m),
+            outputs: mech.task.jacobian_dot_times_qdot.iter().collect(),
+            takes_qd: true,
+        },
+    ];
+    for (point, kin) in model.points.iter().zip(&mech.points) {
+        let d = kin.position.len();
+        let what = point.description.clone().unwrap_or_else(|| format!("point `{}`", point.name));
+        specs.push(FunctionSpec {
+            name: format!("{}_position", point.name),
+            doc: format!(" Position of {what} in the base frame."),
+            shape: Shape::Vector(d),
+            outputs: kin.position.iter().collect(),
+            takes_qd: false,
+        });
+        specs.push(FunctionSpec {
+            name: format!("{}_jacobian", point.name),
+            doc: format!(" Jacobian of the position of {what}."),
+            shape: Shape::Matrix(d, n),
+            outputs: row_major(&kin.jacobian),
+            takes_qd: false,
+        });
+        specs.push(FunctionSpec {
+            name: format!("{}_jacobian_dot_times_qdot", point.name),
+            doc: format!(" `J̇ q̇` of {what}."),
+            shape: Shape::Vector(d),
+            outputs: kin.jacobian_dot_times_qdot.iter().collect(),
+            takes_qd: true,
+        });
+    }
+    specs
+}
+
+/// The outputs of the fused per-tick function, in the order of `RigTerms`' fields.
+fn tick_outputs(mech: &Mechanics) -> Vec<&Poly> {
+    let mut outputs = row_major(&mech.inertia_matrix);
+    outputs.extend(mech.coriolis_times_qdot.iter());
+    outputs.extend(mech.gravity.iter());
+    outputs.extend(mech.task.position.iter());
+    outputs.extend(row_major(&mech.task.jacobian));
+    outputs.extend(mech.task.jacobian_dot_times_qdot.iter());
+    outputs
+}
+
+/// Operation counts of the quantities one control tick needs (D, C q̇, g, p, J, J̇ q̇),
+/// computed together with shared subexpressions.
+pub fn tick_counts(model: &Model, mech: &Mechanics, include_position: bool) -> OpCounts {
+    let mut body = BodyEmitter::new(model, Scalar::F64);
+    let mut outputs = row_major(&mech.inertia_matrix);
+    outputs.extend(mech.coriolis_times_qdot.iter());
+    outputs.extend(mech.gravity.iter());
+    if include_position {
+        outputs.extend(mech.task.position.iter());
+    }
+    outputs.extend(row_major(&mech.task.jacobian));
+    outputs.extend(mech.task.jacobian_dot_times_qdot.iter());
+    let roots: Vec<NodeId> = outputs.iter().map(|p| body.dag.polynomial(p)).collect();
+    body.dag.count(&roots)
+}
+
+fn terms_function(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, OpCounts) {
+    let mut body = BodyEmitter::new(model, scalar);
+    let outputs = tick_outputs(mech);
+    let roots: Vec<NodeId> = outputs.iter().map(|p| body.dag.polynomial(p)).collect();
+    let (statements, values, counts) = body.emit(&roots, "terms");
+    let n = mech.joints;
+    let m = mech.task_dim;
+    let mut rest = values.as_slice();
+    let mut take = |k: usize| {
+        let (head, tail) = rest.split_at(k);
+        rest = tail;
+        head.to_vec()
+    };
+    let inertia = shape_value(Shape::Matrix(n, n), &take(n * n));
+    let coriolis = shape_value(Shape::Vector(n), &take(n));
+    let gravity = shape_value(Shape::Vector(n), &take(n));
+    let position = shape_value(Shape::Vector(m), &take(m));
+    let jacobian = shape_value(Shape::Matrix(m, n), &take(m * n));
+    let jdot = shape_value(Shape::Vector(m), &take(m));
+    let (n, m) = (unsuffixed(n), unsuffixed(m));
+    let s = scalar.tokens();
+    let q_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Sin(_) | Atom::Cos(_) | Atom::Q(_)));
+    let qd_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Qd(_)));
+    let q = if q_used { quote!(q) } else { quote!(_q) };
+    let qd = if qd_used { quote!(qd) } else { quote!(_qd) };
+    let tokens = quote! {
+        /// Every term one control tick needs (`D`, `C q̇`, `g`, `p`, `J`, `J̇ q̇`), computed in one
+        /// pass so that sines, cosines and products are shared.
+        #[inline]
+        #[must_use]
+        pub fn terms(&self, #q: &[#s; #n], #qd: &[#s; #n]) -> ::hapticgen_runtime::RigTerms<#s, #n, #m> {
+            #statements
+            ::hapticgen_runtime::RigTerms {
+                inertia_matrix: #inertia,
+                coriolis_times_qdot: #coriolis,
+                gravity: #gravity,
+                position: #position,
+                jacobian: #jacobian,
+                jacobian_dot_times_qdot: #jdot,
+            }
+        }
+    };
+    (tokens, counts)
+}
+
+/// Emits every item of a rig: the struct, its methods and the `RigModel` implementation.
+pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, Stats) {
+    let s = scalar.tokens();
+    let n = unsuffixed(mech.joints);
+    let m = unsuffixed(mech.task_dim);
+    let type_name = Ident::new(&rig_type_name(model), Span::call_site());
+    let rig_name = &model.name;
+    let mut stats = Stats::default();
+
+    let mut methods = TokenStream::new();
+    for spec in function_specs(model, mech) {
+        let (tokens, counts) = function(model, scalar, &spec);
+        methods.extend(tokens);
+        stats.functions.push((spec.name.clone(), counts));
+    }
+    let (terms, tick) = terms_function(model, mech, scalar);
+    stats.functions.push(("terms".into(), tick));
+    methods.extend(terms);
+
+    // Damping depends on tunable parameters at most.
+    let mut damping_body = BodyEmitter::new(model, scalar);
+    let damping_roots: Vec<NodeId> = mech.damping.iter().map(|p| damping_body.dag.polynomial(p)).collect();
+    let (damping_statements, damping_values, _) = damping_body.emit(&damping_roots, "damping");
+
+    // Tunable parameters become fields.
+    let fields = model.tunable.iter().map(|p| {
+        let ident = format_ident!("{}", p.name);
+        let doc = format!(
+            " {}{}",
+            p.description.clone().unwrap_or_else(|| format!("Tunable parameter `{}`", p.name)),
+            p.unit.as_ref().map(|u| format!(" ({u})")).unwrap_or_default()
+        );
+        quote!(#[doc = #doc] pub #ident: #s,)
+    });
+    let nominal_fields = model.tunable.iter().map(|p| {
+        let ident = format_ident!("{}", p.name);
+        let v = scalar.literal(p.value);
+        quote!(#ident: #v,)
+    });
+    let struct_def = if model.tunable.is_empty() {
+        quote!(pub struct #type_name;)
+    } else {
+        quote!(pub struct #type_name { #(#fields)* })
+    };
+    let nominal = if model.tunable.is_empty() {
+        quote!(#type_name)
+    } else {
+        quote!(#type_name { #(#nominal_fields)* })
+    };
+
+    let drives = model.joints.iter().map(|j| {
+        let d = &j.drive;
+        let lit = |v: f64| scalar.literal(v);
+        let (gr, eff, kt, r, l, jm, tl, cl, sv) = (
+            lit(d.gear_ratio),
+            lit(d.efficiency),
+            lit(d.motor.torque_constant),
+            lit(d.motor.resistance),
+            lit(d.motor.inductance),
+            lit(d.motor.rotor_inertia),
+            lit(d.torque_limit),
+            lit(d.current_limit),
+            lit(d.supply_voltage),
+        );
+        let counts = proc_macro2::Literal::u32_unsuffixed(d.encoder.counts_per_turn);
+        let (lo, hi) = (lit(j.lower), lit(j.upper));
+        let doc = format!(" Joint `{}`: drive `{}`.", j.name, j.drive_name);
+        quote! {
+            #[doc = #doc]
+            ::hapticgen_runtime::DriveTrain {
+                gear_ratio: #gr,
+                efficiency: #eff,
+                torque_constant: #kt,
+                resistance: #r,
+                inductance: #l,
+                rotor_inertia: #jm,
+                torque_limit: #tl,
+                current_limit: #cl,
+                supply_voltage: #sv,
+                encoder_counts_per_turn: #counts,
+                position_lower: #lo,
+                position_upper: #hi,
+            }
+        }
+    });
+    let joint_names = model.joints.iter().map(|j| j.name.as_str());
+    let joint_kinds = model.joints.iter().map(|j| match j.kind {
+        JointKind::Revolute => "revolute",
+        JointKind::Prismatic => "prismatic",
+    });
+    let current_hz = model.rates.current_loop_hz;
+    let impedance_hz = model.rates.impedance_loop_hz;
+    let description = format!(
+        " The `{}` rig{}.",
+        rig_name,
+        model.description.as_ref().map(|d| format!(": {}", d.trim().trim_end_matches('.'))).unwrap_or_default()
+    );
+    let variant_doc = format!(
+        " Generated from `{}`{}; `{}` joints, `{}` task coordinates.",
+        model.file,
+        model.variant.as_ref().map(|v| format!(", variant `{v}`")).unwrap_or_default(),
+        n,
+        m
+    );
+
+    let tokens = quote! {
+        #[doc = #description]
+        ///
+        #[doc = #variant_doc]
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        #struct_def
+
+        impl Default for #type_name {
+            fn default() -> Self {
+                Self::NOMINAL
+            }
+        }
+
+        impl #type_name {
+            /// The rig with every tunable parameter at its nominal value.
+            pub const NOMINAL: Self = #nominal;
+            /// Number of joints.
+            pub const JOINTS: usize = #n;
+            /// Number of task coordinates.
+            pub const TASK_DIM: usize = #m;
+            /// Joint names, in the order of `q`.
+            pub const JOINT_NAMES: [&'static str; #n] = [#(#joint_names),*];
+            /// Joint kinds, in the order of `q`.
+            pub const JOINT_KINDS: [&'static str; #n] = [#(#joint_kinds),*];
+            /// The drive train of each joint.
+            pub const DRIVES: [::hapticgen_runtime::DriveTrain<#s>; #n] = [#(#drives),*];
+
+            /// Diagonal of the viscous damping matrix `B` of eq. (1).
+            #[inline]
+            #[must_use]
+            pub fn damping(&self) -> [#s; #n] {
+                #damping_statements
+                [#(#damping_values),*]
+            }
+
+            #methods
+        }
+
+        impl ::hapticgen_runtime::RigModel<#n, #m> for #type_name {
+            type Scalar = #s;
+            const NAME: &'static str = #rig_name;
+            const CURRENT_LOOP_HZ: u32 = #current_hz;
+            const IMPEDANCE_LOOP_HZ: u32 = #impedance_hz;
+
+            fn inertia_matrix(&self, q: &[#s; #n]) -> [[#s; #n]; #n] {
+                Self::inertia_matrix(self, q)
+            }
+            fn coriolis_matrix(&self, q: &[#s; #n], qd: &[#s; #n]) -> [[#s; #n]; #n] {
+                Self::coriolis_matrix(self, q, qd)
+            }
+            fn coriolis_times_qdot(&self, q: &[#s; #n], qd: &[#s; #n]) -> [#s; #n] {
+                Self::coriolis_times_qdot(self, q, qd)
+            }
+            fn gravity(&self, q: &[#s; #n]) -> [#s; #n] {
+                Self::gravity(self, q)
+            }
+            fn damping(&self) -> [#s; #n] {
+                Self::damping(self)
+            }
+            fn position(&self, q: &[#s; #n]) -> [#s; #m] {
+                Self::position(self, q)
+            }
+            fn jacobian(&self, q: &[#s; #n]) -> [[#s; #n]; #m] {
+                Self::jacobian(self, q)
+            }
+            fn jacobian_dot(&self, q: &[#s; #n], qd: &[#s; #n]) -> [[#s; #n]; #m] {
+                Self::jacobian_dot(self, q, qd)
+            }
+            fn jacobian_dot_times_qdot(&self, q: &[#s; #n], qd: &[#s; #n]) -> [#s; #m] {
+                Self::jacobian_dot_times_qdot(self, q, qd)
+            }
+            fn terms(&self, q: &[#s; #n], qd: &[#s; #n]) -> ::hapticgen_runtime::RigTerms<#s, #n, #m> {
+                Self::terms(self, q, qd)
+            }
+            fn drives(&self) -> [::hapticgen_runtime::DriveTrain<#s>; #n] {
+                Self::DRIVES
+            }
+        }
+    };
+    (tokens, stats)
+}

@@ -1,0 +1,106 @@
+//! Numeric evaluator of the derived expressions, without compiling anything.
+//!
+//! It evaluates the canonical polynomials of [`crate::mechanics`] directly, term by term, so
+//! it is independent of the optimiser and emitter: tests compare the compiled, emitted code
+//! against it, and the CLI's `eval` command uses it.
+
+use crate::mechanics::{Mechanics, PointKinematics};
+use crate::sym::poly::{Atom, AtomValues, Poly};
+
+/// Atom values at a state `(q, q̇)` with given tunable parameters.
+pub struct State<'a> {
+    /// Joint coordinates.
+    pub q: &'a [f64],
+    /// Joint velocities.
+    pub qd: &'a [f64],
+    /// Tunable parameter values.
+    pub parameters: &'a [f64],
+}
+
+impl AtomValues for State<'_> {
+    fn value(&self, atom: Atom) -> f64 {
+        let get = |v: &[f64], i: u16| v.get(usize::from(i)).copied().unwrap_or(0.0);
+        match atom {
+            Atom::Sin(j) => get(self.q, j).sin(),
+            Atom::Cos(j) => get(self.q, j).cos(),
+            Atom::Q(j) => get(self.q, j),
+            Atom::Qd(j) => get(self.qd, j),
+            Atom::Param(k) => get(self.parameters, k),
+        }
+    }
+}
+
+/// Values of the tunable parameters only (everything else zero).
+pub struct NominalAtoms<'a>(pub &'a [f64]);
+
+impl AtomValues for NominalAtoms<'_> {
+    fn value(&self, atom: Atom) -> f64 {
+        match atom {
+            Atom::Param(k) => self.0.get(usize::from(k)).copied().unwrap_or(0.0),
+            Atom::Cos(_) => 1.0,
+            _ => 0.0,
+        }
+    }
+}
+
+/// Every quantity at one state, as plain numbers (matrices row-major as rows).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Evaluated {
+    /// Task (or selected point) position.
+    pub p: Vec<f64>,
+    /// Its Jacobian.
+    #[serde(rename = "J")]
+    pub jacobian: Vec<Vec<f64>>,
+    /// Its Jacobian's time derivative.
+    #[serde(rename = "Jdot")]
+    pub jacobian_dot: Vec<Vec<f64>>,
+    /// `J̇ q̇`.
+    #[serde(rename = "Jdot_qd")]
+    pub jacobian_dot_times_qdot: Vec<f64>,
+    /// Inertia matrix.
+    #[serde(rename = "D")]
+    pub inertia_matrix: Vec<Vec<f64>>,
+    /// Coriolis matrix.
+    #[serde(rename = "C")]
+    pub coriolis_matrix: Vec<Vec<f64>>,
+    /// `C q̇`.
+    #[serde(rename = "C_qd")]
+    pub coriolis_times_qdot: Vec<f64>,
+    /// Gravity vector.
+    pub g: Vec<f64>,
+    /// Damping matrix (diagonal).
+    #[serde(rename = "B")]
+    pub damping: Vec<Vec<f64>>,
+    /// Potential energy.
+    #[serde(rename = "V")]
+    pub potential_energy: f64,
+}
+
+fn vector(v: &[Poly], s: &State<'_>) -> Vec<f64> {
+    v.iter().map(|p| p.eval(s)).collect()
+}
+
+fn matrix(m: &[Vec<Poly>], s: &State<'_>) -> Vec<Vec<f64>> {
+    m.iter().map(|row| vector(row, s)).collect()
+}
+
+/// Evaluates everything at a state; `point` selects a named point instead of the task.
+pub fn evaluate(mech: &Mechanics, state: &State<'_>, point: Option<&PointKinematics>) -> Evaluated {
+    let kin = point.unwrap_or(&mech.task);
+    let n = mech.joints;
+    let damping = vector(&mech.damping, state);
+    Evaluated {
+        p: vector(&kin.position, state),
+        jacobian: matrix(&kin.jacobian, state),
+        jacobian_dot: matrix(&kin.jacobian_dot, state),
+        jacobian_dot_times_qdot: vector(&kin.jacobian_dot_times_qdot, state),
+        inertia_matrix: matrix(&mech.inertia_matrix, state),
+        coriolis_matrix: matrix(&mech.coriolis_matrix, state),
+        coriolis_times_qdot: vector(&mech.coriolis_times_qdot, state),
+        g: vector(&mech.gravity, state),
+        damping: (0..n)
+            .map(|i| (0..n).map(|j| if i == j { damping[i] } else { 0.0 }).collect())
+            .collect(),
+        potential_energy: mech.potential_energy.eval(state),
+    }
+}

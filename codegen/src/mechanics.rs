@@ -1,0 +1,303 @@
+//! Symbolic rigid-body mechanics of a [`Model`]: the terms of the paper's eq. (1) and (2).
+//!
+//! Frames are composed exactly as polynomials in `sin q_j`, `cos q_j`, `q_j`. From the body
+//! frames follow each centre of mass's position `r_b(q)` and angular-velocity Jacobian, hence
+//! the inertia matrix from the kinetic energy
+//! `T = ½ q̇ᵀ D q̇ = ½ Σ_b (m_b |J_v,b q̇|² + (J_ω,b q̇)ᵀ R_b I_b R_bᵀ (J_ω,b q̇)) + ½ Σ_j N_j² J_m,j q̇_j²`,
+//! the Coriolis matrix from the Christoffel symbols of `D`,
+//! `C_kj = Σ_i ½ (∂D_kj/∂q_i + ∂D_ki/∂q_j − ∂D_ij/∂q_k) q̇_i`, gravity `g = ∂V/∂q` with
+//! `V = −Σ_b m_b gᵀ r_b`, the task position `p(q)`, `J = ∂p/∂q` and `J̇ = Σ_i ∂J/∂q_i q̇_i`.
+//! Nothing is derived by hand: every formula above is applied to whatever the model says.
+
+use crate::model::{JointKind, Model, Motion, TaskSpec};
+use crate::sym::poly::{Atom, Poly};
+
+/// Kinematics of one point: position and its derivatives.
+#[derive(Clone, Debug)]
+pub struct PointKinematics {
+    /// Point name (`task` for the task coordinates).
+    pub name: String,
+    /// Position, one polynomial per coordinate.
+    pub position: Vec<Poly>,
+    /// Jacobian, rows × joints.
+    pub jacobian: Vec<Vec<Poly>>,
+    /// Time derivative of the Jacobian.
+    pub jacobian_dot: Vec<Vec<Poly>>,
+    /// `J̇ q̇`.
+    pub jacobian_dot_times_qdot: Vec<Poly>,
+}
+
+/// All derived quantities of a model.
+#[derive(Clone, Debug)]
+pub struct Mechanics {
+    /// Number of joints.
+    pub joints: usize,
+    /// Task-space dimension.
+    pub task_dim: usize,
+    /// `D(q)`.
+    pub inertia_matrix: Vec<Vec<Poly>>,
+    /// `C(q, q̇)`.
+    pub coriolis_matrix: Vec<Vec<Poly>>,
+    /// `C(q, q̇) q̇`.
+    pub coriolis_times_qdot: Vec<Poly>,
+    /// `g(q)`.
+    pub gravity: Vec<Poly>,
+    /// Diagonal of `B`.
+    pub damping: Vec<Poly>,
+    /// Potential energy `V(q)` (for energy checks).
+    pub potential_energy: Poly,
+    /// Task coordinates.
+    pub task: PointKinematics,
+    /// Every named point of the model (planar: x, y; spatial: x, y, z).
+    pub points: Vec<PointKinematics>,
+}
+
+type Vec3 = [Poly; 3];
+type Mat3 = [[Poly; 3]; 3];
+
+fn constant_matrix(m: [[f64; 3]; 3]) -> Mat3 {
+    m.map(|row| row.map(Poly::constant))
+}
+
+fn identity() -> Mat3 {
+    constant_matrix([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+}
+
+fn mat_mul(a: &Mat3, b: &Mat3) -> Mat3 {
+    std::array::from_fn(|i| {
+        std::array::from_fn(|j| Poly::sum(&(0..3).map(|k| a[i][k].mul(&b[k][j])).collect::<Vec<_>>()))
+    })
+}
+
+fn mat_vec(a: &Mat3, v: &Vec3) -> Vec3 {
+    std::array::from_fn(|i| Poly::sum(&(0..3).map(|k| a[i][k].mul(&v[k])).collect::<Vec<_>>()))
+}
+
+fn transpose(a: &Mat3) -> Mat3 {
+    std::array::from_fn(|i| std::array::from_fn(|j| a[j][i].clone()))
+}
+
+fn vec_add(a: &Vec3, b: &Vec3) -> Vec3 {
+    std::array::from_fn(|i| a[i].add(&b[i]))
+}
+
+/// Rotation by `q_j` about the unit axis `u`: `I + sin q [u]× + (1 − cos q) [u]×²`.
+fn axis_rotation(u: [f64; 3], joint: u16) -> Mat3 {
+    let s = Poly::atom(Atom::Sin(joint));
+    let c = Poly::atom(Atom::Cos(joint));
+    let one_minus_c = Poly::constant(1.0).sub(&c);
+    let k = [[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]];
+    let mut k2 = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            k2[i][j] = (0..3).map(|l| k[i][l] * k[l][j]).sum();
+        }
+    }
+    std::array::from_fn(|i| {
+        std::array::from_fn(|j| {
+            let id = if i == j { 1.0 } else { 0.0 };
+            Poly::constant(id).add(&s.scale(k[i][j])).add(&one_minus_c.scale(k2[i][j]))
+        })
+    })
+}
+
+struct Frame {
+    origin: Vec3,
+    rotation: Mat3,
+}
+
+/// Derives every quantity of the model.
+pub fn derive(model: &Model) -> Mechanics {
+    let n = model.joints.len();
+    let dof = |j: usize| j as u16;
+
+    // Body frames, in dependency order.
+    let mut frames: Vec<Frame> = Vec::with_capacity(model.bodies.len());
+    let base = || Frame {
+        origin: [Poly::zero(), Poly::zero(), Poly::zero()],
+        rotation: identity(),
+    };
+    for body in &model.bodies {
+        let frame = match &body.motion {
+            Motion::Serial {
+                parent,
+                xyz,
+                rotation,
+                joint,
+            } => {
+                let parent_frame = match parent {
+                    Some(p) => &frames[*p],
+                    None => &base(),
+                };
+                let offset_rotation = mat_mul(&parent_frame.rotation, &constant_matrix(*rotation));
+                let mut origin = vec_add(&parent_frame.origin, &mat_vec(&parent_frame.rotation, xyz));
+                let rotation = match joint {
+                    None => offset_rotation,
+                    Some(j) => {
+                        let joint = &model.joints[*j];
+                        match joint.kind {
+                            JointKind::Revolute => mat_mul(&offset_rotation, &axis_rotation(joint.axis, dof(*j))),
+                            JointKind::Prismatic => {
+                                let q = Poly::atom(Atom::Q(dof(*j)));
+                                let slide: Vec3 = joint.axis.map(|a| q.scale(a));
+                                origin = vec_add(&origin, &mat_vec(&offset_rotation, &slide));
+                                offset_rotation
+                            }
+                        }
+                    }
+                };
+                Frame { origin, rotation }
+            }
+            Motion::Direct {
+                origin_body,
+                point,
+                angle_joint,
+            } => {
+                let carrier = match origin_body {
+                    Some(b) => &frames[*b],
+                    None => &base(),
+                };
+                Frame {
+                    origin: vec_add(&carrier.origin, &mat_vec(&carrier.rotation, point)),
+                    rotation: axis_rotation([0.0, 0.0, 1.0], dof(*angle_joint)),
+                }
+            }
+        };
+        frames.push(frame);
+    }
+
+    // Inertia matrix and potential energy.
+    let zero_matrix = |rows: usize, cols: usize| vec![vec![Poly::zero(); cols]; rows];
+    let mut inertia_terms: Vec<Vec<Vec<Poly>>> = vec![vec![Vec::new(); n]; n];
+    let mut potential_terms = Vec::new();
+    for (body, frame) in model.bodies.iter().zip(&frames) {
+        let com_world = vec_add(&frame.origin, &mat_vec(&frame.rotation, &body.com));
+        let linear: Vec<Vec3> = (0..n)
+            .map(|k| std::array::from_fn(|i| com_world[i].diff_q(dof(k))))
+            .collect();
+        // Angular-velocity Jacobian columns: vee(∂R/∂q_k · Rᵀ).
+        let rotation_t = transpose(&frame.rotation);
+        let angular: Vec<Vec3> = (0..n)
+            .map(|k| {
+                let d_rotation: Mat3 = frame.rotation.clone().map(|row| row.map(|p| p.diff_q(dof(k))));
+                let w = mat_mul(&d_rotation, &rotation_t);
+                [w[2][1].clone(), w[0][2].clone(), w[1][0].clone()]
+            })
+            .collect();
+        let inertia_world = mat_mul(&mat_mul(&frame.rotation, &body.inertia), &rotation_t);
+        for a in 0..n {
+            for b in a..n {
+                let mut terms = Vec::new();
+                let dot: Vec<Poly> = (0..3).map(|i| linear[a][i].mul(&linear[b][i])).collect();
+                terms.push(body.mass.mul(&Poly::sum(&dot)));
+                let iw_b = mat_vec(&inertia_world, &angular[b]);
+                let rot: Vec<Poly> = (0..3).map(|i| angular[a][i].mul(&iw_b[i])).collect();
+                terms.push(Poly::sum(&rot));
+                inertia_terms[a][b].extend(terms);
+            }
+        }
+        for i in 0..3 {
+            potential_terms.push(body.mass.mul(&model.gravity[i]).mul(&com_world[i]).scale(-1.0));
+        }
+    }
+    let mut inertia_matrix = zero_matrix(n, n);
+    for a in 0..n {
+        for b in a..n {
+            let mut entry = Poly::sum(&inertia_terms[a][b]);
+            if a == b {
+                let drive = &model.joints[a].drive;
+                entry = entry.add(&Poly::constant(drive.gear_ratio * drive.gear_ratio * drive.motor.rotor_inertia));
+            }
+            inertia_matrix[a][b] = entry.clone();
+            inertia_matrix[b][a] = entry;
+        }
+    }
+    let potential_energy = Poly::sum(&potential_terms);
+    let gravity: Vec<Poly> = (0..n).map(|k| potential_energy.diff_q(dof(k))).collect();
+
+    // Christoffel symbols.
+    let d_inertia: Vec<Vec<Vec<Poly>>> = (0..n)
+        .map(|i| inertia_matrix.iter().map(|row| row.iter().map(|p| p.diff_q(dof(i))).collect()).collect())
+        .collect();
+    let qd = |i: usize| Poly::atom(Atom::Qd(dof(i)));
+    let mut coriolis_matrix = zero_matrix(n, n);
+    for k in 0..n {
+        for j in 0..n {
+            let terms: Vec<Poly> = (0..n)
+                .map(|i| {
+                    let christoffel = d_inertia[i][k][j]
+                        .add(&d_inertia[j][k][i])
+                        .sub(&d_inertia[k][i][j])
+                        .scale(0.5);
+                    christoffel.mul(&qd(i))
+                })
+                .collect();
+            coriolis_matrix[k][j] = Poly::sum(&terms);
+        }
+    }
+    let coriolis_times_qdot: Vec<Poly> = coriolis_matrix
+        .iter()
+        .map(|row| Poly::sum(&row.iter().enumerate().map(|(j, c)| c.mul(&qd(j))).collect::<Vec<_>>()))
+        .collect();
+    let damping: Vec<Poly> = model.joints.iter().map(|j| j.damping.clone()).collect();
+
+    // Points and task.
+    let dim = model.dim();
+    let point_world = |index: usize| -> Vec<Poly> {
+        let point = &model.points[index];
+        let world = match point.body {
+            Some(b) => vec_add(&frames[b].origin, &mat_vec(&frames[b].rotation, &point.position)),
+            None => point.position.clone(),
+        };
+        world[..dim].to_vec()
+    };
+    let kinematics = |name: &str, position: Vec<Poly>| -> PointKinematics {
+        let jacobian: Vec<Vec<Poly>> = position
+            .iter()
+            .map(|p| (0..n).map(|k| p.diff_q(dof(k))).collect())
+            .collect();
+        let jacobian_dot: Vec<Vec<Poly>> = jacobian
+            .iter()
+            .map(|row| {
+                row.iter()
+                    .map(|entry| Poly::sum(&(0..n).map(|i| entry.diff_q(dof(i)).mul(&qd(i))).collect::<Vec<_>>()))
+                    .collect()
+            })
+            .collect();
+        let jacobian_dot_times_qdot = jacobian_dot
+            .iter()
+            .map(|row| Poly::sum(&row.iter().enumerate().map(|(k, e)| e.mul(&qd(k))).collect::<Vec<_>>()))
+            .collect();
+        PointKinematics {
+            name: name.to_string(),
+            position,
+            jacobian,
+            jacobian_dot,
+            jacobian_dot_times_qdot,
+        }
+    };
+    let points: Vec<PointKinematics> = (0..model.points.len())
+        .map(|i| kinematics(&model.points[i].name, point_world(i)))
+        .collect();
+    let task = match &model.task {
+        TaskSpec::Point(i) => {
+            let mut k = points[*i].clone();
+            k.name = "task".into();
+            k
+        }
+        TaskSpec::Joints(list) => kinematics("task", list.iter().map(|&j| Poly::atom(Atom::Q(dof(j)))).collect()),
+    };
+
+    Mechanics {
+        joints: n,
+        task_dim: task.position.len(),
+        inertia_matrix,
+        coriolis_matrix,
+        coriolis_times_qdot,
+        gravity,
+        damping,
+        potential_energy,
+        task,
+        points,
+    }
+}

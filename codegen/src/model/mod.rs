@@ -1,0 +1,398 @@
+//! Model files: parsing, variants, validation and resolution into a [`Model`].
+//!
+//! The pipeline is: YAML text → `serde_yaml::Value` (syntax errors) → literal check (NaN/inf)
+//! → typed [`schema::ModelFile`] (types, unknown and missing keys) → the selected variant's
+//! overrides → typed again → semantic validation → [`Model`], whose values are polynomials in
+//! the tunable parameters, ready for the mechanics. Every rejection is a [`Diagnostic`] with
+//! the file, line, column and key path of the offending value.
+
+pub mod positions;
+pub mod schema;
+mod validate;
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use serde::de::DeserializeOwned;
+
+use crate::diag::{Diagnostic, Diagnostics};
+use crate::sym::poly::Poly;
+use positions::{display_path, KeyPath, PositionIndex, Segment};
+pub use schema::{Drive, JointKind, ModelFile, Rendering, Sensor};
+pub use validate::{Model, Motion, ResolvedBody, ResolvedJoint, ResolvedParameter, ResolvedPoint, TaskSpec};
+
+/// The text of a model file and how to name it in diagnostics.
+pub struct Source<'a> {
+    /// The file name shown in diagnostics (as the user wrote it).
+    pub name: &'a str,
+    /// The YAML text.
+    pub text: &'a str,
+}
+
+/// Where diagnostics point: the position index plus the variant's overrides, so that a value
+/// a variant replaced is reported at the variant's line.
+pub(crate) struct Locator<'a> {
+    file: &'a str,
+    index: PositionIndex,
+    /// Path in the merged document → path in the source document.
+    overrides: Vec<(KeyPath, KeyPath)>,
+}
+
+impl Locator<'_> {
+    fn source_path(&self, path: &[Segment]) -> KeyPath {
+        let best = self
+            .overrides
+            .iter()
+            .filter(|(merged, _)| path.starts_with(merged))
+            .max_by_key(|(merged, _)| merged.len());
+        match best {
+            Some((merged, source)) => {
+                let mut p = source.clone();
+                p.extend_from_slice(&path[merged.len()..]);
+                p
+            }
+            None => path.to_vec(),
+        }
+    }
+
+    /// A diagnostic at the value found at `path`.
+    pub(crate) fn at(&self, path: &[Segment], message: impl Into<String>) -> Diagnostic {
+        let (line, column) = self.index.value(&self.source_path(path));
+        Diagnostic {
+            file: self.file.to_string(),
+            line,
+            column,
+            path: display_path(path),
+            message: message.into(),
+            hint: None,
+        }
+    }
+
+    /// A diagnostic at the key that introduces `path`.
+    pub(crate) fn at_key(&self, path: &[Segment], message: impl Into<String>) -> Diagnostic {
+        let (line, column) = self.index.key(&self.source_path(path));
+        Diagnostic {
+            file: self.file.to_string(),
+            line,
+            column,
+            path: display_path(path),
+            message: message.into(),
+            hint: None,
+        }
+    }
+}
+
+/// Reads and resolves a model file from disk. `display` names it in diagnostics.
+pub fn load_file(path: &Path, display: &str, variant: Option<&str>) -> Result<Model, Diagnostics> {
+    let text = std::fs::read_to_string(path).map_err(|e| Diagnostic {
+        file: display.to_string(),
+        line: 1,
+        column: 1,
+        path: String::new(),
+        message: format!("cannot read the model file: {e}"),
+        hint: None,
+    })?;
+    load(
+        &Source {
+            name: display,
+            text: &text,
+        },
+        variant,
+    )
+}
+
+/// Parses, applies the variant (the named one, else the model's default) and validates.
+pub fn load(source: &Source<'_>, variant: Option<&str>) -> Result<Model, Diagnostics> {
+    let document: serde_yaml::Value = serde_yaml::from_str(source.text).map_err(|e| {
+        let (line, column) = e
+            .location()
+            .map(|l| (l.line(), l.column()))
+            .unwrap_or((1, 1));
+        Diagnostic {
+            file: source.name.to_string(),
+            line,
+            column,
+            path: String::new(),
+            message: format!("invalid YAML: {}", strip_location(&e.to_string())),
+            hint: None,
+        }
+    })?;
+    let mut locator = Locator {
+        file: source.name,
+        index: PositionIndex::build(source.text),
+        overrides: Vec::new(),
+    };
+    check_literals(&document, &mut Vec::new(), &locator)?;
+    let base: ModelFile = typed(&document, &locator)?;
+
+    let chosen = match variant {
+        Some(v) => Some(v.to_string()),
+        None => base.default_variant.clone(),
+    };
+    let mut merged = document.clone();
+    if let Some(name) = &chosen {
+        let Some(spec) = base.variants.get(name) else {
+            let mut known: Vec<&str> = base.variants.keys().map(String::as_str).collect();
+            known.sort_unstable();
+            let path = if base.variants.is_empty() {
+                vec![]
+            } else {
+                vec![Segment::Key("variants".into())]
+            };
+            let listing = if known.is_empty() {
+                "the model defines no variants".to_string()
+            } else {
+                format!("the model defines: {}", known.join(", "))
+            };
+            let mut d = locator.at_key(&path, format!("unknown variant `{name}`"));
+            d.path = String::new();
+            return Err(d.with_hint(listing).into());
+        };
+        if let serde_yaml::Value::Mapping(map) = &mut merged {
+            map.remove("variants");
+            map.remove("default_variant");
+        }
+        for (dotted, value) in &spec.set {
+            let source_path = vec![
+                Segment::Key("variants".into()),
+                Segment::Key(name.clone()),
+                Segment::Key("set".into()),
+                Segment::Key(dotted.clone()),
+            ];
+            let yaml_value = serde_yaml::to_value(value).map_err(|e| {
+                locator.at(&source_path, format!("cannot use this value: {e}"))
+            })?;
+            let target = resolve_path(&mut merged, dotted, true)
+                .map_err(|rule| locator.at_key(&source_path, rule))?;
+            let (merged_path, slot) = target;
+            *slot = yaml_value;
+            locator.overrides.push((merged_path, source_path));
+        }
+        for (i, dotted) in spec.remove.iter().enumerate() {
+            let source_path = vec![
+                Segment::Key("variants".into()),
+                Segment::Key(name.clone()),
+                Segment::Key("remove".into()),
+                Segment::Index(i),
+            ];
+            remove_path(&mut merged, dotted).map_err(|rule| locator.at(&source_path, rule))?;
+        }
+    }
+    let file: ModelFile = if chosen.is_some() {
+        typed(&merged, &locator)?
+    } else {
+        base
+    };
+    let variants: Vec<String> = {
+        let mut v: Vec<String> = match typed::<ModelFile>(&document, &locator) {
+            Ok(f) => f.variants.keys().cloned().collect(),
+            Err(_) => Vec::new(),
+        };
+        v.sort();
+        v
+    };
+    validate::resolve(file, &locator, chosen, variants)
+}
+
+/// serde_yaml appends " at line L column C" to messages; the diagnostic carries it already.
+fn strip_location(message: &str) -> String {
+    match message.find(" at line ") {
+        Some(i) => message[..i].to_string(),
+        None => message.to_string(),
+    }
+}
+
+/// Rejects NaN and infinite literals anywhere in the document.
+fn check_literals(
+    value: &serde_yaml::Value,
+    path: &mut KeyPath,
+    locator: &Locator<'_>,
+) -> Result<(), Diagnostic> {
+    match value {
+        serde_yaml::Value::Number(n) => {
+            if let Some(f) = n.as_f64() {
+                if !f.is_finite() {
+                    return Err(locator.at(path, format!("must be a finite number, got {f}")));
+                }
+            }
+        }
+        serde_yaml::Value::Sequence(items) => {
+            for (i, item) in items.iter().enumerate() {
+                path.push(Segment::Index(i));
+                check_literals(item, path, locator)?;
+                path.pop();
+            }
+        }
+        serde_yaml::Value::Mapping(map) => {
+            for (k, v) in map {
+                let key = match k {
+                    serde_yaml::Value::String(s) => s.clone(),
+                    other => serde_yaml::to_string(other)
+                        .unwrap_or_default()
+                        .trim()
+                        .to_string(),
+                };
+                path.push(Segment::Key(key));
+                check_literals(v, path, locator)?;
+                path.pop();
+            }
+        }
+        serde_yaml::Value::Tagged(t) => check_literals(&t.value, path, locator)?,
+        _ => {}
+    }
+    Ok(())
+}
+
+/// Deserialises with the key path of any failure, mapped to a position.
+fn typed<T: DeserializeOwned>(value: &serde_yaml::Value, locator: &Locator<'_>) -> Result<T, Diagnostic> {
+    serde_path_to_error::deserialize(value.clone()).map_err(|error| {
+        let mut path: KeyPath = Vec::new();
+        for segment in error.path().iter() {
+            match segment {
+                serde_path_to_error::Segment::Seq { index } => path.push(Segment::Index(*index)),
+                serde_path_to_error::Segment::Map { key } => path.push(Segment::Key(key.clone())),
+                serde_path_to_error::Segment::Enum { .. } | serde_path_to_error::Segment::Unknown => {}
+            }
+        }
+        let raw = strip_location(&error.inner().to_string());
+        let (message, hint) = explain_serde_error(&raw);
+        let d = if raw.starts_with("unknown field") {
+            locator.at_key(&path, message)
+        } else if raw.starts_with("missing field") {
+            locator.at(&path, message)
+        } else {
+            locator.at(&path, message)
+        };
+        match hint {
+            Some(h) => d.with_hint(h),
+            None => d,
+        }
+    })
+}
+
+/// Rephrases serde's messages for model authors.
+fn explain_serde_error(raw: &str) -> (String, Option<String>) {
+    if raw.contains("untagged enum Inertia") {
+        return (
+            "not a valid inertia".into(),
+            Some(
+                "write a number (planar I_zz about the centre of mass, kg·m²), \
+                 `{slender_rod: LENGTH}` or a tensor `{ixx, iyy, izz, ixy, ixz, iyz}`"
+                    .into(),
+            ),
+        );
+    }
+    if raw.contains("untagged enum Value") {
+        return (
+            "expected a number or the name of a parameter".into(),
+            None,
+        );
+    }
+    if let Some(rest) = raw.strip_prefix("unknown field ") {
+        let (field, expected) = match rest.find(", expected") {
+            Some(i) => (&rest[..i], Some(rest[i + 2..].to_string())),
+            None => (rest, None),
+        };
+        return (format!("unknown key {field}"), expected);
+    }
+    if let Some(rest) = raw.strip_prefix("missing field ") {
+        return (format!("missing key {rest}"), None);
+    }
+    (raw.to_string(), None)
+}
+
+/// Finds the slot a dotted path names; list items are addressed by `name` (or index).
+/// With `allow_new_leaf`, a missing last key of a mapping is created.
+fn resolve_path<'v>(
+    doc: &'v mut serde_yaml::Value,
+    dotted: &str,
+    allow_new_leaf: bool,
+) -> Result<(KeyPath, &'v mut serde_yaml::Value), String> {
+    let parts: Vec<&str> = dotted.split('.').collect();
+    if parts.iter().any(|p| p.is_empty()) {
+        return Err(format!("`{dotted}` is not a dotted key path"));
+    }
+    let mut path = KeyPath::new();
+    let mut current = doc;
+    for (i, part) in parts.iter().enumerate() {
+        let last = i + 1 == parts.len();
+        current = match current {
+            serde_yaml::Value::Mapping(map) => {
+                let key = serde_yaml::Value::String((*part).to_string());
+                if !map.contains_key(&key) {
+                    if last && allow_new_leaf {
+                        map.insert(key.clone(), serde_yaml::Value::Null);
+                    } else {
+                        return Err(format!(
+                            "`{dotted}` does not name a value of the model: no key `{part}` at `{}`",
+                            if path.is_empty() { "the top level".to_string() } else { display_path(&path) }
+                        ));
+                    }
+                }
+                path.push(Segment::Key((*part).to_string()));
+                map.get_mut(&key).ok_or_else(|| format!("no key `{part}`"))?
+            }
+            serde_yaml::Value::Sequence(items) => {
+                let position = items
+                    .iter()
+                    .position(|item| item.get("name").and_then(|n| n.as_str()) == Some(*part))
+                    .or_else(|| part.parse::<usize>().ok().filter(|i| *i < items.len()));
+                let Some(position) = position else {
+                    return Err(format!(
+                        "`{dotted}` does not name a value of the model: no item named `{part}` in `{}`",
+                        display_path(&path)
+                    ));
+                };
+                path.push(Segment::Index(position));
+                &mut items[position]
+            }
+            _ => {
+                return Err(format!(
+                    "`{dotted}` does not name a value of the model: `{}` has no entries",
+                    display_path(&path)
+                ))
+            }
+        };
+    }
+    Ok((path, current))
+}
+
+/// Deletes the entry a dotted path names.
+fn remove_path(doc: &mut serde_yaml::Value, dotted: &str) -> Result<(), String> {
+    let (parent, leaf) = match dotted.rfind('.') {
+        Some(i) => (&dotted[..i], &dotted[i + 1..]),
+        None => ("", dotted),
+    };
+    let container = if parent.is_empty() {
+        doc
+    } else {
+        resolve_path(doc, parent, false)?.1
+    };
+    match container {
+        serde_yaml::Value::Mapping(map) => {
+            if map.remove(leaf).is_none() {
+                return Err(format!("`{dotted}` does not name a value of the model"));
+            }
+        }
+        serde_yaml::Value::Sequence(items) => {
+            let before = items.len();
+            items.retain(|item| item.get("name").and_then(|n| n.as_str()) != Some(leaf));
+            if items.len() == before {
+                return Err(format!("`{dotted}` does not name an item of the model"));
+            }
+        }
+        _ => return Err(format!("`{dotted}` does not name a value of the model")),
+    }
+    Ok(())
+}
+
+/// Generates the JSON Schema of the model format from the Rust types.
+pub fn json_schema() -> String {
+    let schema = schemars::schema_for!(ModelFile);
+    let mut text = serde_json::to_string_pretty(&schema).unwrap_or_default();
+    text.push('\n');
+    text
+}
+
+/// Map from parameter name to its resolved polynomial (constant, or an atom if tunable).
+pub(crate) type ParameterValues = HashMap<String, Poly>;

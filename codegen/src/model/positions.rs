@@ -1,0 +1,172 @@
+//! Source positions of every key and value of a YAML document, by key path.
+//!
+//! serde tells us *which* value is wrong (its key path); this index tells us *where* it is.
+//! It is built from the event stream of `yaml-rust2`, which carries a marker per event.
+
+use std::collections::HashMap;
+
+use yaml_rust2::parser::{Event, MarkedEventReceiver, Parser};
+use yaml_rust2::scanner::Marker;
+
+/// One step of a key path.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Segment {
+    /// A mapping key.
+    Key(String),
+    /// A sequence index.
+    Index(usize),
+}
+
+/// A key path from the document root.
+pub type KeyPath = Vec<Segment>;
+
+/// Renders a key path as `bodies[2].mass`.
+pub fn display_path(path: &[Segment]) -> String {
+    let mut out = String::new();
+    for segment in path {
+        match segment {
+            Segment::Key(k) => {
+                if !out.is_empty() {
+                    out.push('.');
+                }
+                out.push_str(k);
+            }
+            Segment::Index(i) => out.push_str(&format!("[{i}]")),
+        }
+    }
+    out
+}
+
+/// Line and column (both 1-based).
+pub type Position = (usize, usize);
+
+/// Positions of values and of keys, by path.
+#[derive(Debug, Default)]
+pub struct PositionIndex {
+    values: HashMap<KeyPath, Position>,
+    keys: HashMap<KeyPath, Position>,
+}
+
+impl PositionIndex {
+    /// Indexes `text`; a document the event parser cannot read gives an empty index (the
+    /// serde parser reports the syntax error itself).
+    pub fn build(text: &str) -> Self {
+        let mut builder = Builder::default();
+        let mut parser = Parser::new_from_str(text);
+        if parser.load(&mut builder, false).is_err() {
+            return builder.index;
+        }
+        builder.index
+    }
+
+    /// The position of the value at `path`, or of its nearest indexed ancestor.
+    pub fn value(&self, path: &[Segment]) -> Position {
+        for len in (0..=path.len()).rev() {
+            if let Some(p) = self.values.get(&path[..len]) {
+                return *p;
+            }
+        }
+        (1, 1)
+    }
+
+    /// The position of the key that introduces `path` (falls back to the value).
+    pub fn key(&self, path: &[Segment]) -> Position {
+        self.keys
+            .get(path)
+            .copied()
+            .unwrap_or_else(|| self.value(path))
+    }
+
+    /// `true` if the path is indexed.
+    pub fn contains(&self, path: &[Segment]) -> bool {
+        self.values.contains_key(path)
+    }
+}
+
+enum Frame {
+    Mapping {
+        pending_key: Option<(String, Position)>,
+    },
+    Sequence {
+        next: usize,
+    },
+}
+
+#[derive(Default)]
+struct Builder {
+    index: PositionIndex,
+    stack: Vec<Frame>,
+    path: KeyPath,
+}
+
+impl Builder {
+    /// Called when a node (scalar or collection start) begins at `pos`. Returns `false` if
+    /// this scalar was a mapping key.
+    fn begin_node(&mut self, scalar_key: Option<&str>, pos: Position) -> bool {
+        match self.stack.last_mut() {
+            Some(Frame::Mapping { pending_key }) => {
+                if pending_key.is_none() {
+                    // This node is a key.
+                    let key = scalar_key.unwrap_or("<complex key>").to_string();
+                    *pending_key = Some((key, pos));
+                    return false;
+                }
+                let (key, key_pos) = pending_key.take().unwrap_or_default();
+                self.path.push(Segment::Key(key));
+                self.index.keys.insert(self.path.clone(), key_pos);
+            }
+            Some(Frame::Sequence { next }) => {
+                let i = *next;
+                *next += 1;
+                self.path.push(Segment::Index(i));
+            }
+            None => {}
+        }
+        self.index.values.insert(self.path.clone(), pos);
+        true
+    }
+
+    fn end_node(&mut self) {
+        if !self.stack.is_empty() {
+            self.path.pop();
+        }
+    }
+}
+
+impl MarkedEventReceiver for Builder {
+    fn on_event(&mut self, event: Event, mark: Marker) {
+        let pos = (mark.line(), mark.col() + 1);
+        match event {
+            Event::Scalar(value, ..) => {
+                if self.begin_node(Some(&value), pos) {
+                    self.end_node();
+                }
+            }
+            Event::Alias(..) => {
+                if self.begin_node(None, pos) {
+                    self.end_node();
+                }
+            }
+            Event::MappingStart(..) => {
+                let is_value = self.begin_node(None, pos);
+                if !is_value {
+                    // A complex (mapping) key: index nothing inside it.
+                    self.path.push(Segment::Key("<complex key>".into()));
+                }
+                self.stack.push(Frame::Mapping { pending_key: None });
+            }
+            Event::SequenceStart(..) => {
+                let is_value = self.begin_node(None, pos);
+                if !is_value {
+                    self.path.push(Segment::Key("<complex key>".into()));
+                }
+                self.stack.push(Frame::Sequence { next: 0 });
+            }
+            Event::MappingEnd | Event::SequenceEnd => {
+                self.stack.pop();
+                self.end_node();
+            }
+            _ => {}
+        }
+    }
+}

@@ -1,0 +1,416 @@
+//! The model-file format: the Rust types a YAML model deserialises into.
+//!
+//! These types are the single source of truth for the format: `docs/model-format.md`
+//! documents them, and `schema/model.schema.json` is generated from them (see
+//! [`crate::model::json_schema`]). Every quantity is in SI units. Unknown keys are errors.
+
+use std::collections::BTreeMap;
+
+use schemars::JsonSchema;
+use serde::Deserialize;
+
+/// A number, or the name of an entry of `parameters`.
+///
+/// Parameters marked `tunable` stay symbolic in the generated code (fields of the rig
+/// struct); all others are folded into constants.
+#[derive(Clone, Debug, Deserialize, JsonSchema, PartialEq)]
+#[serde(untagged)]
+pub enum Value {
+    /// A literal number in SI units.
+    Number(f64),
+    /// A reference to a named parameter.
+    Parameter(String),
+}
+
+/// Whether bodies move in a plane (x, y; rotations about z) or in space.
+#[derive(Clone, Copy, Debug, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Space {
+    /// Motion in the x–y plane: vectors have 2 entries, inertias are scalars about z.
+    Planar,
+    /// Motion in 3-D space: vectors have 3 entries, inertias are full tensors.
+    Spatial,
+}
+
+/// A complete model file.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ModelFile {
+    /// Identifier of the rig (snake_case); names the generated Rust type.
+    pub name: String,
+    /// One-line description, copied into the generated documentation.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// `planar` or `spatial`.
+    pub space: Space,
+    /// Gravitational acceleration vector in the base frame, m/s² (2 or 3 entries).
+    pub gravity: Vec<Value>,
+    /// Named values that other fields may reference by name.
+    #[serde(default)]
+    pub parameters: BTreeMap<String, Parameter>,
+    /// Drive trains (motor, gearhead, encoder, limits), referenced by joints by name.
+    pub drives: BTreeMap<String, Drive>,
+    /// The joints, one per generalised coordinate, in the order of `q`.
+    pub joints: Vec<Joint>,
+    /// The rigid bodies and how each one moves.
+    pub bodies: Vec<Body>,
+    /// Named points fixed on bodies (operational points, sensor locations, plot points).
+    #[serde(default)]
+    pub points: Vec<Point>,
+    /// The task coordinates `x` the impedance controllers act on.
+    pub task: Task,
+    /// Sensors besides the joint encoders.
+    #[serde(default)]
+    pub sensors: Vec<Sensor>,
+    /// Sample rates of the control loops.
+    pub rates: Rates,
+    /// Design targets of the inner current loop.
+    pub current_loop: CurrentLoopSpec,
+    /// Haptic rendering settings (virtual walls, anti-drift grid).
+    #[serde(default)]
+    pub rendering: Option<Rendering>,
+    /// The variant used when none is named; required when `variants` is not empty.
+    #[serde(default)]
+    pub default_variant: Option<String>,
+    /// Named variants, each overriding some values of this file.
+    #[serde(default)]
+    pub variants: BTreeMap<String, Variant>,
+}
+
+/// A named value.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Parameter {
+    /// The nominal value, SI units.
+    pub value: f64,
+    /// Keep the parameter symbolic: it becomes a field of the generated rig struct, with
+    /// `value` as its default, and can be changed at run time (e.g. a tool mass).
+    #[serde(default)]
+    pub tunable: bool,
+    /// Unit, for documentation only (e.g. `kg`).
+    #[serde(default)]
+    pub unit: Option<String>,
+    /// What the value is.
+    #[serde(default)]
+    pub description: Option<String>,
+}
+
+/// A motor with its gearhead, encoder and limits.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Drive {
+    /// The electric motor.
+    pub motor: Motor,
+    /// Motor turns per joint turn (N); the rotor inertia reflects to the joint as N²·J_m.
+    pub gear_ratio: f64,
+    /// Gearhead efficiency in (0, 1].
+    #[serde(default = "one")]
+    pub efficiency: f64,
+    /// Largest joint-side torque the controllers may command, N·m (N for prismatic joints).
+    pub torque_limit: f64,
+    /// Largest motor current, A.
+    pub current_limit: f64,
+    /// Supply voltage, V.
+    pub supply_voltage: f64,
+    /// Incremental encoder on the motor shaft.
+    pub encoder: Encoder,
+    /// Gearhead backlash, rad (joint side); used by the simulator only.
+    #[serde(default)]
+    pub backlash: f64,
+    /// Coulomb friction at the joint, N·m; used by the simulator only.
+    #[serde(default)]
+    pub coulomb_friction: f64,
+    /// Static (breakaway) friction at the joint, N·m; used by the simulator only.
+    #[serde(default)]
+    pub static_friction: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// A DC motor's electrical and mechanical constants.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Motor {
+    /// Rotor inertia J_m, kg·m².
+    pub rotor_inertia: f64,
+    /// Terminal resistance R, Ω.
+    pub resistance: f64,
+    /// Terminal inductance L, H.
+    pub inductance: f64,
+    /// Torque constant k_t, N·m/A.
+    pub torque_constant: f64,
+}
+
+/// An incremental encoder.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Encoder {
+    /// Counts per motor turn after quadrature decoding (4 × lines).
+    pub counts_per_turn: u32,
+}
+
+/// Kind of joint.
+#[derive(Clone, Copy, Debug, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum JointKind {
+    /// Rotation about `axis`; the coordinate is an angle in rad.
+    Revolute,
+    /// Translation along `axis`; the coordinate is a length in m.
+    Prismatic,
+}
+
+/// One generalised coordinate and its actuator.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Joint {
+    /// Name of the coordinate (used in generated code, e.g. `sin_q1`).
+    pub name: String,
+    /// `revolute` or `prismatic`.
+    #[serde(rename = "type")]
+    pub kind: JointKind,
+    /// What the coordinate measures.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// Unit axis in the joint frame; planar models take `[0, 0, 1]` (default) or
+    /// `[0, 0, -1]` for revolute joints and a 2-vector for prismatic ones.
+    #[serde(default)]
+    pub axis: Option<Vec<f64>>,
+    /// Range of motion.
+    pub limits: Limits,
+    /// Viscous damping at the joint, N·m·s/rad (N·s/m for prismatic joints).
+    #[serde(default)]
+    pub damping: Option<Value>,
+    /// Name of the entry of `drives` that actuates this joint.
+    pub drive: String,
+}
+
+/// A closed interval.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Limits {
+    /// Lower bound, rad or m.
+    pub lower: f64,
+    /// Upper bound, rad or m.
+    pub upper: f64,
+}
+
+/// A rigid body.
+///
+/// Exactly one of `parent` (serial chain: parent frame, fixed `origin`, then `joint`) or
+/// `pose` (the frame given directly by generalised coordinates) says how it moves.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Body {
+    /// Name, unique among bodies; `base` is reserved for the fixed ground.
+    pub name: String,
+    /// What the body is.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// Mass, kg.
+    pub mass: Value,
+    /// Centre of mass in the body frame, m.
+    pub com: Vec<Value>,
+    /// Inertia about the centre of mass, in body-frame axes.
+    pub inertia: Inertia,
+    /// Serial chain: the parent body (`base` for the ground).
+    #[serde(default)]
+    pub parent: Option<String>,
+    /// Serial chain: the fixed transform from the parent frame to the joint frame.
+    #[serde(default)]
+    pub origin: Option<Origin>,
+    /// Serial chain: the joint between the parent and this body; absent = welded.
+    #[serde(default)]
+    pub joint: Option<String>,
+    /// Direct pose: the frame's origin and orientation given by the coordinates.
+    #[serde(default)]
+    pub pose: Option<DirectPose>,
+}
+
+/// Inertia about the centre of mass.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(untagged)]
+pub enum Inertia {
+    /// Planar models: the moment of inertia about the z axis, kg·m².
+    Scalar(Value),
+    /// A uniform slender rod along the body's x axis (planar) of this length: m·L²/12.
+    SlenderRod(SlenderRod),
+    /// Spatial models: the symmetric tensor, kg·m².
+    Tensor(InertiaTensor),
+}
+
+/// A uniform slender rod.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SlenderRod {
+    /// Length of the rod, m.
+    pub slender_rod: Value,
+}
+
+/// The entries of a symmetric inertia tensor (products of inertia default to 0).
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct InertiaTensor {
+    /// I_xx, kg·m².
+    pub ixx: Value,
+    /// I_yy, kg·m².
+    pub iyy: Value,
+    /// I_zz, kg·m².
+    pub izz: Value,
+    /// I_xy, kg·m².
+    #[serde(default)]
+    pub ixy: Option<Value>,
+    /// I_xz, kg·m².
+    #[serde(default)]
+    pub ixz: Option<Value>,
+    /// I_yz, kg·m².
+    #[serde(default)]
+    pub iyz: Option<Value>,
+}
+
+/// A fixed transform: translation, then roll–pitch–yaw (URDF convention, fixed axes x, y, z).
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Origin {
+    /// Translation, m (2 or 3 entries).
+    #[serde(default)]
+    pub xyz: Option<Vec<Value>>,
+    /// Roll, pitch, yaw, rad (spatial); a single angle about z for planar models.
+    #[serde(default)]
+    pub rpy: Option<Vec<f64>>,
+}
+
+/// A frame placed directly by the generalised coordinates (e.g. the parallelogram's links).
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DirectPose {
+    /// Where the frame's origin is: a point fixed on another body (or on `base`).
+    pub origin: BodyPoint,
+    /// Planar models: the joint whose coordinate is the frame's absolute angle from x.
+    pub angle: String,
+}
+
+/// A point fixed on a body.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BodyPoint {
+    /// The body (or `base`).
+    pub body: String,
+    /// Coordinates in that body's frame, m.
+    pub point: Vec<Value>,
+}
+
+/// A named point.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Point {
+    /// Name (e.g. `end_effector`).
+    pub name: String,
+    /// What the point is.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// The body it is fixed on.
+    pub body: String,
+    /// Its coordinates in the body frame, m.
+    pub position: Vec<Value>,
+}
+
+/// The task coordinates of the impedance controllers.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Task {
+    /// The Cartesian position of this named point (2-D for planar models, 3-D for spatial).
+    #[serde(default)]
+    pub point: Option<String>,
+    /// Or: these joint coordinates themselves (x = q, J = I).
+    #[serde(default)]
+    pub joints: Option<Vec<String>>,
+}
+
+/// Kind of sensor.
+#[derive(Clone, Copy, Debug, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum SensorKind {
+    /// Measures the operator's force f_l in task coordinates.
+    Force,
+}
+
+/// A sensor besides the joint encoders.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Sensor {
+    /// Name.
+    pub name: String,
+    /// `force`.
+    pub kind: SensorKind,
+    /// What it is (part number, mounting).
+    #[serde(default)]
+    pub description: Option<String>,
+    /// Task units per raw sensor unit (e.g. N/V).
+    pub scale: f64,
+    /// Raw reading at zero force.
+    #[serde(default)]
+    pub offset: f64,
+    /// Largest measurable magnitude, task units.
+    pub full_scale: f64,
+    /// Standard deviation of the noise, task units (simulation only).
+    #[serde(default)]
+    pub noise: f64,
+    /// Resolution (quantisation step), task units (simulation only).
+    #[serde(default)]
+    pub resolution: f64,
+}
+
+/// Sample rates.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Rates {
+    /// Inner current loop, Hz (7500 in the paper).
+    pub current_loop_hz: u32,
+    /// Outer impedance loop, Hz.
+    pub impedance_loop_hz: u32,
+}
+
+/// Design targets of the inner current loop (paper, section 2).
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CurrentLoopSpec {
+    /// Closed-loop bandwidth, Hz (700 in the paper).
+    pub bandwidth_hz: f64,
+    /// Closed-loop damping ratio (slightly above 1: slightly overdamped).
+    pub damping_ratio: f64,
+    /// Cut-off of the anti-aliasing (Bessel) filter on the current sense, Hz.
+    pub anti_alias_cutoff_hz: f64,
+}
+
+/// Haptic rendering settings (paper, section 4).
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Rendering {
+    /// Spacing of the free-space anti-drift grid, m (0.3 mm in the paper).
+    pub grid_spacing: f64,
+    /// Stiffness of virtual walls, N/m.
+    pub wall_stiffness: f64,
+    /// Damping of virtual walls, N·s/m.
+    pub wall_damping: f64,
+    /// Accept a wall stiffness beyond the passivity bound (you know what you are doing).
+    #[serde(default)]
+    pub allow_unstable_stiffness: bool,
+}
+
+/// A variant: a name and the values it overrides.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Variant {
+    /// What distinguishes this variant.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// Values to replace, by dotted key path; list items are addressed by their `name`
+    /// (e.g. `bodies.grip.mass: 0.1`, `drives.re40.gear_ratio: 25`, `gravity: [0, 0]`).
+    #[serde(default)]
+    pub set: BTreeMap<String, serde_json::Value>,
+    /// Entries to delete, by dotted key path (e.g. `sensors.handle_force`).
+    #[serde(default)]
+    pub remove: Vec<String>,
+}

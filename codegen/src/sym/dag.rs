@@ -1,0 +1,392 @@
+//! Expression DAG with hash-consing: the optimised form of a set of polynomials.
+//!
+//! Each node is one arithmetic operation; identical subexpressions are one node, so common
+//! subexpressions are shared across every output of a function (and across the functions
+//! fused into one control tick). Polynomials enter through a greedy multivariate Horner
+//! scheme ([`Dag::polynomial`]) that factors out the atom shared by most terms, and a common
+//! coefficient where all terms have the same magnitude; constants are folded on the way.
+
+use std::collections::HashMap;
+
+use super::poly::{Atom, Monomial, Poly};
+
+/// Index of a node.
+pub type NodeId = usize;
+
+/// One operation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Node {
+    /// A constant (the bits of an `f64`).
+    Const(u64),
+    /// An input: joint sine/cosine/coordinate/velocity or a tunable parameter.
+    Input(Atom),
+    /// `a + b`.
+    Add(NodeId, NodeId),
+    /// `a − b`.
+    Sub(NodeId, NodeId),
+    /// `a · b`.
+    Mul(NodeId, NodeId),
+    /// `−a`.
+    Neg(NodeId),
+}
+
+/// Operation counts of a set of outputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct OpCounts {
+    /// Additions and subtractions.
+    pub additions: usize,
+    /// Multiplications.
+    pub multiplications: usize,
+    /// Divisions.
+    pub divisions: usize,
+    /// Square roots.
+    pub square_roots: usize,
+    /// Sine and cosine evaluations.
+    pub trigonometric: usize,
+    /// Negations.
+    pub negations: usize,
+}
+
+impl OpCounts {
+    /// Arithmetic operations (additions, multiplications, divisions, square roots, negations).
+    pub fn arithmetic(&self) -> usize {
+        self.additions + self.multiplications + self.divisions + self.square_roots + self.negations
+    }
+}
+
+/// A hash-consed expression DAG.
+#[derive(Clone, Debug, Default)]
+pub struct Dag {
+    nodes: Vec<Node>,
+    index: HashMap<Node, NodeId>,
+}
+
+/// A node id with a pending sign, used while building sums.
+#[derive(Clone, Copy)]
+struct Signed {
+    id: NodeId,
+    negative: bool,
+}
+
+impl Dag {
+    /// An empty DAG.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// All nodes; children always precede parents.
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    fn intern(&mut self, node: Node) -> NodeId {
+        if let Some(&id) = self.index.get(&node) {
+            return id;
+        }
+        let id = self.nodes.len();
+        self.nodes.push(node);
+        self.index.insert(node, id);
+        id
+    }
+
+    /// The constant value of a node, if it is one.
+    pub fn constant_value(&self, id: NodeId) -> Option<f64> {
+        match self.nodes[id] {
+            Node::Const(bits) => Some(f64::from_bits(bits)),
+            _ => None,
+        }
+    }
+
+    /// A constant node (`-0.0` is stored as `0.0`).
+    pub fn constant(&mut self, value: f64) -> NodeId {
+        let value = if value == 0.0 { 0.0 } else { value };
+        self.intern(Node::Const(value.to_bits()))
+    }
+
+    /// An input node.
+    pub fn input(&mut self, atom: Atom) -> NodeId {
+        self.intern(Node::Input(atom))
+    }
+
+    /// `a + b`, folded.
+    pub fn add(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        match (self.constant_value(a), self.constant_value(b)) {
+            (Some(x), Some(y)) => self.constant(x + y),
+            (Some(x), _) if x == 0.0 => b,
+            (_, Some(y)) if y == 0.0 => a,
+            _ => {
+                let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+                self.intern(Node::Add(lo, hi))
+            }
+        }
+    }
+
+    /// `a − b`, folded.
+    pub fn sub(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        match (self.constant_value(a), self.constant_value(b)) {
+            (Some(x), Some(y)) => self.constant(x - y),
+            (_, Some(y)) if y == 0.0 => a,
+            (Some(x), _) if x == 0.0 => self.neg(b),
+            _ => self.intern(Node::Sub(a, b)),
+        }
+    }
+
+    /// `a · b`, folded.
+    pub fn mul(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        match (self.constant_value(a), self.constant_value(b)) {
+            (Some(x), Some(y)) => self.constant(x * y),
+            (Some(x), _) if x == 0.0 => a,
+            (_, Some(y)) if y == 0.0 => b,
+            (Some(x), _) if x == 1.0 => b,
+            (_, Some(y)) if y == 1.0 => a,
+            (Some(x), _) if x == -1.0 => self.neg(b),
+            (_, Some(y)) if y == -1.0 => self.neg(a),
+            _ => {
+                let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+                self.intern(Node::Mul(lo, hi))
+            }
+        }
+    }
+
+    /// `−a`, folded (a negated product with a constant factor absorbs the sign).
+    pub fn neg(&mut self, a: NodeId) -> NodeId {
+        match self.nodes[a] {
+            Node::Const(bits) => self.constant(-f64::from_bits(bits)),
+            Node::Neg(inner) => inner,
+            Node::Mul(x, y) => {
+                if let Some(k) = self.constant_value(x) {
+                    let c = self.constant(-k);
+                    self.mul(c, y)
+                } else if let Some(k) = self.constant_value(y) {
+                    let c = self.constant(-k);
+                    self.mul(x, c)
+                } else {
+                    self.intern(Node::Neg(a))
+                }
+            }
+            Node::Sub(x, y) => self.intern(Node::Sub(y, x)),
+            _ => self.intern(Node::Neg(a)),
+        }
+    }
+
+    /// The product of a monomial's atoms, built in canonical order so equal monomials and
+    /// their common prefixes are shared.
+    fn monomial(&mut self, monomial: &[(Atom, u32)]) -> NodeId {
+        let mut acc: Option<NodeId> = None;
+        for &(atom, exponent) in monomial {
+            let x = self.input(atom);
+            let power = self.power(x, exponent);
+            acc = Some(match acc {
+                None => power,
+                Some(a) => self.mul(a, power),
+            });
+        }
+        match acc {
+            Some(id) => id,
+            None => self.constant(1.0),
+        }
+    }
+
+    fn power(&mut self, x: NodeId, exponent: u32) -> NodeId {
+        match exponent {
+            0 => self.constant(1.0),
+            1 => x,
+            e => {
+                let half = self.power(x, e / 2);
+                let square = self.mul(half, half);
+                if e % 2 == 1 {
+                    self.mul(square, x)
+                } else {
+                    square
+                }
+            }
+        }
+    }
+
+    /// Adds a polynomial; returns the node of its value.
+    pub fn polynomial(&mut self, poly: &Poly) -> NodeId {
+        let terms: Vec<(Monomial, f64)> = poly.terms().map(|(m, c)| (m.clone(), c)).collect();
+        let signed = self.horner(terms);
+        self.resolve(signed)
+    }
+
+    fn resolve(&mut self, s: Signed) -> NodeId {
+        if s.negative {
+            self.neg(s.id)
+        } else {
+            s.id
+        }
+    }
+
+    fn horner(&mut self, terms: Vec<(Monomial, f64)>) -> Signed {
+        match terms.len() {
+            0 => {
+                return Signed {
+                    id: self.constant(0.0),
+                    negative: false,
+                }
+            }
+            1 => {
+                let (m, c) = &terms[0];
+                let mono = self.monomial(m);
+                let k = self.constant(c.abs());
+                return Signed {
+                    id: self.mul(k, mono),
+                    negative: *c < 0.0,
+                };
+            }
+            _ => {}
+        }
+        // A coefficient common to all terms (up to sign) is factored out once.
+        let first = terms[0].1.abs();
+        if first != 1.0 && terms.iter().all(|(_, c)| c.abs() == first) {
+            let unit: Vec<(Monomial, f64)> = terms.iter().map(|(m, c)| (m.clone(), c.signum())).collect();
+            let inner = self.horner(unit);
+            let k = self.constant(first);
+            return Signed {
+                id: self.mul(k, inner.id),
+                negative: inner.negative,
+            };
+        }
+        // The atom shared by most terms.
+        let mut counts: HashMap<Atom, usize> = HashMap::new();
+        for (m, _) in &terms {
+            for (a, _) in m {
+                *counts.entry(*a).or_default() += 1;
+            }
+        }
+        let best = counts
+            .iter()
+            .filter(|(_, &n)| n >= 2)
+            .max_by(|(a, n), (b, m)| n.cmp(m).then(b.cmp(a)))
+            .map(|(a, _)| *a);
+        let Some(atom) = best else {
+            let parts: Vec<Signed> = terms.into_iter().map(|t| self.horner(vec![t])).collect();
+            return self.signed_sum(parts);
+        };
+        let with_min = terms
+            .iter()
+            .filter_map(|(m, _)| m.iter().find(|(a, _)| *a == atom).map(|(_, e)| *e))
+            .min()
+            .unwrap_or(1);
+        let with_power = |k: &u32| *k;
+        let mut with = Vec::new();
+        let mut without = Vec::new();
+        for (m, c) in terms {
+            match m.iter().position(|(a, _)| *a == atom) {
+                Some(i) => {
+                    let mut lowered = m.clone();
+                    lowered[i].1 -= with_min;
+                    if lowered[i].1 == 0 {
+                        lowered.remove(i);
+                    }
+                    with.push((lowered, c));
+                }
+                None => without.push((m, c)),
+            }
+        }
+        // Factor out the largest power of the atom common to those terms (so that
+        // `q̇²` is one shared square rather than two nested products).
+        let common_power = with_power(&with_min);
+        let input = self.input(atom);
+        let factor = self.power(input, common_power);
+        let inner = self.horner(with);
+        let product = Signed {
+            id: self.mul(factor, inner.id),
+            negative: inner.negative,
+        };
+        if without.is_empty() {
+            return product;
+        }
+        let rest = self.horner(without);
+        self.signed_sum(vec![product, rest])
+    }
+
+    fn signed_sum(&mut self, parts: Vec<Signed>) -> Signed {
+        // A difference of two parts is oriented canonically (lower node id first), so that
+        // `a − b` and `b − a` share one node and differ only in a sign, which the parent
+        // absorbs into a constant factor.
+        if let [x, y] = parts[..] {
+            if x.negative != y.negative {
+                let (positive, negative) = if x.negative { (y, x) } else { (x, y) };
+                let (first, second, flipped) = if positive.id <= negative.id {
+                    (positive.id, negative.id, false)
+                } else {
+                    (negative.id, positive.id, true)
+                };
+                return Signed {
+                    id: self.sub(first, second),
+                    negative: flipped,
+                };
+            }
+        }
+        let all_negative = parts.iter().all(|p| p.negative);
+        let mut ordered = parts;
+        // Start from a positive part so that the rest become subtractions.
+        ordered.sort_by_key(|p| p.negative);
+        let mut acc = ordered[0].id;
+        for p in &ordered[1..] {
+            acc = if p.negative == all_negative {
+                self.add(acc, p.id)
+            } else {
+                self.sub(acc, p.id)
+            };
+        }
+        Signed {
+            id: acc,
+            negative: all_negative,
+        }
+    }
+
+    /// Nodes reachable from `roots`, in topological order.
+    pub fn reachable(&self, roots: &[NodeId]) -> Vec<NodeId> {
+        let mut seen = vec![false; self.nodes.len()];
+        let mut stack: Vec<NodeId> = roots.to_vec();
+        while let Some(id) = stack.pop() {
+            if seen[id] {
+                continue;
+            }
+            seen[id] = true;
+            match self.nodes[id] {
+                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => {
+                    stack.push(a);
+                    stack.push(b);
+                }
+                Node::Neg(a) => stack.push(a),
+                _ => {}
+            }
+        }
+        (0..self.nodes.len()).filter(|&i| seen[i]).collect()
+    }
+
+    /// Operation counts of everything needed for `roots` (each shared node once).
+    pub fn count(&self, roots: &[NodeId]) -> OpCounts {
+        let mut counts = OpCounts::default();
+        for id in self.reachable(roots) {
+            match self.nodes[id] {
+                Node::Add(..) | Node::Sub(..) => counts.additions += 1,
+                Node::Mul(..) => counts.multiplications += 1,
+                Node::Neg(..) => counts.negations += 1,
+                Node::Input(Atom::Sin(_) | Atom::Cos(_)) => counts.trigonometric += 1,
+                _ => {}
+            }
+        }
+        counts
+    }
+
+    /// Evaluates a node given input values.
+    pub fn eval(&self, id: NodeId, input: &dyn Fn(Atom) -> f64) -> f64 {
+        let mut values = vec![0.0; id + 1];
+        for (i, node) in self.nodes[..=id].iter().enumerate() {
+            values[i] = match *node {
+                Node::Const(bits) => f64::from_bits(bits),
+                Node::Input(a) => input(a),
+                Node::Add(a, b) => values[a] + values[b],
+                Node::Sub(a, b) => values[a] - values[b],
+                Node::Mul(a, b) => values[a] * values[b],
+                Node::Neg(a) => -values[a],
+            };
+        }
+        values[id]
+    }
+}

@@ -1,0 +1,4 @@
+//! The symbolic engine: canonical polynomials ([`poly`]) for derivation and simplification,
+//! a hash-consed expression DAG ([`dag`]) for optimisation and emission.
+pub mod dag;
+pub mod poly;
