@@ -2,16 +2,14 @@
 //!
 //! ```no_run
 //! // build.rs
-//! fn main() {
-//!     let out = std::path::PathBuf::from(std::env::var("OUT_DIR").unwrap());
-//!     hapticgen_codegen::build::generate(
-//!         "models/parallel_link_2dof.yaml",
-//!         Some("horizontal"),
-//!         hapticgen_codegen::Scalar::F32,
-//!         &out.join("parallel_link.rs"),
-//!     )
-//!     .unwrap_or_else(|e| panic!("{e}"));
-//! }
+//! let out = std::path::PathBuf::from(std::env::var("OUT_DIR").unwrap());
+//! hapticgen_codegen::build::generate(
+//!     "models/parallel_link_2dof.yaml",
+//!     Some("horizontal"),
+//!     hapticgen_codegen::Scalar::F32,
+//!     &out.join("parallel_link.rs"),
+//! )
+//! .unwrap_or_else(|e| panic!("{e}"));
 //! ```
 //! and in the crate: `include!(concat!(env!("OUT_DIR"), "/parallel_link.rs"));`.
 

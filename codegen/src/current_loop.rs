@@ -100,9 +100,7 @@ pub fn design_current_loop(input: &CurrentLoopDesignInput) -> Result<CurrentLoop
         if value.is_finite() && value > 0.0 {
             Ok(())
         } else {
-            Err(format!(
-                "current loop: {name} must be positive and finite, got {value}"
-            ))
+            Err(format!("current loop: {name} must be positive and finite, got {value}"))
         }
     };
     positive("resistance", input.resistance)?;
@@ -120,20 +118,11 @@ pub fn design_current_loop(input: &CurrentLoopDesignInput) -> Result<CurrentLoop
     }
     let group_delay = match input.filter_order {
         1..=4 => BESSEL_GROUP_DELAY[input.filter_order as usize - 1],
-        other => {
-            return Err(format!(
-                "current loop: Bessel filter order must be 1 to 4, got {other}"
-            ))
-        }
+        other => return Err(format!("current loop: Bessel filter order must be 1 to 4, got {other}")),
     };
     let sample_period = 1.0 / input.sample_rate_hz;
     let filter_time_constant = group_delay / (2.0 * PI * input.filter_cutoff_hz);
-    let plant = DiscretePlant::new(
-        input.resistance,
-        input.inductance,
-        filter_time_constant,
-        sample_period,
-    );
+    let plant = DiscretePlant::new(input.resistance, input.inductance, filter_time_constant, sample_period);
 
     let target = input.bandwidth_hz;
     let zeta = input.damping_ratio;
@@ -173,20 +162,18 @@ pub fn design_current_loop(input: &CurrentLoopDesignInput) -> Result<CurrentLoop
     }
     let poles = cubic_roots(&characteristic_polynomial(&plant.closed_loop(&placement).0));
     let modes = poles.map(|z| continuous_mode(z, sample_period));
-    let dominant = modes
-        .iter()
-        .copied()
-        .fold((f64::INFINITY, 1.0), |slowest, mode| {
-            if mode.0 < slowest.0 {
-                mode
-            } else {
-                slowest
-            }
-        });
-    let least_damping_ratio = modes
-        .iter()
-        .map(|mode| mode.1)
-        .fold(f64::INFINITY, f64::min);
+    let dominant =
+        modes.iter().copied().fold(
+            (f64::INFINITY, 1.0),
+            |slowest, mode| {
+                if mode.0 < slowest.0 {
+                    mode
+                } else {
+                    slowest
+                }
+            },
+        );
+    let least_damping_ratio = modes.iter().map(|mode| mode.1).fold(f64::INFINITY, f64::min);
     Ok(CurrentLoopDesign {
         kp: placement.kp,
         ki: placement.ki,
@@ -221,10 +208,7 @@ struct DiscretePlant {
 
 impl DiscretePlant {
     fn new(resistance: f64, inductance: f64, filter_time_constant: f64, period: f64) -> Self {
-        let a = [
-            [-resistance / inductance, 0.0],
-            [1.0 / filter_time_constant, -1.0 / filter_time_constant],
-        ];
+        let a = [[-resistance / inductance, 0.0], [1.0 / filter_time_constant, -1.0 / filter_time_constant]];
         let b = [1.0 / inductance, 0.0];
         let (transition, input) = zoh_discretise(&a, &b, period);
         let armature_pole = (-resistance * period / inductance).exp();
@@ -372,8 +356,7 @@ fn characteristic_polynomial(a: &[[f64; 3]; 3]) -> [f64; 3] {
 }
 
 fn det3(a: &[[f64; 3]; 3]) -> f64 {
-    a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
-        - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+    a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
         + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
 }
 
@@ -387,10 +370,7 @@ fn cubic_roots(coefficients: &[f64; 3]) -> [(f64, f64); 3] {
             let z = roots[i];
             let z2 = mul(z, z);
             let z3 = mul(z2, z);
-            let value = (
-                z3.0 + a2 * z2.0 + a1 * z.0 + a0,
-                z3.1 + a2 * z2.1 + a1 * z.1,
-            );
+            let value = (z3.0 + a2 * z2.0 + a1 * z.0 + a0, z3.1 + a2 * z2.1 + a1 * z.1);
             let mut denominator = (1.0, 0.0);
             for (j, other) in roots.iter().enumerate() {
                 if j != i {
@@ -435,10 +415,7 @@ fn zoh_discretise(a: &[[f64; 2]; 2], b: &[f64; 2], period: f64) -> ([[f64; 2]; 2
 /// Matrix exponential by scaling and squaring with a Taylor series (ample for 3 × 3 with
 /// real, well-separated eigenvalues).
 pub(crate) fn expm<const N: usize>(a: &[[f64; N]; N]) -> [[f64; N]; N] {
-    let norm = a
-        .iter()
-        .map(|row| row.iter().map(|v| v.abs()).sum::<f64>())
-        .fold(0.0, f64::max);
+    let norm = a.iter().map(|row| row.iter().map(|v| v.abs()).sum::<f64>()).fold(0.0, f64::max);
     let mut squarings = 0;
     let mut scale = 1.0;
     while norm * scale > 0.25 {
@@ -548,17 +525,9 @@ mod tests {
                 }
             }
             let e = expm_dynamic(&a);
-            let transition = (0..size - 1)
-                .map(|i| (0..size - 1).map(|j| e[i][j]).collect())
-                .collect();
+            let transition = (0..size - 1).map(|i| (0..size - 1).map(|j| e[i][j]).collect()).collect();
             let input = (0..size - 1).map(|i| e[i][size - 1]).collect();
-            Self {
-                transition,
-                input,
-                state: vec![0.0; size - 1],
-                integral: 0.0,
-                design,
-            }
+            Self { transition, input, state: vec![0.0; size - 1], integral: 0.0, design }
         }
 
         fn current(&self) -> f64 {
@@ -585,11 +554,7 @@ mod tests {
             }
             let next: Vec<f64> = (0..self.state.len())
                 .map(|i| {
-                    self.transition[i]
-                        .iter()
-                        .zip(&self.state)
-                        .map(|(a, x)| a * x)
-                        .sum::<f64>()
+                    self.transition[i].iter().zip(&self.state).map(|(a, x)| a * x).sum::<f64>()
                         + self.input[i] * voltage
                 })
                 .collect();
@@ -629,10 +594,7 @@ mod tests {
             peak = peak.max(sim.current());
         }
         let final_value = sim.current();
-        assert!(
-            (final_value - amplitude).abs() < 1e-6 * amplitude,
-            "no steady state"
-        );
+        assert!((final_value - amplitude).abs() < 1e-6 * amplitude, "no steady state");
         ((peak - final_value) / final_value, peak_voltage)
     }
 
@@ -708,14 +670,8 @@ mod tests {
             peak_voltage,
         );
         assert!((design.achieved_bandwidth_hz - 700.0).abs() < 7.0);
-        assert!(
-            design.achieved_damping_ratio >= 1.0 - 1e-9,
-            "dominant mode should be real"
-        );
-        assert!(
-            (bandwidth - 700.0).abs() < 70.0,
-            "bandwidth {bandwidth} Hz not within 10 % of 700 Hz"
-        );
+        assert!(design.achieved_damping_ratio >= 1.0 - 1e-9, "dominant mode should be real");
+        assert!((bandwidth - 700.0).abs() < 70.0, "bandwidth {bandwidth} Hz not within 10 % of 700 Hz");
         assert!(overshoot < 0.01, "overshoot {} %", overshoot * 100.0);
     }
 
@@ -760,9 +716,7 @@ mod tests {
     fn bad_input_is_an_error_not_a_panic() {
         let mut input = re40_input(2500.0, 2);
         input.inductance = 0.0;
-        assert!(design_current_loop(&input)
-            .unwrap_err()
-            .contains("inductance"));
+        assert!(design_current_loop(&input).unwrap_err().contains("inductance"));
         let mut input = re40_input(2500.0, 2);
         input.filter_order = 7;
         assert!(design_current_loop(&input).is_err());

@@ -121,11 +121,7 @@ enum Precedence {
 
 impl<'m> BodyEmitter<'m> {
     fn new(model: &'m Model, scalar: Scalar) -> Self {
-        Self {
-            dag: Dag::new(),
-            naming: Naming { model },
-            scalar,
-        }
+        Self { dag: Dag::new(), naming: Naming { model }, scalar }
     }
 
     /// A descriptive name for a node, if a short one exists.
@@ -136,7 +132,9 @@ impl<'m> BodyEmitter<'m> {
             }
             match self.dag.nodes()[x] {
                 Node::Input(a) => Some(self.naming.atom_name(a)),
-                other => self.angle_identity(other, &|j| self.naming.model.joints[usize::from(j)].name.clone()),
+                other => {
+                    self.angle_identity(other, &|j| self.naming.model.joints[usize::from(j)].name.clone())
+                }
             }
         };
         let node = self.dag.nodes()[id];
@@ -185,12 +183,9 @@ impl<'m> BodyEmitter<'m> {
         use Atom::{Cos, Sin};
         match (p1, p2) {
             // c_i c_j ∓ s_i s_j = cos(q_i ± q_j)
-            ((Cos(i), Cos(j)), (Sin(k), Sin(l))) if i == k && j == l && i != j => Some(format!(
-                "cos_{}_{}_{}",
-                joint(i),
-                if plus { "minus" } else { "plus" },
-                joint(j)
-            )),
+            ((Cos(i), Cos(j)), (Sin(k), Sin(l))) if i == k && j == l && i != j => {
+                Some(format!("cos_{}_{}_{}", joint(i), if plus { "minus" } else { "plus" }, joint(j)))
+            }
             // s_i c_j − c_i s_j = sin(q_i − q_j); s_i c_j + c_i s_j = sin(q_i + q_j)
             ((Sin(i), Cos(j)), (Sin(k), Cos(l))) | ((Cos(j), Sin(i)), (Cos(l), Sin(k)))
                 if i == l && j == k && i != j =>
@@ -276,7 +271,12 @@ impl<'m> BodyEmitter<'m> {
         (statements, outputs, self.dag.count(roots))
     }
 
-    fn expression(&self, id: NodeId, names: &HashMap<NodeId, String>, top: bool) -> (TokenStream, Precedence) {
+    fn expression(
+        &self,
+        id: NodeId,
+        names: &HashMap<NodeId, String>,
+        top: bool,
+    ) -> (TokenStream, Precedence) {
         if !top {
             if let Some(name) = names.get(&id) {
                 let ident = format_ident!("{}", name);
@@ -360,9 +360,7 @@ fn shape_value(shape: Shape, outputs: &[TokenStream]) -> TokenStream {
 }
 
 fn uses_atom(dag: &Dag, roots: &[NodeId], pred: impl Fn(Atom) -> bool) -> bool {
-    dag.reachable(roots)
-        .into_iter()
-        .any(|id| matches!(dag.nodes()[id], Node::Input(a) if pred(a)))
+    dag.reachable(roots).into_iter().any(|id| matches!(dag.nodes()[id], Node::Input(a) if pred(a)))
 }
 
 /// Emits one method; returns it with its operation counts.
@@ -668,9 +666,7 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
         );
         let counts = proc_macro2::Literal::u32_unsuffixed(d.encoder.counts_per_turn);
         let (lo, hi) = (lit(j.lower), lit(j.upper));
-        let doc = format!(" Joint `{}`: drive `{}`.", j.name, j.drive_name);
         quote! {
-            #[doc = #doc]
             ::hapticgen_runtime::DriveTrain {
                 gear_ratio: #gr,
                 efficiency: #eff,
@@ -697,7 +693,11 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
     let description = format!(
         " The `{}` rig{}.",
         rig_name,
-        model.description.as_ref().map(|d| format!(": {}", d.trim().trim_end_matches('.'))).unwrap_or_default()
+        model
+            .description
+            .as_ref()
+            .map(|d| format!(": {}", d.trim().trim_end_matches('.')))
+            .unwrap_or_default()
     );
     let variant_doc = format!(
         " Generated from `{}`{}; `{}` joints, `{}` task coordinates.",
@@ -731,7 +731,7 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
             pub const JOINT_NAMES: [&'static str; #n] = [#(#joint_names),*];
             /// Joint kinds, in the order of `q`.
             pub const JOINT_KINDS: [&'static str; #n] = [#(#joint_kinds),*];
-            /// The drive train of each joint.
+            /// The drive train of each joint, in the order of `q`.
             pub const DRIVES: [::hapticgen_runtime::DriveTrain<#s>; #n] = [#(#drives),*];
 
             /// Diagonal of the viscous damping matrix `B` of eq. (1).

@@ -98,9 +98,7 @@ pub fn evaluate(mech: &Mechanics, state: &State<'_>, point: Option<&PointKinemat
         coriolis_matrix: matrix(&mech.coriolis_matrix, state),
         coriolis_times_qdot: vector(&mech.coriolis_times_qdot, state),
         g: vector(&mech.gravity, state),
-        damping: (0..n)
-            .map(|i| (0..n).map(|j| if i == j { damping[i] } else { 0.0 }).collect())
-            .collect(),
+        damping: (0..n).map(|i| (0..n).map(|j| if i == j { damping[i] } else { 0.0 }).collect()).collect(),
         potential_energy: mech.potential_energy.eval(state),
     }
 }

@@ -113,18 +113,10 @@ pub fn derive(model: &Model) -> Mechanics {
 
     // Body frames, in dependency order.
     let mut frames: Vec<Frame> = Vec::with_capacity(model.bodies.len());
-    let base = || Frame {
-        origin: [Poly::zero(), Poly::zero(), Poly::zero()],
-        rotation: identity(),
-    };
+    let base = || Frame { origin: [Poly::zero(), Poly::zero(), Poly::zero()], rotation: identity() };
     for body in &model.bodies {
         let frame = match &body.motion {
-            Motion::Serial {
-                parent,
-                xyz,
-                rotation,
-                joint,
-            } => {
+            Motion::Serial { parent, xyz, rotation, joint } => {
                 let parent_frame = match parent {
                     Some(p) => &frames[*p],
                     None => &base(),
@@ -136,7 +128,9 @@ pub fn derive(model: &Model) -> Mechanics {
                     Some(j) => {
                         let joint = &model.joints[*j];
                         match joint.kind {
-                            JointKind::Revolute => mat_mul(&offset_rotation, &axis_rotation(joint.axis, dof(*j))),
+                            JointKind::Revolute => {
+                                mat_mul(&offset_rotation, &axis_rotation(joint.axis, dof(*j)))
+                            }
                             JointKind::Prismatic => {
                                 let q = Poly::atom(Atom::Q(dof(*j)));
                                 let slide: Vec3 = joint.axis.map(|a| q.scale(a));
@@ -148,11 +142,7 @@ pub fn derive(model: &Model) -> Mechanics {
                 };
                 Frame { origin, rotation }
             }
-            Motion::Direct {
-                origin_body,
-                point,
-                angle_joint,
-            } => {
+            Motion::Direct { origin_body, point, angle_joint } => {
                 let carrier = match origin_body {
                     Some(b) => &frames[*b],
                     None => &base(),
@@ -172,9 +162,8 @@ pub fn derive(model: &Model) -> Mechanics {
     let mut potential_terms = Vec::new();
     for (body, frame) in model.bodies.iter().zip(&frames) {
         let com_world = vec_add(&frame.origin, &mat_vec(&frame.rotation, &body.com));
-        let linear: Vec<Vec3> = (0..n)
-            .map(|k| std::array::from_fn(|i| com_world[i].diff_q(dof(k))))
-            .collect();
+        let linear: Vec<Vec3> =
+            (0..n).map(|k| std::array::from_fn(|i| com_world[i].diff_q(dof(k)))).collect();
         // Angular-velocity Jacobian columns: vee(∂R/∂q_k · Rᵀ).
         let rotation_t = transpose(&frame.rotation);
         let angular: Vec<Vec3> = (0..n)
@@ -196,8 +185,8 @@ pub fn derive(model: &Model) -> Mechanics {
                 inertia_terms[a][b].extend(terms);
             }
         }
-        for i in 0..3 {
-            potential_terms.push(body.mass.mul(&model.gravity[i]).mul(&com_world[i]).scale(-1.0));
+        for (g, r) in model.gravity.iter().zip(&com_world) {
+            potential_terms.push(body.mass.mul(g).mul(r).scale(-1.0));
         }
     }
     let mut inertia_matrix = zero_matrix(n, n);
@@ -206,7 +195,8 @@ pub fn derive(model: &Model) -> Mechanics {
             let mut entry = Poly::sum(&inertia_terms[a][b]);
             if a == b {
                 let drive = &model.joints[a].drive;
-                entry = entry.add(&Poly::constant(drive.gear_ratio * drive.gear_ratio * drive.motor.rotor_inertia));
+                entry = entry
+                    .add(&Poly::constant(drive.gear_ratio * drive.gear_ratio * drive.motor.rotor_inertia));
             }
             inertia_matrix[a][b] = entry.clone();
             inertia_matrix[b][a] = entry;
@@ -225,10 +215,8 @@ pub fn derive(model: &Model) -> Mechanics {
         for j in 0..n {
             let terms: Vec<Poly> = (0..n)
                 .map(|i| {
-                    let christoffel = d_inertia[i][k][j]
-                        .add(&d_inertia[j][k][i])
-                        .sub(&d_inertia[k][i][j])
-                        .scale(0.5);
+                    let christoffel =
+                        d_inertia[i][k][j].add(&d_inertia[j][k][i]).sub(&d_inertia[k][i][j]).scale(0.5);
                     christoffel.mul(&qd(i))
                 })
                 .collect();
@@ -252,15 +240,15 @@ pub fn derive(model: &Model) -> Mechanics {
         world[..dim].to_vec()
     };
     let kinematics = |name: &str, position: Vec<Poly>| -> PointKinematics {
-        let jacobian: Vec<Vec<Poly>> = position
-            .iter()
-            .map(|p| (0..n).map(|k| p.diff_q(dof(k))).collect())
-            .collect();
+        let jacobian: Vec<Vec<Poly>> =
+            position.iter().map(|p| (0..n).map(|k| p.diff_q(dof(k))).collect()).collect();
         let jacobian_dot: Vec<Vec<Poly>> = jacobian
             .iter()
             .map(|row| {
                 row.iter()
-                    .map(|entry| Poly::sum(&(0..n).map(|i| entry.diff_q(dof(i)).mul(&qd(i))).collect::<Vec<_>>()))
+                    .map(|entry| {
+                        Poly::sum(&(0..n).map(|i| entry.diff_q(dof(i)).mul(&qd(i))).collect::<Vec<_>>())
+                    })
                     .collect()
             })
             .collect();
@@ -268,24 +256,19 @@ pub fn derive(model: &Model) -> Mechanics {
             .iter()
             .map(|row| Poly::sum(&row.iter().enumerate().map(|(k, e)| e.mul(&qd(k))).collect::<Vec<_>>()))
             .collect();
-        PointKinematics {
-            name: name.to_string(),
-            position,
-            jacobian,
-            jacobian_dot,
-            jacobian_dot_times_qdot,
-        }
+        PointKinematics { name: name.to_string(), position, jacobian, jacobian_dot, jacobian_dot_times_qdot }
     };
-    let points: Vec<PointKinematics> = (0..model.points.len())
-        .map(|i| kinematics(&model.points[i].name, point_world(i)))
-        .collect();
+    let points: Vec<PointKinematics> =
+        (0..model.points.len()).map(|i| kinematics(&model.points[i].name, point_world(i))).collect();
     let task = match &model.task {
         TaskSpec::Point(i) => {
             let mut k = points[*i].clone();
             k.name = "task".into();
             k
         }
-        TaskSpec::Joints(list) => kinematics("task", list.iter().map(|&j| Poly::atom(Atom::Q(dof(j)))).collect()),
+        TaskSpec::Joints(list) => {
+            kinematics("task", list.iter().map(|&j| Poly::atom(Atom::Q(dof(j)))).collect())
+        }
     };
 
     Mechanics {

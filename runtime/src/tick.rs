@@ -1,1 +1,255 @@
-//! stub
+//! One full control cycle of Fig. 1, as the firmware runs it, generic over the rig:
+//!
+//! * the **impedance tick** (`IMPEDANCE_LOOP_HZ`, 1 kHz): encoders → `q`, `q̇`, `q̈`
+//!   (`estimation`) → rig terms of eq. (1)–(2) → reference `x_d` and `K_d`, `B_d` from a
+//!   [`ReferenceSource`] (the haptic renderer of section 4, or a fixed reference) → the
+//!   impedance law of eq. (3)–(13) (`control`) → limits and faults (`safety`) → motor current
+//!   setpoints;
+//! * the **current tick** (`CURRENT_LOOP_HZ`, 7.5 kHz): the PI current loops of section 2
+//!   (`current_loop`) track those setpoints; the [`Scheduler`] says when the impedance tick is
+//!   due.
+//!
+//! All state lives in [`HapticLoop`]; nothing allocates.
+
+use crate::control::{
+    ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference,
+    TaskSensing,
+};
+use crate::current_loop::{CurrentLoopBank, CurrentLoopGains, CurrentLoopOutput, CurrentLoopStatus};
+use crate::estimation::{
+    EstimationStatus, EstimatorSettings, ForceSensorCalibration, JointStateEstimator,
+};
+use crate::linalg;
+use crate::render::Scene;
+use crate::safety::{FaultCode, SafeCommand, SafetyMonitor};
+use crate::schedule::Scheduler;
+use crate::{Real, RigModel};
+
+/// Supplies the impedance law's reference each tick, and may set `K_d`, `B_d`.
+pub trait ReferenceSource<S, const M: usize> {
+    /// The reference for a device at task position `task_position`.
+    fn update_reference(
+        &mut self,
+        task_position: &[S; M],
+        parameters: &mut ImpedanceParameters<S, M>,
+    ) -> TaskReference<S, M>;
+}
+
+impl<S: Real, const M: usize> ReferenceSource<S, M> for TaskReference<S, M> {
+    fn update_reference(
+        &mut self,
+        _task_position: &[S; M],
+        _parameters: &mut ImpedanceParameters<S, M>,
+    ) -> TaskReference<S, M> {
+        *self
+    }
+}
+
+impl<S: Real, const K: usize, const V: usize> ReferenceSource<S, 2> for Scene<S, K, V> {
+    fn update_reference(
+        &mut self,
+        task_position: &[S; 2],
+        parameters: &mut ImpedanceParameters<S, 2>,
+    ) -> TaskReference<S, 2> {
+        Scene::update_reference(self, task_position, parameters)
+    }
+}
+
+/// Sensor readings for one impedance tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImpedanceInputs<S, const N: usize, const M: usize> {
+    /// Raw encoder counters, one per joint.
+    pub encoder_counts: [i32; N],
+    /// Raw force-sensor readings (used by Controller 1 only).
+    pub force_readings: [S; M],
+    /// Impedance-tick counter, +1 per period (watchdog).
+    pub tick: u32,
+}
+
+/// What one impedance tick did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImpedanceReport<S, const N: usize> {
+    /// Torques and current setpoints after the safety rules.
+    pub command: SafeCommand<S, N>,
+    /// Status of the impedance law.
+    pub control_status: ControlStatus,
+    /// Status of the sensing.
+    pub estimation_status: EstimationStatus,
+}
+
+/// Configuration of [`HapticLoop::new`] besides the rig and the reference source.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HapticLoopSettings<S, const N: usize, const M: usize> {
+    /// Law, `K_d`, `B_d`, `M_d` (the source may override `K_d`, `B_d`) and options.
+    pub controller: ImpedanceController<S, M>,
+    /// Velocity and acceleration filters (sample period = impedance period).
+    pub estimator: EstimatorSettings<S>,
+    /// Joint angles at the initial counter readings.
+    pub zero_offset: [S; N],
+    /// Counter readings at start-up.
+    pub initial_counts: [i32; N],
+    /// Force-sensor calibration.
+    pub force_calibration: ForceSensorCalibration<S, M>,
+    /// Current-loop gains (from `hapticgen_codegen::current_loop::design_current_loop`).
+    pub current_gains: CurrentLoopGains<S>,
+    /// Impedance periods allowed between ticks before the watchdog trips.
+    pub max_tick_gap: u32,
+}
+
+/// All run-time state of one rig's controller.
+pub struct HapticLoop<R, Source, const N: usize, const M: usize>
+where
+    R: RigModel<N, M>,
+{
+    rig: R,
+    /// Reference source (renderer or fixed reference).
+    pub source: Source,
+    /// The impedance controller in use (its law may be switched at run time).
+    pub controller: ImpedanceController<R::Scalar, M>,
+    estimator: JointStateEstimator<R::Scalar, N>,
+    force_calibration: ForceSensorCalibration<R::Scalar, M>,
+    safety: SafetyMonitor<R::Scalar, N>,
+    current_loops: CurrentLoopBank<R::Scalar, N>,
+    scheduler: Scheduler,
+    current_setpoints: [R::Scalar; N],
+}
+
+impl<R, Source, const N: usize, const M: usize> HapticLoop<R, Source, N, M>
+where
+    R: RigModel<N, M>,
+    Source: ReferenceSource<R::Scalar, M>,
+{
+    /// Builds the loop; `None` if the rig's loop rates are unusable
+    /// (`0 < IMPEDANCE_LOOP_HZ <= CURRENT_LOOP_HZ` is required).
+    pub fn new(
+        rig: R,
+        source: Source,
+        settings: &HapticLoopSettings<R::Scalar, N, M>,
+    ) -> Option<Self> {
+        let drives = rig.drives();
+        let mut supply = [R::Scalar::ZERO; N];
+        for (slot, drive) in supply.iter_mut().zip(drives.iter()) {
+            *slot = drive.supply_voltage;
+        }
+        Some(Self {
+            scheduler: Scheduler::new(R::CURRENT_LOOP_HZ, R::IMPEDANCE_LOOP_HZ)?,
+            estimator: JointStateEstimator::new(
+                &drives,
+                &settings.estimator,
+                settings.zero_offset,
+                settings.initial_counts,
+            ),
+            safety: SafetyMonitor::new(&drives, settings.max_tick_gap),
+            current_loops: CurrentLoopBank::new(settings.current_gains, &supply),
+            force_calibration: settings.force_calibration,
+            controller: settings.controller,
+            current_setpoints: [R::Scalar::ZERO; N],
+            rig,
+            source,
+        })
+    }
+
+    /// The safety monitor (latched fault, limits).
+    pub fn safety(&self) -> &SafetyMonitor<R::Scalar, N> {
+        &self.safety
+    }
+
+    /// Clears a latched fault and the current loops' integrators.
+    pub fn reset_fault(&mut self) {
+        self.safety.reset();
+        self.current_loops.reset();
+    }
+
+    /// The joint state estimator.
+    pub fn estimator(&self) -> &JointStateEstimator<R::Scalar, N> {
+        &self.estimator
+    }
+
+    /// The current setpoints the current loops track, A.
+    pub fn current_setpoints(&self) -> &[R::Scalar; N] {
+        &self.current_setpoints
+    }
+
+    /// One impedance tick (see the module docs).
+    pub fn impedance_tick(
+        &mut self,
+        inputs: &ImpedanceInputs<R::Scalar, N, M>,
+    ) -> ImpedanceReport<R::Scalar, N> {
+        self.safety.check_tick(inputs.tick);
+        let estimation_status = self.estimator.update(&inputs.encoder_counts);
+        if estimation_status != EstimationStatus::Ok {
+            self.safety.latch(FaultCode::NonFiniteInput);
+        }
+        let state = *self.estimator.state();
+        let terms = self.rig.terms(&state.position, &state.velocity);
+        let mut sensed = TaskSensing::default();
+        match self.controller.law {
+            ImpedanceLaw::Controller1ForceSensing => {
+                let (force, status) = self.force_calibration.force(&inputs.force_readings);
+                if status != EstimationStatus::Ok {
+                    self.safety.latch(FaultCode::NonFiniteInput);
+                }
+                sensed.operator_force = force;
+            }
+            ImpedanceLaw::Controller2Accel => {
+                // Eq. (2): ẍ = J q̈ + J̇ q̇ with the filtered q̈.
+                let accel = linalg::mat_vec(&terms.jacobian, &state.acceleration);
+                for k in 0..M {
+                    sensed.acceleration[k] = accel[k] + terms.jacobian_dot_times_qdot[k];
+                }
+            }
+            ImpedanceLaw::Controller2Mobility | ImpedanceLaw::Controller3 => {}
+        }
+        let reference = self
+            .source
+            .update_reference(&terms.position, &mut self.controller.parameters);
+        let output = self.controller.torque(
+            &self.rig,
+            &terms,
+            &state.velocity,
+            &reference,
+            &sensed,
+        );
+        match output.status {
+            ControlStatus::Ok | ControlStatus::SingularFallback => {}
+            ControlStatus::NonFiniteInput => self.safety.latch(FaultCode::NonFiniteInput),
+            ControlStatus::NonFiniteResult => self.safety.latch(FaultCode::NonFiniteTorque),
+            ControlStatus::NonSquareTask
+            | ControlStatus::InertiaNotPositiveDefinite
+            | ControlStatus::InvalidParameters => self.safety.latch(FaultCode::ControlRefused),
+        }
+        let command = self.safety.limit(&output.torque);
+        self.current_setpoints = command.current;
+        if command.fault.is_some() {
+            self.current_loops.reset();
+        }
+        ImpedanceReport {
+            command,
+            control_status: output.status,
+            estimation_status,
+        }
+    }
+
+    /// One current-loop tick with the measured (filtered) motor currents. Returns the
+    /// armature voltages and whether the impedance tick is due now (the caller then runs
+    /// [`HapticLoop::impedance_tick`], in the interrupt or in a lower-priority task).
+    /// Zero volts while a fault is latched.
+    pub fn current_tick(
+        &mut self,
+        measured_currents: &[R::Scalar; N],
+    ) -> ([CurrentLoopOutput<R::Scalar>; N], bool) {
+        let due = self.scheduler.tick();
+        if self.safety.fault().is_some() {
+            let off = CurrentLoopOutput {
+                voltage: R::Scalar::ZERO,
+                status: CurrentLoopStatus::Ok,
+            };
+            return ([off; N], due);
+        }
+        (
+            self.current_loops
+                .step(&self.current_setpoints, measured_currents),
+            due,
+        )
+    }
+}

@@ -92,22 +92,13 @@ pub fn load_file(path: &Path, display: &str, variant: Option<&str>) -> Result<Mo
         message: format!("cannot read the model file: {e}"),
         hint: None,
     })?;
-    load(
-        &Source {
-            name: display,
-            text: &text,
-        },
-        variant,
-    )
+    load(&Source { name: display, text: &text }, variant)
 }
 
 /// Parses, applies the variant (the named one, else the model's default) and validates.
 pub fn load(source: &Source<'_>, variant: Option<&str>) -> Result<Model, Diagnostics> {
     let document: serde_yaml::Value = serde_yaml::from_str(source.text).map_err(|e| {
-        let (line, column) = e
-            .location()
-            .map(|l| (l.line(), l.column()))
-            .unwrap_or((1, 1));
+        let (line, column) = e.location().map(|l| (l.line(), l.column())).unwrap_or((1, 1));
         Diagnostic {
             file: source.name.to_string(),
             line,
@@ -117,11 +108,8 @@ pub fn load(source: &Source<'_>, variant: Option<&str>) -> Result<Model, Diagnos
             hint: None,
         }
     })?;
-    let mut locator = Locator {
-        file: source.name,
-        index: PositionIndex::build(source.text),
-        overrides: Vec::new(),
-    };
+    let mut locator =
+        Locator { file: source.name, index: PositionIndex::build(source.text), overrides: Vec::new() };
     check_literals(&document, &mut Vec::new(), &locator)?;
     let base: ModelFile = typed(&document, &locator)?;
 
@@ -134,11 +122,7 @@ pub fn load(source: &Source<'_>, variant: Option<&str>) -> Result<Model, Diagnos
         let Some(spec) = base.variants.get(name) else {
             let mut known: Vec<&str> = base.variants.keys().map(String::as_str).collect();
             known.sort_unstable();
-            let path = if base.variants.is_empty() {
-                vec![]
-            } else {
-                vec![Segment::Key("variants".into())]
-            };
+            let path = if base.variants.is_empty() { vec![] } else { vec![Segment::Key("variants".into())] };
             let listing = if known.is_empty() {
                 "the model defines no variants".to_string()
             } else {
@@ -159,11 +143,10 @@ pub fn load(source: &Source<'_>, variant: Option<&str>) -> Result<Model, Diagnos
                 Segment::Key("set".into()),
                 Segment::Key(dotted.clone()),
             ];
-            let yaml_value = serde_yaml::to_value(value).map_err(|e| {
-                locator.at(&source_path, format!("cannot use this value: {e}"))
-            })?;
-            let target = resolve_path(&mut merged, dotted, true)
-                .map_err(|rule| locator.at_key(&source_path, rule))?;
+            let yaml_value = serde_yaml::to_value(value)
+                .map_err(|e| locator.at(&source_path, format!("cannot use this value: {e}")))?;
+            let target =
+                resolve_path(&mut merged, dotted, true).map_err(|rule| locator.at_key(&source_path, rule))?;
             let (merged_path, slot) = target;
             *slot = yaml_value;
             locator.overrides.push((merged_path, source_path));
@@ -178,11 +161,7 @@ pub fn load(source: &Source<'_>, variant: Option<&str>) -> Result<Model, Diagnos
             remove_path(&mut merged, dotted).map_err(|rule| locator.at(&source_path, rule))?;
         }
     }
-    let file: ModelFile = if chosen.is_some() {
-        typed(&merged, &locator)?
-    } else {
-        base
-    };
+    let file: ModelFile = if chosen.is_some() { typed(&merged, &locator)? } else { base };
     let variants: Vec<String> = {
         let mut v: Vec<String> = match typed::<ModelFile>(&document, &locator) {
             Ok(f) => f.variants.keys().cloned().collect(),
@@ -227,10 +206,7 @@ fn check_literals(
             for (k, v) in map {
                 let key = match k {
                     serde_yaml::Value::String(s) => s.clone(),
-                    other => serde_yaml::to_string(other)
-                        .unwrap_or_default()
-                        .trim()
-                        .to_string(),
+                    other => serde_yaml::to_string(other).unwrap_or_default().trim().to_string(),
                 };
                 path.push(Segment::Key(key));
                 check_literals(v, path, locator)?;
@@ -256,10 +232,9 @@ fn typed<T: DeserializeOwned>(value: &serde_yaml::Value, locator: &Locator<'_>) 
         }
         let raw = strip_location(&error.inner().to_string());
         let (message, hint) = explain_serde_error(&raw);
+        // An unknown key is reported at the key itself, anything else at the value.
         let d = if raw.starts_with("unknown field") {
             locator.at_key(&path, message)
-        } else if raw.starts_with("missing field") {
-            locator.at(&path, message)
         } else {
             locator.at(&path, message)
         };
@@ -283,10 +258,7 @@ fn explain_serde_error(raw: &str) -> (String, Option<String>) {
         );
     }
     if raw.contains("untagged enum Value") {
-        return (
-            "expected a number or the name of a parameter".into(),
-            None,
-        );
+        return ("expected a number or the name of a parameter".into(), None);
     }
     if let Some(rest) = raw.strip_prefix("unknown field ") {
         let (field, expected) = match rest.find(", expected") {
@@ -363,11 +335,7 @@ fn remove_path(doc: &mut serde_yaml::Value, dotted: &str) -> Result<(), String> 
         Some(i) => (&dotted[..i], &dotted[i + 1..]),
         None => ("", dotted),
     };
-    let container = if parent.is_empty() {
-        doc
-    } else {
-        resolve_path(doc, parent, false)?.1
-    };
+    let container = if parent.is_empty() { doc } else { resolve_path(doc, parent, false)?.1 };
     match container {
         serde_yaml::Value::Mapping(map) => {
             if map.remove(leaf).is_none() {

@@ -71,10 +71,7 @@ impl PositionIndex {
 
     /// The position of the key that introduces `path` (falls back to the value).
     pub fn key(&self, path: &[Segment]) -> Position {
-        self.keys
-            .get(path)
-            .copied()
-            .unwrap_or_else(|| self.value(path))
+        self.keys.get(path).copied().unwrap_or_else(|| self.value(path))
     }
 
     /// `true` if the path is indexed.
@@ -84,12 +81,8 @@ impl PositionIndex {
 }
 
 enum Frame {
-    Mapping {
-        pending_key: Option<(String, Position)>,
-    },
-    Sequence {
-        next: usize,
-    },
+    Mapping { pending_key: Option<(String, Position)> },
+    Sequence { next: usize },
 }
 
 #[derive(Default)]
@@ -137,16 +130,8 @@ impl MarkedEventReceiver for Builder {
     fn on_event(&mut self, event: Event, mark: Marker) {
         let pos = (mark.line(), mark.col() + 1);
         match event {
-            Event::Scalar(value, ..) => {
-                if self.begin_node(Some(&value), pos) {
-                    self.end_node();
-                }
-            }
-            Event::Alias(..) => {
-                if self.begin_node(None, pos) {
-                    self.end_node();
-                }
-            }
+            Event::Scalar(value, ..) if self.begin_node(Some(&value), pos) => self.end_node(),
+            Event::Alias(..) if self.begin_node(None, pos) => self.end_node(),
             Event::MappingStart(..) => {
                 let is_value = self.begin_node(None, pos);
                 if !is_value {

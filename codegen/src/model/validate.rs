@@ -8,8 +8,7 @@ use std::collections::{HashMap, HashSet};
 
 use super::positions::Segment;
 use super::schema::{
-    CurrentLoopSpec, Drive, Inertia, JointKind, ModelFile, Rates, Rendering, Sensor, Space,
-    Value,
+    CurrentLoopSpec, Drive, Inertia, JointKind, ModelFile, Rates, Rendering, Sensor, Space, Value,
 };
 use super::{Locator, ParameterValues};
 use crate::diag::{Diagnostic, Diagnostics};
@@ -180,7 +179,6 @@ fn key(k: &str) -> Segment {
     Segment::Key(k.to_string())
 }
 
-
 struct Resolver<'a, 'b> {
     locator: &'a Locator<'b>,
     errors: Vec<Diagnostic>,
@@ -242,7 +240,11 @@ impl Resolver<'_, '_> {
         if values.len() != dim {
             self.error(
                 path,
-                format!("expected {dim} entries ({}), got {}", if dim == 2 { "x, y" } else { "x, y, z" }, values.len()),
+                format!(
+                    "expected {dim} entries ({}), got {}",
+                    if dim == 2 { "x, y" } else { "x, y, z" },
+                    values.len()
+                ),
             );
             return (polys, nominal);
         }
@@ -266,11 +268,11 @@ fn is_identifier(name: &str) -> bool {
 
 /// Rust keywords and names the generated code uses itself.
 const RESERVED: &[&str] = &[
-    "as", "break", "const", "continue", "crate", "else", "enum", "extern", "false", "fn", "for",
-    "if", "impl", "in", "let", "loop", "match", "mod", "move", "mut", "pub", "ref", "return",
-    "self", "static", "struct", "super", "trait", "true", "type", "unsafe", "use", "where",
-    "while", "async", "await", "dyn", "abstract", "become", "box", "do", "final", "macro",
-    "override", "priv", "typeof", "unsized", "virtual", "yield", "try", "base", "gen",
+    "as", "break", "const", "continue", "crate", "else", "enum", "extern", "false", "fn", "for", "if",
+    "impl", "in", "let", "loop", "match", "mod", "move", "mut", "pub", "ref", "return", "self", "static",
+    "struct", "super", "trait", "true", "type", "unsafe", "use", "where", "while", "async", "await", "dyn",
+    "abstract", "become", "box", "do", "final", "macro", "override", "priv", "typeof", "unsized", "virtual",
+    "yield", "try", "base", "gen",
 ];
 
 fn rotation_rpy(rpy: [f64; 3]) -> [[f64; 3]; 3] {
@@ -322,12 +324,7 @@ pub(crate) fn resolve(
     variant: Option<String>,
     variants: Vec<String>,
 ) -> Result<Model, Diagnostics> {
-    let mut r = Resolver {
-        locator,
-        errors: Vec::new(),
-        parameters: HashMap::new(),
-        nominal: HashMap::new(),
-    };
+    let mut r = Resolver { locator, errors: Vec::new(), parameters: HashMap::new(), nominal: HashMap::new() };
     let planar = file.space == Space::Planar;
     let dim = if planar { 2 } else { 3 };
 
@@ -417,7 +414,7 @@ pub(crate) fn resolve(
         if joint_index.insert(j.name.clone(), i).is_some() {
             r.error(&at("name"), format!("joint `{}` is defined twice", j.name));
         }
-        if !(j.limits.lower < j.limits.upper) {
+        if j.limits.lower >= j.limits.upper || j.limits.lower.is_nan() || j.limits.upper.is_nan() {
             r.error(
                 &at("limits"),
                 format!("lower limit {} must be below upper limit {}", j.limits.lower, j.limits.upper),
@@ -439,7 +436,10 @@ pub(crate) fn resolve(
                 r.error_hint(
                     &at("drive"),
                     format!("joint `{}` references unknown drive `{}`", j.name, j.drive),
-                    format!("defined drives: {}", known.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")),
+                    format!(
+                        "defined drives: {}",
+                        known.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+                    ),
                 );
                 continue;
             }
@@ -511,37 +511,42 @@ pub(crate) fn resolve(
     if file.bodies.is_empty() {
         r.error(&[key("bodies")], "a model needs at least one body");
     }
-    let lookup_body = |r: &mut Resolver<'_, '_>, name: &str, path: &[Segment], what: &str| -> Result<Option<usize>, ()> {
-        if name == "base" {
-            return Ok(None);
-        }
-        match body_index.get(name) {
-            Some(i) => Ok(Some(*i)),
-            None => {
-                r.error_hint(
-                    path,
-                    format!("{what} references unknown body `{name}`"),
-                    "name a body of `bodies`, or `base` for the fixed ground",
-                );
-                Err(())
+    let lookup_body =
+        |r: &mut Resolver<'_, '_>, name: &str, path: &[Segment], what: &str| -> Result<Option<usize>, ()> {
+            if name == "base" {
+                return Ok(None);
             }
-        }
-    };
-    let lookup_joint = |r: &mut Resolver<'_, '_>, name: &str, path: &[Segment], what: &str| -> Option<usize> {
-        match joint_index.get(name) {
-            Some(i) => Some(*i),
-            None => {
-                let mut known: Vec<&String> = joint_index.keys().collect();
-                known.sort();
-                r.error_hint(
-                    path,
-                    format!("{what} references unknown joint `{name}`"),
-                    format!("defined joints: {}", known.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")),
-                );
-                None
+            match body_index.get(name) {
+                Some(i) => Ok(Some(*i)),
+                None => {
+                    r.error_hint(
+                        path,
+                        format!("{what} references unknown body `{name}`"),
+                        "name a body of `bodies`, or `base` for the fixed ground",
+                    );
+                    Err(())
+                }
             }
-        }
-    };
+        };
+    let lookup_joint =
+        |r: &mut Resolver<'_, '_>, name: &str, path: &[Segment], what: &str| -> Option<usize> {
+            match joint_index.get(name) {
+                Some(i) => Some(*i),
+                None => {
+                    let mut known: Vec<&String> = joint_index.keys().collect();
+                    known.sort();
+                    r.error_hint(
+                        path,
+                        format!("{what} references unknown joint `{name}`"),
+                        format!(
+                            "defined joints: {}",
+                            known.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+                        ),
+                    );
+                    None
+                }
+            }
+        };
 
     let mut bodies: Vec<Option<ResolvedBody>> = Vec::new();
     let mut depends_on: Vec<Option<usize>> = Vec::new();
@@ -618,11 +623,7 @@ pub(crate) fn resolve(
                     );
                 }
                 let [ixx, iyy, izz, ixy, ixz, iyz] = <[Poly; 6]>::try_from(polys).unwrap_or_default();
-                inertia = [
-                    [ixx, ixy.clone(), ixz.clone()],
-                    [ixy, iyy, iyz.clone()],
-                    [ixz, iyz, izz],
-                ];
+                inertia = [[ixx, ixy.clone(), ixz.clone()], [ixy, iyy, iyz.clone()], [ixz, iyz, izz]];
             }
             (_, true) => r.error_hint(
                 &at(&["inertia"]),
@@ -699,12 +700,7 @@ pub(crate) fn resolve(
                     }
                 };
                 depends_on.push(parent_index);
-                Motion::Serial {
-                    parent: parent_index,
-                    xyz,
-                    rotation,
-                    joint,
-                }
+                Motion::Serial { parent: parent_index, xyz, rotation, joint }
             }
             (None, Some(pose)) => {
                 if !planar {
@@ -714,14 +710,16 @@ pub(crate) fn resolve(
                         "describe spatial bodies as a serial chain (`parent`, `origin`, `joint`)",
                     );
                 }
-                let Ok(origin_body) = lookup_body(&mut r, &pose.origin.body, &at(&["pose", "origin", "body"]), &what)
+                let Ok(origin_body) =
+                    lookup_body(&mut r, &pose.origin.body, &at(&["pose", "origin", "body"]), &what)
                 else {
                     depends_on.push(None);
                     bodies.push(None);
                     continue;
                 };
                 let (point, _) = r.vector(&pose.origin.point, dim, &at(&["pose", "origin", "point"]));
-                let Some(angle_joint) = lookup_joint(&mut r, &pose.angle, &at(&["pose", "angle"]), &what) else {
+                let Some(angle_joint) = lookup_joint(&mut r, &pose.angle, &at(&["pose", "angle"]), &what)
+                else {
                     depends_on.push(None);
                     bodies.push(None);
                     continue;
@@ -731,11 +729,7 @@ pub(crate) fn resolve(
                     r.error(&at(&["pose", "angle"]), format!("joint `{}` is not revolute", pose.angle));
                 }
                 depends_on.push(origin_body);
-                Motion::Direct {
-                    origin_body,
-                    point,
-                    angle_joint,
-                }
+                Motion::Direct { origin_body, point, angle_joint }
             }
         };
         bodies.push(Some(ResolvedBody {
@@ -928,17 +922,12 @@ pub(crate) fn resolve(
             continue;
         };
         body.motion = match body.motion {
-            Motion::Serial { parent, xyz, rotation, joint } => Motion::Serial {
-                parent: remap(parent),
-                xyz,
-                rotation,
-                joint,
-            },
-            Motion::Direct { origin_body, point, angle_joint } => Motion::Direct {
-                origin_body: remap(origin_body),
-                point,
-                angle_joint,
-            },
+            Motion::Serial { parent, xyz, rotation, joint } => {
+                Motion::Serial { parent: remap(parent), xyz, rotation, joint }
+            }
+            Motion::Direct { origin_body, point, angle_joint } => {
+                Motion::Direct { origin_body: remap(origin_body), point, angle_joint }
+            }
         };
         ordered.push(body);
     }

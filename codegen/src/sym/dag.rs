@@ -112,8 +112,8 @@ impl Dag {
     pub fn add(&mut self, a: NodeId, b: NodeId) -> NodeId {
         match (self.constant_value(a), self.constant_value(b)) {
             (Some(x), Some(y)) => self.constant(x + y),
-            (Some(x), _) if x == 0.0 => b,
-            (_, Some(y)) if y == 0.0 => a,
+            (Some(0.0), _) => b,
+            (_, Some(0.0)) => a,
             _ => {
                 let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
                 self.intern(Node::Add(lo, hi))
@@ -125,8 +125,8 @@ impl Dag {
     pub fn sub(&mut self, a: NodeId, b: NodeId) -> NodeId {
         match (self.constant_value(a), self.constant_value(b)) {
             (Some(x), Some(y)) => self.constant(x - y),
-            (_, Some(y)) if y == 0.0 => a,
-            (Some(x), _) if x == 0.0 => self.neg(b),
+            (_, Some(0.0)) => a,
+            (Some(0.0), _) => self.neg(b),
             _ => self.intern(Node::Sub(a, b)),
         }
     }
@@ -135,12 +135,12 @@ impl Dag {
     pub fn mul(&mut self, a: NodeId, b: NodeId) -> NodeId {
         match (self.constant_value(a), self.constant_value(b)) {
             (Some(x), Some(y)) => self.constant(x * y),
-            (Some(x), _) if x == 0.0 => a,
-            (_, Some(y)) if y == 0.0 => b,
-            (Some(x), _) if x == 1.0 => b,
-            (_, Some(y)) if y == 1.0 => a,
-            (Some(x), _) if x == -1.0 => self.neg(b),
-            (_, Some(y)) if y == -1.0 => self.neg(a),
+            (Some(0.0), _) => a,
+            (_, Some(0.0)) => b,
+            (Some(1.0), _) => b,
+            (_, Some(1.0)) => a,
+            (Some(-1.0), _) => self.neg(b),
+            (_, Some(-1.0)) => self.neg(a),
             _ => {
                 let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
                 self.intern(Node::Mul(lo, hi))
@@ -220,20 +220,12 @@ impl Dag {
 
     fn horner(&mut self, terms: Vec<(Monomial, f64)>) -> Signed {
         match terms.len() {
-            0 => {
-                return Signed {
-                    id: self.constant(0.0),
-                    negative: false,
-                }
-            }
+            0 => return Signed { id: self.constant(0.0), negative: false },
             1 => {
                 let (m, c) = &terms[0];
                 let mono = self.monomial(m);
                 let k = self.constant(c.abs());
-                return Signed {
-                    id: self.mul(k, mono),
-                    negative: *c < 0.0,
-                };
+                return Signed { id: self.mul(k, mono), negative: *c < 0.0 };
             }
             _ => {}
         }
@@ -243,10 +235,7 @@ impl Dag {
             let unit: Vec<(Monomial, f64)> = terms.iter().map(|(m, c)| (m.clone(), c.signum())).collect();
             let inner = self.horner(unit);
             let k = self.constant(first);
-            return Signed {
-                id: self.mul(k, inner.id),
-                negative: inner.negative,
-            };
+            return Signed { id: self.mul(k, inner.id), negative: inner.negative };
         }
         // The atom shared by most terms.
         let mut counts: HashMap<Atom, usize> = HashMap::new();
@@ -291,10 +280,7 @@ impl Dag {
         let input = self.input(atom);
         let factor = self.power(input, common_power);
         let inner = self.horner(with);
-        let product = Signed {
-            id: self.mul(factor, inner.id),
-            negative: inner.negative,
-        };
+        let product = Signed { id: self.mul(factor, inner.id), negative: inner.negative };
         if without.is_empty() {
             return product;
         }
@@ -314,10 +300,7 @@ impl Dag {
                 } else {
                     (negative.id, positive.id, true)
                 };
-                return Signed {
-                    id: self.sub(first, second),
-                    negative: flipped,
-                };
+                return Signed { id: self.sub(first, second), negative: flipped };
             }
         }
         let all_negative = parts.iter().all(|p| p.negative);
@@ -326,16 +309,9 @@ impl Dag {
         ordered.sort_by_key(|p| p.negative);
         let mut acc = ordered[0].id;
         for p in &ordered[1..] {
-            acc = if p.negative == all_negative {
-                self.add(acc, p.id)
-            } else {
-                self.sub(acc, p.id)
-            };
+            acc = if p.negative == all_negative { self.add(acc, p.id) } else { self.sub(acc, p.id) };
         }
-        Signed {
-            id: acc,
-            negative: all_negative,
-        }
+        Signed { id: acc, negative: all_negative }
     }
 
     /// Nodes reachable from `roots`, in topological order.

@@ -75,15 +75,10 @@ impl Accumulator {
 /// Rewrites `sin^e q_j` with `e ≥ 2` as `sin^(e−2) q_j (1 − cos² q_j)` until every sine has
 /// exponent 0 or 1.
 fn reduce_monomial(monomial: Monomial, coefficient: f64) -> Vec<(Monomial, f64)> {
-    let Some(position) = monomial
-        .iter()
-        .position(|(atom, e)| matches!(atom, Atom::Sin(_)) && *e >= 2)
-    else {
+    let Some(position) = monomial.iter().position(|(atom, e)| matches!(atom, Atom::Sin(_)) && *e >= 2) else {
         return vec![(monomial, coefficient)];
     };
-    let Atom::Sin(joint) = monomial[position].0 else {
-        unreachable!("position was found for a sine")
-    };
+    let Atom::Sin(joint) = monomial[position].0 else { unreachable!("position was found for a sine") };
     let mut lowered = monomial.clone();
     lowered[position].1 -= 2;
     if lowered[position].1 == 0 {
@@ -158,8 +153,8 @@ impl Poly {
         self.terms.iter().map(|(m, c)| (m, *c))
     }
 
-    /// Number of terms.
-    pub fn len(&self) -> usize {
+    /// Number of terms (0 for the zero polynomial, see [`Poly::is_zero`]).
+    pub fn term_count(&self) -> usize {
         self.terms.len()
     }
 
@@ -179,12 +174,7 @@ impl Poly {
 
     /// `self + other`.
     pub fn add(&self, other: &Poly) -> Poly {
-        Self::from_terms(
-            self.terms
-                .iter()
-                .chain(other.terms.iter())
-                .map(|(m, c)| (m.clone(), *c)),
-        )
+        Self::from_terms(self.terms.iter().chain(other.terms.iter()).map(|(m, c)| (m.clone(), *c)))
     }
 
     /// `self − other`.
@@ -274,10 +264,7 @@ impl Poly {
     pub fn eval(&self, values: &impl AtomValues) -> f64 {
         self.terms
             .iter()
-            .map(|(m, c)| {
-                m.iter()
-                    .fold(*c, |acc, (a, e)| acc * values.value(*a).powi(*e as i32))
-            })
+            .map(|(m, c)| m.iter().fold(*c, |acc, (a, e)| acc * values.value(*a).powi(*e as i32)))
             .sum()
     }
 

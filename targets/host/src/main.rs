@@ -12,7 +12,11 @@ use clap::{Parser, Subcommand, ValueEnum};
 use hapticgen_codegen::{eval, model, Scalar};
 
 #[derive(Parser)]
-#[command(name = "hapticgen", version, about = "Generate specialised dynamics and control code for haptic rigs")]
+#[command(
+    name = "hapticgen",
+    version,
+    about = "Generate specialised dynamics and control code for haptic rigs"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -102,12 +106,7 @@ fn run(cli: Cli) -> Result<(), String> {
             );
             Ok(())
         }
-        Command::Generate {
-            model,
-            variant,
-            scalar,
-            output,
-        } => {
+        Command::Generate { model, variant, scalar, output } => {
             let m = load(&model, variant.as_deref())?;
             let scalar = match scalar {
                 ScalarArg::F32 => Scalar::F32,
@@ -115,21 +114,15 @@ fn run(cli: Cli) -> Result<(), String> {
             };
             let text = hapticgen_codegen::generate_model(m, scalar).file_text();
             match output {
-                Some(path) => std::fs::write(&path, text).map_err(|e| format!("error: cannot write {}: {e}", path.display())),
+                Some(path) => std::fs::write(&path, text)
+                    .map_err(|e| format!("error: cannot write {}: {e}", path.display())),
                 None => {
                     print!("{text}");
                     Ok(())
                 }
             }
         }
-        Command::Eval {
-            model,
-            variant,
-            q,
-            qd,
-            point,
-            json: _,
-        } => {
+        Command::Eval { model, variant, q, qd, point, json: _ } => {
             let m = load(&model, variant.as_deref())?;
             let n = m.joints.len();
             if q.len() != n {
@@ -151,11 +144,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 })?),
             };
             let parameters = m.nominal_parameters();
-            let state = eval::State {
-                q: &q,
-                qd: &qd,
-                parameters: &parameters,
-            };
+            let state = eval::State { q: &q, qd: &qd, parameters: &parameters };
             let values = eval::evaluate(&mech, &state, selected);
             println!("{}", serde_json::to_string(&values).map_err(|e| e.to_string())?);
             Ok(())
@@ -179,7 +168,13 @@ fn run(cli: Cli) -> Result<(), String> {
                 for (name, c) in &generated.stats.functions {
                     println!(
                         "{:<40} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
-                        name, c.additions, c.multiplications, c.divisions, c.square_roots, c.trigonometric, c.negations
+                        name,
+                        c.additions,
+                        c.multiplications,
+                        c.divisions,
+                        c.square_roots,
+                        c.trigonometric,
+                        c.negations
                     );
                 }
             }

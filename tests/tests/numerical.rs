@@ -1,0 +1,436 @@
+//! Numerical verification of every shipped model (all variants) against independent
+//! computations, at 100 random states each:
+//! - `J` and `J̇` against central finite differences of `p` and `J`;
+//! - `D` symmetric positive definite; `Ḋ − 2C` skew-symmetric (`Ḋ` by finite differences);
+//! - total energy conserved over 1 s of undamped, unforced motion (RK4 on the compiled code);
+//! - the compiled, emitted code equal to the numeric evaluator (f64 to 1e-12, f32 to 1e-5).
+
+use hapticgen_codegen::eval::{evaluate, Evaluated, State};
+use hapticgen_codegen::mechanics::{self, Mechanics};
+use hapticgen_codegen::model::{self, Model};
+use hapticgen_runtime::RigModel;
+use hapticgen_tests::{visit_all, workspace_root, RigInfo, RigVisitor};
+use rand::rngs::SmallRng;
+use rand::{Rng, SeedableRng};
+
+const STATES: usize = 100;
+
+fn load(info: &RigInfo) -> (Model, Mechanics) {
+    let path = workspace_root().join(info.file);
+    let model = model::load_file(&path, info.file, info.variant).unwrap_or_else(|e| panic!("{e}"));
+    let mech = mechanics::derive(&model);
+    (model, mech)
+}
+
+fn random_state(model: &Model, rng: &mut SmallRng) -> (Vec<f64>, Vec<f64>) {
+    let q = model.joints.iter().map(|j| rng.gen_range(j.lower..j.upper)).collect();
+    let qd = model.joints.iter().map(|_| rng.gen_range(-2.0..2.0)).collect();
+    (q, qd)
+}
+
+fn eval_at(mech: &Mechanics, params: &[f64], q: &[f64], qd: &[f64]) -> Evaluated {
+    evaluate(mech, &State { q, qd, parameters: params }, None)
+}
+
+fn flat<const R: usize, const C: usize, S: Copy + Into<f64>>(m: &[[S; C]; R]) -> Vec<f64> {
+    m.iter().flat_map(|row| row.iter().map(|&x| x.into())).collect()
+}
+
+fn flat_vec(m: &[Vec<f64>]) -> Vec<f64> {
+    m.iter().flatten().copied().collect()
+}
+
+/// Asserts `|a − b| ≤ tol · max(1, |b|)` element-wise for f64 (`relative_floor` = 1), or
+/// `|a − b| ≤ tol · max(|b|, max|b|)` for f32 outputs (relative to the output's scale).
+fn assert_close(what: &str, info: &RigInfo, got: &[f64], want: &[f64], tol: f64, scale_relative: bool) {
+    assert_eq!(got.len(), want.len(), "{what} of {info:?}: length");
+    let scale = want.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    for (i, (a, b)) in got.iter().zip(want).enumerate() {
+        let bound = if scale_relative { tol * b.abs().max(scale).max(1e-30) } else { tol * b.abs().max(1.0) };
+        assert!(
+            (a - b).abs() <= bound,
+            "{what} of {} ({:?}) entry {i}: got {a:e}, want {b:e} (difference {:e}, bound {bound:e})",
+            info.module,
+            info.variant,
+            (a - b).abs()
+        );
+    }
+}
+
+struct CompiledMatchesEvaluator {
+    rigs: usize,
+}
+
+impl RigVisitor for CompiledMatchesEvaluator {
+    fn visit_f64<R: RigModel<N, M, Scalar = f64>, const N: usize, const M: usize>(
+        &mut self,
+        info: &RigInfo,
+        rig: &R,
+    ) {
+        let (model, mech) = load(info);
+        let params = model.nominal_parameters();
+        let mut rng = SmallRng::seed_from_u64(0x5eed_0001);
+        for _ in 0..STATES {
+            let (q, qd) = random_state(&model, &mut rng);
+            let e = eval_at(&mech, &params, &q, &qd);
+            let qa: [f64; N] = std::array::from_fn(|i| q[i]);
+            let qda: [f64; N] = std::array::from_fn(|i| qd[i]);
+            let tol = 1e-12;
+            assert_close(
+                "D",
+                info,
+                &flat(&rig.inertia_matrix(&qa)),
+                &flat_vec(&e.inertia_matrix),
+                tol,
+                false,
+            );
+            assert_close(
+                "C",
+                info,
+                &flat(&rig.coriolis_matrix(&qa, &qda)),
+                &flat_vec(&e.coriolis_matrix),
+                tol,
+                false,
+            );
+            assert_close(
+                "C q̇",
+                info,
+                &rig.coriolis_times_qdot(&qa, &qda),
+                &e.coriolis_times_qdot,
+                tol,
+                false,
+            );
+            assert_close("g", info, &rig.gravity(&qa), &e.g, tol, false);
+            let b: Vec<f64> = (0..N).map(|i| e.damping[i][i]).collect();
+            assert_close("B", info, &rig.damping(), &b, tol, false);
+            assert_close("p", info, &rig.position(&qa), &e.p, tol, false);
+            assert_close("J", info, &flat(&rig.jacobian(&qa)), &flat_vec(&e.jacobian), tol, false);
+            assert_close(
+                "J̇",
+                info,
+                &flat(&rig.jacobian_dot(&qa, &qda)),
+                &flat_vec(&e.jacobian_dot),
+                tol,
+                false,
+            );
+            assert_close(
+                "J̇ q̇",
+                info,
+                &rig.jacobian_dot_times_qdot(&qa, &qda),
+                &e.jacobian_dot_times_qdot,
+                tol,
+                false,
+            );
+            let t = rig.terms(&qa, &qda);
+            assert_close("terms.D", info, &flat(&t.inertia_matrix), &flat_vec(&e.inertia_matrix), tol, false);
+            assert_close("terms.C q̇", info, &t.coriolis_times_qdot, &e.coriolis_times_qdot, tol, false);
+            assert_close("terms.g", info, &t.gravity, &e.g, tol, false);
+            assert_close("terms.p", info, &t.position, &e.p, tol, false);
+            assert_close("terms.J", info, &flat(&t.jacobian), &flat_vec(&e.jacobian), tol, false);
+            assert_close(
+                "terms.J̇ q̇",
+                info,
+                &t.jacobian_dot_times_qdot,
+                &e.jacobian_dot_times_qdot,
+                tol,
+                false,
+            );
+        }
+        self.rigs += 1;
+    }
+
+    fn visit_f32<R: RigModel<N, M, Scalar = f32>, const N: usize, const M: usize>(
+        &mut self,
+        info: &RigInfo,
+        rig: &R,
+    ) {
+        let (model, mech) = load(info);
+        let params = model.nominal_parameters();
+        let mut rng = SmallRng::seed_from_u64(0x5eed_0002);
+        for _ in 0..STATES {
+            let (q, qd) = random_state(&model, &mut rng);
+            // Evaluate at exactly the f32 state the compiled code sees.
+            let q: Vec<f64> = q.iter().map(|&x| f64::from(x as f32)).collect();
+            let qd: Vec<f64> = qd.iter().map(|&x| f64::from(x as f32)).collect();
+            let e = eval_at(&mech, &params, &q, &qd);
+            let qa: [f32; N] = std::array::from_fn(|i| q[i] as f32);
+            let qda: [f32; N] = std::array::from_fn(|i| qd[i] as f32);
+            let tol = 1e-5;
+            let v = |x: &[f32]| x.iter().map(|&y| f64::from(y)).collect::<Vec<_>>();
+            assert_close("D", info, &flat(&rig.inertia_matrix(&qa)), &flat_vec(&e.inertia_matrix), tol, true);
+            assert_close(
+                "C q̇",
+                info,
+                &v(&rig.coriolis_times_qdot(&qa, &qda)),
+                &e.coriolis_times_qdot,
+                tol,
+                true,
+            );
+            assert_close("g", info, &v(&rig.gravity(&qa)), &e.g, tol, true);
+            assert_close("p", info, &v(&rig.position(&qa)), &e.p, tol, true);
+            assert_close("J", info, &flat(&rig.jacobian(&qa)), &flat_vec(&e.jacobian), tol, true);
+            assert_close(
+                "J̇ q̇",
+                info,
+                &v(&rig.jacobian_dot_times_qdot(&qa, &qda)),
+                &e.jacobian_dot_times_qdot,
+                tol,
+                true,
+            );
+            let t = rig.terms(&qa, &qda);
+            assert_close("terms.D", info, &flat(&t.inertia_matrix), &flat_vec(&e.inertia_matrix), tol, true);
+            assert_close("terms.J", info, &flat(&t.jacobian), &flat_vec(&e.jacobian), tol, true);
+        }
+        self.rigs += 1;
+    }
+}
+
+#[test]
+fn compiled_code_equals_the_evaluator() {
+    let mut v = CompiledMatchesEvaluator { rigs: 0 };
+    visit_all(&mut v);
+    // joystick (f32, f64) + parallel link (2 variants × 2 scalars).
+    assert!(v.rigs >= 6, "only {} rigs visited", v.rigs);
+}
+
+/// Each shipped model and variant, loaded for the evaluator-only checks.
+fn shipped() -> Vec<(String, Option<String>, Model, Mechanics)> {
+    let mut out = Vec::new();
+    let dir = workspace_root().join("models");
+    let mut files: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
+    files.sort();
+    for path in files.into_iter().filter(|p| p.extension().is_some_and(|x| x == "yaml")) {
+        let display = format!("models/{}", path.file_name().unwrap().to_string_lossy());
+        let base = model::load_file(&path, &display, None).unwrap();
+        let variants: Vec<Option<String>> = if base.variants.is_empty() {
+            vec![None]
+        } else {
+            base.variants.iter().cloned().map(Some).collect()
+        };
+        for v in variants {
+            let m = model::load_file(&path, &display, v.as_deref()).unwrap();
+            let mech = mechanics::derive(&m);
+            out.push((display.clone(), v, m, mech));
+        }
+    }
+    assert!(out.len() >= 3);
+    out
+}
+
+#[test]
+fn jacobians_match_finite_differences() {
+    let h = 1e-6;
+    for (file, variant, model, mech) in shipped() {
+        let params = model.nominal_parameters();
+        let mut rng = SmallRng::seed_from_u64(7);
+        let n = model.joints.len();
+        for _ in 0..STATES {
+            let (q, qd) = random_state(&model, &mut rng);
+            let e = eval_at(&mech, &params, &q, &qd);
+            let shifted = |k: usize, delta: f64| {
+                let mut qq = q.clone();
+                qq[k] += delta;
+                eval_at(&mech, &params, &qq, &qd)
+            };
+            for k in 0..n {
+                let (plus, minus) = (shifted(k, h), shifted(k, -h));
+                for r in 0..e.p.len() {
+                    let fd = (plus.p[r] - minus.p[r]) / (2.0 * h);
+                    let j = e.jacobian[r][k];
+                    assert!(
+                        (fd - j).abs() < 1e-8,
+                        "{file} {variant:?}: J[{r}][{k}] = {j}, finite difference {fd}"
+                    );
+                }
+            }
+            // J̇ = d/dt J along q̇: central difference of J(q + t q̇).
+            let along = |t: f64| {
+                let qq: Vec<f64> = q.iter().zip(&qd).map(|(a, b)| a + t * b).collect();
+                eval_at(&mech, &params, &qq, &qd)
+            };
+            let (plus, minus) = (along(h), along(-h));
+            for r in 0..e.p.len() {
+                for k in 0..n {
+                    let fd = (plus.jacobian[r][k] - minus.jacobian[r][k]) / (2.0 * h);
+                    let jd = e.jacobian_dot[r][k];
+                    assert!(
+                        (fd - jd).abs() < 1e-7,
+                        "{file} {variant:?}: J̇[{r}][{k}] = {jd}, finite difference {fd}"
+                    );
+                }
+                let jdqd: f64 = (0..n).map(|k| e.jacobian_dot[r][k] * qd[k]).sum();
+                assert!((jdqd - e.jacobian_dot_times_qdot[r]).abs() < 1e-12);
+            }
+        }
+    }
+}
+
+/// Cholesky factorisation succeeds exactly for symmetric positive definite matrices.
+fn is_positive_definite(a: &[Vec<f64>]) -> bool {
+    let n = a.len();
+    let mut l = vec![vec![0.0; n]; n];
+    for i in 0..n {
+        for j in 0..=i {
+            let s: f64 = (0..j).map(|k| l[i][k] * l[j][k]).sum();
+            if i == j {
+                let d = a[i][i] - s;
+                if d <= 0.0 {
+                    return false;
+                }
+                l[i][j] = d.sqrt();
+            } else {
+                l[i][j] = (a[i][j] - s) / l[j][j];
+            }
+        }
+    }
+    true
+}
+
+#[test]
+fn inertia_is_spd_and_ddot_minus_two_c_is_skew() {
+    let h = 1e-6;
+    for (file, variant, model, mech) in shipped() {
+        let params = model.nominal_parameters();
+        let mut rng = SmallRng::seed_from_u64(11);
+        let n = model.joints.len();
+        for _ in 0..STATES {
+            let (q, qd) = random_state(&model, &mut rng);
+            let e = eval_at(&mech, &params, &q, &qd);
+            let d = &e.inertia_matrix;
+            for i in 0..n {
+                for j in 0..n {
+                    assert_eq!(d[i][j], d[j][i], "{file} {variant:?}: D not symmetric");
+                }
+            }
+            assert!(is_positive_definite(d), "{file} {variant:?}: D not positive definite at {q:?}");
+            let along = |t: f64| {
+                let qq: Vec<f64> = q.iter().zip(&qd).map(|(a, b)| a + t * b).collect();
+                eval_at(&mech, &params, &qq, &qd).inertia_matrix
+            };
+            let (plus, minus) = (along(h), along(-h));
+            let n_matrix: Vec<Vec<f64>> = (0..n)
+                .map(|i| {
+                    (0..n)
+                        .map(|j| (plus[i][j] - minus[i][j]) / (2.0 * h) - 2.0 * e.coriolis_matrix[i][j])
+                        .collect()
+                })
+                .collect();
+            for i in 0..n {
+                for j in 0..n {
+                    let s = n_matrix[i][j] + n_matrix[j][i];
+                    assert!(s.abs() < 1e-9, "{file} {variant:?}: (Ḋ − 2C) + (Ḋ − 2C)ᵀ = {s} at [{i}][{j}]");
+                }
+            }
+            // C q̇ is the product of the two.
+            for i in 0..n {
+                let cqd: f64 = (0..n).map(|j| e.coriolis_matrix[i][j] * qd[j]).sum();
+                assert!((cqd - e.coriolis_times_qdot[i]).abs() < 1e-12);
+            }
+        }
+    }
+}
+
+fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
+    let n = b.len();
+    for col in 0..n {
+        let pivot = (col..n).max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs())).unwrap();
+        a.swap(col, pivot);
+        b.swap(col, pivot);
+        for row in col + 1..n {
+            let f = a[row][col] / a[col][col];
+            for k in col..n {
+                a[row][k] -= f * a[col][k];
+            }
+            b[row] -= f * b[col];
+        }
+    }
+    let mut x = vec![0.0; n];
+    for row in (0..n).rev() {
+        let s: f64 = (row + 1..n).map(|k| a[row][k] * x[k]).sum();
+        x[row] = (b[row] - s) / a[row][row];
+    }
+    x
+}
+
+struct EnergyConservation {
+    rigs: usize,
+}
+
+impl RigVisitor for EnergyConservation {
+    fn visit_f64<R: RigModel<N, M, Scalar = f64>, const N: usize, const M: usize>(
+        &mut self,
+        info: &RigInfo,
+        rig: &R,
+    ) {
+        let (model, mech) = load(info);
+        let params = model.nominal_parameters();
+        // Undamped, unforced: D q̈ = −C q̇ − g.
+        let acceleration = |q: &[f64; N], qd: &[f64; N]| -> [f64; N] {
+            let d = rig.inertia_matrix(q);
+            let c = rig.coriolis_times_qdot(q, qd);
+            let g = rig.gravity(q);
+            let x = solve(d.iter().map(|r| r.to_vec()).collect(), (0..N).map(|i| -c[i] - g[i]).collect());
+            std::array::from_fn(|i| x[i])
+        };
+        let energy = |q: &[f64; N], qd: &[f64; N]| -> f64 {
+            let d = rig.inertia_matrix(q);
+            let kinetic: f64 =
+                (0..N).map(|i| (0..N).map(|j| 0.5 * qd[i] * d[i][j] * qd[j]).sum::<f64>()).sum();
+            let v = mech.potential_energy.eval(&State { q, qd, parameters: &params });
+            kinetic + v
+        };
+        let mut rng = SmallRng::seed_from_u64(3);
+        for _ in 0..3 {
+            let (q0, qd0) = random_state(&model, &mut rng);
+            let mut q: [f64; N] = std::array::from_fn(|i| q0[i]);
+            let mut qd: [f64; N] = std::array::from_fn(|i| qd0[i]);
+            let e0 = energy(&q, &qd);
+            let dt = 1e-4;
+            let mut worst = 0.0f64;
+            let scale = e0.abs().max((0..N).map(|i| qd[i].abs()).fold(0.0, f64::max).powi(2) * 1e-3);
+            for _ in 0..10_000 {
+                // Classical fourth-order Runge–Kutta.
+                let add = |a: &[f64; N], b: &[f64; N], k: f64| -> [f64; N] {
+                    std::array::from_fn(|i| a[i] + k * b[i])
+                };
+                let k1q = qd;
+                let k1v = acceleration(&q, &qd);
+                let k2q = add(&qd, &k1v, dt / 2.0);
+                let k2v = acceleration(&add(&q, &k1q, dt / 2.0), &k2q);
+                let k3q = add(&qd, &k2v, dt / 2.0);
+                let k3v = acceleration(&add(&q, &k2q, dt / 2.0), &k3q);
+                let k4q = add(&qd, &k3v, dt);
+                let k4v = acceleration(&add(&q, &k3q, dt), &k4q);
+                q = std::array::from_fn(|i| {
+                    q[i] + dt / 6.0 * (k1q[i] + 2.0 * k2q[i] + 2.0 * k3q[i] + k4q[i])
+                });
+                qd = std::array::from_fn(|i| {
+                    qd[i] + dt / 6.0 * (k1v[i] + 2.0 * k2v[i] + 2.0 * k3v[i] + k4v[i])
+                });
+                worst = worst.max((energy(&q, &qd) - e0).abs() / scale);
+            }
+            eprintln!("{} energy drift {worst:e}", info.module);
+            assert!(
+                worst < 1e-9,
+                "{} {:?}: relative energy drift {worst:e} over 1 s",
+                info.module,
+                info.variant
+            );
+        }
+        self.rigs += 1;
+    }
+
+    fn visit_f32<R: RigModel<N, M, Scalar = f32>, const N: usize, const M: usize>(
+        &mut self,
+        _: &RigInfo,
+        _: &R,
+    ) {
+    }
+}
+
+#[test]
+fn energy_is_conserved_without_damping_or_forces() {
+    let mut v = EnergyConservation { rigs: 0 };
+    visit_all(&mut v);
+    assert!(v.rigs >= 3);
+}

@@ -1,0 +1,54 @@
+//! Structural properties of the parallel link's generated dynamics that the paper's
+//! derivation predicts (section 5, Spong's five-bar): constant diagonal inertia, an
+//! off-diagonal entry proportional to cos(q1 − q2), and only the sines and cosines of q1 and
+//! q2 evaluated (two sin/cos pairs) for D, C q̇, g, J and J̇ q̇ together.
+
+use hapticgen_codegen::emit;
+use hapticgen_codegen::mechanics;
+use hapticgen_codegen::model;
+use hapticgen_codegen::sym::poly::Atom;
+use hapticgen_codegen::Scalar;
+use hapticgen_tests::workspace_root;
+
+fn parallel_link(variant: &str) -> (model::Model, mechanics::Mechanics) {
+    let path = workspace_root().join("models/parallel_link_2dof.yaml");
+    let m = model::load_file(&path, "models/parallel_link_2dof.yaml", Some(variant)).unwrap();
+    let mech = mechanics::derive(&m);
+    (m, mech)
+}
+
+#[test]
+fn inertia_matrix_has_constant_diagonal_and_cosine_of_the_difference_off_diagonal() {
+    for variant in ["vertical", "horizontal"] {
+        let (_, mech) = parallel_link(variant);
+        let d = &mech.inertia_matrix;
+        assert!(d[0][0].as_constant().is_some(), "D11 = {}", d[0][0]);
+        assert!(d[1][1].as_constant().is_some(), "D22 = {}", d[1][1]);
+        // D12 = k (cos q1 cos q2 + sin q1 sin q2) = k cos(q1 − q2).
+        let terms: Vec<_> = d[0][1].terms().collect();
+        assert_eq!(terms.len(), 2, "D12 = {}", d[0][1]);
+        let cc = vec![(Atom::Cos(0), 1), (Atom::Cos(1), 1)];
+        let ss = vec![(Atom::Sin(0), 1), (Atom::Sin(1), 1)];
+        let k_cc = terms.iter().find(|(m, _)| **m == cc).map(|(_, c)| *c).expect("cos q1 cos q2 term");
+        let k_ss = terms.iter().find(|(m, _)| **m == ss).map(|(_, c)| *c).expect("sin q1 sin q2 term");
+        assert_eq!(k_cc, k_ss);
+        // Independent value: m3·l2·lc3 + m4·l1·lc4 (link 3's and link 4's cross terms).
+        let expected = 0.020358 * 0.15 * 0.075 + 0.081 * 0.15 * 0.05;
+        assert!((k_cc - expected).abs() < 1e-15, "coefficient {k_cc}, expected {expected}");
+    }
+}
+
+#[test]
+fn tick_quantities_need_two_sine_cosine_pairs() {
+    for variant in ["vertical", "horizontal"] {
+        let (m, mech) = parallel_link(variant);
+        let counts = emit::tick_counts(&m, &mech, false);
+        assert!(counts.trigonometric <= 4, "{variant}: {counts:?}");
+        // The emitted fused function calls sin and cos of q1 and q2 once each.
+        let text = hapticgen_codegen::generate_model(m, Scalar::F64).file_text();
+        let terms = &text[text.find("pub fn terms").unwrap()..];
+        let terms = &terms[..terms.find("\n    }\n").unwrap()];
+        assert_eq!(terms.matches("Real::sin(").count(), 2, "{terms}");
+        assert_eq!(terms.matches("Real::cos(").count(), 2, "{terms}");
+    }
+}
