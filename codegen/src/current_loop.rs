@@ -414,6 +414,7 @@ fn zoh_discretise(a: &[[f64; 2]; 2], b: &[f64; 2], period: f64) -> ([[f64; 2]; 2
 
 /// Matrix exponential by scaling and squaring with a Taylor series (ample for 3 × 3 with
 /// real, well-separated eigenvalues).
+#[allow(clippy::needless_range_loop)] // textbook i, j, m matrix products
 pub(crate) fn expm<const N: usize>(a: &[[f64; N]; N]) -> [[f64; N]; N] {
     let norm = a.iter().map(|row| row.iter().map(|v| v.abs()).sum::<f64>()).fold(0.0, f64::max);
     let mut squarings = 0;

@@ -15,6 +15,7 @@ pub mod emit;
 pub mod eval;
 pub mod mechanics;
 pub mod model;
+pub mod rig_macro;
 pub mod sym;
 
 use proc_macro2::TokenStream;

@@ -1,19 +1,740 @@
-use hapticgen_codegen::model::{load, Source};
+//! Diagnostics for bad model files: one test per kind of mistake, each with its own fixture
+//! in `tests/bad-models/` (a shipped or good model with exactly one problem). Every test
+//! asserts the line and column (found by searching the fixture for the offending token), the
+//! key path and the rule text. Plus: every diagnostic reads `file:line:column: …`, values a
+//! variant overrides are reported at the variant's line, and mangled models never panic.
 
-#[test]
-fn dump() {
-    let mut names: Vec<_> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/bad-models"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
-    names.sort();
-    for p in names {
-        let text = std::fs::read_to_string(&p).unwrap();
-        let name = p.file_name().unwrap().to_str().unwrap().to_string();
-        let v = if name.contains("variant") && !name.contains("variant-set") && !name.contains("variant-negative") { Some(if name.contains("remove") { "bare" } else { "nope" }) } else { None };
-        match load(&Source { name: &name, text: &text }, v) {
-            Ok(_) => println!("{name}: OK"),
-            Err(d) => println!("{d}"),
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+
+use hapticgen_codegen::model::{load, Source};
+use hapticgen_codegen::{Diagnostic, Diagnostics};
+
+/// Every fixture of `tests/bad-models/` and the variant it is loaded with.
+const CASES: &[(&str, Option<&str>)] = &[
+    ("com-three-entries", None),
+    ("duplicate-joint", None),
+    ("gravity-three-entries", None),
+    ("impedance-faster-than-current", None),
+    ("inertia-not-positive-definite", None),
+    ("inertia-triangle-inequality", None),
+    ("inf-literal", None),
+    ("joint-moves-no-body", None),
+    ("limits-inverted", None),
+    ("missing-key", None),
+    ("nan-literal", None),
+    ("negative-counts", None),
+    ("negative-mass", None),
+    ("negative-resistance", None),
+    ("parent-cycle", None),
+    ("pose-parent-cycle", None),
+    ("scalar-inertia-spatial", None),
+    ("task-unknown-point", None),
+    ("undefined-drive", None),
+    ("undefined-joint", None),
+    ("undefined-parameter", None),
+    ("undefined-parent", None),
+    ("undefined-pose-origin", None),
+    ("unknown-default-variant", None),
+    ("unknown-joint-type", None),
+    ("unknown-key-nested", None),
+    ("unknown-key-top", None),
+    ("unknown-variant", Some("nope")),
+    ("variant-negative-mass", Some("horizontal")),
+    ("variant-remove-unknown", None),
+    ("variant-set-unknown-path", Some("horizontal")),
+    ("variants-without-default", None),
+    ("wrong-type", None),
+    ("yaml-syntax", None),
+    ("zero-gear-ratio", None),
+];
+
+fn manifest_dir() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn fixture_path(name: &str) -> PathBuf {
+    manifest_dir().join("tests/bad-models").join(format!("{name}.yaml"))
+}
+
+fn fixture(name: &str) -> String {
+    let path = fixture_path(name);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()))
+}
+
+/// Loads the fixture, which must be rejected; returns its text and the diagnostics.
+fn reject(name: &str, variant: Option<&str>) -> (String, Diagnostics) {
+    let text = fixture(name);
+    let file = format!("{name}.yaml");
+    match load(&Source { name: &file, text: &text }, variant) {
+        Ok(_) => panic!("{file} (variant {variant:?}) was accepted"),
+        Err(d) => {
+            assert!(!d.0.is_empty(), "{file}: an error without diagnostics");
+            (text, d)
         }
     }
+}
+
+/// 1-based line and column (in characters) of `token` inside `context`, where `context`
+/// occurs exactly once in `text`.
+fn locate(text: &str, context: &str, token: &str) -> (usize, usize) {
+    let matches: Vec<usize> = text.match_indices(context).map(|(i, _)| i).collect();
+    assert_eq!(
+        matches.len(),
+        1,
+        "`{context}` must occur exactly once in the fixture, found {}",
+        matches.len()
+    );
+    let within = context.find(token).unwrap_or_else(|| panic!("`{token}` is not part of `{context}`"));
+    let offset = matches[0] + within;
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    (line, text[line_start..offset].chars().count() + 1)
+}
+
+/// What a test expects of the first diagnostic.
+struct Expect<'a> {
+    /// A snippet occurring once in the fixture …
+    context: &'a str,
+    /// … and the token in it the diagnostic must point at.
+    token: &'a str,
+    path: &'a str,
+    message: &'a str,
+}
+
+/// Loads a fixture and checks its first diagnostic; returns all of them for further checks.
+fn check(name: &str, variant: Option<&str>, expect: Expect<'_>) -> Diagnostics {
+    let (text, diagnostics) = reject(name, variant);
+    let d = &diagnostics.0[0];
+    let (line, column) = locate(&text, expect.context, expect.token);
+    assert_eq!(d.file, format!("{name}.yaml"));
+    assert_eq!(
+        (d.line, d.column, d.path.as_str(), d.message.as_str()),
+        (line, column, expect.path, expect.message),
+        "{name}: unexpected diagnostic\n{diagnostics}"
+    );
+    diagnostics
+}
+
+fn hint(d: &Diagnostic) -> &str {
+    d.hint.as_deref().unwrap_or_default()
+}
+
+#[test]
+fn yaml_syntax_error() {
+    let d = check(
+        "yaml-syntax",
+        None,
+        Expect {
+            context: "description: angle: from",
+            token: ": from",
+            path: "",
+            message: "invalid YAML: mapping values are not allowed in this context",
+        },
+    );
+    assert_eq!(d.0.len(), 1);
+}
+
+#[test]
+fn wrong_type_string_for_number() {
+    check(
+        "wrong-type",
+        None,
+        Expect {
+            context: "gear_ratio: twelve",
+            token: "twelve",
+            path: "drives.re40_gp42.gear_ratio",
+            message: "expected a number, got string \"twelve\"",
+        },
+    );
+}
+
+#[test]
+fn negative_number_for_a_count() {
+    check(
+        "negative-counts",
+        None,
+        Expect {
+            context: "counts_per_turn: -2000",
+            token: "-2000",
+            path: "drives.re40_gp42.encoder.counts_per_turn",
+            message: "expected a whole number from 0 to 4294967295, got integer `-2000`",
+        },
+    );
+}
+
+#[test]
+fn unknown_value_of_a_fixed_set() {
+    let d = check(
+        "unknown-joint-type",
+        None,
+        Expect {
+            context: "type: rotary",
+            token: "rotary",
+            path: "joints[0].type",
+            message: "unknown value `rotary`",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "expected `revolute` or `prismatic`");
+}
+
+#[test]
+fn unknown_key_at_top_level() {
+    let d = check(
+        "unknown-key-top",
+        None,
+        Expect { context: "colour: red", token: "colour", path: "colour", message: "unknown key `colour`" },
+    );
+    assert!(hint(&d.0[0]).starts_with("expected one of `name`, `description`, `space`"), "{}", d.0[0]);
+}
+
+#[test]
+fn unknown_key_nested() {
+    let d = check(
+        "unknown-key-nested",
+        None,
+        Expect {
+            context: "winding: copper",
+            token: "winding",
+            path: "drives.re40_gp42.motor.winding",
+            message: "unknown key `winding`",
+        },
+    );
+    assert_eq!(
+        hint(&d.0[0]),
+        "expected one of `rotor_inertia`, `resistance`, `inductance`, `torque_constant`"
+    );
+}
+
+#[test]
+fn missing_key_points_at_the_mapping() {
+    // The joint mapping starts at its first key, `name` (not at the first key's `:`).
+    check(
+        "missing-key",
+        None,
+        Expect { context: "  - name: q\n", token: "name", path: "joints[0]", message: "missing key `drive`" },
+    );
+}
+
+#[test]
+fn non_positive_mass() {
+    check(
+        "negative-mass",
+        None,
+        Expect {
+            context: "mass: -0.020358",
+            token: "-0.020358",
+            path: "bodies[0].mass",
+            message: "must be positive, got -0.020358",
+        },
+    );
+}
+
+#[test]
+fn zero_gear_ratio() {
+    check(
+        "zero-gear-ratio",
+        None,
+        Expect {
+            context: "gear_ratio: 0.0",
+            token: "0.0",
+            path: "drives.re40_gp42.gear_ratio",
+            message: "must be positive, got 0",
+        },
+    );
+}
+
+#[test]
+fn negative_resistance() {
+    check(
+        "negative-resistance",
+        None,
+        Expect {
+            context: "resistance: -0.299",
+            token: "-0.299",
+            path: "drives.re40_gp42.motor.resistance",
+            message: "must be positive, got -0.299",
+        },
+    );
+}
+
+#[test]
+fn inertia_tensor_not_positive_definite() {
+    // ixx = iyy = 6e-4 with ixy = 8e-4: principal moments −2e-4, 4e-4 (izz) and 1.4e-3.
+    let d = check(
+        "inertia-not-positive-definite",
+        None,
+        Expect {
+            context: "inertia: {ixx: 6.0e-4, iyy: 6.0e-4, izz: 4.0e-4, ixy: 8.0e-4}",
+            token: "{",
+            path: "bodies[0].inertia",
+            message: "invalid inertia tensor: not positive semi-definite \
+                      (principal moments -2.000000e-4, 4.000000e-4, 1.400000e-3)",
+        },
+    );
+    assert!(hint(&d.0[0]).contains("positive (semi-)definite"));
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn inertia_tensor_violating_the_triangle_inequality() {
+    let d = check(
+        "inertia-triangle-inequality",
+        None,
+        Expect {
+            context: "inertia: {ixx: 1.0e-6, iyy: 2.0e-6, izz: 5.0e-6}",
+            token: "{",
+            path: "bodies[3].inertia",
+            message: "invalid inertia tensor: principal moments 1.000000e-6, 2.000000e-6, 5.000000e-6 \
+                      violate the triangle inequality",
+        },
+    );
+    assert!(hint(&d.0[0]).contains("at most the sum of the other two"));
+}
+
+#[test]
+fn scalar_inertia_in_a_spatial_model() {
+    let d = check(
+        "scalar-inertia-spatial",
+        None,
+        Expect {
+            context: "inertia: 5.0e-6",
+            token: "5.0e-6",
+            path: "bodies[3].inertia",
+            message: "invalid inertia: a spatial model takes a full tensor",
+        },
+    );
+    assert!(hint(&d.0[0]).contains("{ixx, iyy, izz, ixy, ixz, iyz}"));
+}
+
+#[test]
+fn undefined_joint() {
+    let d = check(
+        "undefined-joint",
+        None,
+        Expect {
+            context: "joint: q9",
+            token: "q9",
+            path: "bodies[0].joint",
+            message: "body `stick` references unknown joint `q9`",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "defined joints: q");
+}
+
+#[test]
+fn undefined_parent_body() {
+    check(
+        "undefined-parent",
+        None,
+        Expect {
+            context: "parent: stik",
+            token: "stik",
+            path: "bodies[1].parent",
+            message: "body `grip` references unknown body `stik`",
+        },
+    );
+}
+
+#[test]
+fn undefined_pose_origin_body() {
+    check(
+        "undefined-pose-origin",
+        None,
+        Expect {
+            context: "{body: link7,",
+            token: "link7",
+            path: "bodies[2].pose.origin.body",
+            message: "body `link3` references unknown body `link7`",
+        },
+    );
+}
+
+#[test]
+fn undefined_drive() {
+    let d = check(
+        "undefined-drive",
+        None,
+        Expect {
+            context: "drive: re50",
+            token: "re50",
+            path: "joints[0].drive",
+            message: "joint `q` references unknown drive `re50`",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "defined drives: re40_gp42");
+}
+
+#[test]
+fn undefined_parameter() {
+    let d = check(
+        "undefined-parameter",
+        None,
+        Expect {
+            context: "point: [l_x, 0.0]",
+            token: "l_x",
+            path: "bodies[3].pose.origin.point[0]",
+            message: "unknown parameter `l_x`",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "defined parameters: l_e, l_l");
+}
+
+#[test]
+fn parents_forming_a_cycle() {
+    let d = check(
+        "parent-cycle",
+        None,
+        Expect {
+            context: "  - name: stick\n",
+            token: "name",
+            path: "bodies[0]",
+            message: "bodies form a cycle: stick → grip → stick",
+        },
+    );
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn parent_and_pose_forming_a_cycle() {
+    check(
+        "pose-parent-cycle",
+        None,
+        Expect {
+            context: "  - name: link1\n",
+            token: "name",
+            path: "bodies[0]",
+            message: "bodies form a cycle: link1 → link4 → link1",
+        },
+    );
+}
+
+#[test]
+fn planar_com_with_three_entries() {
+    check(
+        "com-three-entries",
+        None,
+        Expect {
+            context: "com: [0.0, 0.075, 0.0]",
+            token: "[",
+            path: "bodies[0].com",
+            message: "expected 2 entries (x, y), got 3",
+        },
+    );
+}
+
+#[test]
+fn planar_gravity_with_three_entries() {
+    check(
+        "gravity-three-entries",
+        None,
+        Expect {
+            context: "gravity: [0.0, -9.81, 0.0]",
+            token: "[",
+            path: "gravity",
+            message: "expected 2 entries (x, y), got 3",
+        },
+    );
+}
+
+#[test]
+fn unknown_variant_lists_the_known_ones() {
+    let d = check(
+        "unknown-variant",
+        Some("nope"),
+        Expect { context: "\nvariants:", token: "variants", path: "", message: "unknown variant `nope`" },
+    );
+    assert_eq!(hint(&d.0[0]), "the model defines: horizontal, vertical");
+}
+
+#[test]
+fn unknown_default_variant() {
+    let d = check(
+        "unknown-default-variant",
+        None,
+        Expect {
+            context: "default_variant: upright",
+            token: "upright",
+            path: "default_variant",
+            message: "unknown variant `upright`",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "the model defines: horizontal, vertical");
+}
+
+#[test]
+fn variants_without_a_default() {
+    let d = check(
+        "variants-without-default",
+        None,
+        Expect {
+            context: "\nvariants:",
+            token: "variants",
+            path: "variants",
+            message: "a model with variants must name one of them as `default_variant`",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "the model defines: horizontal, vertical");
+}
+
+#[test]
+fn variant_set_path_naming_nothing() {
+    check(
+        "variant-set-unknown-path",
+        Some("horizontal"),
+        Expect {
+            context: "bodies.link9.mass: 0.1",
+            token: "bodies.link9.mass",
+            path: "variants.horizontal.set.bodies.link9.mass",
+            message:
+                "`bodies.link9.mass` does not name a value of the model: no item named `link9` in `bodies`",
+        },
+    );
+    // The default variant does not touch the bad path.
+    let text = fixture("variant-set-unknown-path");
+    assert!(load(&Source { name: "v.yaml", text: &text }, None).is_ok());
+}
+
+#[test]
+fn variant_remove_path_naming_nothing() {
+    check(
+        "variant-remove-unknown",
+        None,
+        Expect {
+            context: "remove: [sensors.wrist_force]",
+            token: "sensors.wrist_force",
+            path: "variants.bare.remove[0]",
+            message: "`sensors.wrist_force` does not name an item of the model",
+        },
+    );
+}
+
+#[test]
+fn value_set_by_a_variant_is_reported_at_the_variant() {
+    let d = check(
+        "variant-negative-mass",
+        Some("horizontal"),
+        Expect {
+            context: "bodies.link1.mass: -1",
+            token: "-1",
+            path: "bodies[0].mass",
+            message: "must be positive, got -1",
+        },
+    );
+    assert_eq!(d.0.len(), 1, "{d}");
+    // The base file's own mass of link1 is fine: the default variant loads.
+    let text = fixture("variant-negative-mass");
+    assert!(load(&Source { name: "v.yaml", text: &text }, Some("vertical")).is_ok());
+}
+
+#[test]
+fn nan_literal() {
+    check(
+        "nan-literal",
+        None,
+        Expect {
+            context: "damping: .nan",
+            token: ".nan",
+            path: "joints[0].damping",
+            message: "must be a finite number, got NaN",
+        },
+    );
+}
+
+#[test]
+fn infinite_literal() {
+    check(
+        "inf-literal",
+        None,
+        Expect {
+            context: "torque_limit: .inf",
+            token: ".inf",
+            path: "drives.re40_gp42.torque_limit",
+            message: "must be a finite number, got inf",
+        },
+    );
+}
+
+#[test]
+fn duplicate_joint_name() {
+    let d = check(
+        "duplicate-joint",
+        None,
+        Expect {
+            context: "  - name: q\n    type: revolute\n    limits",
+            token: "q",
+            path: "joints[1].name",
+            message: "joint `q` is defined twice",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "the first definition is `joints[0]`");
+    // Only the duplicate is reported: bodies still find the first `q`, and the duplicate is
+    // not also reported as moving no body.
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn joint_limits_lower_not_below_upper() {
+    check(
+        "limits-inverted",
+        None,
+        Expect {
+            context: "limits: {lower: 1.5, upper: -1.5}",
+            token: "{",
+            path: "joints[0].limits",
+            message: "lower limit 1.5 must be below upper limit -1.5",
+        },
+    );
+}
+
+#[test]
+fn impedance_rate_above_current_rate() {
+    check(
+        "impedance-faster-than-current",
+        None,
+        Expect {
+            context: "impedance_loop_hz: 10000",
+            token: "10000",
+            path: "rates.impedance_loop_hz",
+            message: "the impedance loop (10000 Hz) cannot run faster than the current loop (7500 Hz)",
+        },
+    );
+}
+
+#[test]
+fn task_naming_an_unknown_point() {
+    check(
+        "task-unknown-point",
+        None,
+        Expect {
+            context: "point: end_efector",
+            token: "end_efector",
+            path: "task.point",
+            message: "task references unknown point `end_efector`",
+        },
+    );
+}
+
+#[test]
+fn joint_that_moves_no_body() {
+    let d = check(
+        "joint-moves-no-body",
+        None,
+        Expect {
+            context: "name: spare",
+            token: "spare",
+            path: "joints[0].name",
+            message: "joint `spare` moves no body",
+        },
+    );
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+/// Every fixture is listed in `CASES`, and every diagnostic of every fixture reads
+/// `file:line:column: ` and points inside the file.
+#[test]
+fn every_diagnostic_starts_with_file_line_column() {
+    let mut on_disk: Vec<String> = std::fs::read_dir(manifest_dir().join("tests/bad-models"))
+        .expect("tests/bad-models")
+        .map(|e| e.expect("directory entry").file_name().to_string_lossy().into_owned())
+        .filter_map(|n| n.strip_suffix(".yaml").map(str::to_string))
+        .collect();
+    on_disk.sort();
+    let mut listed: Vec<String> = CASES.iter().map(|(n, _)| n.to_string()).collect();
+    listed.sort();
+    assert_eq!(on_disk, listed, "every fixture in tests/bad-models/ needs an entry in CASES");
+
+    for (name, variant) in CASES {
+        let (text, diagnostics) = reject(name, *variant);
+        let lines = text.lines().count();
+        for d in &diagnostics.0 {
+            let shown = d.to_string();
+            let prefix = format!("{name}.yaml:{}:{}: ", d.line, d.column);
+            assert!(shown.starts_with(&prefix), "{name}: `{shown}` does not start with `{prefix}`");
+            assert!(d.line >= 1 && d.line <= lines, "{name}: line {} outside the file: {shown}", d.line);
+            let width = text.lines().nth(d.line - 1).unwrap_or_default().chars().count();
+            assert!(
+                d.column >= 1 && d.column <= width + 1,
+                "{name}: column {} outside line: {shown}",
+                d.column
+            );
+            assert!(!d.message.is_empty() && !d.message.ends_with('.'), "{name}: message style: {shown}");
+        }
+        assert!(diagnostics.to_string().starts_with(&format!("error: {name}.yaml:")));
+    }
+}
+
+/// Mutations of a model text: truncations, deleted and duplicated lines, digits turned into
+/// letters.
+fn mutations(text: &str) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    let boundaries: Vec<usize> = text.char_indices().map(|(i, _)| i).collect();
+    for &cut in boundaries.iter().step_by(37) {
+        out.push((format!("truncated at byte {cut}"), text[..cut].to_string()));
+    }
+    let lines: Vec<&str> = text.lines().collect();
+    for i in 0..lines.len() {
+        let mut deleted = lines.clone();
+        deleted.remove(i);
+        out.push((format!("line {} deleted", i + 1), deleted.join("\n")));
+        if i % 3 == 0 {
+            let mut doubled = lines.clone();
+            doubled.insert(i, lines[i]);
+            out.push((format!("line {} duplicated", i + 1), doubled.join("\n")));
+        }
+    }
+    let digits: Vec<usize> =
+        text.char_indices().filter(|(_, c)| c.is_ascii_digit()).map(|(i, _)| i).collect();
+    for (k, &i) in digits.iter().step_by(7).enumerate() {
+        let letter = ["O", "l", "e", "x"][k % 4];
+        out.push((
+            format!("digit at byte {i} replaced by {letter}"),
+            format!("{}{letter}{}", &text[..i], &text[i + 1..]),
+        ));
+    }
+    out
+}
+
+#[test]
+fn mutated_models_never_panic() {
+    let mut sources: Vec<PathBuf> = Vec::new();
+    for dir in [manifest_dir().join("../models"), manifest_dir().join("tests/good-models")] {
+        for entry in std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
+            let path = entry.expect("directory entry").path();
+            if path.extension().is_some_and(|e| e == "yaml") {
+                sources.push(path);
+            }
+        }
+    }
+    sources.sort();
+    assert!(sources.len() >= 4, "expected the shipped and good models, found {sources:?}");
+
+    let (mut total, mut rejected) = (0, 0);
+    let mut failures = Vec::new();
+    for path in &sources {
+        let text = std::fs::read_to_string(path).expect("model text");
+        for (what, mutated) in mutations(&text) {
+            total += 1;
+            let result =
+                catch_unwind(AssertUnwindSafe(|| load(&Source { name: "m.yaml", text: &mutated }, None)));
+            match result {
+                Err(_) => failures.push(format!("{}: {what}: load panicked", path.display())),
+                Ok(Ok(_)) => {}
+                Ok(Err(diagnostics)) => {
+                    rejected += 1;
+                    let lines = mutated.lines().count().max(1);
+                    for d in &diagnostics.0 {
+                        if d.line < 1 || d.line > lines + 1 || d.column < 1 {
+                            failures
+                                .push(format!("{}: {what}: position outside the text: {d}", path.display()));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(total >= 300, "only {total} mutations");
+    assert!(rejected > total / 4, "suspiciously few mutations rejected: {rejected} of {total}");
+    assert!(failures.is_empty(), "{} of {total} mutations failed:\n{}", failures.len(), failures.join("\n"));
 }

@@ -74,11 +74,7 @@ pub struct TaskReference<S, const M: usize> {
 impl<S: Real, const M: usize> TaskReference<S, M> {
     /// A reference at rest at `position`.
     pub fn at_rest(position: [S; M]) -> Self {
-        Self {
-            position,
-            velocity: [S::ZERO; M],
-            acceleration: [S::ZERO; M],
-        }
+        Self { position, velocity: [S::ZERO; M], acceleration: [S::ZERO; M] }
     }
 }
 
@@ -94,10 +90,7 @@ pub struct TaskSensing<S, const M: usize> {
 
 impl<S: Real, const M: usize> Default for TaskSensing<S, M> {
     fn default() -> Self {
-        Self {
-            operator_force: [S::ZERO; M],
-            acceleration: [S::ZERO; M],
-        }
+        Self { operator_force: [S::ZERO; M], acceleration: [S::ZERO; M] }
     }
 }
 
@@ -148,10 +141,7 @@ pub struct ControlOutput<S, const N: usize> {
 
 impl<S: Real, const N: usize> ControlOutput<S, N> {
     fn refused(status: ControlStatus) -> Self {
-        Self {
-            torque: [S::ZERO; N],
-            status,
-        }
+        Self { torque: [S::ZERO; N], status }
     }
 }
 
@@ -225,9 +215,10 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
                     Some(factors) => factors,
                     None => return ControlOutput::refused(ControlStatus::NonFiniteInput),
                 };
-                if !(factors.determinant().abs() >= self.options.min_abs_jacobian_determinant)
-                    || factors.smallest_pivot() == S::ZERO
-                {
+                // Written so that a NaN threshold or determinant counts as singular.
+                let regular = factors.determinant().abs() >= self.options.min_abs_jacobian_determinant
+                    && factors.smallest_pivot() > S::ZERO;
+                if !regular {
                     let mut fallback = controller3(terms, bias, &restoring);
                     if fallback.status == ControlStatus::Ok {
                         fallback.status = ControlStatus::SingularFallback;
@@ -286,18 +277,16 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
                     };
                 for (k, &value) in mobility_inverse_excess.iter().enumerate().take(M) {
                     let accel_error = sensed.acceleration[k] - reference.acceleration[k];
-                    task_force_command[k] =
-                        value - self.parameters.mass[k] * accel_error - restoring[k];
+                    task_force_command[k] = value - self.parameters.mass[k] * accel_error - restoring[k];
                 }
             }
             ImpedanceLaw::Controller2Mobility => {
                 // Eq. (8) with M_d⁻¹ = W = J D⁻¹ Jᵀ; a_f = 0.
                 let jt_restoring: [S; N] = linalg::transpose_mul_vec(&terms.jacobian, restoring);
-                let inertia_inverse =
-                    match linalg::cholesky_solve(&terms.inertia_matrix, &jt_restoring) {
-                        Ok(value) => value,
-                        Err(error) => return ControlOutput::refused(inertia_status(error)),
-                    };
+                let inertia_inverse = match linalg::cholesky_solve(&terms.inertia_matrix, &jt_restoring) {
+                    Ok(value) => value,
+                    Err(error) => return ControlOutput::refused(inertia_status(error)),
+                };
                 let mobility_restoring = linalg::mat_vec(&terms.jacobian, &inertia_inverse);
                 for k in 0..M {
                     task_accel_command[k] = reference.acceleration[k] - mobility_restoring[k];
@@ -312,9 +301,7 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
         }
         let joint_accel_command = match jacobian.solve(&rhs, S::ZERO) {
             Ok(value) => value,
-            Err(SolveError::NonFinite) => {
-                return ControlOutput::refused(ControlStatus::NonFiniteResult)
-            }
+            Err(SolveError::NonFinite) => return ControlOutput::refused(ControlStatus::NonFiniteResult),
             Err(_) => return ControlOutput::refused(ControlStatus::NonFiniteInput),
         };
         // Eq. (3).
@@ -324,10 +311,7 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
         for i in 0..N {
             torque[i] += inertia_term[i] + force_term[i];
         }
-        ControlOutput {
-            torque,
-            status: ControlStatus::Ok,
-        }
+        ControlOutput { torque, status: ControlStatus::Ok }
     }
 }
 
@@ -342,10 +326,7 @@ fn controller3<S: Real, const N: usize, const M: usize>(
     for i in 0..N {
         torque[i] -= force_term[i];
     }
-    ControlOutput {
-        torque,
-        status: ControlStatus::Ok,
-    }
+    ControlOutput { torque, status: ControlStatus::Ok }
 }
 
 /// `W⁻¹ v = J⁻ᵀ D J⁻¹ v`.
@@ -354,21 +335,15 @@ fn inverse_mobility_times<S: Real, const N: usize>(
     inertia: &[[S; N]; N],
     v: &[S; N],
 ) -> Result<[S; N], ControlStatus> {
-    let joint = jacobian
-        .solve(v, S::ZERO)
-        .map_err(|_| ControlStatus::NonFiniteResult)?;
+    let joint = jacobian.solve(v, S::ZERO).map_err(|_| ControlStatus::NonFiniteResult)?;
     let torque = linalg::mat_vec(inertia, &joint);
-    jacobian
-        .solve_transposed(&torque, S::ZERO)
-        .map_err(|_| ControlStatus::NonFiniteResult)
+    jacobian.solve_transposed(&torque, S::ZERO).map_err(|_| ControlStatus::NonFiniteResult)
 }
 
 fn inertia_status(error: SolveError) -> ControlStatus {
     match error {
         SolveError::NonFinite => ControlStatus::NonFiniteResult,
-        SolveError::NotPositiveDefinite | SolveError::Singular => {
-            ControlStatus::InertiaNotPositiveDefinite
-        }
+        SolveError::NotPositiveDefinite | SolveError::Singular => ControlStatus::InertiaNotPositiveDefinite,
     }
 }
 

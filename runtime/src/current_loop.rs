@@ -72,16 +72,9 @@ impl<S: Real> CurrentController<S> {
     /// A controller at rest (zero integral). A non-finite or negative supply voltage is
     /// treated as zero, so the controller then only ever commands zero volts.
     pub fn new(gains: CurrentLoopGains<S>, supply_voltage: S) -> Self {
-        let supply_voltage = if supply_voltage.is_finite() && supply_voltage > S::ZERO {
-            supply_voltage
-        } else {
-            S::ZERO
-        };
-        Self {
-            gains,
-            supply_voltage,
-            integral: S::ZERO,
-        }
+        let supply_voltage =
+            if supply_voltage.is_finite() && supply_voltage > S::ZERO { supply_voltage } else { S::ZERO };
+        Self { gains, supply_voltage, integral: S::ZERO }
     }
 
     /// The gains in use.
@@ -102,10 +95,7 @@ impl<S: Real> CurrentController<S> {
     /// One sample: `reference` and `measured` currents in A, returns the voltage to apply.
     pub fn step(&mut self, reference: S, measured: S) -> CurrentLoopOutput<S> {
         if !reference.is_finite() || !measured.is_finite() {
-            return CurrentLoopOutput {
-                voltage: S::ZERO,
-                status: CurrentLoopStatus::NonFiniteInput,
-            };
+            return CurrentLoopOutput { voltage: S::ZERO, status: CurrentLoopStatus::NonFiniteInput };
         }
         let gains = &self.gains;
         let error = reference - measured;
@@ -151,16 +141,9 @@ impl<S: Real, const N: usize> CurrentLoopBank<S, N> {
 
     /// One sample for every motor.
     pub fn step(&mut self, references: &[S; N], measured: &[S; N]) -> [CurrentLoopOutput<S>; N] {
-        let mut out = [CurrentLoopOutput {
-            voltage: S::ZERO,
-            status: CurrentLoopStatus::Ok,
-        }; N];
-        for (((controller, slot), &r), &y) in self
-            .controllers
-            .iter_mut()
-            .zip(out.iter_mut())
-            .zip(references.iter())
-            .zip(measured.iter())
+        let mut out = [CurrentLoopOutput { voltage: S::ZERO, status: CurrentLoopStatus::Ok }; N];
+        for (((controller, slot), &r), &y) in
+            self.controllers.iter_mut().zip(out.iter_mut()).zip(references.iter()).zip(measured.iter())
         {
             *slot = controller.step(r, y);
         }
@@ -203,10 +186,7 @@ mod tests {
 
     #[test]
     fn setpoint_weight_one_is_the_textbook_pi() {
-        let gains = CurrentLoopGains {
-            proportional_setpoint_weight: 1.0,
-            ..GAINS
-        };
+        let gains = CurrentLoopGains { proportional_setpoint_weight: 1.0, ..GAINS };
         let mut pi = CurrentController::new(gains, 24.0);
         let out = pi.step(1.0, 0.25);
         assert!((out.voltage - gains.kp * 0.75).abs() < 1e-15);
@@ -258,11 +238,7 @@ mod tests {
         let mut pi = CurrentController::new(GAINS, 24.0);
         pi.step(1.0, 0.0);
         let before = pi.integral();
-        for (r, y) in [
-            (f64::NAN, 0.0),
-            (0.0, f64::INFINITY),
-            (f64::NEG_INFINITY, 1.0),
-        ] {
+        for (r, y) in [(f64::NAN, 0.0), (0.0, f64::INFINITY), (f64::NEG_INFINITY, 1.0)] {
             let out = pi.step(r, y);
             assert_eq!(out.voltage, 0.0);
             assert_eq!(out.status, CurrentLoopStatus::NonFiniteInput);

@@ -98,19 +98,9 @@ impl<S: Real, const N: usize> JointStateEstimator<S, N> {
             last_counts: initial_counts,
             accumulated_counts: [0; N],
             sample_period: settings.sample_period,
-            velocity_alpha: low_pass_coefficient(
-                settings.velocity_cutoff_hz,
-                settings.sample_period,
-            ),
-            acceleration_alpha: low_pass_coefficient(
-                settings.acceleration_cutoff_hz,
-                settings.sample_period,
-            ),
-            state: JointState {
-                position: zero_offset,
-                velocity: [S::ZERO; N],
-                acceleration: [S::ZERO; N],
-            },
+            velocity_alpha: low_pass_coefficient(settings.velocity_cutoff_hz, settings.sample_period),
+            acceleration_alpha: low_pass_coefficient(settings.acceleration_cutoff_hz, settings.sample_period),
+            state: JointState { position: zero_offset, velocity: [S::ZERO; N], acceleration: [S::ZERO; N] },
             previous_position: zero_offset,
             started: false,
         }
@@ -128,11 +118,12 @@ impl<S: Real, const N: usize> JointStateEstimator<S, N> {
         for i in 0..N {
             let delta = counts[i].wrapping_sub(self.last_counts[i]);
             accumulated[i] = accumulated[i].wrapping_add(i64::from(delta));
-            position[i] = self.zero_offset[i]
-                + S::from_f64(accumulated[i] as f64) * self.radians_per_count[i];
+            position[i] =
+                self.zero_offset[i] + S::from_f64(accumulated[i] as f64) * self.radians_per_count[i];
         }
         let period = self.sample_period;
-        if !(period > S::ZERO && period.is_finite()) || !position.iter().all(|p| p.is_finite()) {
+        let usable = period > S::ZERO && period.is_finite() && position.iter().all(|p| p.is_finite());
+        if !usable {
             return EstimationStatus::NonFinite;
         }
         let mut velocity = self.state.velocity;
@@ -146,21 +137,13 @@ impl<S: Real, const N: usize> JointStateEstimator<S, N> {
                 velocity[i] = new_velocity;
             }
         }
-        if !velocity
-            .iter()
-            .chain(acceleration.iter())
-            .all(|v| v.is_finite())
-        {
+        if !velocity.iter().chain(acceleration.iter()).all(|v| v.is_finite()) {
             return EstimationStatus::NonFinite;
         }
         self.last_counts = *counts;
         self.accumulated_counts = accumulated;
         self.previous_position = position;
-        self.state = JointState {
-            position,
-            velocity,
-            acceleration,
-        };
+        self.state = JointState { position, velocity, acceleration };
         self.started = true;
         EstimationStatus::Ok
     }
@@ -212,11 +195,8 @@ mod tests {
         }
     }
 
-    const SETTINGS: EstimatorSettings<f64> = EstimatorSettings {
-        sample_period: 1e-3,
-        velocity_cutoff_hz: 50.0,
-        acceleration_cutoff_hz: 20.0,
-    };
+    const SETTINGS: EstimatorSettings<f64> =
+        EstimatorSettings { sample_period: 1e-3, velocity_cutoff_hz: 50.0, acceleration_cutoff_hz: 20.0 };
 
     #[test]
     fn counts_to_angle_through_gear_and_across_counter_wrap() {
@@ -262,18 +242,12 @@ mod tests {
 
     #[test]
     fn non_finite_configuration_and_sensor_readings_are_reported() {
-        let settings = EstimatorSettings {
-            sample_period: f64::NAN,
-            ..SETTINGS
-        };
+        let settings = EstimatorSettings { sample_period: f64::NAN, ..SETTINGS };
         let mut estimator = JointStateEstimator::new(&[drive()], &settings, [0.0], [0]);
         assert_eq!(estimator.update(&[10]), EstimationStatus::NonFinite);
         assert_eq!(estimator.state().position, [0.0]);
 
-        let calibration = ForceSensorCalibration {
-            scale: [2.0, 3.0],
-            offset: [0.5, -0.5],
-        };
+        let calibration = ForceSensorCalibration { scale: [2.0, 3.0], offset: [0.5, -0.5] };
         let (force, status) = calibration.force(&[1.5, 0.5]);
         assert_eq!(status, EstimationStatus::Ok);
         assert_eq!(force, [2.0, 3.0]);

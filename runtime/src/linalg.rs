@@ -6,6 +6,10 @@
 //! Nothing here allocates or panics: every index is a loop counter bounded by a const generic,
 //! and every solve reports singular, indefinite or non-finite input through [`SolveError`].
 
+// Index loops below follow the textbook algorithms (triangular sweeps over i, j, k);
+// iterator chains would hide the bounds that make them panic-free.
+#![allow(clippy::needless_range_loop)]
+
 use crate::Real;
 
 /// Why a solve was refused.
@@ -32,10 +36,7 @@ pub fn mat_vec<S: Real, const R: usize, const C: usize>(a: &[[S; C]; R], x: &[S;
 
 /// `Aᵀ y` for an `R × C` matrix, without forming the transpose (used for `Jᵀ a_f`).
 #[inline]
-pub fn transpose_mul_vec<S: Real, const R: usize, const C: usize>(
-    a: &[[S; C]; R],
-    y: &[S; R],
-) -> [S; C] {
+pub fn transpose_mul_vec<S: Real, const R: usize, const C: usize>(a: &[[S; C]; R], y: &[S; R]) -> [S; C] {
     let mut x = [S::ZERO; C];
     for (row, &weight) in a.iter().zip(y.iter()) {
         for (out, &entry) in x.iter_mut().zip(row.iter()) {
@@ -71,10 +72,7 @@ pub fn all_finite_matrix<S: Real, const R: usize, const C: usize>(a: &[[S; C]; R
 ///
 /// Only the lower triangle of `A` is read. Fails with [`SolveError::NotPositiveDefinite`] when
 /// a diagonal pivot is not strictly positive, and with [`SolveError::NonFinite`] on NaN/inf.
-pub fn cholesky_solve<S: Real, const N: usize>(
-    a: &[[S; N]; N],
-    b: &[S; N],
-) -> Result<[S; N], SolveError> {
+pub fn cholesky_solve<S: Real, const N: usize>(a: &[[S; N]; N], b: &[S; N]) -> Result<[S; N], SolveError> {
     if !all_finite_matrix(a) || !all_finite(b) {
         return Err(SolveError::NonFinite);
     }
@@ -182,22 +180,12 @@ impl<S: Real, const N: usize> LuFactors<S, N> {
                 }
             }
         }
-        Some(Self {
-            packed,
-            row_order,
-            odd_permutation,
-            smallest_pivot,
-            largest_pivot,
-        })
+        Some(Self { packed, row_order, odd_permutation, smallest_pivot, largest_pivot })
     }
 
     /// `det A`: the product of the pivots, signed by the permutation's parity.
     pub fn determinant(&self) -> S {
-        let mut det = if self.odd_permutation {
-            -S::ONE
-        } else {
-            S::ONE
-        };
+        let mut det = if self.odd_permutation { -S::ONE } else { S::ONE };
         for i in 0..N {
             det *= self.packed[i][i];
         }
@@ -299,16 +287,14 @@ pub fn lu_solve<S: Real, const N: usize>(
     b: &[S; N],
     min_pivot: S,
 ) -> Result<[S; N], SolveError> {
-    LuFactors::new(a)
-        .ok_or(SolveError::NonFinite)?
-        .solve(b, min_pivot)
+    LuFactors::new(a).ok_or(SolveError::NonFinite)?.solve(b, min_pivot)
 }
 
 /// `det A` by LU; NaN when `A` has a non-finite entry.
 pub fn determinant<S: Real, const N: usize>(a: &[[S; N]; N]) -> S {
     match LuFactors::new(a) {
         Some(factors) => factors.determinant(),
-        None => S::ZERO / S::ZERO,
+        None => S::from_f64(f64::NAN),
     }
 }
 
@@ -320,10 +306,7 @@ mod tests {
 
     fn residual<const N: usize>(a: &[[f64; N]; N], x: &[f64; N], b: &[f64; N]) -> f64 {
         let ax = mat_vec(a, x);
-        ax.iter()
-            .zip(b.iter())
-            .map(|(p, q)| (p - q).abs())
-            .fold(0.0, f64::max)
+        ax.iter().zip(b.iter()).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max)
     }
 
     #[test]
@@ -343,11 +326,7 @@ mod tests {
         let x = lu.solve(&b, 0.0).unwrap();
         assert!(residual(&a, &x, &b) < 1e-14);
         let xt = lu.solve_transposed(&b, 0.0).unwrap();
-        let at = [
-            [a[0][0], a[1][0], a[2][0]],
-            [a[0][1], a[1][1], a[2][1]],
-            [a[0][2], a[1][2], a[2][2]],
-        ];
+        let at = [[a[0][0], a[1][0], a[2][0]], [a[0][1], a[1][1], a[2][1]], [a[0][2], a[1][2], a[2][2]]];
         assert!(residual(&at, &xt, &b) < 1e-14);
         // det = 0*(1-0) - 2*(1-0) + 1*(0-3) = -5
         assert!((lu.determinant() + 5.0).abs() < 1e-14);
@@ -363,32 +342,17 @@ mod tests {
     #[test]
     fn singular_and_bad_input_are_refused() {
         let singular = [[1.0, 2.0], [2.0, 4.0]];
-        assert_eq!(
-            lu_solve(&singular, &[1.0, 1.0], 0.0),
-            Err(SolveError::Singular)
-        );
+        assert_eq!(lu_solve(&singular, &[1.0, 1.0], 0.0), Err(SolveError::Singular));
         let lu = LuFactors::new(&singular).unwrap();
         assert_eq!(lu.determinant(), 0.0);
         assert_eq!(lu.smallest_pivot(), 0.0);
         assert_eq!(lu.reciprocal_condition_estimate(), 0.0);
         let nearly = [[1.0, 2.0], [2.0, 4.0 + 1e-9]];
-        assert_eq!(
-            lu_solve(&nearly, &[1.0, 1.0], 1e-6),
-            Err(SolveError::Singular)
-        );
+        assert_eq!(lu_solve(&nearly, &[1.0, 1.0], 1e-6), Err(SolveError::Singular));
         assert!(lu_solve(&nearly, &[1.0, 1.0], 0.0).is_ok());
-        assert_eq!(
-            cholesky_solve(&singular, &[1.0, 1.0]),
-            Err(SolveError::NotPositiveDefinite)
-        );
-        assert_eq!(
-            cholesky_solve(&[[-1.0]], &[1.0]),
-            Err(SolveError::NotPositiveDefinite)
-        );
-        assert_eq!(
-            cholesky_solve(&A, &[f64::NAN, 0.0, 0.0]),
-            Err(SolveError::NonFinite)
-        );
+        assert_eq!(cholesky_solve(&singular, &[1.0, 1.0]), Err(SolveError::NotPositiveDefinite));
+        assert_eq!(cholesky_solve(&[[-1.0]], &[1.0]), Err(SolveError::NotPositiveDefinite));
+        assert_eq!(cholesky_solve(&A, &[f64::NAN, 0.0, 0.0]), Err(SolveError::NonFinite));
         assert!(LuFactors::new(&[[f64::INFINITY]]).is_none());
         assert!(determinant(&[[f64::NAN]]).is_nan());
     }

@@ -119,23 +119,5 @@ macro_rules! impl_real {
     };
 }
 
-impl_real!(
-    f32,
-    libm::sinf,
-    libm::cosf,
-    libm::sqrtf,
-    libm::fabsf,
-    libm::atan2f,
-    libm::roundf,
-    libm::floorf
-);
-impl_real!(
-    f64,
-    libm::sin,
-    libm::cos,
-    libm::sqrt,
-    libm::fabs,
-    libm::atan2,
-    libm::round,
-    libm::floor
-);
+impl_real!(f32, libm::sinf, libm::cosf, libm::sqrtf, libm::fabsf, libm::atan2f, libm::roundf, libm::floorf);
+impl_real!(f64, libm::sin, libm::cos, libm::sqrt, libm::fabs, libm::atan2, libm::round, libm::floor);

@@ -105,22 +105,12 @@ impl<S: Real, const V: usize> Shape<S, V> {
     pub fn closest_surface_point(&self, p: &Point<S>) -> Option<SurfacePoint<S>> {
         let result = match *self {
             Shape::Circle { center, radius } => circle(center, radius, p),
-            Shape::Rectangle {
-                center,
-                half_extents,
-                angle,
-            } => rectangle(center, half_extents, angle, p),
+            Shape::Rectangle { center, half_extents, angle } => rectangle(center, half_extents, angle, p),
             Shape::ConvexPolygon { vertices, count } => polygon(&vertices, count, p),
-            Shape::ContourFunction {
-                function,
-                slope,
-                x1_range,
-            } => contour_function(function, slope, x1_range, p),
-            Shape::ContourTable {
-                samples,
-                count,
-                x1_range,
-            } => contour_table(&samples, count, x1_range, p),
+            Shape::ContourFunction { function, slope, x1_range } => {
+                contour_function(function, slope, x1_range, p)
+            }
+            Shape::ContourTable { samples, count, x1_range } => contour_table(&samples, count, x1_range, p),
         }?;
         if result.point[0].is_finite() && result.point[1].is_finite() {
             Some(result)
@@ -139,7 +129,8 @@ fn norm_squared<S: Real>(a: &Point<S>) -> S {
 }
 
 fn circle<S: Real>(center: Point<S>, radius: S, p: &Point<S>) -> Option<SurfacePoint<S>> {
-    if !(radius > S::ZERO) {
+    let valid = radius > S::ZERO;
+    if !valid {
         return None;
     }
     let offset = sub(p, &center);
@@ -150,35 +141,21 @@ fn circle<S: Real>(center: Point<S>, radius: S, p: &Point<S>) -> Option<SurfaceP
         [S::ONE, S::ZERO] // At the centre every boundary point is closest; pick +x1.
     };
     Some(SurfacePoint {
-        point: [
-            center[0] + radius * direction[0],
-            center[1] + radius * direction[1],
-        ],
+        point: [center[0] + radius * direction[0], center[1] + radius * direction[1]],
         inside: distance < radius,
     })
 }
 
-fn rectangle<S: Real>(
-    center: Point<S>,
-    half: [S; 2],
-    angle: S,
-    p: &Point<S>,
-) -> Option<SurfacePoint<S>> {
+fn rectangle<S: Real>(center: Point<S>, half: [S; 2], angle: S, p: &Point<S>) -> Option<SurfacePoint<S>> {
     if !(half[0] > S::ZERO && half[1] > S::ZERO) {
         return None;
     }
     let (sin, cos) = (angle.sin(), angle.cos());
     let offset = sub(p, &center);
     // Into the rectangle's frame (rotate by −angle).
-    let local = [
-        cos * offset[0] + sin * offset[1],
-        -sin * offset[0] + cos * offset[1],
-    ];
+    let local = [cos * offset[0] + sin * offset[1], -sin * offset[0] + cos * offset[1]];
     let inside = local[0].abs() < half[0] && local[1].abs() < half[1];
-    let mut closest = [
-        local[0].clamp_to(-half[0], half[0]),
-        local[1].clamp_to(-half[1], half[1]),
-    ];
+    let mut closest = [local[0].clamp_to(-half[0], half[0]), local[1].clamp_to(-half[1], half[1])];
     if inside {
         // Push out through the nearest face.
         let gap_x = half[0] - local[0].abs();
@@ -245,7 +222,8 @@ fn contour_function<S: Real>(
     p: &Point<S>,
 ) -> Option<SurfacePoint<S>> {
     let [low, high] = range;
-    if !(low < high) || !(p[0] >= low && p[0] <= high) {
+    let in_range = low < high && p[0] >= low && p[0] <= high;
+    if !in_range {
         return None;
     }
     let distance_squared = |t: S| {
@@ -295,10 +273,7 @@ fn contour_function<S: Real>(
             }
         }
     }
-    Some(SurfacePoint {
-        point: [best_t, function(best_t)],
-        inside: p[1] < function(p[0]),
-    })
+    Some(SurfacePoint { point: [best_t, function(best_t)], inside: p[1] < function(p[0]) })
 }
 
 fn contour_table<S: Real, const V: usize>(
@@ -309,7 +284,8 @@ fn contour_table<S: Real, const V: usize>(
 ) -> Option<SurfacePoint<S>> {
     let count = count.min(V);
     let [low, high] = range;
-    if count < 2 || !(low < high) || !(p[0] >= low && p[0] <= high) {
+    let in_range = low < high && p[0] >= low && p[0] <= high;
+    if count < 2 || !in_range {
         return None;
     }
     let step = (high - low) / S::from_f64((count - 1) as f64);
@@ -328,10 +304,7 @@ fn contour_table<S: Real, const V: usize>(
             best = Some((distance, candidate));
         }
     }
-    best.map(|(_, point)| SurfacePoint {
-        point,
-        inside: p[1] < height_at_query,
-    })
+    best.map(|(_, point)| SurfacePoint { point, inside: p[1] < height_at_query })
 }
 
 /// One virtual object: shape, solid or cavity, and its impedance.
@@ -358,10 +331,7 @@ impl<S: Real> AntiDriftGrid<S> {
     /// A grid of the given spacing (m); a non-positive or non-finite spacing disables it
     /// (pure collocation: the IHIP follows the HIP).
     pub fn new(spacing: S) -> Self {
-        Self {
-            spacing,
-            node: None,
-        }
+        Self { spacing, node: None }
     }
 
     /// The current IHIP in free space.
@@ -476,11 +446,7 @@ impl<S: Real, const K: usize, const V: usize> Scene<S, K, V> {
             }
         }
         let contact = deepest.and_then(|(_, index, point)| {
-            self.objects
-                .get(index)
-                .copied()
-                .flatten()
-                .map(|object| (index, point, object))
+            self.objects.get(index).copied().flatten().map(|object| (index, point, object))
         });
         let output = match contact {
             Some((index, point, object)) => RenderOutput {

@@ -75,17 +75,9 @@ pub trait RigModel<const N: usize, const M: usize> {
     /// Inertia matrix `D(q)`.
     fn inertia_matrix(&self, q: &[Self::Scalar; N]) -> [[Self::Scalar; N]; N];
     /// Coriolis/centrifugal matrix `C(q, q̇)` from the Christoffel symbols of `D`.
-    fn coriolis_matrix(
-        &self,
-        q: &[Self::Scalar; N],
-        qd: &[Self::Scalar; N],
-    ) -> [[Self::Scalar; N]; N];
+    fn coriolis_matrix(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N]) -> [[Self::Scalar; N]; N];
     /// `C(q, q̇) q̇`.
-    fn coriolis_times_qdot(
-        &self,
-        q: &[Self::Scalar; N],
-        qd: &[Self::Scalar; N],
-    ) -> [Self::Scalar; N];
+    fn coriolis_times_qdot(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N]) -> [Self::Scalar; N];
     /// Gravity vector `g(q)`.
     fn gravity(&self, q: &[Self::Scalar; N]) -> [Self::Scalar; N];
     /// Diagonal of the viscous damping matrix `B`.
@@ -95,14 +87,9 @@ pub trait RigModel<const N: usize, const M: usize> {
     /// Task Jacobian `J(q)`.
     fn jacobian(&self, q: &[Self::Scalar; N]) -> [[Self::Scalar; N]; M];
     /// Time derivative of the Jacobian `J̇(q, q̇)`.
-    fn jacobian_dot(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N])
-        -> [[Self::Scalar; N]; M];
+    fn jacobian_dot(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N]) -> [[Self::Scalar; N]; M];
     /// `J̇(q, q̇) q̇`.
-    fn jacobian_dot_times_qdot(
-        &self,
-        q: &[Self::Scalar; N],
-        qd: &[Self::Scalar; N],
-    ) -> [Self::Scalar; M];
+    fn jacobian_dot_times_qdot(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N]) -> [Self::Scalar; M];
     /// All terms one control tick needs, sharing common subexpressions.
     fn terms(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N]) -> RigTerms<Self::Scalar, N, M>;
     /// The drive train of each joint.

@@ -74,34 +74,18 @@ impl<S: Real, const N: usize> SafetyMonitor<S, N> {
     pub fn new(drives: &[DriveTrain<S>; N], max_tick_gap: u32) -> Self {
         let mut torque_limit = [S::ZERO; N];
         let mut torque_per_amp = [S::ZERO; N];
-        for ((limit, per_amp), drive) in torque_limit
-            .iter_mut()
-            .zip(torque_per_amp.iter_mut())
-            .zip(drives.iter())
+        for ((limit, per_amp), drive) in
+            torque_limit.iter_mut().zip(torque_per_amp.iter_mut()).zip(drives.iter())
         {
             let k = drive.gear_ratio * drive.efficiency * drive.torque_constant;
             let from_current = k * drive.current_limit;
-            if k.is_finite()
-                && k > S::ZERO
-                && from_current.is_finite()
-                && drive.torque_limit.is_finite()
-            {
+            if k.is_finite() && k > S::ZERO && from_current.is_finite() && drive.torque_limit.is_finite() {
                 *per_amp = k;
                 let candidate = drive.torque_limit.min(from_current);
-                *limit = if candidate.is_finite() && candidate > S::ZERO {
-                    candidate
-                } else {
-                    S::ZERO
-                };
+                *limit = if candidate.is_finite() && candidate > S::ZERO { candidate } else { S::ZERO };
             }
         }
-        Self {
-            torque_limit,
-            torque_per_amp,
-            max_tick_gap,
-            last_tick: None,
-            fault: None,
-        }
+        Self { torque_limit, torque_per_amp, max_tick_gap, last_tick: None, fault: None }
     }
 
     /// The effective joint torque limits `min(torque_limit, N·η·k_t·current_limit)`.
@@ -165,17 +149,13 @@ impl<S: Real, const N: usize> SafetyMonitor<S, N> {
         if self.fault.is_some() {
             return command;
         }
-        for i in 0..N {
+        for (i, &requested) in torque.iter().enumerate() {
             let limit = self.torque_limit[i];
-            let requested = torque[i];
+            let per_amp = self.torque_per_amp[i];
             let limited = requested.clamp_to(-limit, limit);
             command.clamped[i] = limited != requested;
             command.torque[i] = limited;
-            command.current[i] = if self.torque_per_amp[i] > S::ZERO {
-                limited / self.torque_per_amp[i]
-            } else {
-                S::ZERO
-            };
+            command.current[i] = if per_amp > S::ZERO { limited / per_amp } else { S::ZERO };
         }
         command
     }

@@ -28,11 +28,7 @@ impl Scheduler {
         if slow_hz == 0 || slow_hz > fast_hz {
             return None;
         }
-        Some(Self {
-            fast_hz,
-            slow_hz,
-            accumulator: fast_hz - slow_hz,
-        })
+        Some(Self { fast_hz, slow_hz, accumulator: fast_hz - slow_hz })
     }
 
     /// Call once per fast tick; `true` when the slow loop is due on this tick.

@@ -12,13 +12,10 @@
 //! All state lives in [`HapticLoop`]; nothing allocates.
 
 use crate::control::{
-    ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference,
-    TaskSensing,
+    ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference, TaskSensing,
 };
 use crate::current_loop::{CurrentLoopBank, CurrentLoopGains, CurrentLoopOutput, CurrentLoopStatus};
-use crate::estimation::{
-    EstimationStatus, EstimatorSettings, ForceSensorCalibration, JointStateEstimator,
-};
+use crate::estimation::{EstimationStatus, EstimatorSettings, ForceSensorCalibration, JointStateEstimator};
 use crate::linalg;
 use crate::render::Scene;
 use crate::safety::{FaultCode, SafeCommand, SafetyMonitor};
@@ -121,11 +118,7 @@ where
 {
     /// Builds the loop; `None` if the rig's loop rates are unusable
     /// (`0 < IMPEDANCE_LOOP_HZ <= CURRENT_LOOP_HZ` is required).
-    pub fn new(
-        rig: R,
-        source: Source,
-        settings: &HapticLoopSettings<R::Scalar, N, M>,
-    ) -> Option<Self> {
+    pub fn new(rig: R, source: Source, settings: &HapticLoopSettings<R::Scalar, N, M>) -> Option<Self> {
         let drives = rig.drives();
         let mut supply = [R::Scalar::ZERO; N];
         for (slot, drive) in supply.iter_mut().zip(drives.iter()) {
@@ -194,22 +187,16 @@ where
             ImpedanceLaw::Controller2Accel => {
                 // Eq. (2): ẍ = J q̈ + J̇ q̇ with the filtered q̈.
                 let accel = linalg::mat_vec(&terms.jacobian, &state.acceleration);
-                for k in 0..M {
-                    sensed.acceleration[k] = accel[k] + terms.jacobian_dot_times_qdot[k];
+                for ((slot, &a), &bias) in
+                    sensed.acceleration.iter_mut().zip(accel.iter()).zip(terms.jacobian_dot_times_qdot.iter())
+                {
+                    *slot = a + bias;
                 }
             }
             ImpedanceLaw::Controller2Mobility | ImpedanceLaw::Controller3 => {}
         }
-        let reference = self
-            .source
-            .update_reference(&terms.position, &mut self.controller.parameters);
-        let output = self.controller.torque(
-            &self.rig,
-            &terms,
-            &state.velocity,
-            &reference,
-            &sensed,
-        );
+        let reference = self.source.update_reference(&terms.position, &mut self.controller.parameters);
+        let output = self.controller.torque(&self.rig, &terms, &state.velocity, &reference, &sensed);
         match output.status {
             ControlStatus::Ok | ControlStatus::SingularFallback => {}
             ControlStatus::NonFiniteInput => self.safety.latch(FaultCode::NonFiniteInput),
@@ -223,11 +210,7 @@ where
         if command.fault.is_some() {
             self.current_loops.reset();
         }
-        ImpedanceReport {
-            command,
-            control_status: output.status,
-            estimation_status,
-        }
+        ImpedanceReport { command, control_status: output.status, estimation_status }
     }
 
     /// One current-loop tick with the measured (filtered) motor currents. Returns the
@@ -240,16 +223,9 @@ where
     ) -> ([CurrentLoopOutput<R::Scalar>; N], bool) {
         let due = self.scheduler.tick();
         if self.safety.fault().is_some() {
-            let off = CurrentLoopOutput {
-                voltage: R::Scalar::ZERO,
-                status: CurrentLoopStatus::Ok,
-            };
+            let off = CurrentLoopOutput { voltage: R::Scalar::ZERO, status: CurrentLoopStatus::Ok };
             return ([off; N], due);
         }
-        (
-            self.current_loops
-                .step(&self.current_setpoints, measured_currents),
-            due,
-        )
+        (self.current_loops.step(&self.current_setpoints, measured_currents), due)
     }
 }

@@ -5,6 +5,9 @@
 //! - total energy conserved over 1 s of undamped, unforced motion (RK4 on the compiled code);
 //! - the compiled, emitted code equal to the numeric evaluator (f64 to 1e-12, f32 to 1e-5).
 
+// Matrix checks read best with explicit indices.
+#![allow(clippy::needless_range_loop)]
+
 use hapticgen_codegen::eval::{evaluate, Evaluated, State};
 use hapticgen_codegen::mechanics::{self, Mechanics};
 use hapticgen_codegen::model::{self, Model};

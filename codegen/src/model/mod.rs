@@ -113,6 +113,20 @@ pub fn load(source: &Source<'_>, variant: Option<&str>) -> Result<Model, Diagnos
     check_literals(&document, &mut Vec::new(), &locator)?;
     let base: ModelFile = typed(&document, &locator)?;
 
+    let mut known: Vec<&str> = base.variants.keys().map(String::as_str).collect();
+    known.sort_unstable();
+    let listing = if known.is_empty() {
+        "the model defines no variants".to_string()
+    } else {
+        format!("the model defines: {}", known.join(", "))
+    };
+    if !base.variants.is_empty() && base.default_variant.is_none() {
+        let d = locator.at_key(
+            &[Segment::Key("variants".into())],
+            "a model with variants must name one of them as `default_variant`",
+        );
+        return Err(d.with_hint(listing).into());
+    }
     let chosen = match variant {
         Some(v) => Some(v.to_string()),
         None => base.default_variant.clone(),
@@ -120,16 +134,16 @@ pub fn load(source: &Source<'_>, variant: Option<&str>) -> Result<Model, Diagnos
     let mut merged = document.clone();
     if let Some(name) = &chosen {
         let Some(spec) = base.variants.get(name) else {
-            let mut known: Vec<&str> = base.variants.keys().map(String::as_str).collect();
-            known.sort_unstable();
-            let path = if base.variants.is_empty() { vec![] } else { vec![Segment::Key("variants".into())] };
-            let listing = if known.is_empty() {
-                "the model defines no variants".to_string()
+            let d = if variant.is_none() {
+                // The model's own `default_variant` names no variant.
+                locator.at(&[Segment::Key("default_variant".into())], format!("unknown variant `{name}`"))
             } else {
-                format!("the model defines: {}", known.join(", "))
+                let path =
+                    if base.variants.is_empty() { vec![] } else { vec![Segment::Key("variants".into())] };
+                let mut d = locator.at_key(&path, format!("unknown variant `{name}`"));
+                d.path = String::new();
+                d
             };
-            let mut d = locator.at_key(&path, format!("unknown variant `{name}`"));
-            d.path = String::new();
             return Err(d.with_hint(listing).into());
         };
         if let serde_yaml::Value::Mapping(map) = &mut merged {
@@ -269,6 +283,30 @@ fn explain_serde_error(raw: &str) -> (String, Option<String>) {
     }
     if let Some(rest) = raw.strip_prefix("missing field ") {
         return (format!("missing key {rest}"), None);
+    }
+    // `unknown variant` is serde's word for a value outside a fixed set (`type: rotary`); in
+    // a model file "variant" means something else.
+    if let Some(rest) = raw.strip_prefix("unknown variant ") {
+        return match rest.find(", expected") {
+            Some(i) => (format!("unknown value {}", &rest[..i]), Some(rest[i + 2..].to_string())),
+            None => (format!("unknown value {rest}"), None),
+        };
+    }
+    // `invalid type: string "twelve", expected f64` → `expected a number, got string "twelve"`.
+    for prefix in ["invalid type: ", "invalid value: "] {
+        if let Some(rest) = raw.strip_prefix(prefix) {
+            if let Some(i) = rest.rfind(", expected ") {
+                let expected = match &rest[i + ", expected ".len()..] {
+                    "f64" => "a number",
+                    "u32" => "a whole number from 0 to 4294967295",
+                    "a sequence" => "a list",
+                    "a map" => "a mapping",
+                    other if other.starts_with("struct ") => "a mapping",
+                    other => other,
+                };
+                return (format!("expected {expected}, got {}", &rest[..i]), None);
+            }
+        }
     }
     (raw.to_string(), None)
 }

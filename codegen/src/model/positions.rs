@@ -80,9 +80,10 @@ impl PositionIndex {
     }
 }
 
+/// A collection being read; `unplaced` is its own path until its first entry is seen.
 enum Frame {
-    Mapping { pending_key: Option<(String, Position)> },
-    Sequence { next: usize },
+    Mapping { pending_key: Option<(String, Position)>, unplaced: Option<KeyPath> },
+    Sequence { next: usize, unplaced: Option<KeyPath> },
 }
 
 #[derive(Default)]
@@ -96,8 +97,17 @@ impl Builder {
     /// Called when a node (scalar or collection start) begins at `pos`. Returns `false` if
     /// this scalar was a mapping key.
     fn begin_node(&mut self, scalar_key: Option<&str>, pos: Position) -> bool {
+        // yaml-rust2 marks the start of a block collection late (a block mapping at its first
+        // key's `:`); the collection begins no later than its first entry.
+        if let Some(Frame::Mapping { unplaced, .. } | Frame::Sequence { unplaced, .. }) =
+            self.stack.last_mut()
+        {
+            if let Some(start) = unplaced.take().and_then(|path| self.index.values.get_mut(&path)) {
+                *start = (*start).min(pos);
+            }
+        }
         match self.stack.last_mut() {
-            Some(Frame::Mapping { pending_key }) => {
+            Some(Frame::Mapping { pending_key, .. }) => {
                 if pending_key.is_none() {
                     // This node is a key.
                     let key = scalar_key.unwrap_or("<complex key>").to_string();
@@ -108,7 +118,7 @@ impl Builder {
                 self.path.push(Segment::Key(key));
                 self.index.keys.insert(self.path.clone(), key_pos);
             }
-            Some(Frame::Sequence { next }) => {
+            Some(Frame::Sequence { next, .. }) => {
                 let i = *next;
                 *next += 1;
                 self.path.push(Segment::Index(i));
@@ -138,14 +148,14 @@ impl MarkedEventReceiver for Builder {
                     // A complex (mapping) key: index nothing inside it.
                     self.path.push(Segment::Key("<complex key>".into()));
                 }
-                self.stack.push(Frame::Mapping { pending_key: None });
+                self.stack.push(Frame::Mapping { pending_key: None, unplaced: Some(self.path.clone()) });
             }
             Event::SequenceStart(..) => {
                 let is_value = self.begin_node(None, pos);
                 if !is_value {
                     self.path.push(Segment::Key("<complex key>".into()));
                 }
-                self.stack.push(Frame::Sequence { next: 0 });
+                self.stack.push(Frame::Sequence { next: 0, unplaced: Some(self.path.clone()) });
             }
             Event::MappingEnd | Event::SequenceEnd => {
                 self.stack.pop();

@@ -393,6 +393,7 @@ pub(crate) fn resolve(
 
     // Joints.
     let mut joint_index: HashMap<String, usize> = HashMap::new();
+    let mut duplicate_joints = Vec::new();
     let mut joints = Vec::new();
     if file.joints.is_empty() {
         r.error(&[key("joints")], "a model needs at least one joint");
@@ -411,8 +412,15 @@ pub(crate) fn resolve(
                 "use snake_case letters, digits and underscores, starting with a letter ",
             );
         }
-        if joint_index.insert(j.name.clone(), i).is_some() {
-            r.error(&at("name"), format!("joint `{}` is defined twice", j.name));
+        if let Some(first) = joint_index.get(&j.name) {
+            duplicate_joints.push(i);
+            r.error_hint(
+                &at("name"),
+                format!("joint `{}` is defined twice", j.name),
+                format!("the first definition is `joints[{first}]`"),
+            );
+        } else {
+            joint_index.insert(j.name.clone(), i);
         }
         if j.limits.lower >= j.limits.upper || j.limits.lower.is_nan() || j.limits.upper.is_nan() {
             r.error(
@@ -742,7 +750,7 @@ pub(crate) fn resolve(
         }));
     }
     for (j, used) in joint_used.iter().enumerate() {
-        if !used && j < file.joints.len() {
+        if !used && j < file.joints.len() && !duplicate_joints.contains(&j) {
             r.error_hint(
                 &[key("joints"), Segment::Index(j), key("name")],
                 format!("joint `{}` moves no body", file.joints[j].name),

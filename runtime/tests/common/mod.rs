@@ -1,6 +1,6 @@
 //! Hand-derived test rigs of `shared/spec/rigs.md`, written independently of the generator:
 //! the 1-DOF joystick (inverted pendulum, x = q) and the vertical 2-DOF parallelogram.
-#![allow(dead_code)]
+#![allow(dead_code, clippy::needless_range_loop)]
 
 use hapticgen_runtime::{DriveTrain, RigModel, RigTerms};
 
@@ -101,14 +101,18 @@ impl Parallelogram {
     fn d11() -> f64 {
         let (m1, m3, m4) = (TUBE_MASS, TUBE_MASS, Self::TOP_MASS);
         let l = Self::LINK_LENGTH;
-        m1 * (l / 2.0).powi(2) + m3 * (l / 2.0).powi(2) + m4 * l * l
+        m1 * (l / 2.0).powi(2)
+            + m3 * (l / 2.0).powi(2)
+            + m4 * l * l
             + 2.0 * TUBE_MASS * l * l / 12.0
             + GEAR * GEAR * ROTOR_INERTIA
     }
     fn d22() -> f64 {
         let (m2, m3, m4) = (Self::BOTTOM_MASS, TUBE_MASS, Self::TOP_MASS);
         let l = Self::LINK_LENGTH;
-        m2 * (l / 2.0).powi(2) + m3 * l * l + m4 * Self::TOP_COM.powi(2)
+        m2 * (l / 2.0).powi(2)
+            + m3 * l * l
+            + m4 * Self::TOP_COM.powi(2)
             + m2 * l * l / 12.0
             + m4 * Self::TOP_LENGTH.powi(2) / 12.0
             + GEAR * GEAR * ROTOR_INERTIA
@@ -152,17 +156,11 @@ impl RigModel<2, 2> for Parallelogram {
     }
     fn jacobian(&self, q: &[f64; 2]) -> [[f64; 2]; 2] {
         let (l, e) = (Self::LINK_LENGTH, Self::EXTENSION);
-        [
-            [-l * q[0].sin(), e * q[1].sin()],
-            [l * q[0].cos(), -e * q[1].cos()],
-        ]
+        [[-l * q[0].sin(), e * q[1].sin()], [l * q[0].cos(), -e * q[1].cos()]]
     }
     fn jacobian_dot(&self, q: &[f64; 2], qd: &[f64; 2]) -> [[f64; 2]; 2] {
         let (l, e) = (Self::LINK_LENGTH, Self::EXTENSION);
-        [
-            [-l * q[0].cos() * qd[0], e * q[1].cos() * qd[1]],
-            [-l * q[0].sin() * qd[0], e * q[1].sin() * qd[1]],
-        ]
+        [[-l * q[0].cos() * qd[0], e * q[1].cos() * qd[1]], [-l * q[0].sin() * qd[0], e * q[1].sin() * qd[1]]]
     }
     fn jacobian_dot_times_qdot(&self, q: &[f64; 2], qd: &[f64; 2]) -> [f64; 2] {
         let (l, e) = (Self::LINK_LENGTH, Self::EXTENSION);
@@ -206,10 +204,7 @@ pub fn forward_dynamics<R: RigModel<N, M, Scalar = f64>, const N: usize, const M
     let damping = rig.damping();
     let mut rhs = [0.0; N];
     for i in 0..N {
-        rhs[i] = torque[i]
-            - terms.coriolis_times_qdot[i]
-            - damping[i] * qd[i]
-            - terms.gravity[i];
+        rhs[i] = torque[i] - terms.coriolis_times_qdot[i] - damping[i] * qd[i] - terms.gravity[i];
         for k in 0..M {
             rhs[i] -= terms.jacobian[k][i] * operator_force[k];
         }
@@ -220,9 +215,7 @@ pub fn forward_dynamics<R: RigModel<N, M, Scalar = f64>, const N: usize, const M
 /// Plain Gaussian elimination with partial pivoting (independent of the runtime's linalg).
 pub fn solve<const N: usize>(mut a: [[f64; N]; N], mut b: [f64; N]) -> [f64; N] {
     for col in 0..N {
-        let pivot = (col..N)
-            .max_by(|&i, &j| a[i][col].abs().partial_cmp(&a[j][col].abs()).unwrap())
-            .unwrap();
+        let pivot = (col..N).max_by(|&i, &j| a[i][col].abs().partial_cmp(&a[j][col].abs()).unwrap()).unwrap();
         a.swap(col, pivot);
         b.swap(col, pivot);
         for row in col + 1..N {

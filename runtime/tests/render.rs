@@ -1,0 +1,225 @@
+//! Haptic rendering (paper, section 4): proxies on the surface at the true closest point,
+//! tracing a circle and a square from the inside, and the anti-drift grid.
+
+// Index loops mirror the equations component by component.
+#![allow(clippy::needless_range_loop)]
+
+mod common;
+
+use common::{forward_dynamics, Parallelogram};
+use hapticgen_runtime::control::{
+    ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskSensing,
+};
+use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
+use hapticgen_runtime::RigModel;
+use rand::rngs::SmallRng;
+use rand::{Rng, SeedableRng};
+
+fn distance(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+fn segment_closest(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> [f64; 2] {
+    let e = [b[0] - a[0], b[1] - a[1]];
+    let t = (((p[0] - a[0]) * e[0] + (p[1] - a[1]) * e[1]) / (e[0] * e[0] + e[1] * e[1])).clamp(0.0, 1.0);
+    [a[0] + t * e[0], a[1] + t * e[1]]
+}
+
+fn polyline_closest(points: &[[f64; 2]], closed: bool, p: [f64; 2]) -> [f64; 2] {
+    let n = points.len();
+    let edges = if closed { n } else { n - 1 };
+    (0..edges)
+        .map(|i| segment_closest(points[i], points[(i + 1) % n], p))
+        .min_by(|a, b| distance(*a, p).partial_cmp(&distance(*b, p)).unwrap())
+        .unwrap()
+}
+
+fn scene_with(shape: Shape<f64, 8>) -> Scene<f64, 2, 8> {
+    let mut scene = Scene::new(200.0, 2.0, 0.3e-3);
+    scene.add(VirtualObject { shape, kind: ObjectKind::Solid, stiffness: 1500.0, damping: 5.0 });
+    scene
+}
+
+fn wavy(x: f64) -> f64 {
+    0.01 * (30.0 * x).sin() + 0.5 * x * x
+}
+fn wavy_slope(x: f64) -> f64 {
+    0.3 * (30.0 * x).cos() + x
+}
+fn wavy_curvature(x: f64) -> f64 {
+    -9.0 * (30.0 * x).sin() + 1.0
+}
+
+/// The true closest point on the graph of `wavy`: dense sampling, then Newton on eq. (16)'s
+/// gradient with the exact second derivative.
+fn wavy_closest(p: [f64; 2], range: [f64; 2]) -> [f64; 2] {
+    let n = 200_000;
+    let mut best = range[0];
+    for i in 0..=n {
+        let t = range[0] + (range[1] - range[0]) * i as f64 / n as f64;
+        if distance([t, wavy(t)], p) < distance([best, wavy(best)], p) {
+            best = t;
+        }
+    }
+    for _ in 0..50 {
+        let g = (best - p[0]) + (wavy(best) - p[1]) * wavy_slope(best);
+        let dg = 1.0 + wavy_slope(best).powi(2) + (wavy(best) - p[1]) * wavy_curvature(best);
+        best = (best - g / dg).clamp(range[0], range[1]);
+    }
+    [best, wavy(best)]
+}
+
+#[test]
+fn proxy_pushed_into_each_primitive_sits_at_the_true_closest_point() {
+    let mut rng = SmallRng::seed_from_u64(7);
+    let (angle, half, center) = (0.4f64, [0.03, 0.015], [0.02, 0.1]);
+    let (s, c) = angle.sin_cos();
+    let corners: Vec<[f64; 2]> = [[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]]
+        .iter()
+        .map(|[a, b]| {
+            let (x, y) = (a * half[0], b * half[1]);
+            [center[0] + c * x - s * y, center[1] + s * x + c * y]
+        })
+        .collect();
+    let hexagon: Vec<[f64; 2]> = (0..6)
+        .map(|i| {
+            let t = i as f64 * std::f64::consts::PI / 3.0 + 0.1;
+            [0.05 + 0.04 * t.cos(), 0.08 + 0.03 * t.sin()]
+        })
+        .collect();
+    let mut hexagon_vertices = [[0.0; 2]; 8];
+    hexagon_vertices[..6].copy_from_slice(&hexagon);
+    let table_x: Vec<f64> = (0..8).map(|i| -0.1 + 0.2 * i as f64 / 7.0).collect();
+    let mut table = [0.0; 8];
+    for (slot, &x) in table.iter_mut().zip(&table_x) {
+        *slot = wavy(x);
+    }
+    let table_points: Vec<[f64; 2]> = table_x.iter().zip(table).map(|(&x, y)| [x, y]).collect();
+
+    let mut worst = [0.0f64; 5];
+    for trial in 0..200 {
+        // Circle.
+        let (cc, r) = ([0.1, 0.05], 0.04);
+        let p = [cc[0] + rng.gen_range(-0.028..0.028), cc[1] + rng.gen_range(-0.028..0.028)];
+        let out = scene_with(Shape::Circle { center: cc, radius: r }).render(&p);
+        assert_eq!(out.contact, Some(0));
+        let d = distance(p, cc);
+        let truth = [cc[0] + r * (p[0] - cc[0]) / d, cc[1] + r * (p[1] - cc[1]) / d];
+        worst[0] = worst[0].max(distance(out.proxy, truth));
+        // Rotated rectangle.
+        let local = [rng.gen_range(-0.029..0.029), rng.gen_range(-0.014..0.014)];
+        let p = [center[0] + c * local[0] - s * local[1], center[1] + s * local[0] + c * local[1]];
+        let out = scene_with(Shape::Rectangle { center, half_extents: half, angle }).render(&p);
+        assert_eq!(out.contact, Some(0));
+        worst[1] = worst[1].max(distance(out.proxy, polyline_closest(&corners, true, p)));
+        // Convex polygon.
+        let p = [0.05 + rng.gen_range(-0.02..0.02), 0.08 + rng.gen_range(-0.015..0.015)];
+        let out = scene_with(Shape::ConvexPolygon { vertices: hexagon_vertices, count: 6 }).render(&p);
+        assert_eq!(out.contact, Some(0), "trial {trial}");
+        worst[2] = worst[2].max(distance(out.proxy, polyline_closest(&hexagon, true, p)));
+        // Contour function (solid: region below the curve).
+        let range = [-0.1, 0.1];
+        let x = rng.gen_range(-0.09..0.09);
+        let p = [x, wavy(x) - rng.gen_range(0.0005..0.01)];
+        let out = scene_with(Shape::ContourFunction { function: wavy, slope: wavy_slope, x1_range: range })
+            .render(&p);
+        assert_eq!(out.contact, Some(0));
+        worst[3] = worst[3].max(distance(out.proxy, wavy_closest(p, range)));
+        // Sampled contour table.
+        let p = [x, wavy(x) - rng.gen_range(0.0005..0.01)];
+        let out =
+            scene_with(Shape::ContourTable { samples: table, count: 8, x1_range: [-0.1, 0.1] }).render(&p);
+        if out.contact == Some(0) {
+            worst[4] = worst[4].max(distance(out.proxy, polyline_closest(&table_points, false, p)));
+        }
+    }
+    println!(
+        "worst distance to the true closest point [circle, rectangle, polygon, contour fn, table]: {worst:?}"
+    );
+    for w in worst {
+        assert!(w < 1e-9, "{worst:?}");
+    }
+}
+
+#[test]
+fn sliding_along_circle_and_square_from_inside_traces_the_contour() {
+    // Fig. 7: cavities, HIP pushed 2 mm beyond the wall while going round.
+    let mut circle: Scene<f64, 1, 4> = Scene::new(0.0, 0.0, 0.3e-3);
+    circle.add(VirtualObject {
+        shape: Shape::Circle { center: [0.1, 0.0], radius: 0.04 },
+        kind: ObjectKind::Cavity,
+        stiffness: 1500.0,
+        damping: 5.0,
+    });
+    let mut square: Scene<f64, 1, 4> = Scene::new(0.0, 0.0, 0.3e-3);
+    square.add(VirtualObject {
+        shape: Shape::Rectangle { center: [0.1, 0.0], half_extents: [0.03, 0.03], angle: 0.0 },
+        kind: ObjectKind::Cavity,
+        stiffness: 1500.0,
+        damping: 5.0,
+    });
+    for i in 0..720 {
+        let t = i as f64 * std::f64::consts::PI / 360.0;
+        let hip = [0.1 + 0.042 * t.cos(), 0.042 * t.sin()];
+        let out = circle.render(&hip);
+        assert_eq!(out.contact, Some(0));
+        assert_eq!(out.stiffness, [1500.0; 2]);
+        assert!((distance(out.proxy, [0.1, 0.0]) - 0.04).abs() < 1e-12);
+        assert!((out.proxy[1].atan2(out.proxy[0] - 0.1) - hip[1].atan2(hip[0] - 0.1)).abs() < 1e-9);
+        // Square: HIP on a square 2 mm outside the wall, corners included.
+        let side = (i / 180) as f64;
+        let u = (i % 180) as f64 / 180.0 * 0.064 - 0.032;
+        let local = match side as u32 {
+            0 => [0.032, u],
+            1 => [-u, 0.032],
+            2 => [-0.032, -u],
+            _ => [u, -0.032],
+        };
+        let out = square.render(&[0.1 + local[0], local[1]]);
+        assert_eq!(out.contact, Some(0));
+        let proxy = [out.proxy[0] - 0.1, out.proxy[1]];
+        let on_wall = (proxy[0].abs() - 0.03).abs() < 1e-12 || (proxy[1].abs() - 0.03).abs() < 1e-12;
+        assert!(on_wall && proxy[0].abs() <= 0.03 + 1e-12 && proxy[1].abs() <= 0.03 + 1e-12);
+        assert!((proxy[0] - local[0].clamp(-0.03, 0.03)).abs() < 1e-12);
+        assert!((proxy[1] - local[1].clamp(-0.03, 0.03)).abs() < 1e-12);
+    }
+    // Back inside: free space.
+    assert_eq!(circle.render(&[0.1, 0.0]).contact, None);
+}
+
+#[test]
+fn with_the_grid_and_no_operator_force_the_ihip_never_moves() {
+    // Closed loop on the vertical 2-DOF rig, Controller 3, free space only, f_l = 0, the HIP
+    // starting about 0.1 mm from its grid node and moving (q̇1 = 0.01 rad/s): 5 s at 1 kHz
+    // (plant integrated at 10 kHz).
+    let rig = Parallelogram;
+    let mut scene: Scene<f64, 1, 4> = Scene::new(300.0, 3.0, 0.3e-3);
+    let mut controller = ImpedanceController {
+        law: ImpedanceLaw::Controller3,
+        parameters: ImpedanceParameters { stiffness: [0.0; 2], damping: [0.0; 2], mass: [0.0; 2] },
+        options: ControlOptions { omit_damping_compensation: true, min_abs_jacobian_determinant: 1e-4 },
+    };
+    let mut q = [1.6, -0.4];
+    let mut qd = [0.0, 0.0];
+    let start = rig.position(&q);
+    let node = scene.render(&start).proxy;
+    let mut moved = false;
+    qd[0] = 0.01;
+    for _ in 0..5000 {
+        let terms = rig.terms(&q, &qd);
+        let reference = scene.update_reference(&terms.position, &mut controller.parameters);
+        moved |= reference.position != node;
+        let torque = controller.torque(&rig, &terms, &qd, &reference, &TaskSensing::default()).torque;
+        for _ in 0..10 {
+            let qdd = forward_dynamics(&rig, &q, &qd, &torque, &[0.0, 0.0]);
+            for i in 0..2 {
+                qd[i] += 1e-4 * qdd[i];
+                q[i] += 1e-4 * qd[i];
+            }
+        }
+    }
+    let end = rig.position(&q);
+    println!("start {:?} node {:?} end {:?}, |end − node| = {:.3e} m", start, node, end, distance(end, node));
+    assert!(!moved, "the IHIP moved");
+    assert!(distance(end, node) < 1e-5);
+}
