@@ -97,19 +97,37 @@ pub fn load_file(path: &Path, display: &str, variant: Option<&str>) -> Result<Mo
 
 /// Parses, applies the variant (the named one, else the model's default) and validates.
 pub fn load(source: &Source<'_>, variant: Option<&str>) -> Result<Model, Diagnostics> {
+    let index = PositionIndex::build(source.text);
     let document: serde_yaml::Value = serde_yaml::from_str(source.text).map_err(|e| {
+        let message = strip_location(&e.to_string());
+        // serde_yaml reports a repeated key at the mapping, with the path inside the message.
+        if let (true, Some((path, (line, column)))) =
+            (message.contains("duplicate entry with key"), index.duplicate_key())
+        {
+            let key = match path.last() {
+                Some(Segment::Key(k)) => k.as_str(),
+                _ => "",
+            };
+            return Diagnostic {
+                file: source.name.to_string(),
+                line,
+                column,
+                path: display_path(path),
+                message: format!("duplicate key `{key}`"),
+                hint: Some("a key may appear only once in a mapping".into()),
+            };
+        }
         let (line, column) = e.location().map(|l| (l.line(), l.column())).unwrap_or((1, 1));
         Diagnostic {
             file: source.name.to_string(),
             line,
             column,
             path: String::new(),
-            message: format!("invalid YAML: {}", strip_location(&e.to_string())),
+            message: format!("invalid YAML: {message}"),
             hint: None,
         }
     })?;
-    let mut locator =
-        Locator { file: source.name, index: PositionIndex::build(source.text), overrides: Vec::new() };
+    let mut locator = Locator { file: source.name, index, overrides: Vec::new() };
     check_literals(&document, &mut Vec::new(), &locator)?;
     let base: ModelFile = typed(&document, &locator)?;
 
@@ -304,7 +322,13 @@ fn explain_serde_error(raw: &str) -> (String, Option<String>) {
                     other if other.starts_with("struct ") => "a mapping",
                     other => other,
                 };
-                return (format!("expected {expected}, got {}", &rest[..i]), None);
+                let got = match &rest[..i] {
+                    "unit value" => "an empty value",
+                    "map" => "a mapping",
+                    "sequence" => "a list",
+                    other => other,
+                };
+                return (format!("expected {expected}, got {got}"), None);
             }
         }
     }

@@ -45,6 +45,8 @@ pub type Position = (usize, usize);
 pub struct PositionIndex {
     values: HashMap<KeyPath, Position>,
     keys: HashMap<KeyPath, Position>,
+    /// The first key that repeats a key of the same mapping, and where the repetition is.
+    duplicate: Option<(KeyPath, Position)>,
 }
 
 impl PositionIndex {
@@ -72,6 +74,11 @@ impl PositionIndex {
     /// The position of the key that introduces `path` (falls back to the value).
     pub fn key(&self, path: &[Segment]) -> Position {
         self.keys.get(path).copied().unwrap_or_else(|| self.value(path))
+    }
+
+    /// The first repeated key of a mapping (its path and the position of the repetition).
+    pub fn duplicate_key(&self) -> Option<(&[Segment], Position)> {
+        self.duplicate.as_ref().map(|(path, pos)| (path.as_slice(), *pos))
     }
 
     /// `true` if the path is indexed.
@@ -116,7 +123,11 @@ impl Builder {
                 }
                 let (key, key_pos) = pending_key.take().unwrap_or_default();
                 self.path.push(Segment::Key(key));
-                self.index.keys.insert(self.path.clone(), key_pos);
+                if self.index.keys.insert(self.path.clone(), key_pos).is_some()
+                    && self.index.duplicate.is_none()
+                {
+                    self.index.duplicate = Some((self.path.clone(), key_pos));
+                }
             }
             Some(Frame::Sequence { next, .. }) => {
                 let i = *next;

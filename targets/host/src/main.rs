@@ -87,7 +87,7 @@ enum Command {
     Schema,
 }
 
-fn load(model_path: &PathBuf, variant: Option<&str>) -> Result<model::Model, String> {
+fn load(model_path: &std::path::Path, variant: Option<&str>) -> Result<model::Model, String> {
     model::load_file(model_path, &model_path.display().to_string(), variant).map_err(|d| d.to_string())
 }
 
