@@ -85,6 +85,8 @@ pub struct FunctionSpec<'a> {
 /// Names of inputs and how the generated code reads them.
 struct Naming<'m> {
     model: &'m Model,
+    /// Inputs of fused control laws: binding name and how to read the value.
+    externals: Vec<(String, TokenStream)>,
 }
 
 impl Naming<'_> {
@@ -100,6 +102,11 @@ impl Naming<'_> {
             },
             Atom::Qd(j) => format!("{}_dot", joint(j)),
             Atom::Param(k) => self.model.tunable[usize::from(k)].name.clone(),
+            Atom::External(k) => self
+                .externals
+                .get(usize::from(k))
+                .map(|e| e.0.clone())
+                .unwrap_or_else(|| format!("input_{k}")),
         }
     }
 }
@@ -109,6 +116,8 @@ struct BodyEmitter<'m> {
     dag: Dag,
     naming: Naming<'m>,
     scalar: Scalar,
+    /// Names for nodes with a known role (e.g. `jacobian_determinant`).
+    hints: HashMap<NodeId, String>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -121,7 +130,12 @@ enum Precedence {
 
 impl<'m> BodyEmitter<'m> {
     fn new(model: &'m Model, scalar: Scalar) -> Self {
-        Self { dag: Dag::new(), naming: Naming { model }, scalar }
+        Self {
+            dag: Dag::new(),
+            naming: Naming { model, externals: Vec::new() },
+            scalar,
+            hints: HashMap::new(),
+        }
     }
 
     /// A descriptive name for a node, if a short one exists.
@@ -156,6 +170,7 @@ impl<'m> BodyEmitter<'m> {
             Node::Add(a, b) => format!("{}_plus_{}", name_of(a)?, name_of(b)?),
             Node::Sub(a, b) => format!("{}_minus_{}", name_of(a)?, name_of(b)?),
             Node::Neg(a) => format!("minus_{}", name_of(a)?),
+            Node::Div(a, b) => format!("{}_over_{}", name_of(a)?, name_of(b)?),
             _ => return None,
         };
         (name.len() <= 32).then_some(name)
@@ -202,7 +217,7 @@ impl<'m> BodyEmitter<'m> {
         let mut uses: HashMap<NodeId, usize> = HashMap::new();
         for &id in &order {
             match self.dag.nodes()[id] {
-                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => {
+                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => {
                     *uses.entry(a).or_default() += 1;
                     *uses.entry(b).or_default() += 1;
                 }
@@ -236,10 +251,12 @@ impl<'m> BodyEmitter<'m> {
             }
             let base = match node {
                 Node::Input(a) => self.naming.atom_name(a),
-                _ => self.describe(id, &names).unwrap_or_else(|| {
-                    part += 1;
-                    format!("{context}_part{part}")
-                }),
+                _ => {
+                    self.hints.get(&id).cloned().or_else(|| self.describe(id, &names)).unwrap_or_else(|| {
+                        part += 1;
+                        format!("{context}_part{part}")
+                    })
+                }
             };
             let count = taken.entry(base.clone()).or_default();
             *count += 1;
@@ -262,6 +279,9 @@ impl<'m> BodyEmitter<'m> {
                     let j = unsuffixed(usize::from(j));
                     quote!(qd[#j])
                 }
+                Node::Input(Atom::External(k)) => {
+                    self.naming.externals.get(usize::from(k)).map(|e| e.1.clone()).unwrap_or_default()
+                }
                 _ => self.expression(id, &names, true).0,
             };
             statements.extend(quote!(let #ident = #value;));
@@ -269,6 +289,36 @@ impl<'m> BodyEmitter<'m> {
         }
         let outputs = roots.iter().map(|&r| self.expression(r, &names, false).0).collect();
         (statements, outputs, self.dag.count(roots))
+    }
+
+    /// For an unnamed `(−c)·y` with a constant `c > 0`, the tokens of `c·y`.
+    fn negated_product(&self, id: NodeId, names: &HashMap<NodeId, String>) -> Option<TokenStream> {
+        if names.contains_key(&id) {
+            return None;
+        }
+        let Node::Mul(a, b) = self.dag.nodes()[id] else { return None };
+        // `((−c)·x)·y` reads as `c·x·y` too.
+        for (inner, other) in [(a, b), (b, a)] {
+            if self.dag.constant_value(other).is_none() {
+                if let Some(p) = self.negated_product(inner, names) {
+                    let (y, prec) = self.expression(other, names, false);
+                    let y = if prec < Precedence::Unary { quote!((#y)) } else { y };
+                    return Some(quote!(#p * #y));
+                }
+            }
+        }
+        let (k, other) = match (self.dag.constant_value(a), self.dag.constant_value(b)) {
+            (Some(k), None) => (k, b),
+            (None, Some(k)) => (k, a),
+            _ => return None,
+        };
+        if k >= 0.0 {
+            return None;
+        }
+        let c = self.scalar.literal(-k);
+        let (y, p) = self.expression(other, names, false);
+        let y = if p < Precedence::Unary { quote!((#y)) } else { y };
+        Some(quote!(#c * #y))
     }
 
     fn expression(
@@ -304,6 +354,15 @@ impl<'m> BodyEmitter<'m> {
                 (quote!(#ident), Precedence::Atomic)
             }
             Node::Add(a, b) => {
+                // `x + (−c)·y` reads as `x − c·y`.
+                if let Some(y) = self.negated_product(b, names) {
+                    let x = wrap(self.expression(a, names, false), Precedence::Sum);
+                    return (quote!(#x - #y), Precedence::Sum);
+                }
+                if let Some(x) = self.negated_product(a, names) {
+                    let y = wrap(self.expression(b, names, false), Precedence::Sum);
+                    return (quote!(#y - #x), Precedence::Sum);
+                }
                 let x = wrap(self.expression(a, names, false), Precedence::Sum);
                 let y = wrap(self.expression(b, names, false), Precedence::Sum);
                 (quote!(#x + #y), Precedence::Sum)
@@ -323,6 +382,11 @@ impl<'m> BodyEmitter<'m> {
             Node::Neg(a) => {
                 let x = wrap(self.expression(a, names, false), Precedence::Atomic);
                 (quote!(-#x), Precedence::Unary)
+            }
+            Node::Div(a, b) => {
+                let x = wrap(self.expression(a, names, false), Precedence::Product);
+                let y = wrap(self.expression(b, names, false), Precedence::Atomic);
+                (quote!(#x / #y), Precedence::Product)
             }
         }
     }
@@ -618,6 +682,7 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
     let (terms, tick) = terms_function(model, mech, scalar);
     stats.functions.push(("terms".into(), tick));
     methods.extend(terms);
+    let fused = fused_impl(model, mech, scalar, &mut stats);
 
     // Damping depends on tunable parameters at most.
     let mut damping_body = BodyEmitter::new(model, scalar);
@@ -785,6 +850,117 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
                 Self::DRIVES
             }
         }
+
+        #fused
     };
     (tokens, stats)
+}
+
+/// Emits the `FusedImpedance` implementation: one straight-line function per law.
+fn fused_impl(model: &Model, mech: &Mechanics, scalar: Scalar, stats: &mut Stats) -> TokenStream {
+    use crate::fused::{build, External, Law};
+    let s = scalar.tokens();
+    let (n_usize, m_usize) = (mech.joints, mech.task_dim);
+    let n = unsuffixed(n_usize);
+    let m = unsuffixed(m_usize);
+    let type_name = Ident::new(&rig_type_name(model), Span::call_site());
+    let reference_ty = quote!(::hapticgen_runtime::control::TaskReference<#s, #m>);
+    let parameters_ty = quote!(::hapticgen_runtime::control::ImpedanceParameters<#s, #m>);
+    let fused_ty = quote!(::hapticgen_runtime::fused::FusedTorque<#s, #n>);
+    let laws = [
+        (Law::Controller3, "controller3_torque", None),
+        (Law::Controller1, "controller1_torque", Some("operator_force")),
+        (Law::Controller2Accel, "controller2_accel_torque", Some("task_acceleration")),
+        (Law::Controller2Mobility, "controller2_mobility_torque", None),
+    ];
+    let mut methods = TokenStream::new();
+    for (law, name, sensed) in laws {
+        let mut body = BodyEmitter::new(model, scalar);
+        for kind in External::ALL {
+            for k in 0..m_usize {
+                let kk = unsuffixed(k);
+                let (binding, access) = match kind {
+                    External::ReferencePosition => {
+                        (format!("reference_position_{k}"), quote!(reference.position[#kk]))
+                    }
+                    External::ReferenceVelocity => {
+                        (format!("reference_velocity_{k}"), quote!(reference.velocity[#kk]))
+                    }
+                    External::ReferenceAcceleration => {
+                        (format!("reference_acceleration_{k}"), quote!(reference.acceleration[#kk]))
+                    }
+                    External::Stiffness => (format!("stiffness_{k}"), quote!(parameters.stiffness[#kk])),
+                    External::Damping => (format!("desired_damping_{k}"), quote!(parameters.damping[#kk])),
+                    External::Mass => (format!("desired_mass_{k}"), quote!(parameters.mass[#kk])),
+                    External::Sensed => {
+                        let field = format_ident!("{}", sensed.unwrap_or("sensed"));
+                        (format!("{}_{k}", sensed.unwrap_or("sensed")), quote!(#field[#kk]))
+                    }
+                };
+                body.naming.externals.push((binding, access));
+            }
+        }
+        let nodes = build(&mut body.dag, mech, law);
+        if let Some(nodes) = &nodes {
+            body.hints.extend(nodes.names.iter().cloned());
+        }
+        let fn_name = format_ident!("{}", name);
+        let sensed_arg = sensed.map(|field| {
+            let ident = format_ident!("{}{}", if nodes.is_some() { "" } else { "_" }, field);
+            quote!(, #ident: &[#s; #m])
+        });
+        let prefix = |arg: &str| format_ident!("{}{}", if nodes.is_some() { "" } else { "_" }, arg);
+        let (q, qd, reference, parameters) =
+            (prefix("q"), prefix("qd"), prefix("reference"), prefix("parameters"));
+        let args = quote!(&self, #q: &[#s; #n], #qd: &[#s; #n], #reference: &#reference_ty, #parameters: &#parameters_ty #sensed_arg);
+        let tokens = match (law, nodes) {
+            (Law::Controller3, Some(nodes)) => {
+                let (statements, outputs, counts) = body.emit(&nodes.torque, name);
+                stats.functions.push((name.to_string(), counts));
+                quote! {
+                    #[inline]
+                    fn #fn_name(#args) -> [#s; #n] {
+                        #statements
+                        [#(#outputs),*]
+                    }
+                }
+            }
+            (_, Some(nodes)) => {
+                let mut roots = nodes.torque.clone();
+                roots.extend(nodes.jacobian_determinant);
+                let (statements, outputs, counts) = body.emit(&roots, name);
+                stats.functions.push((name.to_string(), counts));
+                let (torque, det) = outputs.split_at(n_usize);
+                let det = det.first().cloned().unwrap_or_else(|| scalar.literal(1.0));
+                let det_field = if det.to_string() == "jacobian_determinant" {
+                    quote!(jacobian_determinant)
+                } else {
+                    quote!(jacobian_determinant: #det)
+                };
+                quote! {
+                    #[inline]
+                    fn #fn_name(#args) -> Option<#fused_ty> {
+                        #statements
+                        Some(::hapticgen_runtime::fused::FusedTorque {
+                            torque: [#(#torque),*],
+                            #det_field,
+                        })
+                    }
+                }
+            }
+            (_, None) => quote! {
+                /// No closed form for this task: `J` is not square, or larger than 3 × 3.
+                #[inline]
+                fn #fn_name(#args) -> Option<#fused_ty> {
+                    None
+                }
+            },
+        };
+        methods.extend(tokens);
+    }
+    quote! {
+        impl ::hapticgen_runtime::fused::FusedImpedance<#n, #m> for #type_name {
+            #methods
+        }
+    }
 }

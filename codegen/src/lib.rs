@@ -13,6 +13,7 @@ pub mod current_loop;
 pub mod diag;
 pub mod emit;
 pub mod eval;
+pub mod fused;
 pub mod mechanics;
 pub mod model;
 pub mod rig_macro;

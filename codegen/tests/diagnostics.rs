@@ -14,6 +14,8 @@ use hapticgen_codegen::{Diagnostic, Diagnostics};
 const CASES: &[(&str, Option<&str>)] = &[
     ("com-three-entries", None),
     ("duplicate-joint", None),
+    ("duplicate-key", None),
+    ("empty-value", None),
     ("gravity-three-entries", None),
     ("impedance-faster-than-current", None),
     ("inertia-not-positive-definite", None),
@@ -134,6 +136,35 @@ fn yaml_syntax_error() {
         },
     );
     assert_eq!(d.0.len(), 1);
+}
+
+#[test]
+fn duplicate_key_points_at_the_repetition() {
+    let d = check(
+        "duplicate-key",
+        None,
+        Expect {
+            context: "    mass: 0.06",
+            token: "mass",
+            path: "bodies[1].mass",
+            message: "duplicate key `mass`",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "a key may appear only once in a mapping");
+}
+
+#[test]
+fn empty_value_points_at_its_key() {
+    check(
+        "empty-value",
+        None,
+        Expect {
+            context: "inductance:\n",
+            token: "inductance",
+            path: "drives.re40_gp42.motor.inductance",
+            message: "expected a number, got an empty value",
+        },
+    );
 }
 
 #[test]

@@ -140,7 +140,7 @@ pub struct ControlOutput<S, const N: usize> {
 }
 
 impl<S: Real, const N: usize> ControlOutput<S, N> {
-    fn refused(status: ControlStatus) -> Self {
+    pub(crate) fn refused(status: ControlStatus) -> Self {
         Self { torque: [S::ZERO; N], status }
     }
 }

@@ -13,6 +13,7 @@
 pub mod control;
 pub mod current_loop;
 pub mod estimation;
+pub mod fused;
 pub mod linalg;
 pub mod real;
 pub mod render;

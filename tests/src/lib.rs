@@ -2,7 +2,7 @@
 //! over them so that tests run once per rig.
 #![allow(missing_docs)]
 
-use hapticgen_runtime::RigModel;
+use hapticgen_runtime::fused::FusedImpedance;
 
 /// Which model file and variant a generated rig came from.
 #[derive(Clone, Copy, Debug)]
@@ -18,13 +18,13 @@ pub struct RigInfo {
 /// Visits generated rigs of either scalar type.
 pub trait RigVisitor {
     /// A double-precision rig.
-    fn visit_f64<R: RigModel<N, M, Scalar = f64>, const N: usize, const M: usize>(
+    fn visit_f64<R: FusedImpedance<N, M, Scalar = f64>, const N: usize, const M: usize>(
         &mut self,
         info: &RigInfo,
         rig: &R,
     );
     /// A single-precision rig.
-    fn visit_f32<R: RigModel<N, M, Scalar = f32>, const N: usize, const M: usize>(
+    fn visit_f32<R: FusedImpedance<N, M, Scalar = f32>, const N: usize, const M: usize>(
         &mut self,
         info: &RigInfo,
         rig: &R,

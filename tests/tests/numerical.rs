@@ -11,7 +11,7 @@
 use hapticgen_codegen::eval::{evaluate, Evaluated, State};
 use hapticgen_codegen::mechanics::{self, Mechanics};
 use hapticgen_codegen::model::{self, Model};
-use hapticgen_runtime::RigModel;
+use hapticgen_runtime::fused::FusedImpedance;
 use hapticgen_tests::{visit_all, workspace_root, RigInfo, RigVisitor};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
@@ -65,7 +65,7 @@ struct CompiledMatchesEvaluator {
 }
 
 impl RigVisitor for CompiledMatchesEvaluator {
-    fn visit_f64<R: RigModel<N, M, Scalar = f64>, const N: usize, const M: usize>(
+    fn visit_f64<R: FusedImpedance<N, M, Scalar = f64>, const N: usize, const M: usize>(
         &mut self,
         info: &RigInfo,
         rig: &R,
@@ -142,7 +142,7 @@ impl RigVisitor for CompiledMatchesEvaluator {
         self.rigs += 1;
     }
 
-    fn visit_f32<R: RigModel<N, M, Scalar = f32>, const N: usize, const M: usize>(
+    fn visit_f32<R: FusedImpedance<N, M, Scalar = f32>, const N: usize, const M: usize>(
         &mut self,
         info: &RigInfo,
         rig: &R,
@@ -360,7 +360,7 @@ struct EnergyConservation {
 }
 
 impl RigVisitor for EnergyConservation {
-    fn visit_f64<R: RigModel<N, M, Scalar = f64>, const N: usize, const M: usize>(
+    fn visit_f64<R: FusedImpedance<N, M, Scalar = f64>, const N: usize, const M: usize>(
         &mut self,
         info: &RigInfo,
         rig: &R,
@@ -423,7 +423,7 @@ impl RigVisitor for EnergyConservation {
         self.rigs += 1;
     }
 
-    fn visit_f32<R: RigModel<N, M, Scalar = f32>, const N: usize, const M: usize>(
+    fn visit_f32<R: FusedImpedance<N, M, Scalar = f32>, const N: usize, const M: usize>(
         &mut self,
         _: &RigInfo,
         _: &R,

@@ -264,8 +264,9 @@ fn typed<T: DeserializeOwned>(value: &serde_yaml::Value, locator: &Locator<'_>) 
         }
         let raw = strip_location(&error.inner().to_string());
         let (message, hint) = explain_serde_error(&raw);
-        // An unknown key is reported at the key itself, anything else at the value.
-        let d = if raw.starts_with("unknown field") {
+        // An unknown key is reported at the key itself, and so is an empty value (which the
+        // event parser places at the next token); anything else at the value.
+        let d = if raw.starts_with("unknown field") || raw.contains("invalid type: unit value") {
             locator.at_key(&path, message)
         } else {
             locator.at(&path, message)

@@ -28,6 +28,8 @@ pub enum Node {
     Mul(NodeId, NodeId),
     /// `−a`.
     Neg(NodeId),
+    /// `a / b`.
+    Div(NodeId, NodeId),
 }
 
 /// Operation counts of a set of outputs.
@@ -145,6 +147,17 @@ impl Dag {
                 let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
                 self.intern(Node::Mul(lo, hi))
             }
+        }
+    }
+
+    /// `a / b`, folded (only constant over constant; a division by a constant stays a
+    /// division so that results round exactly as a hand-written division would).
+    pub fn div(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        match (self.constant_value(a), self.constant_value(b)) {
+            (Some(x), Some(y)) => self.constant(x / y),
+            (Some(0.0), _) => a,
+            (_, Some(1.0)) => a,
+            _ => self.intern(Node::Div(a, b)),
         }
     }
 
@@ -324,7 +337,7 @@ impl Dag {
             }
             seen[id] = true;
             match self.nodes[id] {
-                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => {
+                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => {
                     stack.push(a);
                     stack.push(b);
                 }
@@ -343,6 +356,7 @@ impl Dag {
                 Node::Add(..) | Node::Sub(..) => counts.additions += 1,
                 Node::Mul(..) => counts.multiplications += 1,
                 Node::Neg(..) => counts.negations += 1,
+                Node::Div(..) => counts.divisions += 1,
                 Node::Input(Atom::Sin(_) | Atom::Cos(_)) => counts.trigonometric += 1,
                 _ => {}
             }
@@ -361,6 +375,7 @@ impl Dag {
                 Node::Sub(a, b) => values[a] - values[b],
                 Node::Mul(a, b) => values[a] * values[b],
                 Node::Neg(a) => -values[a],
+                Node::Div(a, b) => values[a] / values[b],
             };
         }
         values[id]

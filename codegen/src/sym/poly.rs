@@ -28,6 +28,9 @@ pub enum Atom {
     Q(u16),
     /// The velocity `q̇_j`.
     Qd(u16),
+    /// An input of a fused control law (reference, impedance parameter, sensed signal);
+    /// never part of the mechanics' polynomials.
+    External(u16),
 }
 
 /// A product of atoms with positive exponents, sorted by atom.

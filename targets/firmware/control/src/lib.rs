@@ -1,0 +1,22 @@
+//! The board-independent part of every hapticgen firmware image.
+//!
+//! * [`board`]: the board layer, one trait per peripheral role (encoder counters, current
+//!   ADC, force sensor, PWM voltage output, periodic timer, cycle counter). A real board's
+//!   support crate implements these; the control code never names a register.
+//! * [`app`]: [`app::Controller`], the interrupt body: one call per current-loop period
+//!   runs the runtime's current loop and, when the runtime's `Scheduler` says so, the
+//!   impedance tick (estimation → rig terms → reference/rendering → impedance law → safety).
+//!   It times both with the board's cycle counter, and optionally times the sub-steps of
+//!   the impedance tick on a copy of the state ([`app::Profile`]).
+//! * [`report`]: integer-only text output (no `core::fmt`, no float formatting: it costs
+//!   ~29 KB of flash), shared by the target and the host reference so both print the same
+//!   lines.
+#![no_std]
+#![deny(missing_docs)]
+
+pub mod app;
+pub mod board;
+pub mod report;
+
+pub use app::{Controller, CostStats, Profile};
+pub use board::{Board, CurrentSense, CycleCounter, Encoders, ForceSense, TickTimer, VoltageOutput};

@@ -1,0 +1,210 @@
+//! A closed-loop run: the firmware's [`Controller`] driving the [`SimBoard`] for a fixed number
+//! of current-loop periods, with an operator force profile, recording a checksum of the
+//! trajectory and a decimated trace.
+//!
+//! Output lines (integers only, see `hapticgen_fw_control::report`):
+//!
+//! * `S k=<period> q=<µrad,…> x=<task, µm or µrad,…> i=<mA,…>` every `sample_every` periods;
+//! * `SUMMARY …` with the final state, the first fault and the checksum;
+//! * `COST …` and `PROFILE …` with counter ticks (zero on the host).
+//!
+//! The checksum is FNV-1a over the IEEE bits (widened to `f64`) of `q`, `q̇`, `i` and the
+//! voltages after every period, so an `f32` run on the host and on the target agree only if
+//! every operation rounded identically.
+
+use hapticgen_fw_control::app::{Controller, PROFILE_NAMES};
+use hapticgen_fw_control::board::CycleCounter;
+use hapticgen_fw_control::report::{Line, Sink};
+use hapticgen_runtime::current_loop::CurrentLoopGains;
+use hapticgen_runtime::safety::FaultCode;
+use hapticgen_runtime::tick::ReferenceSource;
+use hapticgen_runtime::{Real, RigModel};
+
+use crate::plant::SimBoard;
+
+/// What a scenario takes from the model file (computed by the build script).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Setup<S> {
+    /// Current-loop gains from `hapticgen_codegen::current_loop::design_current_loop`.
+    pub current_gains: CurrentLoopGains<S>,
+    /// Time constant standing for the anti-aliasing filter on the current sense, s.
+    pub sense_time_constant: S,
+    /// Free-space grid spacing, wall stiffness and damping (`rendering:` in the model).
+    pub rendering: Option<[S; 3]>,
+}
+
+/// An operator force, task space, held from period `start` (inclusive) to `end` (exclusive).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Load<S, const M: usize> {
+    /// First period.
+    pub start: u32,
+    /// Period after the last.
+    pub end: u32,
+    /// The force (N, or N·m for a joint-space task).
+    pub force: [S; M],
+}
+
+/// A closed-loop run of one rig.
+pub struct Scenario<R, Src, const N: usize, const M: usize>
+where
+    R: RigModel<N, M>,
+{
+    /// The variant's name (from `targets/firmware/variants.txt`).
+    pub name: &'static str,
+    /// The firmware's control state.
+    pub controller: Controller<R, Src, N, M>,
+    /// The simulated board.
+    pub board: SimBoard<R, N, M>,
+    /// The operator.
+    pub load: Load<R::Scalar, M>,
+    /// Periods to run.
+    pub periods: u32,
+    /// Periods between trace lines.
+    pub sample_every: u32,
+    done: u32,
+    checksum: u32,
+}
+
+const FNV_OFFSET: u32 = 0x811c_9dc5;
+const FNV_PRIME: u32 = 0x0100_0193;
+
+fn fnv(mut hash: u32, word: u64) -> u32 {
+    for byte in word.to_le_bytes() {
+        hash ^= u32::from(byte);
+        hash = hash.wrapping_mul(FNV_PRIME);
+    }
+    hash
+}
+
+fn micro<S: Real>(value: S) -> i64 {
+    libm::round(value.to_f64() * 1e6) as i64
+}
+
+fn fault_number(fault: FaultCode) -> i64 {
+    match fault {
+        FaultCode::NonFiniteInput => 1,
+        FaultCode::NonFiniteTorque => 2,
+        FaultCode::MissedTicks => 3,
+        FaultCode::TickCounterStalled => 4,
+        FaultCode::ControlRefused => 5,
+    }
+}
+
+impl<R, Src, const N: usize, const M: usize> Scenario<R, Src, N, M>
+where
+    R: RigModel<N, M> + Clone,
+    Src: ReferenceSource<R::Scalar, M> + Clone,
+{
+    /// Assembles a run.
+    pub fn new(
+        name: &'static str,
+        controller: Controller<R, Src, N, M>,
+        board: SimBoard<R, N, M>,
+        load: Load<R::Scalar, M>,
+        periods: u32,
+        sample_every: u32,
+    ) -> Self {
+        Self { name, controller, board, load, periods, sample_every, done: 0, checksum: FNV_OFFSET }
+    }
+
+    /// `true` once every period has run.
+    pub fn finished(&self) -> bool {
+        self.done >= self.periods
+    }
+
+    /// The trajectory checksum so far.
+    pub fn checksum(&self) -> u32 {
+        self.checksum
+    }
+
+    /// One current-loop period: the interrupt body on the board, then the plant advances by
+    /// one period; a trace line every `sample_every` periods. Does nothing once finished.
+    pub fn step<C: CycleCounter, W: Sink>(&mut self, clock: &C, out: &mut W) {
+        if self.finished() {
+            return;
+        }
+        let _ = self.controller.on_current_tick(&mut self.board, clock);
+        let k = self.done;
+        let force = if k >= self.load.start && k < self.load.end { self.load.force } else { [R::Scalar::ZERO; M] };
+        self.board.advance(&force);
+        let mut hash = self.checksum;
+        for j in 0..N {
+            hash = fnv(hash, self.board.q[j].to_f64().to_bits());
+            hash = fnv(hash, self.board.qd[j].to_f64().to_bits());
+            hash = fnv(hash, self.board.current[j].to_f64().to_bits());
+            hash = fnv(hash, self.board.volts()[j].to_f64().to_bits());
+        }
+        self.checksum = hash;
+        self.done += 1;
+        if self.sample_every > 0 && self.done % self.sample_every == 0 {
+            self.trace(out);
+        }
+    }
+
+    /// Runs every remaining period.
+    pub fn run<C: CycleCounter, W: Sink>(&mut self, clock: &C, out: &mut W) {
+        while !self.finished() {
+            self.step(clock, out);
+        }
+    }
+
+    fn trace<W: Sink>(&self, out: &mut W) {
+        let mut line = Line::new();
+        line.str("S").kv("k", i64::from(self.done)).str(" q=");
+        for j in 0..N {
+            if j > 0 {
+                line.str(",");
+            }
+            line.i64(micro(self.board.q[j]));
+        }
+        let x = self.board.rig().position(&self.board.q);
+        line.str(" x=");
+        for (k, &value) in x.iter().enumerate() {
+            if k > 0 {
+                line.str(",");
+            }
+            line.i64(micro(value));
+        }
+        line.str(" i=");
+        for j in 0..N {
+            if j > 0 {
+                line.str(",");
+            }
+            line.i64(micro(self.board.current[j]) / 1000);
+        }
+        line.emit(out);
+    }
+
+    /// The summary, cost and profile lines.
+    pub fn report<W: Sink>(&self, scalar: &str, out: &mut W) {
+        let c = &self.controller;
+        let mut line = Line::new();
+        line.str("SUMMARY").str(" variant=").str(self.name).str(" scalar=").str(scalar);
+        line.kv("periods", i64::from(self.done)).kv("impedance_ticks", i64::from(c.impedance_ticks()));
+        match c.first_fault {
+            Some((tick, fault)) => line.kv("fault", fault_number(fault)).kv("fault_tick", i64::from(tick)),
+            None => line.kv("fault", 0),
+        };
+        line.kv("plant_ok", i64::from(!self.board.broken));
+        line.kx("checksum", self.checksum);
+        line.emit(out);
+        for (label, stats) in [("current", &c.current_cost), ("impedance", &c.impedance_cost)] {
+            line.str("COST ").str(label);
+            line.kv("n", i64::from(stats.count))
+                .kv("min", i64::from(if stats.count == 0 { 0 } else { stats.min }))
+                .kv("max", i64::from(stats.max))
+                .kv("mean", i64::from(stats.mean()))
+                .kv("argmax", i64::from(stats.argmax));
+            line.emit(out);
+        }
+        if let Some(profile) = &c.profile {
+            for (name, stats) in PROFILE_NAMES.iter().zip(profile.steps.iter()) {
+                line.str("PROFILE ").str(name);
+                line.kv("min", i64::from(if stats.count == 0 { 0 } else { stats.min }))
+                    .kv("max", i64::from(stats.max))
+                    .kv("mean", i64::from(stats.mean()));
+                line.emit(out);
+            }
+        }
+    }
+}
