@@ -748,6 +748,46 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
             }
         }
     });
+    let gains = model.current_loop_designs.iter().map(|d| {
+        let (kp, ki, t, beta) = (
+            scalar.literal(d.kp),
+            scalar.literal(d.ki),
+            scalar.literal(d.sample_period),
+            scalar.literal(d.proportional_setpoint_weight),
+        );
+        quote! {
+            ::hapticgen_runtime::current_loop::CurrentLoopGains {
+                kp: #kp,
+                ki: #ki,
+                sample_period: #t,
+                proportional_setpoint_weight: #beta,
+            }
+        }
+    });
+    let gains_doc: Vec<String> = {
+        let cl = &model.current_loop;
+        let mut lines = vec![
+            " Gains of each joint's PI current loop (section 2), designed by discrete pole placement"
+                .to_string(),
+            format!(
+                " on `V = I (sL + R)` at {} Hz for a {} Hz bandwidth and damping ratio {}, taking the lag",
+                model.rates.current_loop_hz, cl.bandwidth_hz, cl.damping_ratio
+            ),
+            format!(
+                " of an order-{} Bessel anti-aliasing filter at {} Hz into account.",
+                cl.anti_alias_filter_order, cl.anti_alias_cutoff_hz
+            ),
+        ];
+        for (j, d) in model.joints.iter().zip(&model.current_loop_designs) {
+            lines.push(String::new());
+            lines.push(format!(
+                " Joint `{}`: R = {} Ω, L = {:e} H; achieved bandwidth {:.1} Hz, dominant damping ratio {:.3}.",
+                j.name, j.drive.motor.resistance, j.drive.motor.inductance, d.achieved_bandwidth_hz,
+                d.achieved_damping_ratio
+            ));
+        }
+        lines
+    };
     let joint_names = model.joints.iter().map(|j| j.name.as_str());
     let joint_kinds = model.joints.iter().map(|j| match j.kind {
         JointKind::Revolute => "revolute",
@@ -798,6 +838,9 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
             pub const JOINT_KINDS: [&'static str; #n] = [#(#joint_kinds),*];
             /// The drive train of each joint, in the order of `q`.
             pub const DRIVES: [::hapticgen_runtime::DriveTrain<#s>; #n] = [#(#drives),*];
+            #(#[doc = #gains_doc])*
+            pub const CURRENT_LOOP_GAINS: [::hapticgen_runtime::current_loop::CurrentLoopGains<#s>; #n] =
+                [#(#gains),*];
 
             /// Diagonal of the viscous damping matrix `B` of eq. (1).
             #[inline]

@@ -11,6 +11,7 @@
 use std::path::{Path, PathBuf};
 
 use hapticgen_codegen::model::{json_schema, load, JointKind, Model, Motion, Source, TaskSpec};
+use hapticgen_codegen::Scalar;
 use serde_json::Value as Json;
 
 const UPDATE_COMMAND: &str = "cargo run -p hapticgen -- schema > schema/model.schema.json";
@@ -252,6 +253,11 @@ fn good_models_load_with_every_variant_and_cover_every_feature() {
     for path in good_models() {
         let name = path.file_name().expect("file name").to_string_lossy().into_owned();
         all.extend(load_every_variant(&name, &read(&path)));
+    }
+    // And they generate code.
+    for m in &all {
+        let generated = hapticgen_codegen::generate_model(m.clone(), Scalar::F64);
+        assert!(generated.file_text().contains(&format!("from {}", m.file)), "{}", m.file);
     }
     let any = |what: &str, f: &dyn Fn(&Model) -> bool| assert!(all.iter().any(f), "no good model has {what}");
     any("a spatial model", &|m| !m.planar);

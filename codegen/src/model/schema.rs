@@ -382,6 +382,13 @@ pub struct CurrentLoopSpec {
     pub damping_ratio: f64,
     /// Cut-off of the anti-aliasing (Bessel) filter on the current sense, Hz.
     pub anti_alias_cutoff_hz: f64,
+    /// Order of that Bessel filter, 1 to 4 (default 2).
+    #[serde(default = "two")]
+    pub anti_alias_filter_order: u32,
+}
+
+fn two() -> u32 {
+    2
 }
 
 /// Haptic rendering settings (paper, section 4).

@@ -149,6 +149,8 @@ pub struct Model {
     pub current_loop: CurrentLoopSpec,
     /// Rendering settings.
     pub rendering: Option<Rendering>,
+    /// The current-loop design of each joint's drive, in the order of `q`.
+    pub current_loop_designs: Vec<crate::current_loop::CurrentLoopDesign>,
 }
 
 impl Model {
@@ -915,6 +917,41 @@ pub(crate) fn resolve(
         }
     }
 
+    // The current loop of every joint is designed now, so that an infeasible design is a
+    // diagnostic at the model's `current_loop` section.
+    let mut current_loop_designs = Vec::new();
+    if !(1..=4).contains(&file.current_loop.anti_alias_filter_order) {
+        r.error(
+            &cl("anti_alias_filter_order"),
+            format!("must be 1, 2, 3 or 4, got {}", file.current_loop.anti_alias_filter_order),
+        );
+    } else if r.errors.is_empty() {
+        for j in &joints {
+            let input = crate::current_loop::CurrentLoopDesignInput {
+                resistance: j.drive.motor.resistance,
+                inductance: j.drive.motor.inductance,
+                sample_rate_hz: f64::from(file.rates.current_loop_hz),
+                bandwidth_hz: file.current_loop.bandwidth_hz,
+                damping_ratio: file.current_loop.damping_ratio,
+                filter_cutoff_hz: file.current_loop.anti_alias_cutoff_hz,
+                filter_order: file.current_loop.anti_alias_filter_order,
+            };
+            match crate::current_loop::design_current_loop(&input) {
+                Ok(design) => current_loop_designs.push(design),
+                Err(why) => {
+                    r.error(
+                        &[key("current_loop")],
+                        format!(
+                            "no current-loop design for joint `{}` (drive `{}`): {why}",
+                            j.name, j.drive_name
+                        ),
+                    );
+                    break;
+                }
+            }
+        }
+    }
+
     if !r.errors.is_empty() {
         return Err(Diagnostics(r.errors));
     }
@@ -959,5 +996,6 @@ pub(crate) fn resolve(
         rates: file.rates,
         current_loop: file.current_loop,
         rendering: file.rendering,
+        current_loop_designs,
     })
 }

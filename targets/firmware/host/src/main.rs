@@ -1,0 +1,276 @@
+//! `hapticgen-fw-host`: the host side of `scripts/firmware.sh`.
+//!
+//! ```text
+//! hapticgen-fw-host list                          image names, one per line
+//! hapticgen-fw-host run <image> <f32|f64>         the scenario on the host (same output format)
+//! hapticgen-fw-host size <elf>                    flash and static RAM of an image
+//! hapticgen-fw-host check <image> <qemu-output> <elf>
+//! ```
+//!
+//! `check` compares the QEMU run with the host runs of the same scenario and enforces the
+//! limits; it prints one result row and exits non-zero, naming every violation, on failure.
+
+use std::process::ExitCode;
+
+use hapticgen_fw_control::board::NoClock;
+use hapticgen_fw_control::report::Sink;
+
+mod elf;
+
+#[allow(clippy::all, missing_docs, dead_code)]
+mod variants {
+    use super::*;
+    include!(concat!(env!("OUT_DIR"), "/variants.rs"));
+}
+
+/// Limit on one current-loop tick (all motors), instructions.
+const CURRENT_TICK_BUDGET: u64 = 150;
+/// Limit on flash (text + rodata + vector table + data load image), bytes.
+const FLASH_BUDGET: u64 = 32 * 1024;
+/// Limit on static RAM (data + bss), bytes.
+const RAM_BUDGET: u64 = 8 * 1024;
+/// SysTick/APB-timer ticks per instruction under `-icount shift=10` at the MPS2's 25 MHz:
+/// 2^10 ns per instruction / 40 ns per tick = 25.6.
+const TICKS_PER_INSTRUCTION: f64 = 1024.0 / 40.0;
+
+/// Tolerances of the f32 target trace against the f64 host reference (see docs/firmware.md):
+/// joint angle, µrad (4 encoder counts of the paper's rigs, 2π/24000 rad each);
+const Q_TOLERANCE_MICRORAD: i64 = 1048;
+/// task coordinate, µm or µrad (4 counts at the 0.15 m lever of the parallel link);
+const X_TOLERANCE_MICRO: i64 = 1048;
+/// motor current, mA (0.5 A: the torque step of one encoder count through the 1500 N/m wall
+/// is 0.06 N = 0.25 A at the motor).
+const I_TOLERANCE_MILLIAMP: i64 = 500;
+
+struct Buffer(Vec<u8>);
+
+impl Sink for Buffer {
+    fn write(&mut self, bytes: &[u8]) {
+        self.0.extend_from_slice(bytes);
+    }
+}
+
+struct Stdout;
+
+impl Sink for Stdout {
+    fn write(&mut self, bytes: &[u8]) {
+        use std::io::Write as _;
+        let _ = std::io::stdout().write_all(bytes);
+    }
+}
+
+fn host_run(name: &str, scalar: &str) -> Result<String, String> {
+    let mut buffer = Buffer(Vec::new());
+    variants::run(name, scalar, &mut buffer).map_err(|e| format!("{name} {scalar}: {e}"))?;
+    String::from_utf8(buffer.0).map_err(|e| e.to_string())
+}
+
+/// `key=value` of a line.
+fn field<'a>(line: &'a str, key: &str) -> Option<&'a str> {
+    line.split_whitespace().find_map(|part| part.strip_prefix(key).and_then(|rest| rest.strip_prefix('=')))
+}
+
+fn int(line: &str, key: &str) -> Result<i64, String> {
+    field(line, key)
+        .ok_or_else(|| format!("no `{key}` in `{line}`"))?
+        .parse()
+        .map_err(|e| format!("`{key}` in `{line}`: {e}"))
+}
+
+fn find<'a>(text: &'a str, prefix: &str) -> Result<&'a str, String> {
+    text.lines().find(|l| l.starts_with(prefix)).ok_or_else(|| format!("no `{prefix}` line"))
+}
+
+fn list(line: &str, key: &str) -> Result<Vec<i64>, String> {
+    field(line, key)
+        .ok_or_else(|| format!("no `{key}` in `{line}`"))?
+        .split(',')
+        .map(|v| v.parse().map_err(|e| format!("`{key}` in `{line}`: {e}")))
+        .collect()
+}
+
+fn instructions(ticks: i64) -> u64 {
+    (ticks as f64 / TICKS_PER_INSTRUCTION).round() as u64
+}
+
+fn check(name: &str, qemu_output: &str, elf_path: &str) -> Result<(), Vec<String>> {
+    let mut errors = Vec::new();
+    let budget = match variants::VARIANTS.iter().find(|(n, _)| *n == name) {
+        Some((_, b)) => u64::from(*b),
+        None => return Err(vec![format!("unknown image `{name}`")]),
+    };
+    let target = std::fs::read_to_string(qemu_output).map_err(|e| vec![format!("{qemu_output}: {e}")])?;
+    let reference = host_run(name, "f64").map_err(|e| vec![e])?;
+    let host32 = host_run(name, "f32").map_err(|e| vec![e])?;
+    let mut fail = |message: String| errors.push(format!("{name}: {message}"));
+
+    // Summary: same length of run, no fault, and the f32 trajectory bit for bit as on the host.
+    let summaries = (find(&target, "SUMMARY"), find(&host32, "SUMMARY"), find(&reference, "SUMMARY"));
+    let (t_sum, h32_sum, h64_sum) = match summaries {
+        (Ok(a), Ok(b), Ok(c)) => (a, b, c),
+        _ => return Err(vec![format!("{name}: missing SUMMARY line (did the image finish?)")]),
+    };
+    for key in ["periods", "impedance_ticks", "fault", "plant_ok"] {
+        let values = (int(t_sum, key), int(h32_sum, key), int(h64_sum, key));
+        match values {
+            (Ok(a), Ok(b), Ok(c)) if a == b && b == c => {}
+            other => fail(format!("`{key}` differs: target {:?}, host f32 {:?}, host f64 {:?}", other.0, other.1, other.2)),
+        }
+    }
+    if int(t_sum, "fault").ok() != Some(0) {
+        fail(format!("a fault was latched: {t_sum}"));
+    }
+    let checksum = field(t_sum, "checksum").unwrap_or("?");
+    if field(h32_sum, "checksum") != Some(checksum) {
+        fail(format!(
+            "trajectory checksum {checksum} on the target, {} for the same f32 code on the host",
+            field(h32_sum, "checksum").unwrap_or("?")
+        ));
+    }
+
+    // Trace against the f64 reference.
+    let trace = |text: &str| text.lines().filter(|l| l.starts_with("S ")).map(str::to_owned).collect::<Vec<_>>();
+    let (t_trace, r_trace) = (trace(&target), trace(&reference));
+    if t_trace.len() != r_trace.len() || t_trace.is_empty() {
+        fail(format!("{} trace lines on the target, {} in the reference", t_trace.len(), r_trace.len()));
+    }
+    let mut worst = [(0i64, String::new()); 3];
+    for (t, r) in t_trace.iter().zip(r_trace.iter()) {
+        if int(t, "k").ok() != int(r, "k").ok() {
+            fail(format!("trace out of step: `{t}` vs `{r}`"));
+            break;
+        }
+        for (slot, key) in worst.iter_mut().zip(["q", "x", "i"]) {
+            match (list(t, key), list(r, key)) {
+                (Ok(a), Ok(b)) if a.len() == b.len() => {
+                    for (x, y) in a.iter().zip(b.iter()) {
+                        let d = (x - y).abs();
+                        if d > slot.0 {
+                            *slot = (d, format!("target `{t}`, reference `{r}`"));
+                        }
+                    }
+                }
+                _ => fail(format!("bad trace line `{t}` / `{r}`")),
+            }
+        }
+    }
+    for ((d, at), (key, tol, unit)) in worst.iter().zip([
+        ("q", Q_TOLERANCE_MICRORAD, "µrad"),
+        ("x", X_TOLERANCE_MICRO, "µm|µrad"),
+        ("i", I_TOLERANCE_MILLIAMP, "mA"),
+    ]) {
+        if *d > tol {
+            fail(format!("f32 target vs f64 reference: |Δ{key}| = {d} {unit} > {tol} at {at}"));
+        }
+    }
+
+    // Cost.
+    let cal = find(&target, "CAL").and_then(|l| Ok((int(l, "instructions")?, int(l, "ticks")?)));
+    match cal {
+        Ok((n, ticks)) => {
+            let per = ticks as f64 / n as f64;
+            if (per - TICKS_PER_INSTRUCTION).abs() > 0.01 * TICKS_PER_INSTRUCTION {
+                fail(format!(
+                    "calibration: {n} instructions took {ticks} ticks ({per:.2}/instruction, expected {TICKS_PER_INSTRUCTION}): is QEMU run with -icount shift=10?"
+                ));
+            }
+        }
+        Err(e) => fail(format!("calibration: {e}")),
+    }
+    let cost = |label: &str| -> Result<(u64, u64, u64), String> {
+        let line = target
+            .lines()
+            .find(|l| l.starts_with("COST ") && l.split_whitespace().nth(1) == Some(label))
+            .ok_or_else(|| format!("no COST {label} line"))?;
+        Ok((instructions(int(line, "min")?), instructions(int(line, "max")?), instructions(int(line, "mean")?)))
+    };
+    let (imp, cur) = match (cost("impedance"), cost("current")) {
+        (Ok(a), Ok(b)) => (a, b),
+        (a, b) => {
+            fail(format!("cost lines: {:?} {:?}", a.err(), b.err()));
+            ((0, 0, 0), (0, 0, 0))
+        }
+    };
+    if imp.1 > budget {
+        fail(format!("impedance tick: max {} instructions > limit {budget}", imp.1));
+    }
+    if cur.1 > CURRENT_TICK_BUDGET {
+        fail(format!("current-loop tick: max {} instructions > limit {CURRENT_TICK_BUDGET}", cur.1));
+    }
+    let mut profile = String::new();
+    for line in target.lines().filter(|l| l.starts_with("PROFILE ")) {
+        let step = line.split_whitespace().nth(1).unwrap_or("?");
+        if let (Ok(lo), Ok(hi)) = (int(line, "min"), int(line, "max")) {
+            profile.push_str(&format!(" {step}={}..{}", instructions(lo), instructions(hi)));
+        }
+    }
+
+    // Size.
+    let (flash, ram) = match elf::sizes(elf_path) {
+        Ok(s) => (s.flash(), s.ram()),
+        Err(e) => {
+            fail(format!("{elf_path}: {e}"));
+            (0, 0)
+        }
+    };
+    if flash > FLASH_BUDGET {
+        fail(format!("flash {flash} B > limit {FLASH_BUDGET} B"));
+    }
+    if ram > RAM_BUDGET {
+        fail(format!("static RAM {ram} B > limit {RAM_BUDGET} B"));
+    }
+
+    println!(
+        "| {name} | {} | {} | {} (≤ {budget}) | {} | {} | {} (≤ {CURRENT_TICK_BUDGET}) | {flash} | {ram} | {checksum} | {} µrad / {} µm / {} mA |",
+        imp.0, imp.2, imp.1, cur.0, cur.2, cur.1, worst[0].0, worst[1].0, worst[2].0
+    );
+    println!("  profile (instructions, min..max):{profile}");
+    if errors.is_empty() {
+        Ok(())
+    } else {
+        Err(errors)
+    }
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    match args.as_slice() {
+        ["list"] => {
+            for (name, _) in variants::VARIANTS {
+                println!("{name}");
+            }
+            ExitCode::SUCCESS
+        }
+        ["run", name, scalar] => match variants::run(name, scalar, &mut Stdout) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        },
+        ["size", path] => match elf::sizes(path) {
+            Ok(s) => {
+                println!("text={} data={} bss={} flash={} ram={}", s.text, s.data, s.bss, s.flash(), s.ram());
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: {path}: {e}");
+                ExitCode::FAILURE
+            }
+        },
+        ["check", name, output, elf_path] => match check(name, output, elf_path) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(errors) => {
+                for e in errors {
+                    eprintln!("FAIL {e}");
+                }
+                ExitCode::FAILURE
+            }
+        },
+        _ => {
+            eprintln!("usage: hapticgen-fw-host list | run <image> <f32|f64> | size <elf> | check <image> <qemu-output> <elf>");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,395 @@
+//! The simulated device: rigid-body dynamics of eq. (1) with the drive's electrical and
+//! mechanical non-idealities, integrated with a fixed-step classical Runge–Kutta (RK4) method.
+//!
+//! Per joint `j` (all torques joint-side, `k_j = N_j η_j k_t,j` the torque per motor ampere):
+//!
+//! * **Links** (eq. (1) without the rotor): `D_l(q) q̈ + C(q, q̇) q̇ + B q̇ + g(q) = τ_g + τ_ext`,
+//!   where `D_l = D − diag(N² J_m)` and `τ_ext = Jᵀ f_op` is the operator's torque.
+//! * **Gearhead backlash** (`backlash` of the drive, 0.8° in the paper): the rotor (joint-side
+//!   angle `θ`, inertia `N² J_m`) drives the link through a dead zone of total width `b`:
+//!   `τ_g = k_g (δ ∓ b/2) + c_g δ̇` when `|δ| > b/2` (`δ = θ − q`, the damping never pulls
+//!   the teeth apart), zero inside the gap; `k_g` = [`GEAR_STIFFNESS`] and `c_g` gives the
+//!   mesh a damping ratio of [`GEAR_DAMPING_RATIO`] on the rotor inertia.
+//!   Rotor: `N² J_m θ̈ = k i − τ_g + τ_f`. Without backlash, `θ = q` and the full `D` is used.
+//! * **Friction** `τ_f` on the rotor (Karnopp stick–slip model): outside the velocity band
+//!   `|θ̇| > `[`STICK_VELOCITY`] it is Coulomb friction `−τ_c sign θ̇`; inside the band the
+//!   joint sticks: friction cancels the other torques on the rotor (`τ_net`) and nulls the
+//!   residual velocity over [`STICK_TIME`], `τ_f = −clamp(τ_net + J θ̇ / t_s, ±τ_s)`, so it
+//!   breaks away only when `|τ_net|` exceeds the static friction `τ_s`.
+//! * **Armature** (paper, section 2): `L di/dt = V − R i − k_t N θ̇` (back-EMF), with `V`
+//!   clamped to the supply when saturation is on; the current loop measures `i` through the
+//!   anti-aliasing filter, modelled as the first-order lag its design assumes.
+//! * **Encoder** on the motor shaft: `counts = round(θ N cpt / 2π)` (quantisation), wrapping
+//!   like a hardware counter.
+//!
+//! The inputs (armature voltages, operator torques) are held over a step (zero-order hold).
+//! Every effect can be switched off through [`Effects`].
+
+use std::sync::Arc;
+
+use hapticgen_runtime::linalg;
+
+use crate::rig::CompiledModel;
+
+/// Gear mesh stiffness when backlash is simulated, N·m/rad (joint side).
+pub const GEAR_STIFFNESS: f64 = 2000.0;
+/// Damping ratio of the gear mesh on the rotor inertia.
+pub const GEAR_DAMPING_RATIO: f64 = 0.3;
+/// Half-width of the sticking velocity band of the friction model, rad/s (joint side).
+pub const STICK_VELOCITY: f64 = 0.01;
+/// Time constant with which a sticking joint's residual velocity is nulled, s.
+pub const STICK_TIME: f64 = 2e-3;
+
+/// Which non-idealities the simulation includes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Effects {
+    /// Coulomb and static friction of the drives.
+    pub friction: bool,
+    /// Gearhead backlash.
+    pub backlash: bool,
+    /// Encoder quantisation at the model's counts per turn (off: 2²² counts per turn).
+    pub encoder_quantisation: bool,
+    /// Force-sensor noise, quantisation and full-scale clipping.
+    pub sensor_noise: bool,
+    /// Torque limit (controller) and supply-voltage limit (current loop and bridge).
+    pub saturation: bool,
+    /// Armature dynamics with back-EMF (off: the motor current equals its setpoint).
+    pub motor_electrics: bool,
+}
+
+impl Effects {
+    /// Every effect on: the device as built.
+    pub const ALL: Effects = Effects {
+        friction: true,
+        backlash: true,
+        encoder_quantisation: true,
+        sensor_noise: true,
+        saturation: true,
+        motor_electrics: true,
+    };
+
+    /// Ideal mechanics and sensing; the electrical dynamics and limits of the drive stay.
+    pub const IDEAL: Effects = Effects {
+        friction: false,
+        backlash: false,
+        encoder_quantisation: false,
+        sensor_noise: false,
+        saturation: true,
+        motor_electrics: true,
+    };
+
+    /// Parses a comma-separated list of effect names to switch off (`friction`, `backlash`,
+    /// `encoder`, `sensor`, `saturation`, `electrics`, or `all`).
+    pub fn without(mut self, names: &str) -> Result<Effects, String> {
+        for name in names.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+            match name {
+                "friction" => self.friction = false,
+                "backlash" => self.backlash = false,
+                "encoder" => self.encoder_quantisation = false,
+                "sensor" => self.sensor_noise = false,
+                "saturation" => self.saturation = false,
+                "electrics" => self.motor_electrics = false,
+                "all" => self = Effects::IDEAL,
+                other => {
+                    return Err(format!(
+                        "unknown effect `{other}`; expected friction, backlash, encoder, sensor, \
+                         saturation, electrics or all"
+                    ))
+                }
+            }
+        }
+        Ok(self)
+    }
+}
+
+/// The continuous state of the device.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlantState<const N: usize> {
+    /// Link angles `q`.
+    pub q: [f64; N],
+    /// Link velocities `q̇`.
+    pub qd: [f64; N],
+    /// Rotor angles, joint side (`θ`; equal to `q` without backlash).
+    pub theta: [f64; N],
+    /// Rotor velocities, joint side.
+    pub theta_dot: [f64; N],
+    /// Armature currents, A.
+    pub current: [f64; N],
+    /// Currents as measured through the anti-aliasing filter, A.
+    pub measured_current: [f64; N],
+}
+
+impl<const N: usize> PlantState<N> {
+    fn axpy(&self, h: f64, d: &PlantState<N>) -> PlantState<N> {
+        let f = |a: &[f64; N], b: &[f64; N]| std::array::from_fn(|i| a[i] + h * b[i]);
+        PlantState {
+            q: f(&self.q, &d.q),
+            qd: f(&self.qd, &d.qd),
+            theta: f(&self.theta, &d.theta),
+            theta_dot: f(&self.theta_dot, &d.theta_dot),
+            current: f(&self.current, &d.current),
+            measured_current: f(&self.measured_current, &d.measured_current),
+        }
+    }
+}
+
+/// Per-joint drive constants of the plant.
+#[derive(Clone, Copy, Debug)]
+struct Drive {
+    torque_per_amp: f64,
+    back_emf: f64,
+    resistance: f64,
+    inductance: f64,
+    supply: f64,
+    rotor: f64,
+    half_backlash: f64,
+    gear_damping: f64,
+    coulomb: f64,
+    stiction: f64,
+    counts_per_radian: f64,
+}
+
+/// The simulated device with `N` joints and an `M`-dimensional task space.
+pub struct Plant<const N: usize, const M: usize> {
+    model: Arc<CompiledModel>,
+    effects: Effects,
+    drives: [Drive; N],
+    filter_time_constant: f64,
+    dynamics_scratch: Vec<f64>,
+    dynamics_out: Vec<f64>,
+    kinematics_scratch: Vec<f64>,
+    kinematics_out: Vec<f64>,
+    /// The state.
+    pub state: PlantState<N>,
+}
+
+/// Task-space kinematics of the device at its current state.
+#[derive(Clone, Copy, Debug)]
+pub struct TaskKinematics<const N: usize, const M: usize> {
+    /// Position `p(q)`.
+    pub position: [f64; M],
+    /// Velocity `J q̇`.
+    pub velocity: [f64; M],
+    /// Jacobian `J(q)`.
+    pub jacobian: [[f64; N]; M],
+}
+
+impl<const N: usize, const M: usize> Plant<N, M> {
+    /// A plant at rest at `q0` (rotor centred in the backlash, zero current).
+    /// `counts_per_turn` are the encoder resolutions the controller decodes with;
+    /// `filter_time_constant` is the current-sense lag, s.
+    pub fn new(
+        model: Arc<CompiledModel>,
+        effects: Effects,
+        q0: [f64; N],
+        counts_per_turn: [u32; N],
+        filter_time_constant: f64,
+    ) -> Option<Self> {
+        if model.joints != N || model.task_dim != M {
+            return None;
+        }
+        let drives = std::array::from_fn(|j| {
+            let d = &model.drives[j];
+            let extras = &model.drive_extras[j];
+            let rotor = model.reflected_rotor_inertia[j];
+            let half_backlash = if effects.backlash { 0.5 * extras.backlash.max(0.0) } else { 0.0 };
+            let (coulomb, stiction) = if effects.friction {
+                (extras.coulomb_friction.max(0.0), extras.static_friction.max(extras.coulomb_friction).max(0.0))
+            } else {
+                (0.0, 0.0)
+            };
+            Drive {
+                torque_per_amp: d.gear_ratio * d.efficiency * d.torque_constant,
+                back_emf: d.torque_constant * d.gear_ratio,
+                resistance: d.resistance,
+                inductance: d.inductance,
+                supply: if effects.saturation { d.supply_voltage } else { f64::INFINITY },
+                rotor,
+                half_backlash,
+                gear_damping: 2.0 * GEAR_DAMPING_RATIO * (GEAR_STIFFNESS * rotor).sqrt(),
+                coulomb,
+                stiction,
+                counts_per_radian: f64::from(counts_per_turn[j]) * d.gear_ratio / std::f64::consts::TAU,
+            }
+        });
+        let state = PlantState {
+            q: q0,
+            qd: [0.0; N],
+            theta: q0,
+            theta_dot: [0.0; N],
+            current: [0.0; N],
+            measured_current: [0.0; N],
+        };
+        Some(Self {
+            dynamics_scratch: model.dynamics.scratch(),
+            dynamics_out: vec![0.0; model.dynamics.len()],
+            kinematics_scratch: model.kinematics.scratch(),
+            kinematics_out: vec![0.0; model.kinematics.len()],
+            model,
+            effects,
+            drives,
+            filter_time_constant: filter_time_constant.max(0.0),
+            state,
+        })
+    }
+
+    /// The plant's model (possibly with perturbed masses).
+    pub fn model(&self) -> &CompiledModel {
+        &self.model
+    }
+
+    /// Whether backlash is simulated (rotor and link are separate bodies).
+    fn has_backlash(&self) -> bool {
+        self.drives.iter().any(|d| d.half_backlash > 0.0)
+    }
+
+    /// Encoder counters (motor shaft), wrapping like 32-bit hardware counters.
+    pub fn encoder_counts(&self) -> [i32; N] {
+        std::array::from_fn(|j| {
+            let counts = (self.state.theta[j] * self.drives[j].counts_per_radian).round();
+            (counts as i64) as i32
+        })
+    }
+
+    /// Task position, velocity and Jacobian at the current state.
+    pub fn task(&mut self) -> TaskKinematics<N, M> {
+        let s = self.state;
+        self.model.kinematics.eval(
+            &mut self.kinematics_scratch,
+            &s.q,
+            &s.qd,
+            &self.model.parameters,
+            &mut self.kinematics_out,
+        );
+        let out = &self.kinematics_out;
+        let position: [f64; M] = std::array::from_fn(|k| out[k]);
+        let jacobian: [[f64; N]; M] = std::array::from_fn(|k| std::array::from_fn(|j| out[M + k * N + j]));
+        let velocity = linalg::mat_vec(&jacobian, &s.qd);
+        TaskKinematics { position, velocity, jacobian }
+    }
+
+    /// Joint-side motor torque of each joint at the current state, N·m.
+    pub fn motor_torque(&self) -> [f64; N] {
+        std::array::from_fn(|j| self.drives[j].torque_per_amp * self.state.current[j])
+    }
+
+    /// Advances by `dt` with armature `voltage` (electrics on) or motor `current_setpoint`
+    /// (electrics off) and joint-side operator torques `external`, all held over the step.
+    pub fn step(&mut self, dt: f64, voltage: &[f64; N], current_setpoint: &[f64; N], external: &[f64; N]) {
+        if !self.effects.motor_electrics {
+            self.state.current = *current_setpoint;
+            self.state.measured_current = *current_setpoint;
+        }
+        let volts: [f64; N] = std::array::from_fn(|j| {
+            let supply = self.drives[j].supply;
+            voltage[j].clamp(-supply, supply)
+        });
+        let s0 = self.state;
+        let k1 = self.derivative(&s0, &volts, external);
+        let k2 = self.derivative(&s0.axpy(0.5 * dt, &k1), &volts, external);
+        let k3 = self.derivative(&s0.axpy(0.5 * dt, &k2), &volts, external);
+        let k4 = self.derivative(&s0.axpy(dt, &k3), &volts, external);
+        let mut next = s0;
+        let combine = |x: &mut [f64; N], a: &[f64; N], b: &[f64; N], c: &[f64; N], d: &[f64; N]| {
+            for j in 0..N {
+                x[j] += dt / 6.0 * (a[j] + 2.0 * b[j] + 2.0 * c[j] + d[j]);
+            }
+        };
+        combine(&mut next.q, &k1.q, &k2.q, &k3.q, &k4.q);
+        combine(&mut next.qd, &k1.qd, &k2.qd, &k3.qd, &k4.qd);
+        combine(&mut next.theta, &k1.theta, &k2.theta, &k3.theta, &k4.theta);
+        combine(&mut next.theta_dot, &k1.theta_dot, &k2.theta_dot, &k3.theta_dot, &k4.theta_dot);
+        combine(&mut next.current, &k1.current, &k2.current, &k3.current, &k4.current);
+        combine(
+            &mut next.measured_current,
+            &k1.measured_current,
+            &k2.measured_current,
+            &k3.measured_current,
+            &k4.measured_current,
+        );
+        if !self.has_backlash() {
+            next.theta = next.q;
+            next.theta_dot = next.qd;
+        }
+        self.state = next;
+    }
+
+    /// Karnopp friction on a rotor with velocity `v`, other torques `net`, inertia `inertia`.
+    fn friction(drive: &Drive, v: f64, net: f64, inertia: f64) -> f64 {
+        if drive.stiction <= 0.0 && drive.coulomb <= 0.0 {
+            return 0.0;
+        }
+        if v.abs() > STICK_VELOCITY {
+            -drive.coulomb * v.signum()
+        } else {
+            let hold = -(net + inertia * v / STICK_TIME);
+            hold.clamp(-drive.stiction, drive.stiction)
+        }
+    }
+
+    fn derivative(&mut self, s: &PlantState<N>, volts: &[f64; N], external: &[f64; N]) -> PlantState<N> {
+        self.model.dynamics.eval(
+            &mut self.dynamics_scratch,
+            &s.q,
+            &s.qd,
+            &self.model.parameters,
+            &mut self.dynamics_out,
+        );
+        let out = &self.dynamics_out;
+        let mut inertia: [[f64; N]; N] = std::array::from_fn(|i| std::array::from_fn(|j| out[i * N + j]));
+        let bias: [f64; N] =
+            std::array::from_fn(|j| out[N * N + j] + out[N * N + N + j] + self.model.damping[j] * s.qd[j]);
+        let electrics = self.effects.motor_electrics;
+        let mut d = PlantState {
+            q: s.qd,
+            qd: [0.0; N],
+            theta: s.theta_dot,
+            theta_dot: [0.0; N],
+            current: [0.0; N],
+            measured_current: [0.0; N],
+        };
+        let motor: [f64; N] = std::array::from_fn(|j| self.drives[j].torque_per_amp * s.current[j]);
+        if self.has_backlash() {
+            let mut link_rhs = [0.0; N];
+            for j in 0..N {
+                let drive = &self.drives[j];
+                inertia[j][j] -= drive.rotor;
+                let delta = s.theta[j] - s.q[j];
+                let delta_dot = s.theta_dot[j] - s.qd[j];
+                let gear = if delta > drive.half_backlash {
+                    (GEAR_STIFFNESS * (delta - drive.half_backlash) + drive.gear_damping * delta_dot).max(0.0)
+                } else if delta < -drive.half_backlash {
+                    (GEAR_STIFFNESS * (delta + drive.half_backlash) + drive.gear_damping * delta_dot).min(0.0)
+                } else {
+                    0.0
+                };
+                link_rhs[j] = gear + external[j] - bias[j];
+                let net = motor[j] - gear;
+                let friction = Self::friction(drive, s.theta_dot[j], net, drive.rotor);
+                d.theta_dot[j] = (net + friction) / drive.rotor;
+            }
+            d.qd = linalg::cholesky_solve(&inertia, &link_rhs).unwrap_or([0.0; N]);
+        } else {
+            let mut rhs = [0.0; N];
+            for j in 0..N {
+                let net = motor[j] + external[j] - bias[j];
+                rhs[j] = net + Self::friction(&self.drives[j], s.qd[j], net, inertia[j][j]);
+            }
+            d.qd = linalg::cholesky_solve(&inertia, &rhs).unwrap_or([0.0; N]);
+            d.theta_dot = d.qd;
+        }
+        if electrics {
+            for j in 0..N {
+                let drive = &self.drives[j];
+                d.current[j] = (volts[j] - drive.resistance * s.current[j] - drive.back_emf * s.theta_dot[j])
+                    / drive.inductance;
+                d.measured_current[j] = if self.filter_time_constant > 0.0 {
+                    (s.current[j] - s.measured_current[j]) / self.filter_time_constant
+                } else {
+                    d.current[j]
+                };
+            }
+        }
+        d
+    }
+}
