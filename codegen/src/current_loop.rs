@@ -138,7 +138,7 @@ pub fn design_current_loop(input: &CurrentLoopDesignInput) -> Result<CurrentLoop
     // The bandwidth grows with ω_n; bisect on ω_n. An unstable loop counts as "too fast".
     let (mut low, mut high) = (0.1 * target, 0.45 * input.sample_rate_hz);
     let mut best = None;
-    for _ in 0..80 {
+    for _ in 0..52 {
         let middle = 0.5 * (low + high);
         match evaluate(middle) {
             Some((placement, bandwidth)) => {
@@ -264,7 +264,9 @@ impl DiscretePlant {
         };
         let dc = gain_at(0.0);
         let threshold = dc / 2f64.sqrt();
-        let step = nyquist / 4000.0;
+        // A coarse scan finds the first crossing (the response is smooth on this scale: the
+        // loop's slowest mode is far above nyquist / 400); bisection then refines it.
+        let step = nyquist / 400.0;
         let mut previous = 0.0;
         let mut hz = step;
         while hz < nyquist {

@@ -186,6 +186,8 @@ struct Resolver<'a, 'b> {
     errors: Vec<Diagnostic>,
     parameters: ParameterValues,
     nominal: HashMap<String, f64>,
+    /// Some reference to a joint could not be resolved.
+    unresolved_joint_reference: bool,
 }
 
 impl Resolver<'_, '_> {
@@ -326,7 +328,13 @@ pub(crate) fn resolve(
     variant: Option<String>,
     variants: Vec<String>,
 ) -> Result<Model, Diagnostics> {
-    let mut r = Resolver { locator, errors: Vec::new(), parameters: HashMap::new(), nominal: HashMap::new() };
+    let mut r = Resolver {
+        locator,
+        errors: Vec::new(),
+        parameters: HashMap::new(),
+        nominal: HashMap::new(),
+        unresolved_joint_reference: false,
+    };
     let planar = file.space == Space::Planar;
     let dim = if planar { 2 } else { 3 };
 
@@ -543,6 +551,7 @@ pub(crate) fn resolve(
             match joint_index.get(name) {
                 Some(i) => Some(*i),
                 None => {
+                    r.unresolved_joint_reference = true;
                     let mut known: Vec<&String> = joint_index.keys().collect();
                     known.sort();
                     r.error_hint(
@@ -751,8 +760,11 @@ pub(crate) fn resolve(
             motion,
         }));
     }
+    // A joint is reported as unused only when every body resolved: otherwise the unresolved
+    // reference is the one error to fix, and this would be its echo.
+    let bodies_resolved = bodies.iter().all(Option::is_some) && !r.unresolved_joint_reference;
     for (j, used) in joint_used.iter().enumerate() {
-        if !used && j < file.joints.len() && !duplicate_joints.contains(&j) {
+        if bodies_resolved && !used && j < file.joints.len() && !duplicate_joints.contains(&j) {
             r.error_hint(
                 &[key("joints"), Segment::Index(j), key("name")],
                 format!("joint `{}` moves no body", file.joints[j].name),
@@ -936,6 +948,12 @@ pub(crate) fn resolve(
                 filter_cutoff_hz: file.current_loop.anti_alias_cutoff_hz,
                 filter_order: file.current_loop.anti_alias_filter_order,
             };
+            // Joints sharing a drive share its design.
+            let earlier = joints.iter().position(|other| other.drive_name == j.drive_name);
+            if let Some(&design) = earlier.and_then(|k| current_loop_designs.get(k)) {
+                current_loop_designs.push(design);
+                continue;
+            }
             match crate::current_loop::design_current_loop(&input) {
                 Ok(design) => current_loop_designs.push(design),
                 Err(why) => {

@@ -1,1 +1,21 @@
-//! x
+//! The host side of hapticgen: a simulator of any rig model in closed loop with the runtime's
+//! controllers, the paper's experiments, and the plots and report that reproduce them.
+//!
+//! Layers, from the bottom: [`tape`] (the symbolic mechanics of eq. (1)–(2) compiled into flat
+//! evaluation tapes), [`rig`] (any model as a `RigModel`), [`generated`] (the shipped models'
+//! generated code), [`plant`] (the simulated device: rigid bodies, motors, friction, backlash,
+//! sensors), [`sim`] (the closed loop of Fig. 1 with an operator), [`simulate`] (scenarios
+//! and dispatch), [`analysis`] (fits of the responses), [`plot`] and [`output`] (figures and
+//! CSV) and [`paper`] (the experiments of section 6 and the report).
+#![deny(missing_docs)]
+
+pub mod analysis;
+pub mod generated;
+pub mod output;
+pub mod paper;
+pub mod plant;
+pub mod plot;
+pub mod rig;
+pub mod sim;
+pub mod simulate;
+pub mod tape;

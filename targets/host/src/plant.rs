@@ -194,7 +194,10 @@ impl<const N: usize, const M: usize> Plant<N, M> {
             let rotor = model.reflected_rotor_inertia[j];
             let half_backlash = if effects.backlash { 0.5 * extras.backlash.max(0.0) } else { 0.0 };
             let (coulomb, stiction) = if effects.friction {
-                (extras.coulomb_friction.max(0.0), extras.static_friction.max(extras.coulomb_friction).max(0.0))
+                (
+                    extras.coulomb_friction.max(0.0),
+                    extras.static_friction.max(extras.coulomb_friction).max(0.0),
+                )
             } else {
                 (0.0, 0.0)
             };

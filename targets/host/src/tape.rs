@@ -8,7 +8,7 @@
 //! (`hapticgen_codegen::sym::dag::Dag`, with its Horner factoring and common-subexpression
 //! elimination), and the nodes reachable from the requested outputs are flattened into a
 //! register tape: constants and inputs are registers filled before the run, every other node
-//! is one `Add`/`Sub`/`Mul`/`Neg` instruction writing its own register. Evaluating a tape is a
+//! is one `Add`/`Sub`/`Mul`/`Div`/`Neg` instruction writing its own register. Evaluating a tape is a
 //! single pass over a `Vec<f64>`, with one `sin`/`cos` per joint.
 
 use hapticgen_codegen::sym::dag::{Dag, Node, NodeId};
@@ -20,6 +20,7 @@ enum Op {
     Add(u32, u32, u32),
     Sub(u32, u32, u32),
     Mul(u32, u32, u32),
+    Div(u32, u32, u32),
     Neg(u32, u32),
 }
 
@@ -31,6 +32,8 @@ enum Source {
     Q(usize),
     Qd(usize),
     Param(usize),
+    /// An atom the mechanics never contains (inputs of fused control laws): zero.
+    Zero,
 }
 
 /// A compiled list of outputs over the inputs `sin q_j`, `cos q_j`, `q_j`, `q̇_j` and the
@@ -69,6 +72,7 @@ impl Tape {
                         Atom::Q(j) => Source::Q(usize::from(j)),
                         Atom::Qd(j) => Source::Qd(usize::from(j)),
                         Atom::Param(k) => Source::Param(usize::from(k)),
+                        Atom::External(_) => Source::Zero,
                     };
                     inputs.push((slot, source));
                 }
@@ -83,6 +87,10 @@ impl Tape {
                 Node::Mul(a, b) => {
                     registers.push(0.0);
                     ops.push(Op::Mul(slot, r(a), r(b)));
+                }
+                Node::Div(a, b) => {
+                    registers.push(0.0);
+                    ops.push(Op::Div(slot, r(a), r(b)));
                 }
                 Node::Neg(a) => {
                     registers.push(0.0);
@@ -136,6 +144,7 @@ impl Tape {
                 Source::Q(j) => get(q, j),
                 Source::Qd(j) => get(qd, j),
                 Source::Param(k) => get(parameters, k),
+                Source::Zero => 0.0,
             };
         }
         for op in &self.ops {
@@ -143,6 +152,7 @@ impl Tape {
                 Op::Add(d, a, b) => scratch[d as usize] = scratch[a as usize] + scratch[b as usize],
                 Op::Sub(d, a, b) => scratch[d as usize] = scratch[a as usize] - scratch[b as usize],
                 Op::Mul(d, a, b) => scratch[d as usize] = scratch[a as usize] * scratch[b as usize],
+                Op::Div(d, a, b) => scratch[d as usize] = scratch[a as usize] / scratch[b as usize],
                 Op::Neg(d, a) => scratch[d as usize] = -scratch[a as usize],
             }
         }

@@ -126,6 +126,10 @@ pub fn generate(v: &Variant, firmware_dir: &Path, scalar: Scalar, out_dir: &Path
          \x20   pub type Run = ::hapticgen_fw_sim::scenarios::{scenario}::Run<Rig>;\n\
          \x20   /// The image name.\n\
          \x20   pub const NAME: &str = \"{name}\";\n\
+         \x20   /// The rig's current-loop rate, Hz (the interrupt rate).\n\
+         \x20   pub const CURRENT_LOOP_HZ: u32 = {hz};\n\
+         \x20   /// The rig's impedance-loop rate, Hz.\n\
+         \x20   pub const IMPEDANCE_LOOP_HZ: u32 = {imp_hz};\n\
          \x20   /// Model-derived settings: current-loop gains (kp, ki designed at build time), rendering.\n\
          \x20   pub fn setup() -> ::hapticgen_fw_sim::Setup<{s}> {{\n\
          \x20       type S = {s};\n\
@@ -155,6 +159,8 @@ pub fn generate(v: &Variant, firmware_dir: &Path, scalar: Scalar, out_dir: &Path
         period = literal(design.sample_period),
         beta = literal(design.proportional_setpoint_weight),
         tau = literal(design.filter_time_constant),
+        hz = loaded.rates.current_loop_hz,
+        imp_hz = loaded.rates.impedance_loop_hz,
     )
     .map_err(|e| e.to_string())?;
     Ok(glue)

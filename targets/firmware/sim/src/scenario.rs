@@ -61,8 +61,51 @@ where
     pub periods: u32,
     /// Periods between trace lines.
     pub sample_every: u32,
+    /// How far an `f32` run's task coordinates may stray from the `f64` reference (m or rad):
+    /// see [`trace_tolerance`].
+    pub task_tolerance: R::Scalar,
     done: u32,
     checksum: u32,
+}
+
+/// Encoder counts of disagreement allowed between an `f32` and an `f64` run (see
+/// [`trace_tolerance`]).
+pub const TOLERANCE_COUNTS: f64 = 4.0;
+
+/// Current disagreement allowed between an `f32` and an `f64` run, mA: 0.5 A, the motor
+/// current of 0.18 N·m (a quarter of the 3 N·m limit would be 2 A; one encoder count through
+/// the paper's 1500 N/m wall is 0.06 N = 0.02 A at the motor, so this leaves a wide margin
+/// for the current loop's transients).
+pub const CURRENT_TOLERANCE_MILLIAMP: i64 = 500;
+
+/// The tolerance of the task coordinates of an `f32` run against the `f64` reference:
+/// [`TOLERANCE_COUNTS`] encoder counts mapped to the task through `|J(q0)|` (largest row sum
+/// of `|J_kj| · rad_per_count_j`), plus `extra` (for a rendered scene, two anti-drift grid
+/// spacings: after a contact the proxy may settle on a neighbouring grid node).
+///
+/// Why counts: the two runs round differently in the last bit (about 1e-7 relative in
+/// `f32`), so an encoder edge can be crossed one period earlier or later; the estimator then
+/// sees a one-count step the other run sees later, and the loop's transient response to a
+/// one-count disturbance is of the order of one count. Neutral directions (sliding along a
+/// wall, where the renderer applies no spring) integrate such differences, hence the margin.
+pub fn trace_tolerance<R: RigModel<N, M>, const N: usize, const M: usize>(
+    rig: &R,
+    q0: &[R::Scalar; N],
+    extra: R::Scalar,
+) -> R::Scalar {
+    let jacobian = rig.jacobian(q0);
+    let drives = rig.drives();
+    let mut worst = R::Scalar::ZERO;
+    for row in jacobian.iter() {
+        let mut sum = R::Scalar::ZERO;
+        for (j, entry) in row.iter().enumerate() {
+            let per_count = R::Scalar::from_f64(2.0 * core::f64::consts::PI)
+                / (R::Scalar::from_f64(f64::from(drives[j].encoder_counts_per_turn)) * drives[j].gear_ratio);
+            sum += entry.abs() * per_count;
+        }
+        worst = worst.max(sum);
+    }
+    R::Scalar::from_f64(TOLERANCE_COUNTS) * worst + extra
 }
 
 const FNV_OFFSET: u32 = 0x811c_9dc5;
@@ -104,7 +147,7 @@ where
         periods: u32,
         sample_every: u32,
     ) -> Self {
-        Self { name, controller, board, load, periods, sample_every, done: 0, checksum: FNV_OFFSET }
+        Self { name, controller, board, load, periods, sample_every, task_tolerance: R::Scalar::ZERO, done: 0, checksum: FNV_OFFSET }
     }
 
     /// `true` once every period has run.
@@ -187,6 +230,8 @@ where
         };
         line.kv("plant_ok", i64::from(!self.board.broken));
         line.kx("checksum", self.checksum);
+        line.emit(out);
+        line.str("TOL").kv("x", micro(self.task_tolerance)).kv("i", CURRENT_TOLERANCE_MILLIAMP);
         line.emit(out);
         for (label, stats) in [("current", &c.current_cost), ("impedance", &c.impedance_cost)] {
             line.str("COST ").str(label);

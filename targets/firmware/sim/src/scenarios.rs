@@ -8,7 +8,7 @@ use hapticgen_runtime::tick::HapticLoopSettings;
 use hapticgen_runtime::{Real, RigModel};
 
 use crate::plant::SimBoard;
-use crate::scenario::{Load, Scenario, Setup};
+use crate::scenario::{trace_tolerance, Load, Scenario, Setup};
 
 fn s<S: Real>(value: f64) -> S {
     S::from_f64(value)
@@ -67,7 +67,10 @@ pub mod fig4_step {
         let settings = settings(controller, setup, R::IMPEDANCE_LOOP_HZ, q0);
         let controller = Controller::new(rig, reference, &settings, profile)?;
         let load = Load { start: fast / 10, end: u32::MAX, force: [s(1.0)] };
-        Some(Scenario::new(name, controller, board, load, 2 * fast, fast / 100))
+        let tolerance = trace_tolerance(board.rig(), &q0, R::Scalar::ZERO);
+        let mut run = Scenario::new(name, controller, board, load, 2 * fast, fast / 100);
+        run.task_tolerance = tolerance;
+        Some(run)
     }
 }
 
@@ -121,6 +124,12 @@ pub mod wall_contact {
         let settings = settings(controller, setup, R::IMPEDANCE_LOOP_HZ, q0);
         let controller = Controller::new(rig, scene, &settings, profile)?;
         let load = Load { start: fast / 10, end: fast, force: [s(2.0), R::Scalar::ZERO] };
-        Some(Scenario::new(name, controller, board, load, 3 * fast / 2, fast / 100))
+        // Two grid spacings: on the rebound after the operator lets go, each run snaps the
+        // proxy through its own sequence of grid nodes (a discontinuous, path-dependent map),
+        // so the runs can differ by a node at the moment of a jump and by a node at rest.
+        let tolerance = trace_tolerance(board.rig(), &q0, grid + grid);
+        let mut run = Scenario::new(name, controller, board, load, 3 * fast / 2, fast / 100);
+        run.task_tolerance = tolerance;
+        Some(run)
     }
 }

@@ -1,0 +1,29 @@
+//! Generates the rig (f32) of the image named by `HAPTICGEN_FW_VARIANT` (default
+//! `horizontal`; this board wiring has two joints) and memory.x for the STM32F407VG.
+use std::path::PathBuf;
+
+use hapticgen_codegen::Scalar;
+
+fn main() {
+    let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"));
+    let out = PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
+    let firmware = hapticgen_fw_build::firmware_dir(&manifest);
+    let table = hapticgen_fw_build::read_table(&firmware).unwrap_or_else(|e| panic!("{e}"));
+    println!("cargo:rerun-if-env-changed=HAPTICGEN_FW_VARIANT");
+    let name = std::env::var("HAPTICGEN_FW_VARIANT").unwrap_or_else(|_| "horizontal".into());
+    let variant = table
+        .iter()
+        .find(|v| v.name == name)
+        .unwrap_or_else(|| panic!("HAPTICGEN_FW_VARIANT={name} is not in variants.txt"));
+    let glue = hapticgen_fw_build::generate(variant, &firmware, Scalar::F32, &out, "image").unwrap_or_else(|e| panic!("{e}"));
+    // This image uses the rig and its setup, not the simulated scenario: drop `new`.
+    let glue = glue.replace("pub type Run", "#[cfg(any())] pub type Run").replace("pub fn new(", "#[cfg(any())] pub fn new(");
+    std::fs::write(out.join("image.rs"), glue).expect("OUT_DIR is writable");
+    std::fs::write(
+        out.join("memory.x"),
+        "MEMORY\n{\n  FLASH : ORIGIN = 0x08000000, LENGTH = 1024K\n  RAM : ORIGIN = 0x20000000, LENGTH = 128K\n}\n",
+    )
+    .expect("OUT_DIR is writable");
+    println!("cargo:rustc-link-search={}", out.display());
+    println!("cargo:rerun-if-changed=build.rs");
+}

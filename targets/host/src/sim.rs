@@ -1,0 +1,537 @@
+//! The closed loop of the paper's Fig. 1 in simulation: the runtime's [`HapticLoop`]
+//! (estimation → rig terms → rendering/reference → impedance law of eq. (3)–(13) → safety →
+//! current setpoints, and the PI current loops of section 2) driving the [`Plant`], with an
+//! operator model applying its force at the device's task point.
+//!
+//! Timing follows the firmware: the simulation advances one current-loop period
+//! (`1/current_loop_hz`, 7.5 kHz) at a time — the operator's force is evaluated, the current
+//! loop runs on the filtered measured currents, the impedance tick runs when the runtime's
+//! `Scheduler` says it is due (1 kHz) on the encoder counts and force-sensor readings of that
+//! instant, and the plant is integrated over the period (RK4, `substeps` steps) with the
+//! armature voltages held.
+//!
+//! **Signs.** The operator pushes the device with the force `f_op` (task space; N or N·m), a
+//! joint torque `Jᵀ f_op`. In eq. (1) the operator's force `f_l` enters as `+Jᵀ f_l` on the
+//! left-hand side, so `f_l = −f_op`: that is what the force sensors report to Controller 1,
+//! and eq. (6) reads `M_d ẍ + B_d ẋ + K_d x̃ = f_op`. The trace's `f` columns are `f_op`.
+
+use std::io::IsTerminal as _;
+use std::sync::Arc;
+use std::time::Instant;
+
+use hapticgen_runtime::control::{
+    ControlOptions, ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference,
+};
+use hapticgen_runtime::current_loop::CurrentLoopGains;
+use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
+use hapticgen_runtime::linalg;
+use hapticgen_runtime::render::{Scene, VirtualObject};
+use hapticgen_runtime::schedule::Scheduler;
+use hapticgen_runtime::tick::{HapticLoop, HapticLoopSettings, ImpedanceInputs, ReferenceSource};
+use hapticgen_runtime::RigModel;
+use rand::rngs::SmallRng;
+use rand::{Rng, SeedableRng};
+
+use crate::plant::{Effects, Plant};
+use crate::rig::{CompiledModel, SimRig};
+
+/// Encoder resolution used when quantisation is switched off, counts per motor turn.
+pub const FINE_ENCODER_COUNTS: u32 = 1 << 22;
+
+/// Capacity of the simulator's scenes (objects).
+pub const SCENE_OBJECTS: usize = 4;
+/// Capacity of the simulator's scenes (polygon vertices).
+pub const SCENE_VERTICES: usize = 8;
+
+/// A path in task space: positions at given times, linearly interpolated (held after the
+/// last key).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Path {
+    /// `(time s, position)` keys in increasing time.
+    pub keys: Vec<(f64, Vec<f64>)>,
+}
+
+impl Path {
+    /// Position and velocity at time `t`.
+    pub fn at(&self, t: f64) -> (Vec<f64>, Vec<f64>) {
+        let keys = &self.keys;
+        let Some(first) = keys.first() else {
+            return (Vec::new(), Vec::new());
+        };
+        let zero = vec![0.0; first.1.len()];
+        if t <= first.0 {
+            return (first.1.clone(), zero);
+        }
+        for pair in keys.windows(2) {
+            let (t0, p0) = &pair[0];
+            let (t1, p1) = &pair[1];
+            if t <= *t1 && t1 > t0 {
+                let s = (t - t0) / (t1 - t0);
+                let position = p0.iter().zip(p1).map(|(a, b)| a + s * (b - a)).collect();
+                let velocity = p0.iter().zip(p1).map(|(a, b)| (b - a) / (t1 - t0)).collect();
+                return (position, velocity);
+            }
+        }
+        (keys[keys.len() - 1].1.clone(), zero)
+    }
+}
+
+/// The operator (paper, section 6): what force acts on the device's task point.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Operator {
+    /// No hand on the device (free space, drift tests).
+    Free,
+    /// A pure force (torque for a joint-space task) step of `force`, from time `start`: the
+    /// paper's 1 N·m step added through the current controller, i.e. an external torque.
+    Step {
+        /// The force after the step, task space.
+        force: Vec<f64>,
+        /// Time of the step, s.
+        start: f64,
+    },
+    /// A hand holding the task point through a spring-damper whose other end follows `path`;
+    /// a path outside a virtual object's boundary is a commanded push against it.
+    Hand {
+        /// Hand stiffness, N/m (N·m/rad).
+        stiffness: f64,
+        /// Hand damping, N·s/m.
+        damping: f64,
+        /// Where the hand goes.
+        path: Path,
+    },
+}
+
+impl Operator {
+    /// The operator's force on the device at time `t`, task position `x` and velocity `v`.
+    pub fn force(&self, t: f64, x: &[f64], v: &[f64]) -> Vec<f64> {
+        match self {
+            Operator::Free => vec![0.0; x.len()],
+            Operator::Step { force, start } => {
+                if t >= *start {
+                    force.clone()
+                } else {
+                    vec![0.0; x.len()]
+                }
+            }
+            Operator::Hand { stiffness, damping, path } => {
+                let (target, target_velocity) = path.at(t);
+                (0..x.len())
+                    .map(|k| {
+                        let p = target.get(k).copied().unwrap_or(x[k]);
+                        let pv = target_velocity.get(k).copied().unwrap_or(0.0);
+                        stiffness * (p - x[k]) + damping * (pv - v[k])
+                    })
+                    .collect()
+            }
+        }
+    }
+}
+
+/// The impedance law's reference: a fixed `x_d`, or a haptic scene (section 4; 2-D tasks).
+#[derive(Clone, Debug)]
+pub enum Reference {
+    /// `x_d` at rest; `None` = the device's initial task position.
+    Fixed(Option<Vec<f64>>),
+    /// Virtual objects rendered with the proxy method and the anti-drift grid.
+    Scene {
+        /// The objects.
+        objects: Vec<VirtualObject<f64, SCENE_VERTICES>>,
+        /// Free-space `K_d`.
+        free_stiffness: f64,
+        /// Free-space `B_d`.
+        free_damping: f64,
+        /// Grid spacing, m (0 = pure collocation).
+        grid_spacing: f64,
+    },
+}
+
+/// Everything one run needs besides the model.
+#[derive(Clone, Debug)]
+pub struct SimConfig {
+    /// The impedance law.
+    pub law: ImpedanceLaw,
+    /// `K_d` (every task axis).
+    pub stiffness: f64,
+    /// `B_d`.
+    pub damping: f64,
+    /// `M_d` (Controller 1 and the first variant of Controller 2).
+    pub mass: f64,
+    /// Simulated time, s.
+    pub duration: f64,
+    /// Non-idealities.
+    pub effects: Effects,
+    /// Factor on the plant's body masses and inertias (the controller keeps the model's).
+    pub plant_mass_scale: f64,
+    /// Seed of the sensor noise.
+    pub seed: u64,
+    /// The operator.
+    pub operator: Operator,
+    /// The reference.
+    pub reference: Reference,
+    /// Initial joint angles.
+    pub initial_q: Vec<f64>,
+    /// `|det J|` below which Controllers 1 and 2 fall back to Controller 3 (0 = never).
+    pub singular_fallback: f64,
+    /// Velocity low-pass cut-off of the estimator, Hz.
+    pub velocity_cutoff_hz: f64,
+    /// Acceleration low-pass cut-off of the estimator, Hz.
+    pub acceleration_cutoff_hz: f64,
+    /// RK4 steps per current-loop period.
+    pub substeps: usize,
+    /// Trace rows per second.
+    pub record_hz: f64,
+    /// Show a progress bar on a terminal when the run takes over a second.
+    pub progress: bool,
+}
+
+impl SimConfig {
+    /// Defaults: Controller 3, `K_d = 1`, `B_d = 0.01`, `M_d = 0.01`, 5 s, every effect on,
+    /// no operator, reference at the initial position.
+    pub fn new(initial_q: Vec<f64>) -> SimConfig {
+        SimConfig {
+            law: ImpedanceLaw::Controller3,
+            stiffness: 1.0,
+            damping: 0.01,
+            mass: 0.01,
+            duration: 5.0,
+            effects: Effects::ALL,
+            plant_mass_scale: 1.0,
+            seed: 1,
+            operator: Operator::Free,
+            reference: Reference::Fixed(None),
+            initial_q,
+            singular_fallback: 0.0,
+            velocity_cutoff_hz: 100.0,
+            acceleration_cutoff_hz: 25.0,
+            substeps: 1,
+            record_hz: 1000.0,
+            progress: false,
+        }
+    }
+}
+
+/// The model-level data a run needs (rates, current-loop gains, force sensors).
+#[derive(Clone, Debug)]
+pub struct LoopData {
+    /// Current-loop rate, Hz.
+    pub current_loop_hz: u32,
+    /// Impedance-loop rate, Hz.
+    pub impedance_loop_hz: u32,
+    /// The designed PI gains.
+    pub gains: CurrentLoopGains<f64>,
+    /// Time constant of the current-sense filter lag, s.
+    pub filter_time_constant: f64,
+    /// Force sensors, one per task axis (the last one repeated when there are fewer).
+    pub sensors: Vec<SensorSpec>,
+}
+
+/// A force sensor's calibration and imperfections.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorSpec {
+    /// Force per raw unit.
+    pub scale: f64,
+    /// Raw reading at zero force.
+    pub offset: f64,
+    /// Largest measurable magnitude.
+    pub full_scale: f64,
+    /// Noise standard deviation, force units.
+    pub noise: f64,
+    /// Quantisation step, force units.
+    pub resolution: f64,
+}
+
+/// One simulated run: sampled signals and what the controller reported.
+#[derive(Clone, Debug, Default)]
+pub struct Trace {
+    /// Number of joints.
+    pub joints: usize,
+    /// Task dimension.
+    pub task_dim: usize,
+    /// Column names: `t`, `q*`, `qd*`, `x*`, `u*`, `f*`, `xp*`.
+    pub columns: Vec<String>,
+    /// Rows of samples.
+    pub rows: Vec<Vec<f64>>,
+    /// Impedance ticks run.
+    pub impedance_ticks: usize,
+    /// Impedance ticks with a joint torque clamped to its limit.
+    pub clamped_ticks: usize,
+    /// Impedance ticks where Controller 1 or 2 fell back to Controller 3 near a singularity.
+    pub fallback_ticks: usize,
+    /// Largest commanded joint torque magnitude (after limiting), N·m.
+    pub peak_torque: f64,
+    /// The first latched fault and when, if any.
+    pub fault: Option<(f64, String)>,
+    /// Wall-clock time of the run, s.
+    pub wall_seconds: f64,
+}
+
+impl Trace {
+    /// The samples of one column.
+    pub fn column(&self, name: &str) -> Option<Vec<f64>> {
+        let index = self.columns.iter().position(|c| c == name)?;
+        Some(self.rows.iter().map(|r| r[index]).collect())
+    }
+
+    /// Fraction of impedance ticks with a clamped torque.
+    pub fn saturation_fraction(&self) -> f64 {
+        if self.impedance_ticks == 0 {
+            0.0
+        } else {
+            self.clamped_ticks as f64 / self.impedance_ticks as f64
+        }
+    }
+
+    /// Simulated seconds.
+    pub fn duration(&self) -> f64 {
+        self.rows.last().map_or(0.0, |r| r[0])
+    }
+}
+
+/// The reference source handed to the [`HapticLoop`]; remembers the last proxy for the trace.
+pub struct SimSource<const M: usize> {
+    fixed: Option<TaskReference<f64, M>>,
+    scene: Option<Box<Scene<f64, SCENE_OBJECTS, SCENE_VERTICES>>>,
+    /// The last reference position (proxy).
+    pub last: [f64; M],
+}
+
+impl<const M: usize> ReferenceSource<f64, M> for SimSource<M> {
+    fn update_reference(
+        &mut self,
+        task_position: &[f64; M],
+        parameters: &mut ImpedanceParameters<f64, M>,
+    ) -> TaskReference<f64, M> {
+        let reference = match (&mut self.scene, self.fixed) {
+            (Some(scene), _) => {
+                let hip = [task_position[0], task_position.get(1).copied().unwrap_or(0.0)];
+                let out = scene.render(&hip);
+                for k in 0..M.min(2) {
+                    parameters.stiffness[k] = out.stiffness[k];
+                    parameters.damping[k] = out.damping[k];
+                }
+                TaskReference::at_rest(std::array::from_fn(|k| out.proxy.get(k).copied().unwrap_or(0.0)))
+            }
+            (None, Some(fixed)) => fixed,
+            (None, None) => TaskReference::at_rest(*task_position),
+        };
+        self.last = reference.position;
+        reference
+    }
+}
+
+/// A standard normal sample (Box–Muller).
+fn gaussian(rng: &mut SmallRng) -> f64 {
+    let u1: f64 = rng.gen::<f64>().max(1e-300);
+    let u2: f64 = rng.gen::<f64>();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+fn array<const K: usize>(values: &[f64], name: &str) -> Result<[f64; K], String> {
+    if values.len() != K {
+        return Err(format!("error: {name} needs {K} values, got {}", values.len()));
+    }
+    Ok(std::array::from_fn(|k| values[k]))
+}
+
+/// Runs one simulation with `rig` as the controller's model and `plant_model` as the device.
+pub fn run<R, const N: usize, const M: usize>(
+    rig: R,
+    plant_model: Arc<CompiledModel>,
+    data: &LoopData,
+    cfg: &SimConfig,
+) -> Result<Trace, String>
+where
+    R: RigModel<N, M, Scalar = f64>,
+{
+    let effects = cfg.effects;
+    let mut drives = rig.drives();
+    for drive in drives.iter_mut() {
+        if !effects.encoder_quantisation {
+            drive.encoder_counts_per_turn = FINE_ENCODER_COUNTS;
+        }
+        if !effects.saturation {
+            drive.torque_limit = 1e12;
+            drive.current_limit = 1e12;
+            drive.supply_voltage = 1e12;
+        }
+    }
+    let rig = SimRig { inner: rig, drives };
+    let q0: [f64; N] = array(&cfg.initial_q, "the initial joint angles")?;
+    let counts_per_turn: [u32; N] = std::array::from_fn(|j| drives[j].encoder_counts_per_turn);
+    let mut plant = Plant::<N, M>::new(plant_model, effects, q0, counts_per_turn, data.filter_time_constant)
+        .ok_or_else(|| "error: the plant model's dimensions differ from the controller's".to_string())?;
+    let initial_counts = plant.encoder_counts();
+    let zero_offset: [f64; N] = std::array::from_fn(|j| {
+        let per_radian = f64::from(counts_per_turn[j]) * drives[j].gear_ratio / std::f64::consts::TAU;
+        f64::from(initial_counts[j]) / per_radian
+    });
+    let start = plant.task();
+    let source = match &cfg.reference {
+        Reference::Fixed(position) => {
+            let position = match position {
+                Some(p) => array::<M>(p, "the reference position")?,
+                None => start.position,
+            };
+            SimSource { fixed: Some(TaskReference::at_rest(position)), scene: None, last: position }
+        }
+        Reference::Scene { objects, free_stiffness, free_damping, grid_spacing } => {
+            if M != 2 {
+                return Err(format!(
+                    "error: virtual objects need a 2-D task space; this model's task has {M} coordinates"
+                ));
+            }
+            let mut scene = Box::new(Scene::new(*free_stiffness, *free_damping, *grid_spacing));
+            for object in objects {
+                scene.add(*object).ok_or_else(|| "error: too many virtual objects".to_string())?;
+            }
+            SimSource { fixed: None, scene: Some(scene), last: start.position }
+        }
+    };
+    let sensors: [SensorSpec; M] = std::array::from_fn(|k| {
+        data.sensors.get(k).or(data.sensors.last()).copied().unwrap_or(SensorSpec {
+            scale: 1.0,
+            offset: 0.0,
+            full_scale: f64::INFINITY,
+            noise: 0.0,
+            resolution: 0.0,
+        })
+    });
+    let settings = HapticLoopSettings {
+        controller: ImpedanceController {
+            law: cfg.law,
+            parameters: ImpedanceParameters {
+                stiffness: [cfg.stiffness; M],
+                damping: [cfg.damping; M],
+                mass: [cfg.mass; M],
+            },
+            options: ControlOptions {
+                omit_damping_compensation: false,
+                min_abs_jacobian_determinant: cfg.singular_fallback,
+            },
+        },
+        estimator: EstimatorSettings {
+            sample_period: 1.0 / f64::from(data.impedance_loop_hz),
+            velocity_cutoff_hz: cfg.velocity_cutoff_hz,
+            acceleration_cutoff_hz: cfg.acceleration_cutoff_hz,
+        },
+        zero_offset,
+        initial_counts,
+        force_calibration: ForceSensorCalibration {
+            scale: std::array::from_fn(|k| sensors[k].scale),
+            offset: std::array::from_fn(|k| sensors[k].offset),
+        },
+        current_gains: data.gains,
+        max_tick_gap: 1,
+    };
+    let mut haptic = HapticLoop::new(rig, source, &settings)
+        .ok_or_else(|| "error: unusable loop rates in the generated rig".to_string())?;
+    let mut scheduler = Scheduler::new(data.current_loop_hz, data.impedance_loop_hz).ok_or_else(|| {
+        format!(
+            "error: unusable loop rates: current loop {} Hz, impedance loop {} Hz",
+            data.current_loop_hz, data.impedance_loop_hz
+        )
+    })?;
+    let dt = 1.0 / f64::from(data.current_loop_hz);
+    let substeps = cfg.substeps.max(1);
+    let total = (cfg.duration / dt).round().max(0.0) as u64;
+    let record_every = ((f64::from(data.current_loop_hz) / cfg.record_hz.max(1e-9)).round() as u64).max(1);
+    let mut rng = SmallRng::seed_from_u64(cfg.seed);
+
+    let mut trace = Trace { joints: N, task_dim: M, ..Trace::default() };
+    trace.columns.push("t".into());
+    for (prefix, count) in [("q", N), ("qd", N), ("x", M), ("u", N), ("f", M), ("xp", M)] {
+        trace.columns.extend((0..count).map(|k| format!("{prefix}{k}")));
+    }
+    let mut torque = [0.0; N];
+    let mut tick_counter: u32 = 0;
+    let wall = Instant::now();
+    let mut bar: Option<indicatif::ProgressBar> = None;
+    let show_progress = cfg.progress && std::io::stderr().is_terminal();
+    for k in 0..=total {
+        let t = k as f64 * dt;
+        let task = plant.task();
+        let force = cfg.operator.force(t, &task.position, &task.velocity);
+        let force: [f64; M] = std::array::from_fn(|i| force.get(i).copied().unwrap_or(0.0));
+        if k % record_every == 0 {
+            let s = &plant.state;
+            let mut row = Vec::with_capacity(trace.columns.len());
+            row.push(t);
+            row.extend_from_slice(&s.q);
+            row.extend_from_slice(&s.qd);
+            row.extend_from_slice(&task.position);
+            row.extend_from_slice(&torque);
+            row.extend_from_slice(&force);
+            row.extend_from_slice(&haptic.source.last);
+            trace.rows.push(row);
+        }
+        if k == total {
+            break;
+        }
+        let measured = plant.state.measured_current;
+        let (voltages, _) = haptic.current_tick(&measured);
+        if scheduler.tick() {
+            let readings: [f64; M] = std::array::from_fn(|i| {
+                let spec = &sensors[i];
+                let mut f_l = -force[i];
+                if effects.sensor_noise {
+                    f_l += spec.noise * gaussian(&mut rng);
+                    if spec.resolution > 0.0 {
+                        f_l = (f_l / spec.resolution).round() * spec.resolution;
+                    }
+                    if spec.full_scale > 0.0 {
+                        f_l = f_l.clamp(-spec.full_scale, spec.full_scale);
+                    }
+                }
+                spec.offset + f_l / spec.scale
+            });
+            tick_counter = tick_counter.wrapping_add(1);
+            let inputs = ImpedanceInputs {
+                encoder_counts: plant.encoder_counts(),
+                force_readings: readings,
+                tick: tick_counter,
+            };
+            let report = haptic.impedance_tick(&inputs);
+            trace.impedance_ticks += 1;
+            if report.command.any_clamped() {
+                trace.clamped_ticks += 1;
+            }
+            if report.control_status == ControlStatus::SingularFallback {
+                trace.fallback_ticks += 1;
+            }
+            if let (Some(fault), None) = (report.command.fault, &trace.fault) {
+                trace.fault = Some((t, format!("{fault:?} (control {:?})", report.control_status)));
+            }
+            torque = report.command.torque;
+            for u in torque {
+                trace.peak_torque = trace.peak_torque.max(u.abs());
+            }
+        }
+        let volts: [f64; N] = std::array::from_fn(|j| voltages[j].voltage);
+        let setpoints = *haptic.current_setpoints();
+        let external = linalg::transpose_mul_vec(&task.jacobian, &force);
+        for _ in 0..substeps {
+            plant.step(dt / substeps as f64, &volts, &setpoints, &external);
+        }
+        if show_progress && k % 2000 == 0 {
+            if bar.is_none() && wall.elapsed().as_secs_f64() > 1.0 {
+                let b = indicatif::ProgressBar::new(total);
+                b.set_style(
+                    indicatif::ProgressStyle::with_template("{bar:40} {percent:>3}% simulated, eta {eta}")
+                        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+                );
+                bar = Some(b);
+            }
+            if let Some(b) = &bar {
+                b.set_position(k);
+            }
+        }
+        if !plant.state.q.iter().all(|v| v.is_finite()) {
+            return Err(format!("error: the simulation diverged at t = {t:.4} s"));
+        }
+    }
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    trace.wall_seconds = wall.elapsed().as_secs_f64();
+    Ok(trace)
+}

@@ -1,0 +1,394 @@
+//! Loading a model for simulation, the named scenarios of `hapticgen simulate`, and the
+//! dispatch from a run-time model to the const-generic closed loop of [`crate::sim::run`].
+//!
+//! The controller's rig is the **generated code** compiled into this binary when the model
+//! file generates exactly that code (the shipped `models/*.yaml`, see [`crate::generated`]),
+//! else a [`TapeRig`] on the same derivation. The plant always runs on tapes, so that a
+//! parameter mismatch ([`SimConfig::plant_mass_scale`]) can be applied to the plant only.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use hapticgen_codegen::current_loop::{design_current_loop, CurrentLoopDesign, CurrentLoopDesignInput};
+use hapticgen_codegen::model::{self, Model};
+use hapticgen_runtime::current_loop::CurrentLoopGains;
+use hapticgen_runtime::render::{ObjectKind, Shape, VirtualObject};
+use hapticgen_runtime::RigModel;
+
+use crate::generated::{self, RigVisitor};
+use crate::rig::{CompiledModel, TapeRig};
+use crate::sim::{self, LoopData, Operator, Path as HandPath, Reference, SensorSpec, SimConfig, Trace};
+use crate::tape::Tape;
+
+/// A model ready to simulate.
+pub struct Simulation {
+    /// The validated model (variant applied).
+    pub model: Model,
+    /// Its mechanics, compiled.
+    pub nominal: Arc<CompiledModel>,
+    /// Index of the generated rig in [`generated::SHIPPED`] used as the controller's model.
+    pub shipped: Option<usize>,
+    /// Rates, current-loop gains and sensors.
+    pub data: LoopData,
+    /// The current-loop design.
+    pub design: CurrentLoopDesign,
+}
+
+/// The named scenarios of `hapticgen simulate`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scenario {
+    /// A force/torque step on the first task axis (paper, Fig. 4–6).
+    Step,
+    /// A hand tracing a virtual circle from the inside, pushing outward (Fig. 7b).
+    TraceCircle,
+    /// A hand tracing a virtual square from the inside, pushing outward (Fig. 7a).
+    TraceSquare,
+    /// A hand dragging the task point onto the nearest singular configuration (section 6.1).
+    Singularity,
+    /// No operator force; free space with the anti-drift grid (section 4).
+    FreeDrift,
+}
+
+impl Scenario {
+    /// Parses a scenario name.
+    pub fn parse(name: &str) -> Option<Scenario> {
+        Some(match name {
+            "step" => Scenario::Step,
+            "trace-circle" => Scenario::TraceCircle,
+            "trace-square" => Scenario::TraceSquare,
+            "singularity" => Scenario::Singularity,
+            "free-drift" => Scenario::FreeDrift,
+            _ => return None,
+        })
+    }
+}
+
+/// Settings of the scenarios (defaults from [`ScenarioSettings::default`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScenarioSettings {
+    /// Step magnitude (N or N·m) and its time, s.
+    pub step: (f64, f64),
+    /// Circle radius / half side of the square, m.
+    pub shape_size: f64,
+    /// How far outside the boundary the hand's path runs (the commanded push), m.
+    pub push_depth: f64,
+    /// Hand stiffness, N/m, and damping, N·s/m.
+    pub hand: (f64, f64),
+    /// Time for one lap of the outline, s.
+    pub lap_time: f64,
+    /// Anti-drift grid spacing, m (`None`: the model's `rendering.grid_spacing`).
+    pub grid_spacing: Option<f64>,
+    /// Joint configuration the singularity scenario drags towards (`None`: the nearest
+    /// configuration with `|det J|` under 2 % of its maximum).
+    pub singular_target: Option<Vec<f64>>,
+    /// How far beyond the singular configuration's task point the hand pulls (fraction of
+    /// the distance from the start).
+    pub singular_overshoot: f64,
+}
+
+impl Default for ScenarioSettings {
+    fn default() -> Self {
+        ScenarioSettings {
+            step: (1.0, 0.2),
+            shape_size: 0.02,
+            push_depth: 0.01,
+            hand: (200.0, 1.0),
+            lap_time: 6.0,
+            grid_spacing: None,
+            singular_target: None,
+            singular_overshoot: 0.3,
+        }
+    }
+}
+
+struct RunVisitor<'a> {
+    plant: Arc<CompiledModel>,
+    data: &'a LoopData,
+    cfg: &'a SimConfig,
+}
+
+impl RigVisitor for RunVisitor<'_> {
+    type Output = Result<Trace, String>;
+    fn visit<R: RigModel<N, M, Scalar = f64>, const N: usize, const M: usize>(self, rig: R) -> Self::Output {
+        sim::run::<R, N, M>(rig, self.plant, self.data, self.cfg)
+    }
+}
+
+impl Simulation {
+    /// Loads a model file; errors are the code generator's diagnostics.
+    pub fn load(path: &Path, variant: Option<&str>) -> Result<Simulation, String> {
+        let model =
+            model::load_file(path, &path.display().to_string(), variant).map_err(|d| d.to_string())?;
+        Simulation::from_model(model)
+    }
+
+    /// Prepares a loaded model.
+    pub fn from_model(model: Model) -> Result<Simulation, String> {
+        let (n, m) = (model.joints.len(), model.task_dim());
+        if !(1..=3).contains(&n) || !(1..=3).contains(&m) {
+            return Err(format!(
+                "error: {}: the simulator handles 1 to 3 joints and task coordinates, this model has {n} \
+                 joints and {m} task coordinates",
+                model.file
+            ));
+        }
+        let motor = &model.joints[0].drive.motor;
+        let spec = &model.current_loop;
+        let design = design_current_loop(&CurrentLoopDesignInput {
+            resistance: motor.resistance,
+            inductance: motor.inductance,
+            sample_rate_hz: f64::from(model.rates.current_loop_hz),
+            bandwidth_hz: spec.bandwidth_hz,
+            damping_ratio: spec.damping_ratio,
+            filter_cutoff_hz: spec.anti_alias_cutoff_hz,
+            filter_order: spec.anti_alias_filter_order,
+        })
+        .map_err(|e| format!("error: {}: current_loop: {e}", model.file))?;
+        let data = LoopData {
+            current_loop_hz: model.rates.current_loop_hz,
+            impedance_loop_hz: model.rates.impedance_loop_hz,
+            gains: CurrentLoopGains {
+                kp: design.kp,
+                ki: design.ki,
+                sample_period: design.sample_period,
+                proportional_setpoint_weight: design.proportional_setpoint_weight,
+            },
+            filter_time_constant: design.filter_time_constant,
+            sensors: model
+                .sensors
+                .iter()
+                .map(|s| SensorSpec {
+                    scale: s.scale,
+                    offset: s.offset,
+                    full_scale: s.full_scale,
+                    noise: s.noise,
+                    resolution: s.resolution,
+                })
+                .collect(),
+        };
+        let nominal = Arc::new(CompiledModel::new(&model, 1.0));
+        let shipped = generated::find(&model);
+        Ok(Simulation { model, nominal, shipped, data, design })
+    }
+
+    /// `true` when the controller runs on code generated at build time.
+    pub fn uses_generated_code(&self) -> bool {
+        self.shipped.is_some()
+    }
+
+    /// Joints `N`.
+    pub fn joints(&self) -> usize {
+        self.nominal.joints
+    }
+
+    /// Task dimension `M`.
+    pub fn task_dim(&self) -> usize {
+        self.nominal.task_dim
+    }
+
+    /// The middle of every joint's range: the default start.
+    pub fn home(&self) -> Vec<f64> {
+        self.model.joints.iter().map(|j| 0.5 * (j.lower + j.upper)).collect()
+    }
+
+    /// Task position and Jacobian determinant (square tasks; 0 otherwise) at `q`.
+    pub fn task_at(&self, q: &[f64]) -> (Vec<f64>, f64) {
+        let (n, m) = (self.joints(), self.task_dim());
+        let tape: &Tape = &self.nominal.kinematics;
+        let mut scratch = tape.scratch();
+        let mut out = vec![0.0; tape.len()];
+        tape.eval(&mut scratch, q, &vec![0.0; n], &self.nominal.parameters, &mut out);
+        let position = out[..m].to_vec();
+        let j = &out[m..m + m * n];
+        let det = match (n, m) {
+            (1, 1) => j[0],
+            (2, 2) => j[0] * j[3] - j[1] * j[2],
+            (3, 3) => {
+                j[0] * (j[4] * j[8] - j[5] * j[7]) - j[1] * (j[3] * j[8] - j[5] * j[6])
+                    + j[2] * (j[3] * j[7] - j[4] * j[6])
+            }
+            _ => 0.0,
+        };
+        (position, det)
+    }
+
+    /// Runs one simulation.
+    pub fn run(&self, cfg: &SimConfig) -> Result<Trace, String> {
+        let plant = if cfg.plant_mass_scale == 1.0 {
+            self.nominal.clone()
+        } else {
+            Arc::new(CompiledModel::new(&self.model, cfg.plant_mass_scale))
+        };
+        let visitor = RunVisitor { plant, data: &self.data, cfg };
+        if let Some(index) = self.shipped {
+            if let Some(result) = generated::visit(index, visitor) {
+                return result;
+            }
+            return Err("error: the generated rig registry is inconsistent".into());
+        }
+        let model = self.nominal.clone();
+        macro_rules! dispatch {
+            ($(($n:literal, $m:literal)),*) => {
+                match (self.joints(), self.task_dim()) {
+                    $(($n, $m) => match TapeRig::<$n, $m>::new(model) {
+                        Some(rig) => visitor.visit::<TapeRig<$n, $m>, $n, $m>(rig),
+                        None => Err("error: model dimensions changed".into()),
+                    },)*
+                    (n, m) => Err(format!("error: {n} joints and {m} task coordinates are not supported")),
+                }
+            };
+        }
+        dispatch!((1, 1), (1, 2), (1, 3), (2, 1), (2, 2), (2, 3), (3, 1), (3, 2), (3, 3))
+    }
+
+    /// Fills `cfg`'s operator, reference and start for `scenario` (keeps `K_d`, `B_d`, `M_d`).
+    pub fn apply_scenario(
+        &self,
+        scenario: Scenario,
+        settings: &ScenarioSettings,
+        cfg: &mut SimConfig,
+    ) -> Result<(), String> {
+        let m = self.task_dim();
+        let q0 = self.home();
+        let (x0, _) = self.task_at(&q0);
+        cfg.initial_q = q0.clone();
+        let rendering = self.model.rendering.as_ref();
+        let grid = settings.grid_spacing.or(rendering.map(|r| r.grid_spacing)).unwrap_or(0.0);
+        let (hand_k, hand_b) = settings.hand;
+        match scenario {
+            Scenario::Step => {
+                let mut force = vec![0.0; m];
+                force[0] = settings.step.0;
+                cfg.operator = Operator::Step { force, start: settings.step.1 };
+                cfg.reference = Reference::Fixed(None);
+            }
+            Scenario::TraceCircle | Scenario::TraceSquare => {
+                if m != 2 {
+                    return Err(format!(
+                        "error: scenario {} needs a 2-D task space; {} has {m} task coordinates",
+                        if scenario == Scenario::TraceCircle { "trace-circle" } else { "trace-square" },
+                        self.model.file
+                    ));
+                }
+                let c = [x0[0], x0[1]];
+                let size = settings.shape_size;
+                let reach = size + settings.push_depth;
+                let shape = if scenario == Scenario::TraceCircle {
+                    Shape::Circle { center: c, radius: size }
+                } else {
+                    Shape::Rectangle { center: c, half_extents: [size, size], angle: 0.0 }
+                };
+                let object = VirtualObject {
+                    shape,
+                    kind: ObjectKind::Cavity,
+                    stiffness: cfg.stiffness,
+                    damping: cfg.damping,
+                };
+                cfg.reference = Reference::Scene {
+                    objects: vec![object],
+                    free_stiffness: cfg.stiffness,
+                    free_damping: cfg.damping,
+                    grid_spacing: grid,
+                };
+                let mut keys = vec![(0.0, x0.clone()), (0.3, x0.clone())];
+                let lap_start = 1.3;
+                let outline: Vec<[f64; 2]> = if scenario == Scenario::TraceCircle {
+                    (0..=120)
+                        .map(|i| {
+                            let a = std::f64::consts::TAU * f64::from(i) / 120.0;
+                            [reach * a.cos(), reach * a.sin()]
+                        })
+                        .collect()
+                } else {
+                    vec![
+                        [reach, 0.0],
+                        [reach, reach],
+                        [-reach, reach],
+                        [-reach, -reach],
+                        [reach, -reach],
+                        [reach, 0.0],
+                    ]
+                };
+                // Even speed along the outline.
+                let lengths: Vec<f64> =
+                    outline.windows(2).map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1])).collect();
+                let total: f64 = lengths.iter().sum();
+                let mut t = lap_start;
+                keys.push((t, vec![c[0] + outline[0][0], c[1] + outline[0][1]]));
+                for (segment, point) in lengths.iter().zip(&outline[1..]) {
+                    t += settings.lap_time * segment / total;
+                    keys.push((t, vec![c[0] + point[0], c[1] + point[1]]));
+                }
+                keys.push((t + 1.0, x0.clone()));
+                cfg.operator = Operator::Hand { stiffness: hand_k, damping: hand_b, path: HandPath { keys } };
+                cfg.duration = cfg.duration.max(t + 1.5);
+            }
+            Scenario::Singularity => {
+                if m != 2 || self.joints() != 2 {
+                    return Err(format!(
+                        "error: scenario singularity needs 2 joints and a 2-D task; {} has {} joints and {m} task \
+                         coordinates",
+                        self.model.file,
+                        self.joints()
+                    ));
+                }
+                let target_q = match &settings.singular_target {
+                    Some(q) => q.clone(),
+                    None => self.nearest_singular(&q0)?,
+                };
+                let (target, _) = self.task_at(&target_q);
+                let beyond: Vec<f64> =
+                    x0.iter().zip(&target).map(|(a, b)| b + settings.singular_overshoot * (b - a)).collect();
+                let keys = vec![(0.0, x0.clone()), (0.3, x0.clone()), (2.3, beyond)];
+                cfg.operator = Operator::Hand { stiffness: hand_k, damping: hand_b, path: HandPath { keys } };
+                cfg.reference = Reference::Fixed(None);
+            }
+            Scenario::FreeDrift => {
+                cfg.operator = Operator::Free;
+                cfg.reference = if m == 2 {
+                    Reference::Scene {
+                        objects: Vec::new(),
+                        free_stiffness: cfg.stiffness,
+                        free_damping: cfg.damping,
+                        grid_spacing: grid,
+                    }
+                } else {
+                    Reference::Fixed(None)
+                };
+            }
+        }
+        Ok(())
+    }
+
+    /// The configuration within the joint limits nearest to `q0` (joint-space distance)
+    /// where `|det J|` is under 2 % of its largest value over the limits.
+    pub fn nearest_singular(&self, q0: &[f64]) -> Result<Vec<f64>, String> {
+        let joints = &self.model.joints;
+        let steps = 80usize;
+        let grid_point = |a: usize, b: usize| {
+            let lerp = |j: usize, i: usize| {
+                joints[j].lower + (joints[j].upper - joints[j].lower) * i as f64 / steps as f64
+            };
+            vec![lerp(0, a), lerp(1, b)]
+        };
+        let mut samples = Vec::with_capacity((steps + 1) * (steps + 1));
+        for a in 0..=steps {
+            for b in 0..=steps {
+                let q = grid_point(a, b);
+                let (_, det) = self.task_at(&q);
+                samples.push((q, det.abs()));
+            }
+        }
+        let largest = samples.iter().map(|s| s.1).fold(0.0, f64::max);
+        samples
+            .into_iter()
+            .filter(|(_, d)| *d <= 0.02 * largest)
+            .map(|(q, _)| {
+                let distance = q.iter().zip(q0).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+                (q, distance)
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(q, _)| q)
+            .ok_or_else(|| "error: no singular configuration within the joint limits".to_string())
+    }
+}
