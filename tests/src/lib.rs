@@ -37,3 +37,227 @@ include!(concat!(env!("OUT_DIR"), "/registry.rs"));
 pub fn workspace_root() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
+
+/// Shared checks of generated rigs against the numeric evaluator.
+pub mod check {
+    use hapticgen_codegen::eval::{evaluate, Evaluated, State};
+    use hapticgen_codegen::mechanics::{self, Mechanics};
+    use hapticgen_codegen::model::{self, Model};
+    use hapticgen_runtime::fused::FusedImpedance;
+    use rand::rngs::SmallRng;
+    use rand::{Rng, SeedableRng};
+
+    use crate::{workspace_root, RigInfo, RigVisitor};
+
+    /// Random states per rig.
+    pub const STATES: usize = 100;
+
+    /// Loads the model a generated rig came from.
+    pub fn load(info: &RigInfo) -> (Model, Mechanics) {
+        let path = workspace_root().join(info.file);
+        let model = model::load_file(&path, info.file, info.variant).unwrap_or_else(|e| panic!("{e}"));
+        let mech = mechanics::derive(&model);
+        (model, mech)
+    }
+
+    /// A random state within the joint limits, velocities in ±2.
+    pub fn random_state(model: &Model, rng: &mut SmallRng) -> (Vec<f64>, Vec<f64>) {
+        let q = model.joints.iter().map(|j| rng.gen_range(j.lower..j.upper)).collect();
+        let qd = model.joints.iter().map(|_| rng.gen_range(-2.0..2.0)).collect();
+        (q, qd)
+    }
+
+    /// The evaluator at one state.
+    pub fn eval_at(mech: &Mechanics, params: &[f64], q: &[f64], qd: &[f64]) -> Evaluated {
+        evaluate(mech, &State { q, qd, parameters: params }, None)
+    }
+
+    /// Row-major entries of a matrix.
+    pub fn flat<const R: usize, const C: usize, S: Copy + Into<f64>>(m: &[[S; C]; R]) -> Vec<f64> {
+        m.iter().flat_map(|row| row.iter().map(|&x| x.into())).collect()
+    }
+
+    /// Row-major entries of a nested vector.
+    pub fn flat_vec(m: &[Vec<f64>]) -> Vec<f64> {
+        m.iter().flatten().copied().collect()
+    }
+
+    /// Asserts `|a − b| ≤ tol · max(1, |b|)` element-wise for f64 (`relative_floor` = 1), or
+    /// `|a − b| ≤ tol · max(|b|, max|b|)` for f32 outputs (relative to the output's scale).
+    /// Element-wise closeness with a description of the first failure.
+    pub fn assert_close(
+        what: &str,
+        info: &RigInfo,
+        got: &[f64],
+        want: &[f64],
+        tol: f64,
+        scale_relative: bool,
+    ) {
+        assert_eq!(got.len(), want.len(), "{what} of {info:?}: length");
+        let scale = want.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        for (i, (a, b)) in got.iter().zip(want).enumerate() {
+            let bound =
+                if scale_relative { tol * b.abs().max(scale).max(1e-30) } else { tol * b.abs().max(1.0) };
+            assert!(
+                (a - b).abs() <= bound,
+                "{what} of {} ({:?}) entry {i}: got {a:e}, want {b:e} (difference {:e}, bound {bound:e})",
+                info.module,
+                info.variant,
+                (a - b).abs()
+            );
+        }
+    }
+
+    /// Compares each visited rig's compiled functions with the numeric evaluator at
+    /// [`STATES`] random states: f64 to 1e-12, f32 to 1e-5 of each output's scale.
+    #[derive(Default)]
+    pub struct EvaluatorCheck {
+        /// Rigs checked so far.
+        pub rigs: usize,
+    }
+
+    impl RigVisitor for EvaluatorCheck {
+        fn visit_f64<R: FusedImpedance<N, M, Scalar = f64>, const N: usize, const M: usize>(
+            &mut self,
+            info: &RigInfo,
+            rig: &R,
+        ) {
+            let (model, mech) = load(info);
+            let params = model.nominal_parameters();
+            let mut rng = SmallRng::seed_from_u64(0x5eed_0001);
+            for _ in 0..STATES {
+                let (q, qd) = random_state(&model, &mut rng);
+                let e = eval_at(&mech, &params, &q, &qd);
+                let qa: [f64; N] = std::array::from_fn(|i| q[i]);
+                let qda: [f64; N] = std::array::from_fn(|i| qd[i]);
+                let tol = 1e-12;
+                assert_close(
+                    "D",
+                    info,
+                    &flat(&rig.inertia_matrix(&qa)),
+                    &flat_vec(&e.inertia_matrix),
+                    tol,
+                    false,
+                );
+                assert_close(
+                    "C",
+                    info,
+                    &flat(&rig.coriolis_matrix(&qa, &qda)),
+                    &flat_vec(&e.coriolis_matrix),
+                    tol,
+                    false,
+                );
+                assert_close(
+                    "C q̇",
+                    info,
+                    &rig.coriolis_times_qdot(&qa, &qda),
+                    &e.coriolis_times_qdot,
+                    tol,
+                    false,
+                );
+                assert_close("g", info, &rig.gravity(&qa), &e.g, tol, false);
+                let b: Vec<f64> = (0..N).map(|i| e.damping[i][i]).collect();
+                assert_close("B", info, &rig.damping(), &b, tol, false);
+                assert_close("p", info, &rig.position(&qa), &e.p, tol, false);
+                assert_close("J", info, &flat(&rig.jacobian(&qa)), &flat_vec(&e.jacobian), tol, false);
+                assert_close(
+                    "J̇",
+                    info,
+                    &flat(&rig.jacobian_dot(&qa, &qda)),
+                    &flat_vec(&e.jacobian_dot),
+                    tol,
+                    false,
+                );
+                assert_close(
+                    "J̇ q̇",
+                    info,
+                    &rig.jacobian_dot_times_qdot(&qa, &qda),
+                    &e.jacobian_dot_times_qdot,
+                    tol,
+                    false,
+                );
+                let t = rig.terms(&qa, &qda);
+                assert_close(
+                    "terms.D",
+                    info,
+                    &flat(&t.inertia_matrix),
+                    &flat_vec(&e.inertia_matrix),
+                    tol,
+                    false,
+                );
+                assert_close("terms.C q̇", info, &t.coriolis_times_qdot, &e.coriolis_times_qdot, tol, false);
+                assert_close("terms.g", info, &t.gravity, &e.g, tol, false);
+                assert_close("terms.p", info, &t.position, &e.p, tol, false);
+                assert_close("terms.J", info, &flat(&t.jacobian), &flat_vec(&e.jacobian), tol, false);
+                assert_close(
+                    "terms.J̇ q̇",
+                    info,
+                    &t.jacobian_dot_times_qdot,
+                    &e.jacobian_dot_times_qdot,
+                    tol,
+                    false,
+                );
+            }
+            self.rigs += 1;
+        }
+
+        fn visit_f32<R: FusedImpedance<N, M, Scalar = f32>, const N: usize, const M: usize>(
+            &mut self,
+            info: &RigInfo,
+            rig: &R,
+        ) {
+            let (model, mech) = load(info);
+            let params = model.nominal_parameters();
+            let mut rng = SmallRng::seed_from_u64(0x5eed_0002);
+            for _ in 0..STATES {
+                let (q, qd) = random_state(&model, &mut rng);
+                // Evaluate at exactly the f32 state the compiled code sees.
+                let q: Vec<f64> = q.iter().map(|&x| f64::from(x as f32)).collect();
+                let qd: Vec<f64> = qd.iter().map(|&x| f64::from(x as f32)).collect();
+                let e = eval_at(&mech, &params, &q, &qd);
+                let qa: [f32; N] = std::array::from_fn(|i| q[i] as f32);
+                let qda: [f32; N] = std::array::from_fn(|i| qd[i] as f32);
+                let tol = 1e-5;
+                let v = |x: &[f32]| x.iter().map(|&y| f64::from(y)).collect::<Vec<_>>();
+                assert_close(
+                    "D",
+                    info,
+                    &flat(&rig.inertia_matrix(&qa)),
+                    &flat_vec(&e.inertia_matrix),
+                    tol,
+                    true,
+                );
+                assert_close(
+                    "C q̇",
+                    info,
+                    &v(&rig.coriolis_times_qdot(&qa, &qda)),
+                    &e.coriolis_times_qdot,
+                    tol,
+                    true,
+                );
+                assert_close("g", info, &v(&rig.gravity(&qa)), &e.g, tol, true);
+                assert_close("p", info, &v(&rig.position(&qa)), &e.p, tol, true);
+                assert_close("J", info, &flat(&rig.jacobian(&qa)), &flat_vec(&e.jacobian), tol, true);
+                assert_close(
+                    "J̇ q̇",
+                    info,
+                    &v(&rig.jacobian_dot_times_qdot(&qa, &qda)),
+                    &e.jacobian_dot_times_qdot,
+                    tol,
+                    true,
+                );
+                let t = rig.terms(&qa, &qda);
+                assert_close(
+                    "terms.D",
+                    info,
+                    &flat(&t.inertia_matrix),
+                    &flat_vec(&e.inertia_matrix),
+                    tol,
+                    true,
+                );
+                assert_close("terms.J", info, &flat(&t.jacobian), &flat_vec(&e.jacobian), tol, true);
+            }
+            self.rigs += 1;
+        }
+    }
+}

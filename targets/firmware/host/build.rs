@@ -16,7 +16,8 @@ fn main() {
     for v in &table {
         for scalar in [Scalar::F64, Scalar::F32] {
             let module = format!("{}_{}", v.name, scalar.name());
-            let glue = hapticgen_fw_build::generate(v, &firmware, scalar, &out, &module).unwrap_or_else(|e| panic!("{e}"));
+            let glue = hapticgen_fw_build::generate(v, &firmware, scalar, &out, &module)
+                .unwrap_or_else(|e| panic!("{e}"));
             text.push_str(&glue);
             text.push('\n');
             writeln!(

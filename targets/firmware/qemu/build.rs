@@ -18,7 +18,8 @@ fn main() {
         }),
         None => table.first().expect("variants.txt lists at least one image"),
     };
-    let glue = hapticgen_fw_build::generate(variant, &firmware, Scalar::F32, &out, "image").unwrap_or_else(|e| panic!("{e}"));
+    let glue = hapticgen_fw_build::generate(variant, &firmware, Scalar::F32, &out, "image")
+        .unwrap_or_else(|e| panic!("{e}"));
     std::fs::write(out.join("image.rs"), glue).expect("OUT_DIR is writable");
     // MPS2-AN386 under QEMU: 4 MiB SSRAM1 at 0 (code), 4 MiB SSRAM2 at 0x2000_0000 (data).
     // The 32 KiB flash / 8 KiB RAM budgets are checked on the ELF by scripts/firmware.sh.

@@ -15,9 +15,12 @@ fn main() {
         .iter()
         .find(|v| v.name == name)
         .unwrap_or_else(|| panic!("HAPTICGEN_FW_VARIANT={name} is not in variants.txt"));
-    let glue = hapticgen_fw_build::generate(variant, &firmware, Scalar::F32, &out, "image").unwrap_or_else(|e| panic!("{e}"));
+    let glue = hapticgen_fw_build::generate(variant, &firmware, Scalar::F32, &out, "image")
+        .unwrap_or_else(|e| panic!("{e}"));
     // This image uses the rig and its setup, not the simulated scenario: drop `new`.
-    let glue = glue.replace("pub type Run", "#[cfg(any())] pub type Run").replace("pub fn new(", "#[cfg(any())] pub fn new(");
+    let glue = glue
+        .replace("pub type Run", "#[cfg(any())] pub type Run")
+        .replace("pub fn new(", "#[cfg(any())] pub fn new(");
     std::fs::write(out.join("image.rs"), glue).expect("OUT_DIR is writable");
     std::fs::write(
         out.join("memory.x"),

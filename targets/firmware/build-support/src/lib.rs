@@ -83,7 +83,13 @@ fn literal(value: f64) -> String {
 
 /// Generates the rig of `v` in `scalar` into `out_dir/<module>_rig.rs` and returns the text of
 /// the glue module `<module>` (to be written into a file the crate `include!`s).
-pub fn generate(v: &Variant, firmware_dir: &Path, scalar: Scalar, out_dir: &Path, module: &str) -> Result<String, String> {
+pub fn generate(
+    v: &Variant,
+    firmware_dir: &Path,
+    scalar: Scalar,
+    out_dir: &Path,
+    module: &str,
+) -> Result<String, String> {
     let repo_root = firmware_dir.join("../..");
     let model_path = repo_root.join(&v.model);
     let rig_file = out_dir.join(format!("{module}_rig.rs"));

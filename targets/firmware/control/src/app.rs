@@ -4,7 +4,9 @@
 
 use hapticgen_runtime::control::TaskSensing;
 use hapticgen_runtime::safety::FaultCode;
-use hapticgen_runtime::tick::{HapticLoop, HapticLoopSettings, ImpedanceInputs, ImpedanceReport, ReferenceSource};
+use hapticgen_runtime::tick::{
+    HapticLoop, HapticLoopSettings, ImpedanceInputs, ImpedanceReport, ReferenceSource,
+};
 use hapticgen_runtime::{Real, RigModel};
 
 use crate::board::{Board, CycleCounter};
@@ -208,7 +210,8 @@ where
         let t2 = clock.now();
         let terms = core::hint::black_box(rig.terms(&state.position, &state.velocity));
         let t3 = clock.now();
-        let reference = core::hint::black_box(source.update_reference(&terms.position, &mut controller.parameters));
+        let reference =
+            core::hint::black_box(source.update_reference(&terms.position, &mut controller.parameters));
         let t4 = clock.now();
         let output = core::hint::black_box(controller.torque(
             rig,

@@ -106,7 +106,10 @@ fn check(name: &str, qemu_output: &str, elf_path: &str, limits_warn: bool) -> Re
         let values = (int(t_sum, key), int(h32_sum, key), int(h64_sum, key));
         match values {
             (Ok(a), Ok(b), Ok(c)) if a == b && b == c => {}
-            other => fail(format!("`{key}` differs: target {:?}, host f32 {:?}, host f64 {:?}", other.0, other.1, other.2)),
+            other => fail(format!(
+                "`{key}` differs: target {:?}, host f32 {:?}, host f64 {:?}",
+                other.0, other.1, other.2
+            )),
         }
     }
     if int(t_sum, "fault").ok() != Some(0) {
@@ -121,7 +124,8 @@ fn check(name: &str, qemu_output: &str, elf_path: &str, limits_warn: bool) -> Re
     }
 
     // Trace against the f64 reference.
-    let trace = |text: &str| text.lines().filter(|l| l.starts_with("S ")).map(str::to_owned).collect::<Vec<_>>();
+    let trace =
+        |text: &str| text.lines().filter(|l| l.starts_with("S ")).map(str::to_owned).collect::<Vec<_>>();
     let (t_trace, r_trace) = (trace(&target), trace(&reference));
     if t_trace.len() != r_trace.len() || t_trace.is_empty() {
         fail(format!("{} trace lines on the target, {} in the reference", t_trace.len(), r_trace.len()));
@@ -177,7 +181,11 @@ fn check(name: &str, qemu_output: &str, elf_path: &str, limits_warn: bool) -> Re
             .lines()
             .find(|l| l.starts_with("COST ") && l.split_whitespace().nth(1) == Some(label))
             .ok_or_else(|| format!("no COST {label} line"))?;
-        Ok((instructions(int(line, "min")?), instructions(int(line, "max")?), instructions(int(line, "mean")?)))
+        Ok((
+            instructions(int(line, "min")?),
+            instructions(int(line, "max")?),
+            instructions(int(line, "mean")?),
+        ))
     };
     let (imp, cur) = match (cost("impedance"), cost("current")) {
         (Ok(a), Ok(b)) => (a, b),
@@ -190,7 +198,10 @@ fn check(name: &str, qemu_output: &str, elf_path: &str, limits_warn: bool) -> Re
         limit_errors.push(format!("{name}: impedance tick: max {} instructions > limit {budget}", imp.1));
     }
     if cur.1 > CURRENT_TICK_BUDGET {
-        limit_errors.push(format!("{name}: current-loop tick: max {} instructions > limit {CURRENT_TICK_BUDGET}", cur.1));
+        limit_errors.push(format!(
+            "{name}: current-loop tick: max {} instructions > limit {CURRENT_TICK_BUDGET}",
+            cur.1
+        ));
     }
     let mut profile = String::new();
     for line in target.lines().filter(|l| l.starts_with("PROFILE ")) {
@@ -261,20 +272,17 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         },
-        ["check", name, output, elf_path, rest @ ..] if rest.is_empty() || rest == ["--limits=warn"] => match check(
-            name,
-            output,
-            elf_path,
-            !rest.is_empty(),
-        ) {
-            Ok(()) => ExitCode::SUCCESS,
-            Err(errors) => {
-                for e in errors {
-                    eprintln!("FAIL {e}");
+        ["check", name, output, elf_path, rest @ ..] if rest.is_empty() || rest == ["--limits=warn"] => {
+            match check(name, output, elf_path, !rest.is_empty()) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(errors) => {
+                    for e in errors {
+                        eprintln!("FAIL {e}");
+                    }
+                    ExitCode::FAILURE
                 }
-                ExitCode::FAILURE
             }
-        },
+        }
         _ => {
             eprintln!("usage: hapticgen-fw-host list | run <image> <f32|f64> | size <elf> | check <image> <qemu-output> <elf> [--limits=warn]");
             ExitCode::from(2)

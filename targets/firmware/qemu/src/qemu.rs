@@ -133,7 +133,8 @@ pub fn calibrate(counter: &ApbCounter, out: &mut Semihosting) {
     let b = counter.now();
     let mut line = Line::new();
     line.str("CAL").kv("instructions", KNOWN_INSTRUCTIONS);
-    line.kv("ticks", i64::from(b.wrapping_sub(a).saturating_sub(overhead))).kv("overhead", i64::from(overhead));
+    line.kv("ticks", i64::from(b.wrapping_sub(a).saturating_sub(overhead)))
+        .kv("overhead", i64::from(overhead));
     line.emit(out);
 }
 

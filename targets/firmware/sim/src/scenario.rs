@@ -147,7 +147,17 @@ where
         periods: u32,
         sample_every: u32,
     ) -> Self {
-        Self { name, controller, board, load, periods, sample_every, task_tolerance: R::Scalar::ZERO, done: 0, checksum: FNV_OFFSET }
+        Self {
+            name,
+            controller,
+            board,
+            load,
+            periods,
+            sample_every,
+            task_tolerance: R::Scalar::ZERO,
+            done: 0,
+            checksum: FNV_OFFSET,
+        }
     }
 
     /// `true` once every period has run.
@@ -168,7 +178,8 @@ where
         }
         let _ = self.controller.on_current_tick(&mut self.board, clock);
         let k = self.done;
-        let force = if k >= self.load.start && k < self.load.end { self.load.force } else { [R::Scalar::ZERO; M] };
+        let force =
+            if k >= self.load.start && k < self.load.end { self.load.force } else { [R::Scalar::ZERO; M] };
         self.board.advance(&force);
         let mut hash = self.checksum;
         for j in 0..N {

@@ -56,8 +56,15 @@ pub mod fig4_step {
     ) -> Option<Run<R>> {
         let controller = ImpedanceController {
             law: ImpedanceLaw::Controller2Mobility,
-            parameters: ImpedanceParameters { stiffness: [s(1.0)], damping: [s(0.01)], mass: [R::Scalar::ONE] },
-            options: ControlOptions { omit_damping_compensation: false, min_abs_jacobian_determinant: s(1e-6) },
+            parameters: ImpedanceParameters {
+                stiffness: [s(1.0)],
+                damping: [s(0.01)],
+                mass: [R::Scalar::ONE],
+            },
+            options: ControlOptions {
+                omit_damping_compensation: false,
+                min_abs_jacobian_determinant: s(1e-6),
+            },
         };
         let q0 = [R::Scalar::ZERO];
         let fast = R::CURRENT_LOOP_HZ;
@@ -116,7 +123,10 @@ pub mod wall_contact {
                 damping: [wall_damping; 2],
                 mass: [R::Scalar::ONE; 2],
             },
-            options: ControlOptions { omit_damping_compensation: false, min_abs_jacobian_determinant: s(1e-6) },
+            options: ControlOptions {
+                omit_damping_compensation: false,
+                min_abs_jacobian_determinant: s(1e-6),
+            },
         };
         let fast = R::CURRENT_LOOP_HZ;
         let period = R::Scalar::ONE / s(f64::from(fast));

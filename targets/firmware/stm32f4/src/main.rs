@@ -23,7 +23,9 @@ use cortex_m::interrupt::Mutex;
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::{DWT, SYST};
 use cortex_m_rt::{entry, exception};
-use hapticgen_fw_control::board::{CurrentSense, CycleCounter, Encoders, ForceSense, TickTimer, VoltageOutput};
+use hapticgen_fw_control::board::{
+    CurrentSense, CycleCounter, Encoders, ForceSense, TickTimer, VoltageOutput,
+};
 use hapticgen_fw_control::Controller;
 use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
@@ -130,9 +132,7 @@ static STATE: Mutex<RefCell<Option<(App, F4Board)>>> = Mutex::new(RefCell::new(N
 
 #[entry]
 fn main() -> ! {
-    let (Some(dp), Some(mut cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
-        halt()
-    };
+    let (Some(dp), Some(mut cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else { halt() };
     let mut rcc = dp.RCC.freeze(Config::hse(8.MHz()).sysclk(SYSCLK_HZ.Hz()));
     cp.DCB.enable_trace();
     cp.DWT.enable_cycle_counter();
@@ -165,7 +165,11 @@ fn main() -> ! {
     let settings = HapticLoopSettings {
         controller: ImpedanceController {
             law: ImpedanceLaw::Controller3,
-            parameters: ImpedanceParameters { stiffness: [stiffness; 2], damping: [damping; 2], mass: [1.0; 2] },
+            parameters: ImpedanceParameters {
+                stiffness: [stiffness; 2],
+                damping: [damping; 2],
+                mass: [1.0; 2],
+            },
             options: ControlOptions { omit_damping_compensation: false, min_abs_jacobian_determinant: 1e-6 },
         },
         estimator: EstimatorSettings {
