@@ -234,12 +234,62 @@ impl<'m> BodyEmitter<'m> {
         let mut part = 0usize;
         // Inputs first (coordinates, sines and cosines, velocities), then intermediates.
         let mut order = order;
+        // Sines and cosines of one joint, in that order, so that a pair is one `sin_cos` call.
+        let input_rank = |a: Atom| match a {
+            Atom::Q(j) => (0, j, 0),
+            Atom::Sin(j) => (1, j, 0),
+            Atom::Cos(j) => (1, j, 1),
+            Atom::Qd(j) => (2, j, 0),
+            Atom::Param(k) => (3, k, 0),
+            Atom::External(k) => (4, k, 0),
+        };
         order.sort_by_key(|&id| match self.dag.nodes()[id] {
-            Node::Input(a) => (0, Some(a), id),
+            Node::Input(a) => (0, Some(input_rank(a)), id),
             _ => (1, None, id),
         });
+        let has_cos: Vec<u16> = order
+            .iter()
+            .filter_map(|&id| match self.dag.nodes()[id] {
+                Node::Input(Atom::Cos(j)) => Some(j),
+                _ => None,
+            })
+            .collect();
+        let has_sin: Vec<u16> = order
+            .iter()
+            .filter_map(|&id| match self.dag.nodes()[id] {
+                Node::Input(Atom::Sin(j)) => Some(j),
+                _ => None,
+            })
+            .collect();
         for &id in &order {
             let node = self.dag.nodes()[id];
+            match node {
+                Node::Input(Atom::Sin(j)) if has_cos.contains(&j) => {
+                    // One call for the pair; the cosine's node is named here too.
+                    let cos_id = self
+                        .dag
+                        .reachable(roots)
+                        .into_iter()
+                        .find(|&c| self.dag.nodes()[c] == Node::Input(Atom::Cos(j)));
+                    let (sin_name, cos_name) =
+                        (self.naming.atom_name(Atom::Sin(j)), self.naming.atom_name(Atom::Cos(j)));
+                    let (sin_ident, cos_ident) =
+                        (format_ident!("{}", sin_name), format_ident!("{}", cos_name));
+                    let jj = unsuffixed(usize::from(j));
+                    statements.extend(
+                        quote!(let (#sin_ident, #cos_ident) = ::hapticgen_runtime::Real::sin_cos(q[#jj]);),
+                    );
+                    names.insert(id, sin_name.clone());
+                    taken.insert(sin_name, 1);
+                    if let Some(c) = cos_id {
+                        names.insert(c, cos_name.clone());
+                        taken.insert(cos_name, 1);
+                    }
+                    continue;
+                }
+                Node::Input(Atom::Cos(j)) if has_sin.contains(&j) => continue,
+                _ => {}
+            }
             let bind = match node {
                 Node::Const(_) => false,
                 Node::Input(Atom::Param(_)) => false,

@@ -33,6 +33,12 @@ pub trait Real:
     fn sin(self) -> Self;
     /// Cosine.
     fn cos(self) -> Self;
+    /// Sine and cosine of the same angle, sharing the argument reduction where the
+    /// implementation can (generated code calls this once per joint angle).
+    #[inline]
+    fn sin_cos(self) -> (Self, Self) {
+        (self.sin(), self.cos())
+    }
     /// Square root (NaN for negative input).
     fn sqrt(self) -> Self;
     /// Absolute value.
@@ -70,8 +76,71 @@ pub trait Real:
     }
 }
 
+/// Sine and cosine in single precision for the Cortex-M4F, whose FPU has no double precision.
+///
+/// `libm::sinf`/`cosf` reduce the argument and evaluate in `f64`, which on the M4F is
+/// software floating point (about 1,300 instructions a call). Joint angles are small, so
+/// here the argument is reduced in `f32` by the nearest multiple `j` of π/2 with a
+/// three-part (Cody–Waite) split of π/2 whose first two parts times `j` are exact for
+/// `|j| < 2¹⁶`, then sine and cosine come from the minimax polynomials of Cephes' `sinf`/`cosf`
+/// on [−π/4, π/4]. The error is below 2 × 10⁻⁷ (a few ulp near 1) for `|x| ≤ 8192`;
+/// larger or non-finite arguments take `libm`'s path.
+mod single {
+    const TWO_OVER_PI: f32 = 0.636_619_8;
+    const HALF_PI_1: f32 = 1.570_312_5;
+    const HALF_PI_2: f32 = 4.837_513e-4;
+    const HALF_PI_3: f32 = 7.549_79e-8;
+    const REDUCTION_LIMIT: f32 = 8192.0;
+
+    /// Reduces `x` to `y ∈ [−π/4, π/4]` and evaluates sin y and cos y; returns the quadrant.
+    #[inline]
+    fn reduced(x: f32) -> (f32, f32, i32) {
+        let j = (x * TWO_OVER_PI + if x >= 0.0 { 0.5 } else { -0.5 }) as i32;
+        let jf = j as f32;
+        let y = ((x - jf * HALF_PI_1) - jf * HALF_PI_2) - jf * HALF_PI_3;
+        let z = y * y;
+        let sin = y + y * z * (-1.666_665_5e-1 + z * (8.332_161e-3 + z * -1.951_529_6e-4));
+        let cos = 1.0 - 0.5 * z + z * z * (4.166_664_6e-2 + z * (-1.388_731_6e-3 + z * 2.443_315_7e-5));
+        (sin, cos, j & 3)
+    }
+
+    /// `(sin x, cos x)`.
+    #[inline]
+    pub fn sin_cos(x: f32) -> (f32, f32) {
+        // Written so that NaN takes the libm path too.
+        if !(x.abs() <= REDUCTION_LIMIT) {
+            return (libm::sinf(x), libm::cosf(x));
+        }
+        let (s, c, quadrant) = reduced(x);
+        match quadrant {
+            0 => (s, c),
+            1 => (c, -s),
+            2 => (-s, -c),
+            _ => (-c, s),
+        }
+    }
+
+    /// `sin x`.
+    #[inline]
+    pub fn sin(x: f32) -> f32 {
+        sin_cos(x).0
+    }
+
+    /// `cos x`.
+    #[inline]
+    pub fn cos(x: f32) -> f32 {
+        sin_cos(x).1
+    }
+}
+
+/// `(sin x, cos x)` in double precision (libm).
+#[inline]
+fn double_sin_cos(x: f64) -> (f64, f64) {
+    (libm::sin(x), libm::cos(x))
+}
+
 macro_rules! impl_real {
-    ($t:ty, $sin:path, $cos:path, $sqrt:path, $fabs:path, $atan2:path, $round:path, $floor:path) => {
+    ($t:ty, $sin:path, $cos:path, $sin_cos:path, $sqrt:path, $fabs:path, $atan2:path, $round:path, $floor:path) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
@@ -90,6 +159,10 @@ macro_rules! impl_real {
             #[inline]
             fn cos(self) -> Self {
                 $cos(self)
+            }
+            #[inline]
+            fn sin_cos(self) -> (Self, Self) {
+                $sin_cos(self)
             }
             #[inline]
             fn sqrt(self) -> Self {
@@ -119,5 +192,51 @@ macro_rules! impl_real {
     };
 }
 
-impl_real!(f32, libm::sinf, libm::cosf, libm::sqrtf, libm::fabsf, libm::atan2f, libm::roundf, libm::floorf);
-impl_real!(f64, libm::sin, libm::cos, libm::sqrt, libm::fabs, libm::atan2, libm::round, libm::floor);
+impl_real!(
+    f32,
+    single::sin,
+    single::cos,
+    single::sin_cos,
+    libm::sqrtf,
+    libm::fabsf,
+    libm::atan2f,
+    libm::roundf,
+    libm::floorf
+);
+impl_real!(
+    f64,
+    libm::sin,
+    libm::cos,
+    double_sin_cos,
+    libm::sqrt,
+    libm::fabs,
+    libm::atan2,
+    libm::round,
+    libm::floor
+);
+
+#[cfg(test)]
+mod tests {
+    use super::Real;
+
+    #[test]
+    fn single_precision_sine_and_cosine_are_accurate() {
+        let mut worst = 0.0f64;
+        let mut check = |x: f32| {
+            let (s, c) = Real::sin_cos(x);
+            let exact = (f64::from(x).sin(), f64::from(x).cos());
+            worst = worst.max((f64::from(s) - exact.0).abs()).max((f64::from(c) - exact.1).abs());
+            assert_eq!(s, Real::sin(x));
+            assert_eq!(c, Real::cos(x));
+        };
+        for i in -200_000..=200_000 {
+            check(i as f32 * 1e-4);
+        }
+        for i in -1000..=1000 {
+            check(i as f32 * 8.19);
+        }
+        assert!(worst < 2e-7, "worst error {worst:e}");
+        assert!(Real::sin(f32::NAN).is_nan() && Real::cos(f32::INFINITY).is_nan());
+        assert!((Real::sin(1.0e5f32) - 1.0e5f64.sin() as f32).abs() < 1e-3);
+    }
+}

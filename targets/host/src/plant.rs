@@ -175,7 +175,8 @@ pub struct TaskKinematics<const N: usize, const M: usize> {
 }
 
 impl<const N: usize, const M: usize> Plant<N, M> {
-    /// A plant at rest at `q0` (rotor centred in the backlash, zero current).
+    /// A plant at rest at `q0` (with backlash, the rotor pressed against the teeth that carry
+    /// the gravity load; zero current).
     /// `counts_per_turn` are the encoder resolutions the controller decodes with;
     /// `filter_time_constant` is the current-sense lag, s.
     pub fn new(
@@ -188,7 +189,7 @@ impl<const N: usize, const M: usize> Plant<N, M> {
         if model.joints != N || model.task_dim != M {
             return None;
         }
-        let drives = std::array::from_fn(|j| {
+        let drives: [Drive; N] = std::array::from_fn(|j| {
             let d = &model.drives[j];
             let extras = &model.drive_extras[j];
             let rotor = model.reflected_rotor_inertia[j];
@@ -215,10 +216,23 @@ impl<const N: usize, const M: usize> Plant<N, M> {
                 counts_per_radian: f64::from(counts_per_turn[j]) * d.gear_ratio / std::f64::consts::TAU,
             }
         });
+        // At rest the links lean on the gear teeth: the gear carries the gravity load.
+        let mut scratch = model.dynamics.scratch();
+        let mut out = vec![0.0; model.dynamics.len()];
+        model.dynamics.eval(&mut scratch, &q0, &[0.0; N], &model.parameters, &mut out);
+        let theta0: [f64; N] = std::array::from_fn(|j: usize| {
+            let load: f64 = out[N * N + N + j];
+            let half = drives[j].half_backlash;
+            if half > 0.0 && load != 0.0 {
+                q0[j] + load.signum() * (half + load.abs() / GEAR_STIFFNESS)
+            } else {
+                q0[j]
+            }
+        });
         let state = PlantState {
             q: q0,
             qd: [0.0; N],
-            theta: q0,
+            theta: theta0,
             theta_dot: [0.0; N],
             current: [0.0; N],
             measured_current: [0.0; N],
