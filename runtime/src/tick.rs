@@ -12,10 +12,14 @@
 //! All state lives in [`HapticLoop`]; nothing allocates.
 
 use crate::control::{
-    ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference, TaskSensing,
+    ControlOutput, ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference,
+    TaskSensing,
 };
 use crate::current_loop::{CurrentLoopBank, CurrentLoopGains, CurrentLoopOutput, CurrentLoopStatus};
-use crate::estimation::{EstimationStatus, EstimatorSettings, ForceSensorCalibration, JointStateEstimator};
+use crate::estimation::{
+    EstimationStatus, EstimatorSettings, ForceSensorCalibration, JointState, JointStateEstimator,
+};
+use crate::fused::{fused_torque, FusedImpedance};
 use crate::linalg;
 use crate::render::Scene;
 use crate::safety::{FaultCode, SafeCommand, SafetyMonitor};
@@ -163,18 +167,42 @@ where
         &self.current_setpoints
     }
 
-    /// One impedance tick (see the module docs).
+    /// One impedance tick with the runtime's generic law (`ImpedanceController::torque`):
+    /// encoders → state → rig terms → reference → law → safety → current setpoints.
     pub fn impedance_tick(
         &mut self,
         inputs: &ImpedanceInputs<R::Scalar, N, M>,
     ) -> ImpedanceReport<R::Scalar, N> {
+        let (state, estimation_status) = self.estimate(inputs);
+        let terms = self.rig.terms(&state.position, &state.velocity);
+        let sensed = self.sensed(inputs, &state, &terms.jacobian, &terms.jacobian_dot_times_qdot);
+        let reference = self.source.update_reference(&terms.position, &mut self.controller.parameters);
+        let output = self.controller.torque(&self.rig, &terms, &state.velocity, &reference, &sensed);
+        self.finish(output, estimation_status)
+    }
+
+    /// Watchdog and estimation: the first step of every impedance tick.
+    fn estimate(
+        &mut self,
+        inputs: &ImpedanceInputs<R::Scalar, N, M>,
+    ) -> (JointState<R::Scalar, N>, EstimationStatus) {
         self.safety.check_tick(inputs.tick);
         let estimation_status = self.estimator.update(&inputs.encoder_counts);
         if estimation_status != EstimationStatus::Ok {
             self.safety.latch(FaultCode::NonFiniteInput);
         }
-        let state = *self.estimator.state();
-        let terms = self.rig.terms(&state.position, &state.velocity);
+        (*self.estimator.state(), estimation_status)
+    }
+
+    /// The task-space signals the selected law reads: the calibrated force (Controller 1) or
+    /// the acceleration estimate `ẍ = J q̈ + J̇ q̇` of eq. (2) (first variant of Controller 2).
+    fn sensed(
+        &mut self,
+        inputs: &ImpedanceInputs<R::Scalar, N, M>,
+        state: &JointState<R::Scalar, N>,
+        jacobian: &[[R::Scalar; N]; M],
+        jacobian_dot_times_qdot: &[R::Scalar; M],
+    ) -> TaskSensing<R::Scalar, M> {
         let mut sensed = TaskSensing::default();
         match self.controller.law {
             ImpedanceLaw::Controller1ForceSensing => {
@@ -185,18 +213,24 @@ where
                 sensed.operator_force = force;
             }
             ImpedanceLaw::Controller2Accel => {
-                // Eq. (2): ẍ = J q̈ + J̇ q̇ with the filtered q̈.
-                let accel = linalg::mat_vec(&terms.jacobian, &state.acceleration);
+                let accel = linalg::mat_vec(jacobian, &state.acceleration);
                 for ((slot, &a), &bias) in
-                    sensed.acceleration.iter_mut().zip(accel.iter()).zip(terms.jacobian_dot_times_qdot.iter())
+                    sensed.acceleration.iter_mut().zip(accel.iter()).zip(jacobian_dot_times_qdot.iter())
                 {
                     *slot = a + bias;
                 }
             }
             ImpedanceLaw::Controller2Mobility | ImpedanceLaw::Controller3 => {}
         }
-        let reference = self.source.update_reference(&terms.position, &mut self.controller.parameters);
-        let output = self.controller.torque(&self.rig, &terms, &state.velocity, &reference, &sensed);
+        sensed
+    }
+
+    /// Safety rules and current setpoints: the last step of every impedance tick.
+    fn finish(
+        &mut self,
+        output: ControlOutput<R::Scalar, N>,
+        estimation_status: EstimationStatus,
+    ) -> ImpedanceReport<R::Scalar, N> {
         match output.status {
             ControlStatus::Ok | ControlStatus::SingularFallback => {}
             ControlStatus::NonFiniteInput => self.safety.latch(FaultCode::NonFiniteInput),
@@ -227,5 +261,35 @@ where
             return ([off; N], due);
         }
         (self.current_loops.step(&self.current_setpoints, measured_currents), due)
+    }
+}
+
+impl<R, Source, const N: usize, const M: usize> HapticLoop<R, Source, N, M>
+where
+    R: FusedImpedance<N, M>,
+    Source: ReferenceSource<R::Scalar, M>,
+{
+    /// One impedance tick with the rig's fused, generated law ([`fused_torque`]): the same
+    /// steps, checks and statuses as [`HapticLoop::impedance_tick`], but the law's arithmetic
+    /// is the straight-line code codegen emitted for this rig, and only the terms the law
+    /// needs are computed (Controller 3 reads `p(q)` for the reference and nothing else).
+    pub fn impedance_tick_fused(
+        &mut self,
+        inputs: &ImpedanceInputs<R::Scalar, N, M>,
+    ) -> ImpedanceReport<R::Scalar, N> {
+        let (state, estimation_status) = self.estimate(inputs);
+        let (position, sensed) = if self.controller.law == ImpedanceLaw::Controller2Accel {
+            let terms = self.rig.terms(&state.position, &state.velocity);
+            let sensed = self.sensed(inputs, &state, &terms.jacobian, &terms.jacobian_dot_times_qdot);
+            (terms.position, sensed)
+        } else {
+            let no_jacobian = [[R::Scalar::ZERO; N]; M];
+            let sensed = self.sensed(inputs, &state, &no_jacobian, &[R::Scalar::ZERO; M]);
+            (self.rig.position(&state.position), sensed)
+        };
+        let reference = self.source.update_reference(&position, &mut self.controller.parameters);
+        let output =
+            fused_torque(&self.rig, &self.controller, &state.position, &state.velocity, &reference, &sensed);
+        self.finish(output, estimation_status)
     }
 }
