@@ -37,7 +37,7 @@ pub fn low_pass_coefficient<S: Real>(cutoff_hz: S, sample_period: S) -> S {
     if !exponent.is_finite() {
         return S::ZERO;
     }
-    (S::ONE - S::from_f64(libm::exp(exponent.to_f64()))).clamp_to(S::ZERO, S::ONE)
+    (S::ONE - exponent.exp()).clamp_to(S::ZERO, S::ONE)
 }
 
 /// Settings of [`JointStateEstimator`].
@@ -89,7 +89,7 @@ impl<S: Real, const N: usize> JointStateEstimator<S, N> {
         let mut radians_per_count = [S::ZERO; N];
         for (slot, drive) in radians_per_count.iter_mut().zip(drives.iter()) {
             let counts_per_joint_turn =
-                S::from_f64(f64::from(drive.encoder_counts_per_turn)) * drive.gear_ratio;
+                S::from_i64(i64::from(drive.encoder_counts_per_turn)) * drive.gear_ratio;
             *slot = S::from_f64(2.0 * core::f64::consts::PI) / counts_per_joint_turn;
         }
         Self {
@@ -118,8 +118,7 @@ impl<S: Real, const N: usize> JointStateEstimator<S, N> {
         for i in 0..N {
             let delta = counts[i].wrapping_sub(self.last_counts[i]);
             accumulated[i] = accumulated[i].wrapping_add(i64::from(delta));
-            position[i] =
-                self.zero_offset[i] + S::from_f64(accumulated[i] as f64) * self.radians_per_count[i];
+            position[i] = self.zero_offset[i] + S::from_i64(accumulated[i]) * self.radians_per_count[i];
         }
         let period = self.sample_period;
         let usable = period > S::ZERO && period.is_finite() && position.iter().all(|p| p.is_finite());

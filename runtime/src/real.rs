@@ -29,6 +29,11 @@ pub trait Real:
     fn from_f64(value: f64) -> Self;
     /// Widens to `f64`.
     fn to_f64(self) -> f64;
+    /// Converts an integer (rounding to nearest for `f32`), without a detour through `f64`
+    /// (which is software floating point on the Cortex-M4F).
+    fn from_i64(value: i64) -> Self;
+    /// `e^self`.
+    fn exp(self) -> Self;
     /// Sine.
     fn sin(self) -> Self;
     /// Cosine.
@@ -83,8 +88,13 @@ pub trait Real:
 /// here the argument is reduced in `f32` by the nearest multiple `j` of π/2 with a
 /// three-part (Cody–Waite) split of π/2 whose first two parts times `j` are exact for
 /// `|j| < 2¹⁶`, then sine and cosine come from the minimax polynomials of Cephes' `sinf`/`cosf`
-/// on [−π/4, π/4]. The error is below 2 × 10⁻⁷ (a few ulp near 1) for `|x| ≤ 8192`;
-/// larger or non-finite arguments take `libm`'s path.
+/// on [−π/4, π/4]. The error is below 2 × 10⁻⁷ (a few ulp near 1) for `|x| ≤ 8192`.
+///
+/// **Range.** Beyond `|x| = 8192` rad the single-precision result is NaN, as for non-finite
+/// input. An angle that large is not a pose of any rig (it is more than 1,300 turns) but a
+/// sensor or state fault, and NaN makes the control path's checks latch it; handling it
+/// "correctly" would need `libm`'s 4 KB Payne–Hanek reduction and software `f64` on the
+/// Cortex-M4F. The `f64` implementation (host) is exact everywhere.
 mod single {
     const TWO_OVER_PI: f32 = 0.636_619_8;
     const HALF_PI_1: f32 = 1.570_312_5;
@@ -98,6 +108,11 @@ mod single {
         let j = (x * TWO_OVER_PI + if x >= 0.0 { 0.5 } else { -0.5 }) as i32;
         let jf = j as f32;
         let y = ((x - jf * HALF_PI_1) - jf * HALF_PI_2) - jf * HALF_PI_3;
+        polynomials(y, j)
+    }
+
+    #[inline]
+    fn polynomials(y: f32, j: i32) -> (f32, f32, i32) {
         let z = y * y;
         let sin = y + y * z * (-1.666_665_5e-1 + z * (8.332_161e-3 + z * -1.951_529_6e-4));
         let cos = 1.0 - 0.5 * z + z * z * (4.166_664_6e-2 + z * (-1.388_731_6e-3 + z * 2.443_315_7e-5));
@@ -107,9 +122,9 @@ mod single {
     /// `(sin x, cos x)`.
     #[inline]
     pub fn sin_cos(x: f32) -> (f32, f32) {
-        // Written so that NaN takes the libm path too.
+        // Written so that NaN fails the comparison too.
         if !(x.abs() <= REDUCTION_LIMIT) {
-            return (libm::sinf(x), libm::cosf(x));
+            return (f32::NAN, f32::NAN);
         }
         let (s, c, quadrant) = reduced(x);
         match quadrant {
@@ -140,7 +155,7 @@ fn double_sin_cos(x: f64) -> (f64, f64) {
 }
 
 macro_rules! impl_real {
-    ($t:ty, $sin:path, $cos:path, $sin_cos:path, $sqrt:path, $fabs:path, $atan2:path, $round:path, $floor:path) => {
+    ($t:ty, $exp:path, $sin:path, $cos:path, $sin_cos:path, $sqrt:path, $fabs:path, $atan2:path, $round:path, $floor:path) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
@@ -151,6 +166,14 @@ macro_rules! impl_real {
             #[inline]
             fn to_f64(self) -> f64 {
                 self as f64
+            }
+            #[inline]
+            fn from_i64(value: i64) -> Self {
+                value as $t
+            }
+            #[inline]
+            fn exp(self) -> Self {
+                $exp(self)
             }
             #[inline]
             fn sin(self) -> Self {
@@ -194,6 +217,7 @@ macro_rules! impl_real {
 
 impl_real!(
     f32,
+    libm::expf,
     single::sin,
     single::cos,
     single::sin_cos,
@@ -205,6 +229,7 @@ impl_real!(
 );
 impl_real!(
     f64,
+    libm::exp,
     libm::sin,
     libm::cos,
     double_sin_cos,
@@ -237,6 +262,12 @@ mod tests {
         }
         assert!(worst < 2e-7, "worst error {worst:e}");
         assert!(Real::sin(f32::NAN).is_nan() && Real::cos(f32::INFINITY).is_nan());
-        assert!((Real::sin(1.0e5f32) - 1.0e5f64.sin() as f32).abs() < 1e-3);
+        // Beyond the documented range: NaN, which the control path latches as a fault.
+        for x in [8192.5f32, -1.0e5, f32::MAX] {
+            let (s, c) = Real::sin_cos(x);
+            assert!(s.is_nan() && c.is_nan(), "{x}");
+        }
+        let (s, c) = Real::sin_cos(8191.9f32);
+        assert!((f64::from(s) - 8191.9f32.sin() as f64).abs() < 1e-3 && c.is_finite());
     }
 }

@@ -396,9 +396,8 @@ impl<const N: usize, const M: usize> Plant<N, M> {
             d.theta_dot = d.qd;
         }
         if electrics {
-            for j in 0..N {
-                let drive = &self.drives[j];
-                d.current[j] = (volts[j] - drive.resistance * s.current[j] - drive.back_emf * s.theta_dot[j])
+            for (j, (drive, &volt)) in self.drives.iter().zip(volts).enumerate() {
+                d.current[j] = (volt - drive.resistance * s.current[j] - drive.back_emf * s.theta_dot[j])
                     / drive.inductance;
                 d.measured_current[j] = if self.filter_time_constant > 0.0 {
                     (s.current[j] - s.measured_current[j]) / self.filter_time_constant

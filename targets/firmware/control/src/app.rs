@@ -3,6 +3,7 @@
 //! runtime's `Scheduler` says it is due.
 
 use hapticgen_runtime::control::TaskSensing;
+use hapticgen_runtime::fused::{fused_torque, FusedImpedance};
 use hapticgen_runtime::safety::FaultCode;
 use hapticgen_runtime::tick::{
     HapticLoop, HapticLoopSettings, ImpedanceInputs, ImpedanceReport, ReferenceSource,
@@ -66,7 +67,7 @@ pub const PROFILE_STEPS: usize = 6;
 
 /// Names of the profiled sub-steps, in the order of [`Profile::steps`].
 pub const PROFILE_NAMES: [&str; PROFILE_STEPS] =
-    ["estimation", "rig_terms", "reference", "impedance_law", "safety", "sin_cos"];
+    ["estimation", "task_position", "reference", "fused_law", "safety", "sin_cos"];
 
 /// Per-sub-step costs of the impedance tick.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -107,7 +108,7 @@ where
 
 impl<R, Src, const N: usize, const M: usize> Controller<R, Src, N, M>
 where
-    R: RigModel<N, M> + Clone,
+    R: FusedImpedance<N, M> + Clone,
     Src: ReferenceSource<R::Scalar, M> + Clone,
 {
     /// A controller for `rig`; `None` if the rig's rates are unusable. `profile` turns on the
@@ -183,7 +184,7 @@ where
                 self.profile_impedance(&inputs, clock);
             }
             let t2 = clock.now();
-            let report = self.haptic.impedance_tick(&inputs);
+            let report = self.haptic.impedance_tick_fused(&inputs);
             let t3 = clock.now();
             self.impedance_cost.record(self.elapsed(t2, t3));
             if let (None, Some(fault)) = (self.first_fault, report.command.fault) {
@@ -194,7 +195,7 @@ where
         TickOutcome { volts, impedance }
     }
 
-    /// Runs the sub-steps of [`HapticLoop::impedance_tick`] on copies of its state, timing
+    /// Runs the sub-steps of [`HapticLoop::impedance_tick_fused`] on copies of its state, timing
     /// each. Mirrors `tick.rs` for Controllers 2 (second variant) and 3 (no sensed signals).
     #[inline(never)]
     fn profile_impedance<C: CycleCounter>(&mut self, inputs: &ImpedanceInputs<R::Scalar, N, M>, clock: &C) {
@@ -208,14 +209,14 @@ where
         let t1 = clock.now();
         let state = *core::hint::black_box(estimator.state());
         let t2 = clock.now();
-        let terms = core::hint::black_box(rig.terms(&state.position, &state.velocity));
+        let position = core::hint::black_box(rig.position(&state.position));
         let t3 = clock.now();
-        let reference =
-            core::hint::black_box(source.update_reference(&terms.position, &mut controller.parameters));
+        let reference = core::hint::black_box(source.update_reference(&position, &mut controller.parameters));
         let t4 = clock.now();
-        let output = core::hint::black_box(controller.torque(
+        let output = core::hint::black_box(fused_torque(
             rig,
-            &terms,
+            &controller,
+            &state.position,
             &state.velocity,
             &reference,
             &TaskSensing::default(),

@@ -135,7 +135,7 @@ fn fault_number(fault: FaultCode) -> i64 {
 
 impl<R, Src, const N: usize, const M: usize> Scenario<R, Src, N, M>
 where
-    R: RigModel<N, M> + Clone,
+    R: hapticgen_runtime::fused::FusedImpedance<N, M> + Clone,
     Src: ReferenceSource<R::Scalar, M> + Clone,
 {
     /// Assembles a run.

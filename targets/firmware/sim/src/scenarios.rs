@@ -48,7 +48,7 @@ pub mod fig4_step {
     pub type Run<R> = Scenario<R, TaskReference<<R as RigModel<1, 1>>::Scalar, 1>, 1, 1>;
 
     /// Builds the run; `None` if the rig's rates are unusable.
-    pub fn new<R: RigModel<1, 1> + Clone>(
+    pub fn new<R: hapticgen_runtime::fused::FusedImpedance<1, 1> + Clone>(
         name: &'static str,
         rig: R,
         setup: &Setup<R::Scalar>,
@@ -95,7 +95,7 @@ pub mod wall_contact {
 
     /// Builds the run; `None` if the rig's rates are unusable or the model has no
     /// `rendering:` section.
-    pub fn new<R: RigModel<2, 2> + Clone>(
+    pub fn new<R: hapticgen_runtime::fused::FusedImpedance<2, 2> + Clone>(
         name: &'static str,
         rig: R,
         setup: &Setup<R::Scalar>,

@@ -1,0 +1,157 @@
+//! The `simulate` command end to end: CSV with the documented header that a standard CSV
+//! reader parses, valid PNG figures, and the exit codes of bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn hapticgen(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_hapticgen")).args(args).current_dir(workspace()).output().expect("runs")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("hapticgen-cli-{name}-{}", std::process::id()))
+}
+
+/// Width and height from a PNG's signature and IHDR chunk.
+fn png_size(path: &Path) -> (u32, u32) {
+    let bytes = std::fs::read(path).expect("the PNG exists");
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{} is not a PNG", path.display());
+    assert_eq!(&bytes[12..16], b"IHDR");
+    let word = |at: usize| u32::from_be_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
+    (word(16), word(20))
+}
+
+fn check_csv(path: &Path, joints: usize, task: usize) -> Vec<csv::StringRecord> {
+    let mut reader = csv::Reader::from_path(path).expect("trace.csv opens");
+    let header: Vec<String> = reader.headers().expect("a header").iter().map(str::to_string).collect();
+    let mut expected = vec!["t".to_string()];
+    for (prefix, count) in
+        [("q", joints), ("qd", joints), ("x", task), ("u", joints), ("f", task), ("xp", task)]
+    {
+        expected.extend((0..count).map(|k| format!("{prefix}{k}")));
+    }
+    assert_eq!(header, expected);
+    let rows: Vec<csv::StringRecord> = reader.records().map(|r| r.expect("a well-formed row")).collect();
+    for row in &rows {
+        assert_eq!(row.len(), expected.len());
+        for value in row.iter() {
+            assert!(value.parse::<f64>().expect("a number").is_finite());
+        }
+    }
+    rows
+}
+
+#[test]
+fn joystick_step_writes_a_trace_and_figures() {
+    let out = scratch("step");
+    let output = hapticgen(&[
+        "simulate",
+        "models/joystick_1dof.yaml",
+        "--controller",
+        "2b",
+        "--scenario",
+        "step",
+        "--duration",
+        "2",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(String::from_utf8_lossy(&output.stdout).contains("generated code"));
+    let rows = check_csv(&out.join("trace.csv"), 1, 1);
+    assert!(rows.len() > 1500, "{} rows for 2 s", rows.len());
+    // The 1 N·m step moves the stick towards +1 rad.
+    let last: f64 = rows.last().unwrap()[1].parse().unwrap();
+    assert!(last > 0.5 && last < 1.5, "q at the end: {last}");
+    for figure in ["joints", "task", "torque", "force"] {
+        assert_eq!(png_size(&out.join(format!("{figure}.png"))), (900, 600));
+        assert!(out.join(format!("{figure}.svg")).exists());
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn parallel_link_traces_a_circle_on_a_tape_model_too() {
+    // The shipped model runs on its generated code; a copy with a changed mass runs on tapes.
+    let dir = scratch("circle");
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = std::fs::read_to_string(workspace().join("models/parallel_link_2dof.yaml")).unwrap();
+    let edited = text.replacen("mass: 0.06075", "mass: 0.07", 1);
+    assert_ne!(text, edited);
+    let copy = dir.join("edited.yaml");
+    std::fs::write(&copy, edited).unwrap();
+    for (model, marker) in
+        [("models/parallel_link_2dof.yaml", "generated code"), (copy.to_str().unwrap(), "tapes")]
+    {
+        let out = dir.join(marker.replace(' ', "-"));
+        let output = hapticgen(&[
+            "simulate",
+            model,
+            "--controller",
+            "3",
+            "--scenario",
+            "trace-circle",
+            "--duration",
+            "2",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        assert!(String::from_utf8_lossy(&output.stdout).contains(marker));
+        let rows = check_csv(&out.join("trace.csv"), 2, 2);
+        assert!(!rows.is_empty());
+        assert_eq!(png_size(&out.join("path.png")), (900, 600));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_input_gives_the_right_exit_codes() {
+    let out = scratch("bad");
+    let out = out.to_str().unwrap();
+    let usage = hapticgen(&[
+        "simulate",
+        "models/joystick_1dof.yaml",
+        "--controller",
+        "4",
+        "--scenario",
+        "step",
+        "-o",
+        out,
+    ]);
+    assert_eq!(usage.status.code(), Some(2));
+    let missing =
+        hapticgen(&["simulate", "models/nope.yaml", "--controller", "3", "--scenario", "step", "-o", out]);
+    assert_eq!(missing.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&missing.stderr).contains("models/nope.yaml:1:1"));
+    let no_2d = hapticgen(&[
+        "simulate",
+        "models/joystick_1dof.yaml",
+        "--controller",
+        "3",
+        "--scenario",
+        "trace-circle",
+        "-o",
+        out,
+    ]);
+    assert_eq!(no_2d.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&no_2d.stderr).contains("2-D task"));
+    let bad_effect = hapticgen(&[
+        "simulate",
+        "models/joystick_1dof.yaml",
+        "--controller",
+        "3",
+        "--scenario",
+        "step",
+        "--without",
+        "gravity",
+        "-o",
+        out,
+    ]);
+    assert_eq!(bad_effect.status.code(), Some(1));
+    let _ = std::fs::remove_dir_all(out);
+}
