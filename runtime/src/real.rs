@@ -123,7 +123,7 @@ mod single {
     #[inline]
     pub fn sin_cos(x: f32) -> (f32, f32) {
         // Written so that NaN fails the comparison too.
-        if !(x.abs() <= REDUCTION_LIMIT) {
+        if !(libm::fabsf(x) <= REDUCTION_LIMIT) {
             return (f32::NAN, f32::NAN);
         }
         let (s, c, quadrant) = reduced(x);
