@@ -96,7 +96,6 @@ pub trait Real:
 /// "correctly" would need `libm`'s 4 KB Payne–Hanek reduction and software `f64` on the
 /// Cortex-M4F. The `f64` implementation (host) is exact everywhere.
 mod single {
-    const TWO_OVER_PI: f32 = 0.636_619_8;
     const HALF_PI_1: f32 = 1.570_312_5;
     const HALF_PI_2: f32 = 4.837_513e-4;
     const HALF_PI_3: f32 = 7.549_79e-8;
@@ -105,7 +104,7 @@ mod single {
     /// Reduces `x` to `y ∈ [−π/4, π/4]` and evaluates sin y and cos y; returns the quadrant.
     #[inline]
     fn reduced(x: f32) -> (f32, f32, i32) {
-        let j = (x * TWO_OVER_PI + if x >= 0.0 { 0.5 } else { -0.5 }) as i32;
+        let j = (x * core::f32::consts::FRAC_2_PI + if x >= 0.0 { 0.5 } else { -0.5 }) as i32;
         let jf = j as f32;
         let y = ((x - jf * HALF_PI_1) - jf * HALF_PI_2) - jf * HALF_PI_3;
         polynomials(y, j)
@@ -122,11 +121,12 @@ mod single {
     /// `(sin x, cos x)`.
     #[inline]
     pub fn sin_cos(x: f32) -> (f32, f32) {
-        // Written so that NaN fails the comparison too.
-        if !(libm::fabsf(x) <= REDUCTION_LIMIT) {
+        // NaN fails the comparison too.
+        let (s, c, quadrant) = if libm::fabsf(x) <= REDUCTION_LIMIT {
+            reduced(x)
+        } else {
             return (f32::NAN, f32::NAN);
-        }
-        let (s, c, quadrant) = reduced(x);
+        };
         match quadrant {
             0 => (s, c),
             1 => (c, -s),

@@ -284,11 +284,24 @@ fn rotation_rpy(rpy: [f64; 3]) -> [[f64; 3]; 3] {
     let (sp, cp) = rpy[1].sin_cos();
     let (sy, cy) = rpy[2].sin_cos();
     // R = Rz(yaw) · Ry(pitch) · Rx(roll), the URDF convention.
-    [
+    let r = [
         [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
         [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
         [-sp, cp * sr, cp * cr],
-    ]
+    ];
+    // Right angles are exact: cos(π/2) evaluates to 6e-17, which would otherwise leave
+    // spurious terms in every expression downstream.
+    r.map(|row| {
+        row.map(|x| {
+            if x.abs() < 1e-14 {
+                0.0
+            } else if (x.abs() - 1.0).abs() < 1e-14 {
+                x.signum()
+            } else {
+                x
+            }
+        })
+    })
 }
 
 /// Eigenvalues of a symmetric 3×3 matrix (analytic, ascending).
