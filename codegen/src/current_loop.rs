@@ -89,6 +89,10 @@ pub struct CurrentLoopDesign {
     pub least_damping_ratio: f64,
     /// Closed-loop poles of the loop with the filter lag, z-plane `(re, im)`.
     pub closed_loop_poles: [(f64, f64); 3],
+    /// Mean delay of the closed loop from setpoint to armature current, s: `Σ (1 − y_k) T`
+    /// over its unit-step response (the group delay at DC). The impedance law's
+    /// `spring_lead_time` can compensate it.
+    pub mean_delay: f64,
 }
 
 /// Normalised DC group delay of Bessel filters of order 1–4 with −3 dB at 1 rad/s.
@@ -186,6 +190,7 @@ pub fn design_current_loop(input: &CurrentLoopDesignInput) -> Result<CurrentLoop
         dominant_mode_hz: dominant.0 / (2.0 * PI),
         least_damping_ratio,
         closed_loop_poles: poles,
+        mean_delay: plant.mean_delay(&placement),
     })
 }
 
@@ -252,6 +257,19 @@ impl DiscretePlant {
         let kp = (d1 + 1.0 + a) / b;
         let ki = (d0 - a + b * kp) / (b * t);
         Placement { kp, ki }
+    }
+
+    /// Mean delay of the unit-step response of reference → armature current, s.
+    fn mean_delay(&self, gains: &Placement) -> f64 {
+        let (matrix, input) = self.closed_loop(gains);
+        let mut x = [0.0f64; 3];
+        let mut delay = 0.0;
+        // Long enough for the slowest mode (a few hundred Hz) to decay completely.
+        for _ in 0..20_000 {
+            delay += (1.0 - x[0]) * self.sample_period;
+            x = std::array::from_fn(|i| (0..3).map(|j| matrix[i][j] * x[j]).sum::<f64>() + input[i]);
+        }
+        delay
     }
 
     /// −3 dB bandwidth of reference → armature current, Hz; `None` if it never drops 3 dB

@@ -101,6 +101,23 @@ pub struct ControlOptions<S> {
     pub omit_damping_compensation: bool,
     /// Below this `|det J|`, Controllers 1 and 2 fall back to Controller 3 (see module docs).
     pub min_abs_jacobian_determinant: S,
+    /// Lead time `τ` of the spring term, s: the law uses `x̃ + τ ẋ̃` in `K_d x̃`, i.e. a damping
+    /// `B_d + K_d τ`. `0` is the paper's law. A sampled implementation delays the spring force
+    /// by about half an impedance period (zero-order hold) plus the current loop's delay, which
+    /// acts as a negative damping `−K_d τ` (Colgate & Schenkel); setting `τ` to that delay
+    /// restores the displayed damping `B_d` of eq. (6), (11), (13).
+    pub spring_lead_time: S,
+}
+
+impl<S: Real> ControlOptions<S> {
+    /// The paper's law: damping compensation on, no spring lead, singular below `|det J| = 0`.
+    pub fn paper() -> Self {
+        Self {
+            omit_damping_compensation: false,
+            min_abs_jacobian_determinant: S::ZERO,
+            spring_lead_time: S::ZERO,
+        }
+    }
 }
 
 /// What happened in one evaluation of the law.
@@ -179,6 +196,7 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
         if !sensed_is_finite
             || !inputs_are_finite(terms, joint_velocity, &damping, reference)
             || !parameters_are_finite(&self.parameters)
+            || !self.options.spring_lead_time.is_finite()
         {
             return ControlOutput::refused(ControlStatus::NonFiniteInput);
         }
@@ -198,8 +216,9 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
         for k in 0..M {
             position_error[k] = terms.position[k] - reference.position[k];
             velocity_error[k] = task_velocity[k] - reference.velocity[k];
-            restoring[k] = self.parameters.damping[k] * velocity_error[k]
-                + self.parameters.stiffness[k] * position_error[k];
+            let damping =
+                self.parameters.damping[k] + self.parameters.stiffness[k] * self.options.spring_lead_time;
+            restoring[k] = damping * velocity_error[k] + self.parameters.stiffness[k] * position_error[k];
         }
 
         let output = match self.law {

@@ -94,12 +94,28 @@ impl<S: Real> CurrentController<S> {
 
     /// One sample: `reference` and `measured` currents in A, returns the voltage to apply.
     pub fn step(&mut self, reference: S, measured: S) -> CurrentLoopOutput<S> {
-        if !reference.is_finite() || !measured.is_finite() {
+        self.step_with_feedforward(reference, measured, S::ZERO)
+    }
+
+    /// One sample with a feedforward voltage added to the PI output before saturation: the
+    /// motor's back-EMF `k_e ω` (`k_e = k_t` in SI units), which the electrical model
+    /// `V = I (sL + R)` the gains were designed on leaves out. Without it the integral action
+    /// must track the back-EMF ramp, and the current lags its setpoint while the rotor
+    /// accelerates, which the operator feels as extra inertia. The integral is clamped so that
+    /// PI plus feedforward stays within the supply (anti-windup as in [`Self::step`]).
+    pub fn step_with_feedforward(
+        &mut self,
+        reference: S,
+        measured: S,
+        feedforward: S,
+    ) -> CurrentLoopOutput<S> {
+        if !reference.is_finite() || !measured.is_finite() || !feedforward.is_finite() {
             return CurrentLoopOutput { voltage: S::ZERO, status: CurrentLoopStatus::NonFiniteInput };
         }
         let gains = &self.gains;
         let error = reference - measured;
-        let proportional = gains.kp * (gains.proportional_setpoint_weight * reference - measured);
+        let proportional =
+            gains.kp * (gains.proportional_setpoint_weight * reference - measured) + feedforward;
         let raw = proportional + self.integral;
         let limit = self.supply_voltage;
         let (voltage, status, may_integrate) = if !raw.is_finite() {
@@ -146,6 +162,21 @@ impl<S: Real, const N: usize> CurrentLoopBank<S, N> {
             self.controllers.iter_mut().zip(out.iter_mut()).zip(references.iter()).zip(measured.iter())
         {
             *slot = controller.step(r, y);
+        }
+        out
+    }
+
+    /// One sample for every motor, each with its feedforward voltage
+    /// (see [`CurrentController::step_with_feedforward`]).
+    pub fn step_with_feedforward(
+        &mut self,
+        references: &[S; N],
+        measured: &[S; N],
+        feedforward: &[S; N],
+    ) -> [CurrentLoopOutput<S>; N] {
+        let mut out = [CurrentLoopOutput { voltage: S::ZERO, status: CurrentLoopStatus::Ok }; N];
+        for (i, (controller, slot)) in self.controllers.iter_mut().zip(out.iter_mut()).enumerate() {
+            *slot = controller.step_with_feedforward(references[i], measured[i], feedforward[i]);
         }
         out
     }

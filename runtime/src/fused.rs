@@ -81,7 +81,13 @@ pub fn fused_torque<R, const N: usize, const M: usize>(
 where
     R: FusedImpedance<N, M>,
 {
-    let p = &controller.parameters;
+    // The spring lead enters as extra damping `K_d τ` (see `ControlOptions::spring_lead_time`),
+    // exactly as in the generic law.
+    let mut parameters = controller.parameters;
+    for (b, &k) in parameters.damping.iter_mut().zip(controller.parameters.stiffness.iter()) {
+        *b += k * controller.options.spring_lead_time;
+    }
+    let p = &parameters;
     let sensed_is_finite = match controller.law {
         ImpedanceLaw::Controller1ForceSensing => linalg::all_finite(&sensed.operator_force),
         ImpedanceLaw::Controller2Accel => linalg::all_finite(&sensed.acceleration),
@@ -95,7 +101,8 @@ where
         && linalg::all_finite(&reference.acceleration)
         && linalg::all_finite(&p.stiffness)
         && linalg::all_finite(&p.damping)
-        && linalg::all_finite(&p.mass);
+        && linalg::all_finite(&p.mass)
+        && controller.options.spring_lead_time.is_finite();
     if !finite {
         return ControlOutput::refused(ControlStatus::NonFiniteInput);
     }

@@ -113,6 +113,10 @@ where
     current_loops: CurrentLoopBank<R::Scalar, N>,
     scheduler: Scheduler,
     current_setpoints: [R::Scalar; N],
+    /// Back-EMF feedforward of each current loop, `k_t N q̇` (volts), from the last tick.
+    back_emf_volts: [R::Scalar; N],
+    /// `k_t N` of each joint (V·s/rad at the joint).
+    back_emf_constants: [R::Scalar; N],
 }
 
 impl<R, Source, const N: usize, const M: usize> HapticLoop<R, Source, N, M>
@@ -123,6 +127,11 @@ where
     /// Builds the loop; `None` if the rig's loop rates are unusable
     /// (`0 < IMPEDANCE_LOOP_HZ <= CURRENT_LOOP_HZ` is required).
     pub fn new(rig: R, source: Source, settings: &HapticLoopSettings<R::Scalar, N, M>) -> Option<Self> {
+        let drives = rig.drives();
+        let mut back_emf_constants = [R::Scalar::ZERO; N];
+        for (k, drive) in back_emf_constants.iter_mut().zip(drives.iter()) {
+            *k = drive.torque_constant * drive.gear_ratio;
+        }
         let drives = rig.drives();
         let mut supply = [R::Scalar::ZERO; N];
         for (slot, drive) in supply.iter_mut().zip(drives.iter()) {
@@ -141,6 +150,8 @@ where
             force_calibration: settings.force_calibration,
             controller: settings.controller,
             current_setpoints: [R::Scalar::ZERO; N],
+            back_emf_volts: [R::Scalar::ZERO; N],
+            back_emf_constants,
             rig,
             source,
         })
@@ -178,7 +189,7 @@ where
         let sensed = self.sensed(inputs, &state, &terms.jacobian, &terms.jacobian_dot_times_qdot);
         let reference = self.source.update_reference(&terms.position, &mut self.controller.parameters);
         let output = self.controller.torque(&self.rig, &terms, &state.velocity, &reference, &sensed);
-        self.finish(output, estimation_status)
+        self.finish(output, estimation_status, &state.velocity)
     }
 
     /// Watchdog and estimation: the first step of every impedance tick.
@@ -230,6 +241,7 @@ where
         &mut self,
         output: ControlOutput<R::Scalar, N>,
         estimation_status: EstimationStatus,
+        joint_velocity: &[R::Scalar; N],
     ) -> ImpedanceReport<R::Scalar, N> {
         match output.status {
             ControlStatus::Ok | ControlStatus::SingularFallback => {}
@@ -241,8 +253,14 @@ where
         }
         let command = self.safety.limit(&output.torque);
         self.current_setpoints = command.current;
+        for ((volts, &k), &qd) in
+            self.back_emf_volts.iter_mut().zip(self.back_emf_constants.iter()).zip(joint_velocity)
+        {
+            *volts = if qd.is_finite() { k * qd } else { R::Scalar::ZERO };
+        }
         if command.fault.is_some() {
             self.current_loops.reset();
+            self.back_emf_volts = [R::Scalar::ZERO; N];
         }
         ImpedanceReport { command, control_status: output.status, estimation_status }
     }
@@ -260,7 +278,14 @@ where
             let off = CurrentLoopOutput { voltage: R::Scalar::ZERO, status: CurrentLoopStatus::Ok };
             return ([off; N], due);
         }
-        (self.current_loops.step(&self.current_setpoints, measured_currents), due)
+        (
+            self.current_loops.step_with_feedforward(
+                &self.current_setpoints,
+                measured_currents,
+                &self.back_emf_volts,
+            ),
+            due,
+        )
     }
 }
 
@@ -290,6 +315,6 @@ where
         let reference = self.source.update_reference(&position, &mut self.controller.parameters);
         let output =
             fused_torque(&self.rig, &self.controller, &state.position, &state.velocity, &reference, &sensed);
-        self.finish(output, estimation_status)
+        self.finish(output, estimation_status, &state.velocity)
     }
 }

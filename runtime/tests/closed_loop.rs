@@ -83,7 +83,11 @@ fn residuals<R: RigModel<N, N, Scalar = f64>, const N: usize>(
         let controller = ImpedanceController {
             law,
             parameters,
-            options: ControlOptions { omit_damping_compensation: false, min_abs_jacobian_determinant: 1e-9 },
+            options: ControlOptions {
+                omit_damping_compensation: false,
+                min_abs_jacobian_determinant: 1e-9,
+                spring_lead_time: 0.0,
+            },
         };
         // Exact sensing: the true f_l; for Controller 2's first variant the acceleration
         // estimate is ẍ*, and the check below shows the plant then indeed accelerates at ẍ*
@@ -178,7 +182,11 @@ fn omitting_damping_compensation_removes_exactly_b_qdot() {
     let mut controller = ImpedanceController {
         law: ImpedanceLaw::Controller3,
         parameters: ImpedanceParameters { stiffness: [1500.0; 2], damping: [5.0; 2], mass: [0.1; 2] },
-        options: ControlOptions { omit_damping_compensation: false, min_abs_jacobian_determinant: 1e-6 },
+        options: ControlOptions {
+            omit_damping_compensation: false,
+            min_abs_jacobian_determinant: 1e-6,
+            spring_lead_time: 0.0,
+        },
     };
     let reference = TaskReference::at_rest([0.1, 0.1]);
     let with = controller.torque(&rig, &terms, &qd, &reference, &TaskSensing::default());

@@ -63,7 +63,11 @@ fn ten_thousand_full_ticks_allocate_nothing() {
         controller: ImpedanceController {
             law: ImpedanceLaw::Controller3,
             parameters: ImpedanceParameters { stiffness: [0.0; 2], damping: [0.0; 2], mass: [0.1; 2] },
-            options: ControlOptions { omit_damping_compensation: true, min_abs_jacobian_determinant: 1e-4 },
+            options: ControlOptions {
+                omit_damping_compensation: true,
+                min_abs_jacobian_determinant: 1e-4,
+                spring_lead_time: 0.0,
+            },
         },
         estimator: EstimatorSettings {
             sample_period: 1e-3,

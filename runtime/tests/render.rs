@@ -197,7 +197,11 @@ fn with_the_grid_and_no_operator_force_the_ihip_never_moves() {
     let mut controller = ImpedanceController {
         law: ImpedanceLaw::Controller3,
         parameters: ImpedanceParameters { stiffness: [0.0; 2], damping: [0.0; 2], mass: [0.0; 2] },
-        options: ControlOptions { omit_damping_compensation: true, min_abs_jacobian_determinant: 1e-4 },
+        options: ControlOptions {
+            omit_damping_compensation: true,
+            min_abs_jacobian_determinant: 1e-4,
+            spring_lead_time: 0.0,
+        },
     };
     let mut q = [1.6, -0.4];
     let mut qd = [0.0, 0.0];

@@ -64,6 +64,7 @@ impl RigVisitor for FusedEqualsGeneric {
                     options: ControlOptions {
                         omit_damping_compensation: case % 2 == 0,
                         min_abs_jacobian_determinant: 5e-4,
+                        spring_lead_time: 0.0,
                     },
                 };
                 let generic = controller.torque(rig, &rig.terms(&q, &qd), &qd, &reference, &sensed);

@@ -21,7 +21,11 @@ fn haptic_loop(law: ImpedanceLaw) -> HapticLoop<ParallelLink2dof, Scene<f64, 2, 
         controller: ImpedanceController {
             law,
             parameters: ImpedanceParameters { stiffness: [0.0; 2], damping: [5.0; 2], mass: [0.2; 2] },
-            options: ControlOptions { omit_damping_compensation: false, min_abs_jacobian_determinant: 1e-4 },
+            options: ControlOptions {
+                omit_damping_compensation: false,
+                min_abs_jacobian_determinant: 1e-4,
+                spring_lead_time: 0.0,
+            },
         },
         estimator: EstimatorSettings {
             sample_period: 1e-3,

@@ -177,6 +177,9 @@ struct SimulateArgs {
     /// |det J| below which Controllers 1 and 2 fall back to Controller 3 (0: never).
     #[arg(long, default_value_t = 0.0)]
     singular_fallback: f64,
+    /// Lead time of the spring term, s: compensates the sampled loop's delay (0: the paper's law).
+    #[arg(long, default_value_t = 0.0)]
+    spring_lead: f64,
     /// Seed of the sensor noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -330,6 +333,7 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     cfg.plant_mass_scale = args.mass_scale;
     cfg.seed = args.seed;
     cfg.singular_fallback = args.singular_fallback;
+    cfg.spring_lead_time = args.spring_lead;
     cfg.progress = true;
     let settings = ScenarioSettings { grid_spacing: args.grid, ..ScenarioSettings::default() };
     sim.apply_scenario(scenario, &settings, &mut cfg)?;

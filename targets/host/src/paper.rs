@@ -140,6 +140,8 @@ struct StepRun<'a> {
     force: f64,
     effects: Effects,
     duration: f64,
+    /// The law's spring lead (the sampled loop's delay, see `Simulation::sampled_loop_delay`).
+    spring_lead: f64,
 }
 
 const STEP_AT: f64 = 0.2;
@@ -153,6 +155,7 @@ impl StepRun<'_> {
         cfg.mass = self.mass;
         cfg.effects = self.effects;
         cfg.duration = self.duration;
+        cfg.spring_lead_time = self.spring_lead;
         let settings = ScenarioSettings { step: (self.force, STEP_AT), ..ScenarioSettings::default() };
         self.sim.apply_scenario(Scenario::Step, &settings, &mut cfg)?;
         let trace = self.sim.run(&cfg)?;
@@ -179,6 +182,7 @@ fn figure4(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
         force,
         effects: Effects { friction: false, ..Effects::ALL },
         duration: d.step,
+        spring_lead: sim.sampled_loop_delay(),
     };
     let (smooth, fit) = base.run(report)?;
     let (rough, _) = StepRun { effects: Effects::ALL, ..base }.run(report)?;
@@ -278,12 +282,15 @@ fn figure4(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
     .ok();
     writeln!(
         s,
-        "Where the damping goes: with ideal sensing (no backlash, fine encoder) the fit gives ζ = {z_ideal:.4}, \
-         and with an ideal current source instead of the armature and its PI loop ζ = {z_source:.4}. The \
-         remaining deficit against eq. (11) is the sampled-data implementation: the 1 kHz impedance tick holds \
-         K_d x̃ for a period (an average delay of half a period, i.e. a negative damping of about K_d·T/2), the \
-         current loop adds its own lag, and the back-EMF seen by the type-1 current loop adds an apparent \
-         inertia. Eq. (11) assumes a continuous-time law.\n"
+        "The law runs sampled, so the spring force K_d x̃ reaches the stick late: by half an impedance period \
+         (zero-order hold), one current-loop period and the current loop's mean delay, together τ = {lead:.2} ms \
+         here. A delayed spring acts as a negative damping −K_d τ (Colgate & Schenkel), {loss:.1} % of B_d, so \
+         the law uses x̃ + τ ẋ̃ in its spring term (`ControlOptions::spring_lead_time`), computed from the model's \
+         rates and the current-loop design, not fitted. The current loop also feeds the motor's back-EMF k_t N q̇ \
+         forward, which would otherwise add an apparent inertia. For comparison, with ideal sensing (no \
+         backlash, fine encoder) the fit gives ζ = {z_ideal:.4}, and with an ideal current source ζ = {z_source:.4}.\n",
+        lead = 1e3 * sim.sampled_loop_delay(),
+        loss = 100.0 * kd * sim.sampled_loop_delay() / bd
     )
     .ok();
     writeln!(s, "![Fig. 4](fig4.png)\n").ok();
@@ -324,6 +331,7 @@ fn figure5(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
             mass: md,
             force,
             effects: Effects::IDEAL,
+            spring_lead: sim.sampled_loop_delay(),
             duration: d.step,
         };
         let (ideal, fit) = ideal_run.run(report)?;
@@ -446,6 +454,7 @@ fn figure6(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
             mass: md,
             force,
             effects: Effects::IDEAL,
+            spring_lead: sim.sampled_loop_delay(),
             duration: d.step,
         };
         let (ideal, fit) = ideal_run.run(report)?;

@@ -172,6 +172,8 @@ pub struct SimConfig {
     pub initial_q: Vec<f64>,
     /// `|det J|` below which Controllers 1 and 2 fall back to Controller 3 (0 = never).
     pub singular_fallback: f64,
+    /// Lead time of the spring term, s (`ControlOptions::spring_lead_time`; 0 = the paper's law).
+    pub spring_lead_time: f64,
     /// Velocity low-pass cut-off of the estimator, Hz.
     pub velocity_cutoff_hz: f64,
     /// Acceleration low-pass cut-off of the estimator, Hz.
@@ -201,6 +203,7 @@ impl SimConfig {
             reference: Reference::Fixed(None),
             initial_q,
             singular_fallback: 0.0,
+            spring_lead_time: 0.0,
             velocity_cutoff_hz: 100.0,
             acceleration_cutoff_hz: 25.0,
             substeps: 1,
@@ -407,6 +410,7 @@ where
             options: ControlOptions {
                 omit_damping_compensation: false,
                 min_abs_jacobian_determinant: cfg.singular_fallback,
+                spring_lead_time: cfg.spring_lead_time,
             },
         },
         estimator: EstimatorSettings {

@@ -34,6 +34,18 @@ pub struct Simulation {
     pub design: CurrentLoopDesign,
 }
 
+impl Simulation {
+    /// The delay of the sampled control loop seen by the spring term, s: half an impedance
+    /// period (zero-order hold), one current-loop period (a new setpoint takes effect from the
+    /// next current tick) and the current loop's mean delay. Used as the law's
+    /// `spring_lead_time` to display the damping of eq. (6), (11), (13).
+    pub fn sampled_loop_delay(&self) -> f64 {
+        0.5 / f64::from(self.model.rates.impedance_loop_hz)
+            + 1.0 / f64::from(self.model.rates.current_loop_hz)
+            + self.design.mean_delay
+    }
+}
+
 /// The named scenarios of `hapticgen simulate`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Scenario {

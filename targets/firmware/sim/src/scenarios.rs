@@ -63,8 +63,7 @@ pub mod fig4_step {
             },
             options: ControlOptions {
                 omit_damping_compensation: false,
-                min_abs_jacobian_determinant: s(1e-6),
-            },
+                min_abs_jacobian_determinant: s(1e-6), spring_lead_time: s(0.0) },
         };
         let q0 = [R::Scalar::ZERO];
         let fast = R::CURRENT_LOOP_HZ;
@@ -125,8 +124,7 @@ pub mod wall_contact {
             },
             options: ControlOptions {
                 omit_damping_compensation: false,
-                min_abs_jacobian_determinant: s(1e-6),
-            },
+                min_abs_jacobian_determinant: s(1e-6), spring_lead_time: s(0.0) },
         };
         let fast = R::CURRENT_LOOP_HZ;
         let period = R::Scalar::ONE / s(f64::from(fast));

@@ -1,0 +1,69 @@
+//! The `rig!` macro on every shipped model (all variants, f32 and f64): the compiled
+//! functions equal the numeric evaluator at 100 random states (f64 to 1e-12, f32 to 1e-5 of
+//! each output's scale), and the expansion is the same code as the build-script helper's.
+
+use std::path::Path;
+
+use hapticgen_codegen::rig_macro::expansion_items;
+use hapticgen_codegen::{model, Scalar};
+use hapticgen_tests::check::EvaluatorCheck;
+use hapticgen_tests::{RigInfo, RigVisitor};
+use quote::quote;
+
+hapticgen_macros::rig!(mod joystick_f64 = "../models/joystick_1dof.yaml");
+hapticgen_macros::rig!(mod joystick_f32 = "../models/joystick_1dof.yaml", scalar = f32);
+hapticgen_macros::rig!(mod vertical_f64 = "../models/parallel_link_2dof.yaml", variant = "vertical", scalar = f64);
+hapticgen_macros::rig!(mod vertical_f32 = "../models/parallel_link_2dof.yaml", variant = "vertical", scalar = f32);
+hapticgen_macros::rig!(mod horizontal_f64 = "../models/parallel_link_2dof.yaml", variant = "horizontal");
+hapticgen_macros::rig!(mod horizontal_f32 = "../models/parallel_link_2dof.yaml", variant = "horizontal", scalar = f32);
+
+#[test]
+fn macro_generated_rigs_equal_the_evaluator() {
+    let mut check = EvaluatorCheck::default();
+    let info = |variant, module| RigInfo { file: "models/joystick_1dof.yaml", variant, module };
+    check.visit_f64(&info(None, "joystick_f64"), &joystick_f64::Joystick1dof::NOMINAL);
+    check.visit_f32(&info(None, "joystick_f32"), &joystick_f32::Joystick1dof::NOMINAL);
+    let info = |variant, module| RigInfo { file: "models/parallel_link_2dof.yaml", variant, module };
+    check.visit_f64(&info(Some("vertical"), "vertical_f64"), &vertical_f64::ParallelLink2dof::NOMINAL);
+    check.visit_f32(&info(Some("vertical"), "vertical_f32"), &vertical_f32::ParallelLink2dof::NOMINAL);
+    check.visit_f64(&info(Some("horizontal"), "horizontal_f64"), &horizontal_f64::ParallelLink2dof::NOMINAL);
+    check.visit_f32(&info(Some("horizontal"), "horizontal_f32"), &horizontal_f32::ParallelLink2dof::NOMINAL);
+    assert_eq!(check.rigs, 6);
+}
+
+#[test]
+fn macro_expansion_equals_the_build_helper_output() {
+    let manifest_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let cases = [
+        (
+            quote!(pub mod rig = "../models/joystick_1dof.yaml"),
+            "../models/joystick_1dof.yaml",
+            None,
+            Scalar::F64,
+        ),
+        (
+            quote!(pub mod rig = "../models/parallel_link_2dof.yaml", variant = "horizontal", scalar = f32),
+            "../models/parallel_link_2dof.yaml",
+            Some("horizontal"),
+            Scalar::F32,
+        ),
+    ];
+    for (input, file, variant, scalar) in cases {
+        let expanded = expansion_items(input, manifest_dir).expect("the expansion is a module with items");
+        let loaded = model::load_file(&manifest_dir.join(file), file, variant).expect("valid model");
+        let built = hapticgen_codegen::generate_model(loaded, scalar).formatted_items();
+        assert_eq!(expanded, built, "{file} {variant:?}");
+        assert!(expanded.contains("impl ::hapticgen_runtime::RigModel<"));
+    }
+}
+
+#[test]
+fn expansion_tracks_the_model_file() {
+    let manifest_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let tokens =
+        hapticgen_codegen::rig_macro::expand(quote!(mod rig = "../models/joystick_1dof.yaml"), manifest_dir)
+            .to_string();
+    let tracked = manifest_dir.join("../models/joystick_1dof.yaml");
+    assert!(tokens.contains("include_bytes"), "no include_bytes! in the expansion");
+    assert!(tokens.contains(&format!("{:?}", tracked.to_string_lossy())), "the model path is not tracked");
+}
