@@ -235,10 +235,16 @@ impl Dag {
         match terms.len() {
             0 => return Signed { id: self.constant(0.0), negative: false },
             1 => {
+                // `(c · position part) · velocity part`: the scaled position part (e.g.
+                // `0.15 cos q1`) is what `J`, `D` and `g` contain too, so it is shared.
                 let (m, c) = &terms[0];
-                let mono = self.monomial(m);
+                let (velocity, position): (Vec<(Atom, u32)>, Vec<(Atom, u32)>) =
+                    m.iter().partition(|(a, _)| matches!(a, Atom::Qd(_)));
                 let k = self.constant(c.abs());
-                return Signed { id: self.mul(k, mono), negative: *c < 0.0 };
+                let position = self.monomial(&position);
+                let scaled = self.mul(k, position);
+                let velocity = self.monomial(&velocity);
+                return Signed { id: self.mul(scaled, velocity), negative: *c < 0.0 };
             }
             _ => {}
         }
@@ -257,10 +263,13 @@ impl Dag {
                 *counts.entry(*a).or_default() += 1;
             }
         }
+        // Velocities are factored out first, so that what remains inside is a function of the
+        // position only, shared with the position-dependent outputs.
+        let is_velocity = |a: &Atom| matches!(a, Atom::Qd(_));
         let best = counts
             .iter()
             .filter(|(_, &n)| n >= 2)
-            .max_by(|(a, n), (b, m)| n.cmp(m).then(b.cmp(a)))
+            .max_by(|(a, n), (b, m)| is_velocity(a).cmp(&is_velocity(b)).then(n.cmp(m)).then(b.cmp(a)))
             .map(|(a, _)| *a);
         let Some(atom) = best else {
             let parts: Vec<Signed> = terms.into_iter().map(|t| self.horner(vec![t])).collect();
