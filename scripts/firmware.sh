@@ -54,6 +54,11 @@ if [ -n "${HAPTICGEN_FW_OPT_LEVEL:-}" ]; then
     export CARGO_PROFILE_RELEASE_OPT_LEVEL=$HAPTICGEN_FW_OPT_LEVEL
 fi
 
+step "lint: host-side crates (clippy, warnings are errors)"
+rustup component add --toolchain "$TOOLCHAIN" clippy >/dev/null 2>&1 || true
+cargo clippy --locked -j1 -p hapticgen-fw-control -p hapticgen-fw-sim -p hapticgen-fw-host -p hapticgen-fw-build \
+    -- -D warnings
+
 step "host reference (hapticgen-fw-host)"
 cargo build --locked -j1 -p hapticgen-fw-host
 HOST=$FW/target/debug/hapticgen-fw-host
@@ -64,6 +69,8 @@ ROWS=()
 FAILED=()
 for NAME in $("$HOST" list); do
     [ -z "$ONLY" ] || [ "$ONLY" = "$NAME" ] || continue
+    step "image $NAME: lint (generated code, runtime and firmware, for the target)"
+    HAPTICGEN_FW_VARIANT=$NAME cargo clippy --locked -j1 --release --target "$TARGET" -p hapticgen-fw-qemu -- -D warnings
     step "image $NAME: build"
     HAPTICGEN_FW_VARIANT=$NAME cargo build --locked -j1 --release --target "$TARGET" -p hapticgen-fw-qemu
     ELF=$OUT/$NAME.elf

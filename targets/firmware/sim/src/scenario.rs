@@ -190,7 +190,7 @@ where
         }
         self.checksum = hash;
         self.done += 1;
-        if self.sample_every > 0 && self.done % self.sample_every == 0 {
+        if self.sample_every > 0 && self.done.is_multiple_of(self.sample_every) {
             self.trace(out);
         }
     }
