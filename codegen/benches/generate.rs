@@ -16,6 +16,19 @@ fn bench(c: &mut Criterion) {
     ] {
         let text = std::fs::read_to_string(root.join(file)).expect("shipped model");
         let name = format!("generate {file}{}", variant.map(|v| format!(" ({v})")).unwrap_or_default());
+        let manifest_dir = root.clone();
+        let input: proc_macro2::TokenStream = match variant {
+            Some(v) => format!("mod rig = {file:?}, variant = {v:?}").parse().expect("tokens"),
+            None => format!("mod rig = {file:?}").parse().expect("tokens"),
+        };
+        c.bench_function(
+            &format!("rig! expansion {file}{}", variant.map(|v| format!(" ({v})")).unwrap_or_default()),
+            |b| {
+                b.iter(|| {
+                    std::hint::black_box(hapticgen_codegen::rig_macro::expand(input.clone(), &manifest_dir))
+                })
+            },
+        );
         c.bench_function(&name, |b| {
             b.iter(|| {
                 let generated = generate(&Source { name: file, text: &text }, variant, Scalar::F64)

@@ -6,7 +6,11 @@ fn main() {
         eprintln!("usage: tick_counts MODEL [VARIANT]");
         std::process::exit(2);
     };
-    let model = match hapticgen_codegen::model::load_file(std::path::Path::new(path), path, args.get(2).map(String::as_str)) {
+    let model = match hapticgen_codegen::model::load_file(
+        std::path::Path::new(path),
+        path,
+        args.get(2).map(String::as_str),
+    ) {
         Ok(m) => m,
         Err(e) => {
             eprintln!("{e}");

@@ -17,7 +17,10 @@ pub mod fused;
 pub mod mechanics;
 pub mod model;
 pub mod rig_macro;
+pub mod stability;
 pub mod sym;
+pub mod urdf;
+pub mod urdf_import;
 
 use proc_macro2::TokenStream;
 

@@ -1,6 +1,8 @@
 //! Symbolic rigid-body mechanics of a [`Model`]: the terms of the paper's eq. (1) and (2).
 //!
-//! Frames are composed exactly as polynomials in `sin q_j`, `cos q_j`, `q_j`. From the body
+//! Frames are composed exactly as polynomials in `sin q_j`, `cos q_j`, `q_j`:
+//! `frame = parent · origin · joint(q) · tail`, where `origin` comes from `xyz`/`rpy` or
+//! Denavit–Hartenberg parameters and `tail` is the part of a standard DH link after the joint. From the body
 //! frames follow each centre of mass's position `r_b(q)` and angular-velocity Jacobian, hence
 //! the inertia matrix from the kinetic energy
 //! `T = ½ q̇ᵀ D q̇ = ½ Σ_b (m_b |J_v,b q̇|² + (J_ω,b q̇)ᵀ R_b I_b R_bᵀ (J_ω,b q̇)) + ½ Σ_j N_j² J_m,j q̇_j²`,
@@ -116,7 +118,7 @@ pub fn derive(model: &Model) -> Mechanics {
     let base = || Frame { origin: [Poly::zero(), Poly::zero(), Poly::zero()], rotation: identity() };
     for body in &model.bodies {
         let frame = match &body.motion {
-            Motion::Serial { parent, xyz, rotation, joint } => {
+            Motion::Serial { parent, xyz, rotation, joint, tail } => {
                 let parent_frame = match parent {
                     Some(p) => &frames[*p],
                     None => &base(),
@@ -140,7 +142,13 @@ pub fn derive(model: &Model) -> Mechanics {
                         }
                     }
                 };
-                Frame { origin, rotation }
+                match tail {
+                    None => Frame { origin, rotation },
+                    Some(t) => Frame {
+                        origin: vec_add(&origin, &mat_vec(&rotation, &t.xyz)),
+                        rotation: mat_mul(&rotation, &constant_matrix(t.rotation)),
+                    },
+                }
             }
             Motion::Direct { origin_body, point, angle_joint } => {
                 let carrier = match origin_body {

@@ -14,6 +14,12 @@ use hapticgen_codegen::{Diagnostic, Diagnostics};
 const CASES: &[(&str, Option<&str>)] = &[
     ("com-three-entries", None),
     ("current-loop-infeasible", None),
+    ("dh-and-origin", None),
+    ("dh-axis-not-z", None),
+    ("dh-planar", None),
+    ("dh-undefined-parameter", None),
+    ("dh-unknown-convention", None),
+    ("dh-unknown-key", None),
     ("duplicate-joint", None),
     ("duplicate-key", None),
     ("empty-value", None),
@@ -339,6 +345,94 @@ fn scalar_inertia_in_a_spatial_model() {
         },
     );
     assert!(hint(&d.0[0]).contains("{ixx, iyy, izz, ixy, ixz, iyz}"));
+}
+
+#[test]
+fn dh_and_origin_together() {
+    let d = check(
+        "dh-and-origin",
+        None,
+        Expect {
+            context: "    dh: {convention: modified, alpha: 1.5707963267948966}",
+            token: "{",
+            path: "bodies[1].dh",
+            message: "body `upper_arm` has both `origin` and `dh`",
+        },
+    );
+    assert!(hint(&d.0[0]).contains("either `origin`"));
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn dh_joint_axis_must_be_z() {
+    let d = check(
+        "dh-axis-not-z",
+        None,
+        Expect {
+            context: "axis: [0.0, 1.0, 0.0]",
+            token: "[",
+            path: "joints[1].axis",
+            message: "joint `shoulder` moves body `upper_arm`, placed with Denavit–Hartenberg parameters: \
+                      its axis must be z",
+        },
+    );
+    assert!(hint(&d.0[0]).contains("`theta` and `alpha`"));
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn dh_in_a_planar_model() {
+    let d = check(
+        "dh-planar",
+        None,
+        Expect {
+            context: "dh: {convention: standard, a: l1}",
+            token: "{",
+            path: "bodies[1].dh",
+            message: "Denavit–Hartenberg parameters need a spatial model",
+        },
+    );
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn dh_length_naming_no_parameter() {
+    let d = check(
+        "dh-undefined-parameter",
+        None,
+        Expect { context: "a: l3,", token: "l3", path: "bodies[2].dh.a", message: "unknown parameter `l3`" },
+    );
+    assert_eq!(hint(&d.0[0]), "defined parameters: l1, l2");
+}
+
+#[test]
+fn dh_unknown_convention() {
+    let d = check(
+        "dh-unknown-convention",
+        None,
+        Expect {
+            context: "convention: craig",
+            token: "craig",
+            path: "bodies[2].dh.convention",
+            message: "unknown value `craig`",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "expected `standard` or `modified`");
+}
+
+#[test]
+fn dh_unknown_key() {
+    let d = check(
+        "dh-unknown-key",
+        None,
+        Expect {
+            context: "offset: -1.57",
+            token: "offset",
+            path: "bodies[2].dh.offset",
+            message: "unknown key `offset`",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "expected one of `convention`, `a`, `alpha`, `d`, `theta`");
 }
 
 #[test]

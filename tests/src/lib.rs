@@ -2,6 +2,8 @@
 //! over them so that tests run once per rig.
 #![allow(missing_docs)]
 
+pub mod baseline;
+
 use hapticgen_runtime::fused::FusedImpedance;
 
 /// Which model file and variant a generated rig came from.
@@ -259,5 +261,58 @@ pub mod check {
             }
             self.rigs += 1;
         }
+    }
+}
+
+/// The parallel link's control stack as the tests and benchmarks run it: a virtual circle
+/// (a cavity of radius 2 cm, 1500 N/m, 5 N·s/m, as in Fig. 7) and the loop's settings.
+pub mod stack {
+    use hapticgen_runtime::control::{
+        ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters,
+    };
+    use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
+    use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
+    use hapticgen_runtime::tick::HapticLoopSettings;
+
+    use crate::parallel_link_2dof_vertical_f64::ParallelLink2dof;
+
+    /// Free space with the 0.3 mm anti-drift grid and a circular cavity in the workspace.
+    pub fn circle_scene() -> Scene<f64, 2, 8> {
+        let mut scene = Scene::new(0.0, 5.0, 0.3e-3);
+        scene.add(VirtualObject {
+            shape: Shape::Circle { center: [0.0, 0.13], radius: 0.02 },
+            kind: ObjectKind::Cavity,
+            stiffness: 1500.0,
+            damping: 5.0,
+        });
+        scene
+    }
+
+    /// Settings of the parallel link's loop with the given law (1 kHz, the generated gains).
+    pub fn parallel_link_settings(law: ImpedanceLaw) -> HapticLoopSettings<f64, 2, 2> {
+        HapticLoopSettings {
+            controller: ImpedanceController {
+                law,
+                parameters: ImpedanceParameters { stiffness: [0.0; 2], damping: [5.0; 2], mass: [0.2; 2] },
+                options: ControlOptions { min_abs_jacobian_determinant: 1e-4, ..ControlOptions::paper() },
+            },
+            estimator: EstimatorSettings {
+                sample_period: 1e-3,
+                velocity_cutoff_hz: 50.0,
+                acceleration_cutoff_hz: 20.0,
+            },
+            zero_offset: [1.4, 0.1],
+            initial_counts: [0; 2],
+            force_calibration: ForceSensorCalibration { scale: [5.0; 2], offset: [2.5; 2] },
+            current_gains: ParallelLink2dof::CURRENT_LOOP_GAINS[0],
+            max_tick_gap: 1,
+        }
+    }
+
+    /// Encoder counts of the parallel link moving on a slow loop through the cavity's wall
+    /// (24,000 counts per joint turn through the 12:1 gearhead).
+    pub fn encoder_counts(tick: u32) -> [i32; 2] {
+        let t = f64::from(tick) * 1e-3;
+        [(600.0 * (2.0 * t).sin()) as i32, (900.0 * (1.3 * t).sin()) as i32]
     }
 }

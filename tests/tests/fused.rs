@@ -19,6 +19,27 @@ const LAWS: [ImpedanceLaw; 4] = [
     ImpedanceLaw::Controller3,
 ];
 
+/// Determinant of a small square matrix by Laplace expansion (N ≤ 3 here).
+fn generic_det<const N: usize, const M: usize>(j: &[[f64; N]; M]) -> f64 {
+    let rows: Vec<Vec<f64>> = j.iter().map(|r| r.to_vec()).collect();
+    fn det(m: &[Vec<f64>]) -> f64 {
+        if m.len() == 1 {
+            return m[0][0];
+        }
+        (0..m.len())
+            .map(|c| {
+                let minor: Vec<Vec<f64>> = m[1..]
+                    .iter()
+                    .map(|r| r.iter().enumerate().filter(|(k, _)| *k != c).map(|(_, x)| *x).collect())
+                    .collect();
+                let sign = if c % 2 == 0 { 1.0 } else { -1.0 };
+                sign * m[0][c] * det(&minor)
+            })
+            .sum()
+    }
+    det(&rows)
+}
+
 struct FusedEqualsGeneric {
     comparisons: usize,
     fallbacks: usize,
@@ -73,10 +94,20 @@ impl RigVisitor for FusedEqualsGeneric {
                 if generic.status == ControlStatus::SingularFallback {
                     self.fallbacks += 1;
                 }
+                // J⁻¹ amplifies rounding by J's condition number; the two implementations
+                // (LU vs adjugate) round differently, so the bound scales with it.
+                let j = rig.jacobian(&q);
+                let norm: f64 = j.iter().flatten().map(|x| x * x).sum::<f64>().sqrt();
+                let det = if N == M { generic_det(&j) } else { 1.0 };
+                let conditioning = if law == ImpedanceLaw::Controller3 || N != M {
+                    1.0
+                } else {
+                    (norm.powi(N as i32) / det.abs()).max(1.0)
+                };
                 for i in 0..N {
                     let (a, b) = (generic.torque[i], fused.torque[i]);
                     assert!(
-                        (a - b).abs() <= 1e-12 * a.abs().max(1.0),
+                        (a - b).abs() <= 1e-12 * conditioning * a.abs().max(1.0),
                         "{} {law:?}: joint {i} generic {a:e} fused {b:e} at q = {q:?}",
                         info.module
                     );

@@ -5,11 +5,10 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
-use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
-use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
-use hapticgen_runtime::tick::{HapticLoop, HapticLoopSettings, ImpedanceInputs};
+use hapticgen_runtime::control::ImpedanceLaw;
+use hapticgen_runtime::tick::{HapticLoop, ImpedanceInputs};
 use hapticgen_tests::parallel_link_2dof_vertical_f64::ParallelLink2dof;
+use hapticgen_tests::stack::{circle_scene, encoder_counts, parallel_link_settings};
 
 struct CountingAllocator;
 
@@ -38,27 +37,8 @@ static GLOBAL: CountingAllocator = CountingAllocator;
 
 #[test]
 fn ten_thousand_generated_ticks_allocate_nothing() {
-    let mut scene: Scene<f64, 2, 8> = Scene::new(0.0, 5.0, 0.3e-3);
-    scene.add(VirtualObject {
-        shape: Shape::Circle { center: [0.0, 0.13], radius: 0.02 },
-        kind: ObjectKind::Cavity,
-        stiffness: 1500.0,
-        damping: 5.0,
-    });
-    let settings = HapticLoopSettings {
-        controller: ImpedanceController {
-            law: ImpedanceLaw::Controller3,
-            parameters: ImpedanceParameters { stiffness: [0.0; 2], damping: [5.0; 2], mass: [0.2; 2] },
-            options: ControlOptions { min_abs_jacobian_determinant: 1e-4, ..ControlOptions::paper() },
-        },
-        estimator: EstimatorSettings { sample_period: 1e-3, velocity_cutoff_hz: 50.0, acceleration_cutoff_hz: 20.0 },
-        zero_offset: [1.4, 0.1],
-        initial_counts: [0; 2],
-        force_calibration: ForceSensorCalibration { scale: [5.0; 2], offset: [2.5; 2] },
-        current_gains: ParallelLink2dof::CURRENT_LOOP_GAINS[0],
-        max_tick_gap: 1,
-    };
-    let mut haptic = HapticLoop::new(ParallelLink2dof::NOMINAL, scene, &settings).expect("settings");
+    let settings = parallel_link_settings(ImpedanceLaw::Controller3);
+    let mut haptic = HapticLoop::new(ParallelLink2dof::NOMINAL, circle_scene(), &settings).expect("settings");
     let laws = [
         ImpedanceLaw::Controller3,
         ImpedanceLaw::Controller2Mobility,
@@ -76,7 +56,7 @@ fn ten_thousand_generated_ticks_allocate_nothing() {
             haptic.controller.law = laws[(tick as usize / 2500) % laws.len()];
             let t = f64::from(tick) * 1e-3;
             let inputs = ImpedanceInputs {
-                encoder_counts: [(600.0 * (2.0 * t).sin()) as i32, (900.0 * (1.3 * t).sin()) as i32],
+                encoder_counts: encoder_counts(tick),
                 force_readings: [2.5 + 0.1 * t.sin(), 2.5],
                 tick,
             };

@@ -2,44 +2,15 @@
 //! same commands and statuses as with the runtime's generic law, tick after tick, for every law
 //! on the parallel link rendering a virtual circle (paper, section 4, Fig. 7).
 
-use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
-use hapticgen_runtime::current_loop::CurrentLoopGains;
-use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
-use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
-use hapticgen_runtime::tick::{HapticLoop, HapticLoopSettings, ImpedanceInputs};
+use hapticgen_runtime::control::ImpedanceLaw;
+use hapticgen_runtime::render::Scene;
+use hapticgen_runtime::tick::{HapticLoop, ImpedanceInputs};
 use hapticgen_tests::parallel_link_2dof_vertical_f64::ParallelLink2dof;
+use hapticgen_tests::stack::{circle_scene, encoder_counts, parallel_link_settings};
 
 fn haptic_loop(law: ImpedanceLaw) -> HapticLoop<ParallelLink2dof, Scene<f64, 2, 8>, 2, 2> {
-    let mut scene: Scene<f64, 2, 8> = Scene::new(0.0, 5.0, 0.3e-3);
-    scene.add(VirtualObject {
-        shape: Shape::Circle { center: [0.0, 0.13], radius: 0.02 },
-        kind: ObjectKind::Cavity,
-        stiffness: 1500.0,
-        damping: 5.0,
-    });
-    let settings = HapticLoopSettings {
-        controller: ImpedanceController {
-            law,
-            parameters: ImpedanceParameters { stiffness: [0.0; 2], damping: [5.0; 2], mass: [0.2; 2] },
-            options: ControlOptions {
-                omit_damping_compensation: false,
-                min_abs_jacobian_determinant: 1e-4,
-                spring_lead_time: 0.0,
-            },
-        },
-        estimator: EstimatorSettings {
-            sample_period: 1e-3,
-            velocity_cutoff_hz: 50.0,
-            acceleration_cutoff_hz: 20.0,
-        },
-        zero_offset: [1.4, 0.1],
-        initial_counts: [0; 2],
-        force_calibration: ForceSensorCalibration { scale: [5.0; 2], offset: [2.5; 2] },
-        current_gains: ParallelLink2dof::CURRENT_LOOP_GAINS[0],
-        max_tick_gap: 1,
-    };
-    let _: CurrentLoopGains<f64> = settings.current_gains;
-    HapticLoop::new(ParallelLink2dof::NOMINAL, scene, &settings).expect("valid settings")
+    HapticLoop::new(ParallelLink2dof::NOMINAL, circle_scene(), &parallel_link_settings(law))
+        .expect("valid settings")
 }
 
 #[test]
@@ -56,7 +27,7 @@ fn fused_tick_equals_generic_tick() {
             // The handle moves on a slow loop through the cavity's wall (24,000 counts per
             // joint turn through the 12:1 gearhead), with a varying sensed force.
             let t = f64::from(tick) * 1e-3;
-            let counts = [(600.0 * (2.0 * t).sin()) as i32, (900.0 * (1.3 * t).sin()) as i32];
+            let counts = encoder_counts(tick);
             let inputs = ImpedanceInputs {
                 encoder_counts: counts,
                 force_readings: [2.5 + 0.2 * t.sin(), 2.5 - 0.1 * t.cos()],
@@ -78,4 +49,39 @@ fn fused_tick_equals_generic_tick() {
         assert_eq!(compared, 2000);
         assert!(generic.safety().fault().is_none(), "{law:?}: {:?}", generic.safety().fault());
     }
+}
+
+#[test]
+fn a_stalled_impedance_task_stops_the_motors_within_a_millisecond() {
+    let mut haptic = haptic_loop(ImpedanceLaw::Controller3);
+    let measured = [0.0; 2];
+    let (mut tick, mut current_ticks, mut stalled_at) = (0u32, 0u32, None);
+    loop {
+        current_ticks += 1;
+        let (out, due) = haptic.current_tick(&measured);
+        if let Some(at) = stalled_at {
+            if haptic.safety().fault().is_some() {
+                // 7.5 current ticks per millisecond.
+                let waited = current_ticks - at;
+                assert!(waited <= 7, "safe state after {waited} current ticks");
+                assert!(out.iter().all(|o| o.voltage == 0.0));
+                break;
+            }
+            assert!(current_ticks - at < 100, "the stall was never detected");
+            continue;
+        }
+        if due {
+            tick += 1;
+            if tick == 50 {
+                // The impedance task stops running from here on.
+                stalled_at = Some(current_ticks);
+                continue;
+            }
+            let inputs =
+                ImpedanceInputs { encoder_counts: encoder_counts(tick), force_readings: [2.5; 2], tick };
+            haptic.impedance_tick_fused(&inputs);
+            assert!(haptic.safety().fault().is_none(), "{:?} at tick {tick}", haptic.safety().fault());
+        }
+    }
+    assert_eq!(haptic.safety().fault(), Some(hapticgen_runtime::safety::FaultCode::MissedTicks));
 }

@@ -19,7 +19,9 @@ use crate::diag::{Diagnostic, Diagnostics};
 use crate::sym::poly::Poly;
 use positions::{display_path, KeyPath, PositionIndex, Segment};
 pub use schema::{Drive, JointKind, ModelFile, Rendering, Sensor};
-pub use validate::{Model, Motion, ResolvedBody, ResolvedJoint, ResolvedParameter, ResolvedPoint, TaskSpec};
+pub use validate::{
+    FixedTransform, Model, Motion, ResolvedBody, ResolvedJoint, ResolvedParameter, ResolvedPoint, TaskSpec,
+};
 
 /// The text of a model file and how to name it in diagnostics.
 pub struct Source<'a> {
@@ -97,6 +99,73 @@ pub fn load_file(path: &Path, display: &str, variant: Option<&str>) -> Result<Mo
 
 /// Parses, applies the variant (the named one, else the model's default) and validates.
 pub fn load(source: &Source<'_>, variant: Option<&str>) -> Result<Model, Diagnostics> {
+    if source.text.len() > MAX_MODEL_BYTES {
+        return Err(Diagnostic {
+            file: source.name.to_string(),
+            line: 1,
+            column: 1,
+            path: String::new(),
+            message: format!(
+                "the model file is {} bytes; the limit is {} (1 MiB)",
+                source.text.len(),
+                MAX_MODEL_BYTES
+            ),
+            hint: None,
+        }
+        .into());
+    }
+    load_unclamped(source, variant).map_err(|mut diagnostics| {
+        let lines = line_lengths(source.text);
+        for d in &mut diagnostics.0 {
+            (d.line, d.column) = clamp_position(&lines, d.line, d.column);
+        }
+        diagnostics
+    })
+}
+
+/// Model files larger than this are rejected before parsing (a rig's model is a few KiB).
+pub const MAX_MODEL_BYTES: usize = 1 << 20;
+
+/// The length in characters of each line, with YAML's line breaks (LF, CRLF, CR, NEL, LS, PS).
+fn line_lengths(text: &str) -> Vec<usize> {
+    let mut lengths = vec![0usize];
+    let mut chars = text.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '\r' => {
+                if chars.peek() == Some(&'\n') {
+                    chars.next();
+                }
+                lengths.push(0);
+            }
+            '\n' | '\u{85}' | '\u{2028}' | '\u{2029}' => lengths.push(0),
+            _ => {
+                if let Some(last) = lengths.last_mut() {
+                    *last += 1;
+                }
+            }
+        }
+    }
+    // A final line break does not start a line of its own.
+    if lengths.len() > 1 && lengths.last() == Some(&0) {
+        lengths.pop();
+    }
+    lengths
+}
+
+/// Keeps a position inside the file: the parsers report the end of a file without a final
+/// line break on the line after the last one.
+fn clamp_position(lines: &[usize], line: usize, column: usize) -> (usize, usize) {
+    let last = lines.len().max(1);
+    if line > last {
+        return (last, lines.last().copied().unwrap_or(0) + 1);
+    }
+    let line = line.max(1);
+    let width = lines.get(line - 1).copied().unwrap_or(0) + 1;
+    (line, column.clamp(1, width))
+}
+
+fn load_unclamped(source: &Source<'_>, variant: Option<&str>) -> Result<Model, Diagnostics> {
     let index = PositionIndex::build(source.text);
     let document: serde_yaml::Value = serde_yaml::from_str(source.text).map_err(|e| {
         let message = strip_location(&e.to_string());

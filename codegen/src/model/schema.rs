@@ -220,6 +220,11 @@ pub struct Body {
     /// Serial chain: the fixed transform from the parent frame to the joint frame.
     #[serde(default)]
     pub origin: Option<Origin>,
+    /// Serial chain: the fixed transform and the joint given as Denavit–Hartenberg
+    /// parameters instead of `origin` (spatial models; the joint turns about or slides
+    /// along z).
+    #[serde(default)]
+    pub dh: Option<DenavitHartenberg>,
     /// Serial chain: the joint between the parent and this body; absent = welded.
     #[serde(default)]
     pub joint: Option<String>,
@@ -279,6 +284,44 @@ pub struct Origin {
     /// Roll, pitch, yaw, rad (spatial); a single angle about z for planar models.
     #[serde(default)]
     pub rpy: Option<Vec<f64>>,
+}
+
+/// Which Denavit–Hartenberg convention a body's `dh` parameters follow.
+#[derive(Clone, Copy, Debug, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum DhConvention {
+    /// Standard (distal) DH, as in Denavit & Hartenberg (1955), Spong and Corke's `DH`
+    /// links: `frame = parent · Rz(theta) · Tz(d) · Joint(q) · Tx(a) · Rx(alpha)`; the
+    /// joint moves about or along the parent's z axis and the body frame sits at the
+    /// link's distal end.
+    Standard,
+    /// Modified (proximal) DH, as in Craig (1986) and Corke's `modified` links:
+    /// `frame = parent · Rx(alpha) · Tx(a) · Rz(theta) · Tz(d) · Joint(q)`; the joint moves
+    /// about or along the body's own z axis.
+    Modified,
+}
+
+/// Denavit–Hartenberg parameters of one link (lengths in m, angles in rad).
+///
+/// `theta` and `d` are the fixed offsets of the joint: a revolute joint's angle is
+/// `theta + q`, a prismatic joint's displacement `d + q`.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DenavitHartenberg {
+    /// `standard` or `modified`.
+    pub convention: DhConvention,
+    /// Link length `a` along x, m (default 0).
+    #[serde(default)]
+    pub a: Option<Value>,
+    /// Link twist `alpha` about x, rad (default 0).
+    #[serde(default)]
+    pub alpha: Option<f64>,
+    /// Link offset `d` along z, m (default 0).
+    #[serde(default)]
+    pub d: Option<Value>,
+    /// Joint-angle offset `theta` about z, rad (default 0).
+    #[serde(default)]
+    pub theta: Option<f64>,
 }
 
 /// A frame placed directly by the generalised coordinates (e.g. the parallelogram's links).

@@ -8,7 +8,8 @@ use std::collections::{HashMap, HashSet};
 
 use super::positions::Segment;
 use super::schema::{
-    CurrentLoopSpec, Drive, Inertia, JointKind, ModelFile, Rates, Rendering, Sensor, Space, Value,
+    CurrentLoopSpec, DhConvention, Drive, Inertia, JointKind, ModelFile, Rates, Rendering, Sensor, Space,
+    Value,
 };
 use super::{Locator, ParameterValues};
 use crate::diag::{Diagnostic, Diagnostics};
@@ -50,10 +51,20 @@ pub struct ResolvedJoint {
     pub drive: Drive,
 }
 
+/// A fixed rigid transform: translation, then rotation (`Trans(xyz) · rotation`).
+#[derive(Clone, Debug)]
+pub struct FixedTransform {
+    /// Translation.
+    pub xyz: [Poly; 3],
+    /// Rotation.
+    pub rotation: [[f64; 3]; 3],
+}
+
 /// How a body's frame moves.
 #[derive(Clone, Debug)]
 pub enum Motion {
-    /// Parent frame (None = base), then a fixed transform, then the joint (None = welded).
+    /// Parent frame (None = base), then a fixed transform, then the joint (None = welded),
+    /// then an optional fixed `tail` (standard Denavit–Hartenberg links).
     Serial {
         /// Parent body index, `None` for the base.
         parent: Option<usize>,
@@ -63,6 +74,8 @@ pub enum Motion {
         rotation: [[f64; 3]; 3],
         /// The joint, if any.
         joint: Option<usize>,
+        /// A fixed transform after the joint (standard DH: `Tx(a) · Rx(alpha)`), if any.
+        tail: Option<Box<FixedTransform>>,
     },
     /// Origin at a point of another body; orientation: rotation about z by a coordinate.
     Direct {
@@ -279,6 +292,53 @@ const RESERVED: &[&str] = &[
     "yield", "try", "base", "gen",
 ];
 
+/// Right angles are exact: cos(π/2) evaluates to 6e-17, which would otherwise leave spurious
+/// terms in every expression downstream.
+fn snap_entry(x: f64) -> f64 {
+    if x.abs() < 1e-14 {
+        0.0
+    } else if (x.abs() - 1.0).abs() < 1e-14 {
+        x.signum()
+    } else {
+        x
+    }
+}
+
+fn snap(m: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    m.map(|row| row.map(snap_entry))
+}
+
+/// `(sin x, cos x)` with right angles exact.
+fn exact_sin_cos(x: f64) -> (f64, f64) {
+    let (s, c) = x.sin_cos();
+    (snap_entry(s), snap_entry(c))
+}
+
+/// Rotation about x, right angles exact.
+fn rotation_x(angle: f64) -> [[f64; 3]; 3] {
+    let (s, c) = exact_sin_cos(angle);
+    [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]
+}
+
+/// Rotation about z, right angles exact.
+fn rotation_z(angle: f64) -> [[f64; 3]; 3] {
+    let (s, c) = exact_sin_cos(angle);
+    [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+}
+
+fn mat3_mul(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
+}
+
+/// Whether a joint's `axis` (as written; absent = z) is the +z axis a DH joint needs.
+fn dh_axis(axis: &Option<Vec<f64>>) -> bool {
+    match axis.as_deref() {
+        None => true,
+        Some([x, y, z]) => *x == 0.0 && *y == 0.0 && *z > 0.0,
+        Some(_) => false,
+    }
+}
+
 fn rotation_rpy(rpy: [f64; 3]) -> [[f64; 3]; 3] {
     let (sr, cr) = rpy[0].sin_cos();
     let (sp, cp) = rpy[1].sin_cos();
@@ -289,19 +349,7 @@ fn rotation_rpy(rpy: [f64; 3]) -> [[f64; 3]; 3] {
         [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
         [-sp, cp * sr, cp * cr],
     ];
-    // Right angles are exact: cos(π/2) evaluates to 6e-17, which would otherwise leave
-    // spurious terms in every expression downstream.
-    r.map(|row| {
-        row.map(|x| {
-            if x.abs() < 1e-14 {
-                0.0
-            } else if (x.abs() - 1.0).abs() < 1e-14 {
-                x.signum()
-            } else {
-                x
-            }
-        })
-    })
+    snap(r)
 }
 
 /// Eigenvalues of a symmetric 3×3 matrix (analytic, ascending).
@@ -686,9 +734,49 @@ pub(crate) fn resolve(
                     bodies.push(None);
                     continue;
                 };
-                let (xyz, rotation) = match &b.origin {
-                    None => ([zero(), zero(), zero()], rotation_rpy([0.0; 3])),
-                    Some(o) => {
+                let mut tail = None;
+                let (xyz, rotation) = match (&b.origin, &b.dh) {
+                    (Some(_), Some(_)) => {
+                        r.error_hint(
+                            &at(&["dh"]),
+                            format!("{what} has both `origin` and `dh`"),
+                            "place a body with either `origin` (xyz, rpy) or `dh` (Denavit–Hartenberg parameters)",
+                        );
+                        ([zero(), zero(), zero()], rotation_rpy([0.0; 3]))
+                    }
+                    (None, Some(dh)) => {
+                        if planar {
+                            r.error_hint(
+                                &at(&["dh"]),
+                                "Denavit–Hartenberg parameters need a spatial model",
+                                "use `origin: {xyz, rpy}` in a planar model, or `space: spatial`",
+                            );
+                        }
+                        let length = |r: &mut Resolver<'_, '_>, v: &Option<Value>, k: &str| match v {
+                            Some(v) => r.value(v, &at(&["dh", k])).0,
+                            None => zero(),
+                        };
+                        let a = length(&mut r, &dh.a, "a");
+                        let d = length(&mut r, &dh.d, "d");
+                        let (alpha, theta) = (dh.alpha.unwrap_or(0.0), dh.theta.unwrap_or(0.0));
+                        let (s_alpha, c_alpha) = exact_sin_cos(alpha);
+                        match dh.convention {
+                            DhConvention::Standard => {
+                                tail = Some(Box::new(FixedTransform {
+                                    xyz: [a, zero(), zero()],
+                                    rotation: rotation_x(alpha),
+                                }));
+                                ([zero(), zero(), d], rotation_z(theta))
+                            }
+                            DhConvention::Modified => {
+                                // Rx(α)·Tx(a)·Rz(θ)·Tz(d) = Trans(a, −d sin α, d cos α)·Rx(α)Rz(θ).
+                                let rotation = snap(mat3_mul(rotation_x(alpha), rotation_z(theta)));
+                                ([a, d.scale(-s_alpha), d.scale(c_alpha)], rotation)
+                            }
+                        }
+                    }
+                    (None, None) => ([zero(), zero(), zero()], rotation_rpy([0.0; 3])),
+                    (Some(o), None) => {
                         let xyz = match &o.xyz {
                             Some(v) => r.vector(v, dim, &at(&["origin", "xyz"])).0,
                             None => [zero(), zero(), zero()],
@@ -718,6 +806,16 @@ pub(crate) fn resolve(
                         let j = lookup_joint(&mut r, name, &at(&["joint"]), &what);
                         if let Some(j) = j {
                             joint_used[j] = true;
+                            if b.dh.is_some() && !dh_axis(&file.joints[j].axis) {
+                                r.error_hint(
+                                    &[key("joints"), Segment::Index(j), key("axis")],
+                                    format!(
+                                        "joint `{name}` moves body `{}`, placed with Denavit–Hartenberg parameters: its axis must be z",
+                                        b.name
+                                    ),
+                                    "a DH joint turns about (or slides along) z: remove `axis` or write [0.0, 0.0, 1.0]; orient the frame with `theta` and `alpha`",
+                                );
+                            }
                             if let Some(other) = serial_joint_users.insert(j, i) {
                                 r.error(
                                     &at(&["joint"]),
@@ -732,9 +830,16 @@ pub(crate) fn resolve(
                     }
                 };
                 depends_on.push(parent_index);
-                Motion::Serial { parent: parent_index, xyz, rotation, joint }
+                Motion::Serial { parent: parent_index, xyz, rotation, joint, tail }
             }
             (None, Some(pose)) => {
+                if b.dh.is_some() {
+                    r.error_hint(
+                        &at(&["dh"]),
+                        format!("{what} is directly posed: `dh` applies to serial bodies only"),
+                        "a serial body names `parent`, then `dh` (or `origin`) and `joint`",
+                    );
+                }
                 if !planar {
                     r.error_hint(
                         &at(&["pose"]),
@@ -998,8 +1103,8 @@ pub(crate) fn resolve(
             continue;
         };
         body.motion = match body.motion {
-            Motion::Serial { parent, xyz, rotation, joint } => {
-                Motion::Serial { parent: remap(parent), xyz, rotation, joint }
+            Motion::Serial { parent, xyz, rotation, joint, tail } => {
+                Motion::Serial { parent: remap(parent), xyz, rotation, joint, tail }
             }
             Motion::Direct { origin_body, point, angle_joint } => {
                 Motion::Direct { origin_body: remap(origin_body), point, angle_joint }

@@ -238,7 +238,7 @@ impl Dag {
                 // `(c · position part) · velocity part`: the scaled position part (e.g.
                 // `0.15 cos q1`) is what `J`, `D` and `g` contain too, so it is shared.
                 let (m, c) = &terms[0];
-                let (velocity, position): (Vec<(Atom, u32)>, Vec<(Atom, u32)>) =
+                let (velocity, position): (Monomial, Monomial) =
                     m.iter().partition(|(a, _)| matches!(a, Atom::Qd(_)));
                 let k = self.constant(c.abs());
                 let position = self.monomial(&position);

@@ -10,6 +10,7 @@
 #![deny(missing_docs)]
 
 pub mod analysis;
+pub mod faults;
 pub mod generated;
 pub mod output;
 pub mod paper;

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use hapticgen_codegen::{eval, model, Scalar};
+use hapticgen_codegen::{eval, model, stability, Scalar};
 use hapticgen_host::paper;
 use hapticgen_host::plant::Effects;
 use hapticgen_host::simulate::{Scenario, ScenarioSettings, Simulation};
@@ -91,6 +91,30 @@ enum Command {
     },
     /// Print the JSON Schema of the model format.
     Schema,
+    /// Write a model file from a URDF robot (drives, gravity and rates are defaults, listed
+    /// in the written file's header).
+    ImportUrdf {
+        /// The URDF file.
+        urdf: PathBuf,
+        /// A YAML file with one drive (the keys of a `drives` entry) used for every joint
+        /// (default: the paper's RE40-class motor with a 12:1 gearhead).
+        #[arg(long)]
+        drive: Option<PathBuf>,
+        /// Write to this file instead of standard output.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
+    /// Write a serial model as URDF (named points become massless links `point_NAME`).
+    ExportUrdf {
+        /// The model file.
+        model: PathBuf,
+        /// The variant.
+        #[arg(long)]
+        variant: Option<String>,
+        /// Write to this file instead of standard output.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
     /// Simulate a model in closed loop with one of the paper's controllers; writes
     /// DIR/trace.csv and plots (DIR/*.svg, DIR/*.png).
     Simulate(SimulateArgs),
@@ -102,6 +126,19 @@ enum Command {
         /// Shortened runs (a quick check; the report says so).
         #[arg(long)]
         quick: bool,
+    },
+    /// Inject faults (sensors, schedule, operator, model mismatch) into the simulated closed
+    /// loop and check the safety criteria; prints a table and writes DIR/faults.md.
+    Faults {
+        /// The model file (a shipped model runs on its generated code).
+        #[arg(default_value = "models/parallel_link_2dof.yaml")]
+        model: PathBuf,
+        /// The variant.
+        #[arg(long)]
+        variant: Option<String>,
+        /// Output directory.
+        #[arg(short, long, default_value = "out/faults")]
+        output: PathBuf,
     },
 }
 
@@ -193,6 +230,23 @@ fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
         Command::Check { model, variant } => {
             let m = load(&model, variant.as_deref())?;
+            // Without --variant, every variant is checked, not only the default one.
+            if variant.is_none() {
+                for other in m.variants.iter().filter(|v| Some(*v) != m.variant.as_ref()) {
+                    load(&model, Some(other))?;
+                }
+            }
+            // Virtual walls: passivity (warning) and stability (error) bounds, see
+            // `hapticgen_codegen::stability`.
+            if let Some(wall) = stability::check_wall(&m, &hapticgen_codegen::mechanics::derive(&m)) {
+                let text = std::fs::read_to_string(&model).unwrap_or_default();
+                if let Some((error, d)) = wall.diagnostic(&model.display().to_string(), &text, &m) {
+                    if error {
+                        return Err(format!("error: {d}"));
+                    }
+                    eprintln!("warning: {d}");
+                }
+            }
             println!(
                 "{}: ok: rig `{}`{}, {} joints, {} bodies, task dimension {}",
                 model.display(),
@@ -278,6 +332,43 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             Ok(())
         }
+        Command::ImportUrdf { urdf, drive, output } => {
+            let read = |p: &std::path::Path| {
+                std::fs::read_to_string(p).map_err(|e| format!("error: cannot read {}: {e}", p.display()))
+            };
+            let text = read(&urdf)?;
+            let drive = match &drive {
+                Some(p) => read(p)?,
+                None => hapticgen_codegen::urdf_import::DEFAULT_DRIVE.to_string(),
+            };
+            let display = urdf.display().to_string();
+            let yaml =
+                hapticgen_codegen::urdf_import::import(&text, &display, &drive).map_err(|d| d.to_string())?;
+            // What was written must load: a bad drive template is reported against it.
+            model::load(&model::Source { name: "<imported model>", text: &yaml }, None)
+                .map_err(|d| d.to_string())?;
+            match output {
+                Some(path) => std::fs::write(&path, yaml)
+                    .map_err(|e| format!("error: cannot write {}: {e}", path.display())),
+                None => {
+                    print!("{yaml}");
+                    Ok(())
+                }
+            }
+        }
+        Command::ExportUrdf { model, variant, output } => {
+            let m = load(&model, variant.as_deref())?;
+            let text = hapticgen_codegen::urdf::export(&m)
+                .map_err(|e| format!("error: {}: {e}", model.display()))?;
+            match output {
+                Some(path) => std::fs::write(&path, text)
+                    .map_err(|e| format!("error: cannot write {}: {e}", path.display())),
+                None => {
+                    print!("{text}");
+                    Ok(())
+                }
+            }
+        }
         Command::Schema => {
             print!("{}", model::json_schema());
             Ok(())
@@ -286,6 +377,21 @@ fn run(cli: Cli) -> Result<(), String> {
         Command::Paper { output, quick } => {
             let summary = paper::run_all(&output, quick, true)?;
             println!("{summary}");
+            Ok(())
+        }
+        Command::Faults { model, variant, output } => {
+            let sim = Simulation::load(&model, variant.as_deref())?;
+            let results = hapticgen_host::faults::scenarios(&sim)
+                .iter()
+                .map(|f| hapticgen_host::faults::run(&sim, f))
+                .collect::<Result<Vec<_>, String>>()?;
+            let table = hapticgen_host::faults::table(&results);
+            std::fs::create_dir_all(&output)
+                .map_err(|e| format!("error: cannot create {}: {e}", output.display()))?;
+            let path = output.join("faults.md");
+            std::fs::write(&path, &table)
+                .map_err(|e| format!("error: cannot write {}: {e}", path.display()))?;
+            println!("{table}\nwrote {}", path.display());
             Ok(())
         }
     }

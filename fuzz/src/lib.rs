@@ -1,0 +1,325 @@
+//! Fuzzing of hapticgen's model loader and whole code generator, on the stable toolchain.
+//!
+//! Inputs come from two sources: [`structured`] documents (random but plausible models drawn
+//! with `arbitrary` and serialised to YAML) and [`mutate`]d seeds (the corpus in
+//! `fuzz/corpus/` plus every model file of the repository). Each input goes through
+//! `hapticgen_codegen::generate` end to end — load, mechanics, emission — and the emitted
+//! items are formatted with prettyplease. The invariant ([`check`]): every input ends in
+//! generated code or in diagnostics whose line and column are at least 1 and within the
+//! file; never a panic, a hang (the [`Runner`] measures every input against a time limit)
+//! or a stack overflow (inputs run on a thread with a bounded stack; an overflow aborts the
+//! process, and the binary's supervisor reports the input that was running).
+#![deny(missing_docs)]
+
+pub mod mutate;
+pub mod structured;
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
+use std::time::{Duration, Instant};
+
+use hapticgen_codegen::{Scalar, Source};
+
+/// The name every input is loaded under (diagnostics must name it).
+pub const INPUT_NAME: &str = "fuzz.yaml";
+
+/// One input.
+#[derive(Clone, Debug)]
+pub struct Input {
+    /// The model text (lossily decoded: the loader takes `&str`, as every front end does).
+    pub text: String,
+    /// The variant to request.
+    pub variant: Option<String>,
+    /// Scalar type of the emitted code.
+    pub scalar: Scalar,
+}
+
+/// How an input ended when the invariant held.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// Code was generated and formatted.
+    Generated,
+    /// The loader rejected the input with diagnostics inside the file.
+    Rejected,
+}
+
+/// Runs one input through the generator and checks the invariant (except time and stack,
+/// which the [`Runner`] watches). Panics propagate to the caller.
+pub fn check(input: &Input) -> Result<Outcome, String> {
+    let source = Source { name: INPUT_NAME, text: &input.text };
+    match hapticgen_codegen::generate(&source, input.variant.as_deref(), input.scalar) {
+        Ok(generated) => {
+            let text = generated.formatted_items();
+            if text.trim().is_empty() {
+                return Err("generation succeeded but the formatted code is empty".into());
+            }
+            Ok(Outcome::Generated)
+        }
+        Err(diagnostics) => {
+            if diagnostics.0.is_empty() {
+                return Err("the generator failed without a diagnostic".into());
+            }
+            for d in &diagnostics.0 {
+                if d.file != INPUT_NAME {
+                    return Err(format!("diagnostic names file `{}`, not `{INPUT_NAME}`: {d}", d.file));
+                }
+                if d.message.trim().is_empty() {
+                    return Err(format!("diagnostic without a message at {}:{}", d.line, d.column));
+                }
+                let lines = yaml_lines(&input.text);
+                if d.line == lines.len() + 1 && d.column == 1 && !lines.is_empty() {
+                    return Err(format!(
+                        "diagnostic one line past the end of a file without a final line break: {d}"
+                    ));
+                }
+                if !position_within(&input.text, d.line, d.column) {
+                    return Err(format!(
+                        "diagnostic outside the file ({} lines): {d}",
+                        line_count(&input.text)
+                    ));
+                }
+            }
+            Ok(Outcome::Rejected)
+        }
+    }
+}
+
+fn line_count(text: &str) -> usize {
+    yaml_lines(text).len()
+}
+
+/// The lines of `text` as YAML counts them: a line break is `\r\n`, `\n` or a lone `\r`,
+/// and libyaml also breaks at U+0085, U+2028 and U+2029 (editors do too). The text after the
+/// last break is a line of its own (possibly empty: the end of input).
+pub fn yaml_lines(text: &str) -> Vec<&str> {
+    let mut lines = Vec::new();
+    let mut start = 0;
+    let mut chars = text.char_indices().peekable();
+    while let Some((i, c)) = chars.next() {
+        let end = match c {
+            '\r' => {
+                if let Some((_, '\n')) = chars.peek() {
+                    chars.next();
+                    i + 2
+                } else {
+                    i + 1
+                }
+            }
+            '\n' | '\u{85}' | '\u{2028}' | '\u{2029}' => i + c.len_utf8(),
+            _ => continue,
+        };
+        lines.push(&text[start..i]);
+        start = end;
+    }
+    lines.push(&text[start..]);
+    lines
+}
+
+/// `true` when (`line`, `column`), both 1-based, lie in `text`: an existing line (the empty
+/// line after a final newline counts, since parsers report the end of input there) and a
+/// column at most one past the line's last character (counted in bytes or characters,
+/// whichever is larger: parsers differ).
+pub fn position_within(text: &str, line: usize, column: usize) -> bool {
+    if line == 0 || column == 0 {
+        return false;
+    }
+    match yaml_lines(text).get(line - 1) {
+        Some(content) => column <= content.len().max(content.chars().count()) + 1,
+        None => false,
+    }
+}
+
+/// What the runner observed for one input.
+#[derive(Clone, Debug)]
+pub enum Verdict {
+    /// The invariant held.
+    Ok(Outcome, Duration),
+    /// The generator panicked (message).
+    Panic(String),
+    /// The invariant was broken (description).
+    Violation(String),
+    /// The input ended (with this outcome) but took longer than the limit, in CPU time.
+    Slow(Outcome, Duration),
+    /// No answer within ten times the limit of wall time: the worker is still busy.
+    Hang(Duration),
+}
+
+type Job = (Input, Sender<(Result<Result<Outcome, String>, String>, Duration)>);
+
+/// CPU time of the calling thread (wall time where the platform has no thread clock):
+/// the machine is shared, so a wall-clock limit would flag inputs that merely waited.
+pub fn thread_cpu_time() -> Duration {
+    #[cfg(unix)]
+    {
+        let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+        // SAFETY: `clock_gettime` writes one `timespec` through a valid pointer.
+        if unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) } == 0 {
+            return Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32);
+        }
+    }
+    static START: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
+    START.get_or_init(Instant::now).elapsed()
+}
+
+/// Runs inputs one at a time on a worker thread with a bounded stack, catching panics and
+/// measuring each input's CPU time against a time limit. An input that does not finish
+/// within ten times the limit of wall time (a real hang, or a machine too busy to tell) is
+/// a hang too.
+pub struct Runner {
+    jobs: Option<Sender<Job>>,
+    timeout: Duration,
+}
+
+impl Runner {
+    /// A runner whose worker has `stack_bytes` of stack; inputs slower than `timeout` hang.
+    pub fn new(stack_bytes: usize, timeout: Duration) -> std::io::Result<Runner> {
+        let (jobs, receiver): (Sender<Job>, Receiver<Job>) = mpsc::channel();
+        std::thread::Builder::new().name("fuzz-worker".into()).stack_size(stack_bytes).spawn(move || {
+            for (input, reply) in receiver {
+                let start = thread_cpu_time();
+                let result = catch_unwind(AssertUnwindSafe(|| check(&input))).map_err(|payload| {
+                    payload
+                        .downcast_ref::<&str>()
+                        .map(|s| s.to_string())
+                        .or_else(|| payload.downcast_ref::<String>().cloned())
+                        .unwrap_or_else(|| "non-string panic payload".into())
+                });
+                let _ = reply.send((result, thread_cpu_time().saturating_sub(start)));
+            }
+        })?;
+        Ok(Runner { jobs: Some(jobs), timeout })
+    }
+
+    /// Runs one input. After a [`Verdict::Hang`] the worker is still busy: the runner is
+    /// unusable and the caller should stop.
+    pub fn run(&mut self, input: Input) -> Verdict {
+        let Some(jobs) = &self.jobs else {
+            return Verdict::Violation("the runner's worker is gone".into());
+        };
+        let (reply, answer) = mpsc::channel();
+        if jobs.send((input, reply)).is_err() {
+            return Verdict::Violation("the runner's worker is gone".into());
+        }
+        match answer.recv_timeout(self.timeout * 10) {
+            Ok((Ok(Ok(outcome)), elapsed)) if elapsed > self.timeout => Verdict::Slow(outcome, elapsed),
+            Ok((Ok(Ok(outcome)), elapsed)) => Verdict::Ok(outcome, elapsed),
+            Ok((Ok(Err(violation)), _)) => Verdict::Violation(violation),
+            Ok((Err(message), _)) => Verdict::Panic(message),
+            Err(RecvTimeoutError::Timeout) => {
+                self.jobs = None;
+                Verdict::Hang(self.timeout * 10)
+            }
+            Err(RecvTimeoutError::Disconnected) => Verdict::Violation("the worker died".into()),
+        }
+    }
+}
+
+/// The seed corpus: every `*.yaml` file under `dirs` (deduplicated by content, sorted by
+/// path for reproducibility).
+pub fn load_corpus(dirs: &[PathBuf]) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut files: Vec<(PathBuf, Vec<u8>)> = Vec::new();
+    for dir in dirs {
+        let Ok(entries) = std::fs::read_dir(dir) else { continue };
+        for entry in entries.flatten() {
+            let path = entry.path();
+            if path.extension().is_some_and(|e| e == "yaml") {
+                if let Ok(bytes) = std::fs::read(&path) {
+                    files.push((path, bytes));
+                }
+            }
+        }
+    }
+    files.sort_by(|a, b| a.0.cmp(&b.0));
+    let mut seen = std::collections::HashSet::new();
+    files.retain(|(_, bytes)| seen.insert(bytes.clone()));
+    files
+}
+
+/// The corpus directories of a workspace: the committed seeds and the repository's models.
+pub fn corpus_dirs(workspace: &Path) -> Vec<PathBuf> {
+    ["fuzz/corpus", "models", "codegen/tests/bad-models", "codegen/tests/good-models", "tests/ui/models"]
+        .iter()
+        .map(|d| workspace.join(d))
+        .collect()
+}
+
+/// Findings that are known and reported, with their fix, in `docs/reliability.md`: a
+/// finding whose message contains one of these texts is counted, printed and saved, but does
+/// not fail the run. Remove an entry when its fix lands.
+pub const KNOWN_FINDINGS: [(&str, &str); 1] = [(
+    "slow generation of a valid model",
+    "mechanics.rs: deriving a 4-joint spatial chain with general axes and joint-frame rotations takes \
+     1–2 s (D has ~500 terms, C ~2,700); see docs/reliability.md",
+)];
+
+/// The known finding a message matches, if any.
+pub fn known_finding(message: &str) -> Option<&'static str> {
+    KNOWN_FINDINGS.iter().find(|(pattern, _)| message.contains(pattern)).map(|(_, why)| *why)
+}
+
+/// Silences the default panic message of the fuzz worker (panics are reported as verdicts),
+/// unless `HAPTICGEN_FUZZ_VERBOSE` is set (then the message and, with `RUST_BACKTRACE=1`,
+/// the backtrace of each panic are printed).
+pub fn quiet_worker_panics() {
+    if std::env::var_os("HAPTICGEN_FUZZ_VERBOSE").is_some() {
+        return;
+    }
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if std::thread::current().name() != Some("fuzz-worker") {
+            default(info);
+        }
+    }));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn positions_are_checked_against_the_text() {
+        let text = "a: 1\nbb: ü\n";
+        assert!(position_within(text, 1, 1));
+        assert!(position_within(text, 1, 5));
+        assert!(!position_within(text, 1, 6));
+        assert!(position_within(text, 2, 6)); // "bb: ü" is 5 characters, 6 bytes
+        assert!(position_within(text, 3, 1)); // end of input after the final newline
+        assert!(!position_within(text, 3, 2));
+        assert!(!position_within(text, 4, 1));
+        assert!(!position_within(text, 0, 1));
+        assert!(!position_within(text, 1, 0));
+        assert!(position_within("a\rb\r\nc", 3, 2)); // lone CR and CRLF are line breaks
+        assert!(!position_within("a\rb\r\nc", 4, 1));
+    }
+
+    #[test]
+    fn runner_reports_outcomes_and_panics_are_caught() {
+        let mut runner = Runner::new(8 << 20, Duration::from_secs(30)).unwrap();
+        let good =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/joystick_1dof.yaml"))
+                .unwrap();
+        let verdict = runner.run(Input { text: good, variant: None, scalar: Scalar::F64 });
+        assert!(matches!(verdict, Verdict::Ok(Outcome::Generated, _)), "{verdict:?}");
+        let bad = Input { text: "name: [\n".into(), variant: None, scalar: Scalar::F32 };
+        assert!(matches!(runner.run(bad), Verdict::Ok(Outcome::Rejected, _)));
+        // Without the final newline the parsers point past the last line; the loader clamps.
+        let unterminated = Input { text: "name: [".into(), variant: None, scalar: Scalar::F32 };
+        assert!(matches!(runner.run(unterminated), Verdict::Ok(Outcome::Rejected, _)));
+    }
+
+    #[test]
+    fn fixed_findings_stay_fixed() {
+        let mut runner = Runner::new(8 << 20, Duration::from_secs(30)).unwrap();
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/findings");
+        for (file, scalar) in [
+            ("constant-singular-jacobian-nan-literal.yaml", Scalar::F64),
+            ("f32-overflow-inf-literal.yaml", Scalar::F32),
+            ("eof-past-last-line.yaml", Scalar::F64),
+        ] {
+            let text = std::fs::read_to_string(format!("{dir}/{file}")).unwrap();
+            let verdict = runner.run(Input { text, variant: None, scalar });
+            assert!(matches!(verdict, Verdict::Ok(..)), "{file}: {verdict:?}");
+        }
+    }
+}

@@ -1,0 +1,430 @@
+//! `hapticgen-fuzz`: fuzzes `hapticgen_codegen::generate` end to end for a given time.
+//!
+//! ```text
+//! cargo run --release -p hapticgen-fuzz -- [--seconds S] [--seed N] [--timeout-ms MS]
+//!     [--stack-mb MB] [--out DIR]
+//! cargo run --release -p hapticgen-fuzz -- --replay FILE [--variant V]   # one input
+//! cargo run --release -p hapticgen-fuzz -- --minimise FILE                # shrink a finding
+//! ```
+//!
+//! `--seconds` defaults to `$HAPTICGEN_FUZZ_SECONDS`, else 60. The process supervises a
+//! child that does the fuzzing: the child writes each input to `DIR/current.yaml` before
+//! running it, so when a stack overflow aborts the child, the supervisor reports that input
+//! (copied to `DIR/crash-stack-overflow.yaml`). Panics and invariant violations are saved as
+//! `DIR/finding-*.yaml`, a hang as `DIR/hang.yaml`, the slowest input as `DIR/slowest.yaml`.
+//! Exit code 0 when no input broke the invariant, 1 otherwise.
+
+use std::io::{Seek as _, Write as _};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use arbitrary::Unstructured;
+use hapticgen_codegen::Scalar;
+use hapticgen_fuzz::{
+    corpus_dirs, load_corpus, mutate, quiet_worker_panics, structured, Input, Runner, Verdict,
+};
+use rand::rngs::SmallRng;
+use rand::{Rng, RngCore, SeedableRng};
+
+struct Options {
+    seconds: f64,
+    seed: u64,
+    timeout: Duration,
+    stack_bytes: usize,
+    out: PathBuf,
+    child: bool,
+    replay: Option<PathBuf>,
+    minimise: Option<PathBuf>,
+    variant: Option<String>,
+}
+
+fn parse() -> Result<Options, String> {
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let seconds = std::env::var("HAPTICGEN_FUZZ_SECONDS").ok().and_then(|s| s.parse().ok()).unwrap_or(60.0);
+    let mut o = Options {
+        seconds,
+        seed: 1,
+        timeout: Duration::from_millis(1000),
+        stack_bytes: 8 << 20,
+        out: workspace.join("target/fuzz"),
+        child: false,
+        replay: None,
+        minimise: None,
+        variant: None,
+    };
+    let mut args = std::env::args().skip(1);
+    while let Some(arg) = args.next() {
+        let mut value = || args.next().ok_or_else(|| format!("{arg} needs a value"));
+        let number = |v: String| v.parse::<f64>().map_err(|e| format!("{arg}: {e}"));
+        match arg.as_str() {
+            "--seconds" => o.seconds = number(value()?)?,
+            "--seed" => o.seed = number(value()?)? as u64,
+            "--timeout-ms" => o.timeout = Duration::from_millis(number(value()?)? as u64),
+            "--stack-mb" => o.stack_bytes = (number(value()?)? * 1048576.0) as usize,
+            "--out" | "-o" => o.out = PathBuf::from(value()?),
+            "--replay" => o.replay = Some(PathBuf::from(value()?)),
+            "--minimise" => o.minimise = Some(PathBuf::from(value()?)),
+            "--variant" => o.variant = Some(value()?),
+            "--child" => o.child = true,
+            other => return Err(format!("unknown argument `{other}`")),
+        }
+    }
+    Ok(o)
+}
+
+fn main() -> ExitCode {
+    let options = match parse() {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    quiet_worker_panics();
+    if let Some(path) = &options.replay {
+        return replay(path, &options);
+    }
+    if let Some(path) = &options.minimise {
+        return minimise(path, &options);
+    }
+    if options.child {
+        return fuzz(&options);
+    }
+    supervise(&options)
+}
+
+/// Runs the fuzzing child and reports an abort (stack overflow) with its input.
+fn supervise(options: &Options) -> ExitCode {
+    if let Err(e) = std::fs::create_dir_all(&options.out) {
+        eprintln!("error: cannot create {}: {e}", options.out.display());
+        return ExitCode::FAILURE;
+    }
+    let exe = match std::env::current_exe() {
+        Ok(e) => e,
+        Err(e) => {
+            eprintln!("error: cannot find this executable: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    args.push("--child".into());
+    let status = match std::process::Command::new(exe).args(&args).status() {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: cannot start the fuzzing process: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    match status.code() {
+        Some(0) => ExitCode::SUCCESS,
+        Some(1) => ExitCode::FAILURE,
+        _ => {
+            let current = options.out.join("current.yaml");
+            let crash = options.out.join("crash-stack-overflow.yaml");
+            let _ = std::fs::copy(&current, &crash);
+            eprintln!(
+                "fuzz: FAIL: the fuzzing process died ({status}), most likely a stack overflow; \
+                 the input it was running is {} (variant in current.variant)",
+                crash.display()
+            );
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn scalar_of(rng: &mut SmallRng) -> Scalar {
+    if rng.gen_bool(0.5) {
+        Scalar::F64
+    } else {
+        Scalar::F32
+    }
+}
+
+/// The fuzzing loop (in the child process).
+fn fuzz(options: &Options) -> ExitCode {
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let corpus = load_corpus(&corpus_dirs(&workspace));
+    if corpus.is_empty() {
+        eprintln!("error: empty seed corpus");
+        return ExitCode::FAILURE;
+    }
+    let mut runner = match Runner::new(options.stack_bytes, options.timeout) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: cannot start the worker thread: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let current_path = options.out.join("current.yaml");
+    let mut current = match std::fs::File::create(&current_path) {
+        Ok(f) => f,
+        Err(e) => {
+            eprintln!("error: cannot write {}: {e}", current_path.display());
+            return ExitCode::FAILURE;
+        }
+    };
+    println!(
+        "fuzz: {} seeds, {:.0} s, seed {}, time limit {} ms per input, worker stack {} MiB",
+        corpus.len(),
+        options.seconds,
+        options.seed,
+        options.timeout.as_millis(),
+        options.stack_bytes >> 20
+    );
+    let mut rng = SmallRng::seed_from_u64(options.seed);
+    let mut bytes = vec![0u8; 8192];
+    let start = Instant::now();
+    let deadline = Duration::from_secs_f64(options.seconds.max(0.0));
+    let (mut executions, mut generated, mut rejected, mut structured_count) = (0u64, 0u64, 0u64, 0u64);
+    let mut slowest = (Duration::ZERO, String::new());
+    let mut findings: Vec<String> = Vec::new();
+    let mut known: Vec<String> = Vec::new();
+    let mut next_report = Duration::from_secs(10);
+    while start.elapsed() < deadline {
+        let input = if rng.gen_bool(0.5) {
+            rng.fill_bytes(&mut bytes);
+            let mut u = Unstructured::new(&bytes);
+            let Ok(doc) = structured::document(&mut u) else { continue };
+            structured_count += 1;
+            Input { text: doc.text, variant: doc.variant, scalar: scalar_of(&mut rng) }
+        } else {
+            let seed = &corpus[rng.gen_range(0..corpus.len())].1;
+            let other = &corpus[rng.gen_range(0..corpus.len())].1;
+            let data = mutate::mutate(seed, other, &mut rng);
+            let variant = match rng.gen_range(0..6) {
+                0 => Some("horizontal".to_string()),
+                1 => Some("vertical".to_string()),
+                _ => None,
+            };
+            Input { text: String::from_utf8_lossy(&data).into_owned(), variant, scalar: scalar_of(&mut rng) }
+        };
+        let _ = current.set_len(0).and_then(|_| current.rewind()).and_then(|_| {
+            current.write_all(input.text.as_bytes())?;
+            current.flush()
+        });
+        let _ =
+            std::fs::write(options.out.join("current.variant"), input.variant.clone().unwrap_or_default());
+        let text = input.text.clone();
+        let variant = input.variant.clone();
+        executions += 1;
+        match runner.run(input) {
+            Verdict::Ok(outcome, elapsed) => {
+                match outcome {
+                    hapticgen_fuzz::Outcome::Generated => generated += 1,
+                    hapticgen_fuzz::Outcome::Rejected => rejected += 1,
+                }
+                if elapsed > slowest.0 {
+                    slowest = (elapsed, text);
+                }
+            }
+            Verdict::Panic(message) => {
+                let list = if hapticgen_fuzz::known_finding(&message).is_some() {
+                    &mut known
+                } else {
+                    &mut findings
+                };
+                record(&options.out, list, "panic", &message, &text, variant.as_deref());
+            }
+            Verdict::Violation(message) => {
+                let list = if hapticgen_fuzz::known_finding(&message).is_some() {
+                    &mut known
+                } else {
+                    &mut findings
+                };
+                record(&options.out, list, "violation", &message, &text, variant.as_deref());
+            }
+            Verdict::Slow(outcome, took) => {
+                let message = match outcome {
+                    hapticgen_fuzz::Outcome::Generated => format!(
+                        "slow generation of a valid model: {} ms CPU, over the limit of {} ms",
+                        took.as_millis(),
+                        options.timeout.as_millis()
+                    ),
+                    hapticgen_fuzz::Outcome::Rejected => format!(
+                        "slow rejection: {} ms CPU, over the limit of {} ms",
+                        took.as_millis(),
+                        options.timeout.as_millis()
+                    ),
+                };
+                let list = if hapticgen_fuzz::known_finding(&message).is_some() {
+                    &mut known
+                } else {
+                    &mut findings
+                };
+                record(&options.out, list, "slow", &message, &text, variant.as_deref());
+                if took > slowest.0 {
+                    slowest = (took, text);
+                }
+            }
+            Verdict::Hang(took) => {
+                let path = options.out.join("hang.yaml");
+                let _ = std::fs::write(&path, &text);
+                eprintln!(
+                    "fuzz: FAIL: an input gave no answer within {} ms (limit {} ms CPU; variant {:?}); saved as {}",
+                    took.as_millis(),
+                    options.timeout.as_millis(),
+                    variant,
+                    path.display()
+                );
+                findings.push("hang".into());
+                break; // the worker is still busy
+            }
+        }
+        if findings.len() >= 20 {
+            eprintln!("fuzz: stopping after 20 distinct findings");
+            break;
+        }
+        if start.elapsed() >= next_report {
+            println!(
+                "fuzz: {:>5.0} s  {executions} executions ({:.0}/s), {generated} generated, {rejected} rejected",
+                start.elapsed().as_secs_f64(),
+                executions as f64 / start.elapsed().as_secs_f64()
+            );
+            next_report += Duration::from_secs(10);
+        }
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    let _ = std::fs::write(options.out.join("slowest.yaml"), &slowest.1);
+    println!(
+        "fuzz: {executions} executions in {seconds:.1} s ({:.0} executions/s; {structured_count} structured, {} \
+         mutated): {generated} generated code, {rejected} rejected with a diagnostic; slowest input {:.1} ms \
+         (limit {} ms); {} findings, {} known findings (not failing: see docs/reliability.md)",
+        executions as f64 / seconds.max(1e-9),
+        executions - structured_count,
+        slowest.0.as_secs_f64() * 1e3,
+        options.timeout.as_millis(),
+        findings.len(),
+        known.len()
+    );
+    if findings.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    }
+}
+
+/// Saves a finding (once per distinct message).
+fn record(
+    out: &Path,
+    findings: &mut Vec<String>,
+    kind: &str,
+    message: &str,
+    text: &str,
+    variant: Option<&str>,
+) {
+    // One finding per kind of message (numbers and quoted names stripped).
+    let first = message.lines().next().unwrap_or("");
+    let key = match hapticgen_fuzz::known_finding(message) {
+        Some(why) => format!("{kind}: known: {why}"),
+        None => format!("{kind}: {}", first.chars().filter(|c| !c.is_ascii_digit()).collect::<String>()),
+    };
+    if findings.contains(&key) {
+        return;
+    }
+    let known = hapticgen_fuzz::known_finding(message);
+    let prefix = if known.is_some() { "known" } else { "finding" };
+    let path = out.join(format!("{prefix}-{}-{kind}.yaml", findings.len() + 1));
+    let _ = std::fs::write(&path, text);
+    match known {
+        Some(_) => eprintln!(
+            "fuzz: known finding (not failing): {first}\n  {key}\n  input saved as {}",
+            path.display()
+        ),
+        None => eprintln!("fuzz: FAIL: {key}\n  variant {variant:?}; input saved as {}", path.display()),
+    }
+    findings.push(key);
+}
+
+fn read_input(path: &Path, options: &Options) -> Result<Input, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    Ok(Input {
+        text: String::from_utf8_lossy(&bytes).into_owned(),
+        variant: options.variant.clone(),
+        scalar: Scalar::F64,
+    })
+}
+
+/// Runs one saved input and prints the verdict.
+fn replay(path: &Path, options: &Options) -> ExitCode {
+    let input = match read_input(path, options) {
+        Ok(i) => i,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let mut runner = match Runner::new(options.stack_bytes, options.timeout) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let verdict = runner.run(input);
+    println!("{}: {verdict:?}", path.display());
+    if matches!(verdict, Verdict::Ok(..)) {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    }
+}
+
+/// The kind of a failing verdict with its first line, to keep while shrinking.
+fn signature(verdict: &Verdict) -> Option<String> {
+    match verdict {
+        Verdict::Ok(..) => None,
+        Verdict::Panic(m) => Some(format!("panic: {}", m.lines().next().unwrap_or(""))),
+        Verdict::Violation(m) => Some(format!("violation: {}", m.split(':').next().unwrap_or(""))),
+        Verdict::Slow(..) => Some("slow".into()),
+        Verdict::Hang(_) => Some("hang".into()),
+    }
+}
+
+/// Shrinks a failing input (lines, then characters) while it keeps failing the same way;
+/// writes `FILE.min.yaml`.
+fn minimise(path: &Path, options: &Options) -> ExitCode {
+    let input = match read_input(path, options) {
+        Ok(i) => i,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let run = |text: &str| -> Option<String> {
+        let mut runner = Runner::new(options.stack_bytes, options.timeout).ok()?;
+        signature(&runner.run(Input { text: text.to_string(), ..input.clone() }))
+    };
+    let Some(target) = run(&input.text) else {
+        println!("{}: the input does not fail", path.display());
+        return ExitCode::SUCCESS;
+    };
+    let mut units: Vec<String> = input.text.split_inclusive('\n').map(str::to_string).collect();
+    for by_chars in [false, true] {
+        if by_chars {
+            units = units.concat().chars().map(String::from).collect();
+        }
+        let mut chunk = units.len().div_ceil(2).max(1);
+        while chunk >= 1 {
+            let mut i = 0;
+            while i < units.len() {
+                let mut candidate = units.clone();
+                candidate.drain(i..(i + chunk).min(units.len()));
+                if run(&candidate.concat()).as_ref() == Some(&target) {
+                    units = candidate;
+                } else {
+                    i += chunk;
+                }
+            }
+            if chunk == 1 {
+                break;
+            }
+            chunk /= 2;
+        }
+    }
+    let out = path.with_extension("min.yaml");
+    let text = units.concat();
+    let _ = std::fs::write(&out, &text);
+    println!("{target}\nminimised to {} bytes: {}\n{text}", text.len(), out.display());
+    ExitCode::FAILURE
+}

@@ -1,0 +1,137 @@
+//! Reference data for the Pinocchio cross-check (`scripts/pinocchio-check.sh`).
+//!
+//! For every serial model of `models/` and `codegen/tests/good-models/` (every variant), writes
+//! into the directory given as the first argument `NAME.urdf` (the model exported with
+//! `hapticgen_codegen::urdf::export`) and `NAME.json`: the gravity vector, the rotor inertia
+//! `N²·J_m` each joint adds to `D`'s diagonal, and at 50 random states within the joint limits
+//! hapticgen's `D`, `C q̇ + g`, `g` and, for every named point, its position and Jacobian
+//! (3 rows; planar models padded with a zero z row). Models with direct poses are skipped
+//! (listed on standard error): they are closed chains.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use hapticgen_codegen::eval::{evaluate, State};
+use hapticgen_codegen::{mechanics, model, urdf};
+use hapticgen_tests::check::random_state;
+use hapticgen_tests::workspace_root;
+use rand::rngs::SmallRng;
+use rand::SeedableRng;
+
+/// States per model.
+const STATES: usize = 50;
+
+fn json_vector(v: &[f64]) -> String {
+    let items: Vec<String> = v.iter().map(|x| format!("{x:e}")).collect();
+    format!("[{}]", items.join(", "))
+}
+
+fn json_matrix(m: &[Vec<f64>]) -> String {
+    let rows: Vec<String> = m.iter().map(|r| json_vector(r)).collect();
+    format!("[{}]", rows.join(", "))
+}
+
+fn yaml_files(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.expect("directory entry").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "yaml"))
+        .collect();
+    files.sort();
+    files
+}
+
+fn main() {
+    let out = PathBuf::from(std::env::args().nth(1).expect("usage: pinocchio_reference OUT_DIR"));
+    std::fs::create_dir_all(&out).expect("the output directory can be created");
+    let root = workspace_root();
+    let mut written = 0;
+    for dir in ["models", "codegen/tests/good-models"] {
+        for path in yaml_files(&root.join(dir)) {
+            let display = format!("{dir}/{}", path.file_name().expect("a file").to_string_lossy());
+            let base = model::load_file(&path, &display, None).unwrap_or_else(|e| panic!("{e}"));
+            let variants: Vec<Option<String>> = if base.variants.is_empty() {
+                vec![None]
+            } else {
+                base.variants.iter().cloned().map(Some).collect()
+            };
+            for variant in variants {
+                let m =
+                    model::load_file(&path, &display, variant.as_deref()).unwrap_or_else(|e| panic!("{e}"));
+                let text = match urdf::export(&m) {
+                    Ok(text) => text,
+                    Err(why) => {
+                        eprintln!("skipped {display}: {why}");
+                        break;
+                    }
+                };
+                let name = format!(
+                    "{}{}{}",
+                    if dir == "models" { "" } else { "good_" },
+                    m.name,
+                    variant.as_ref().map(|v| format!("_{v}")).unwrap_or_default()
+                );
+                std::fs::write(out.join(format!("{name}.urdf")), text).expect("writable");
+                let mech = mechanics::derive(&m);
+                let params = m.nominal_parameters();
+                let gravity: Vec<f64> = m
+                    .gravity
+                    .iter()
+                    .map(|p| p.eval(&hapticgen_codegen::eval::NominalAtoms(&params)))
+                    .collect();
+                let armature: Vec<f64> = m
+                    .joints
+                    .iter()
+                    .map(|j| j.drive.gear_ratio * j.drive.gear_ratio * j.drive.motor.rotor_inertia)
+                    .collect();
+                let mut json = String::new();
+                let _ = write!(
+                    json,
+                    "{{\"model\": \"{display}\", \"variant\": {}, \"gravity\": {}, \"armature\": {}, \"joints\": [{}], \"states\": [",
+                    variant.as_ref().map_or("null".to_string(), |v| format!("\"{v}\"")),
+                    json_vector(&gravity),
+                    json_vector(&armature),
+                    m.joints.iter().map(|j| format!("\"{}\"", j.name)).collect::<Vec<_>>().join(", ")
+                );
+                let mut rng = SmallRng::seed_from_u64(0x9170_c410);
+                for s in 0..STATES {
+                    let (q, qd) = random_state(&m, &mut rng);
+                    let state = State { q: &q, qd: &qd, parameters: &params };
+                    let e = evaluate(&mech, &state, None);
+                    let nle: Vec<f64> = e.coriolis_times_qdot.iter().zip(&e.g).map(|(c, g)| c + g).collect();
+                    let mut points = Vec::new();
+                    for p in &mech.points {
+                        let pe = evaluate(&mech, &state, Some(p));
+                        let mut position = pe.p.clone();
+                        let mut jacobian = pe.jacobian.clone();
+                        while position.len() < 3 {
+                            position.push(0.0);
+                            jacobian.push(vec![0.0; q.len()]);
+                        }
+                        points.push(format!(
+                            "\"{}\": {{\"p\": {}, \"J\": {}}}",
+                            urdf::point_link_name(&p.name),
+                            json_vector(&position),
+                            json_matrix(&jacobian)
+                        ));
+                    }
+                    let _ = write!(
+                        json,
+                        "{}{{\"q\": {}, \"qd\": {}, \"D\": {}, \"nle\": {}, \"g\": {}, \"points\": {{{}}}}}",
+                        if s == 0 { "" } else { ", " },
+                        json_vector(&q),
+                        json_vector(&qd),
+                        json_matrix(&e.inertia_matrix),
+                        json_vector(&nle),
+                        json_vector(&e.g),
+                        points.join(", ")
+                    );
+                }
+                json.push_str("]}\n");
+                std::fs::write(out.join(format!("{name}.json")), json).expect("writable");
+                written += 1;
+            }
+        }
+    }
+    eprintln!("wrote {written} models to {}", out.display());
+}
