@@ -20,3 +20,4 @@ pub mod rig;
 pub mod sim;
 pub mod simulate;
 pub mod tape;
+pub mod zwidth;

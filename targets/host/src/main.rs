@@ -140,6 +140,21 @@ enum Command {
         #[arg(short, long, default_value = "out/faults")]
         output: PathBuf,
     },
+    /// Map the stable (K, B) region of a virtual wall by simulation (in parallel) and plot it
+    /// against the analytic passivity and stability bounds; writes DIR/zwidth.{csv,svg,png,md}.
+    Zwidth {
+        /// The model file (2-D task).
+        model: PathBuf,
+        /// The variant.
+        #[arg(long)]
+        variant: Option<String>,
+        /// Output directory.
+        #[arg(short, long, default_value = "out/zwidth")]
+        output: PathBuf,
+        /// A short sweep (3 damping values, 6 bisection steps).
+        #[arg(long)]
+        quick: bool,
+    },
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -377,6 +392,22 @@ fn run(cli: Cli) -> Result<(), String> {
         Command::Paper { output, quick } => {
             let summary = paper::run_all(&output, quick, true)?;
             println!("{summary}");
+            Ok(())
+        }
+        Command::Zwidth { model, variant, output, quick } => {
+            let sim = Simulation::load(&model, variant.as_deref())?;
+            let settings = if quick {
+                hapticgen_host::zwidth::Sweep::quick()
+            } else {
+                hapticgen_host::zwidth::Sweep::full()
+            };
+            let z = hapticgen_host::zwidth::sweep(&sim, &settings)?;
+            hapticgen_host::zwidth::write(&z, &model.display().to_string(), &output)?;
+            println!("| B (N·s/m) | largest stable K, simulated (N/m) | stability bound 2(b + B)/T (N/m) |");
+            for p in &z.boundary {
+                println!("| {:.1} | {:.0} | {:.0} |", p.damping, p.stable_stiffness, p.stable_bound);
+            }
+            println!("wrote {}", output.join("zwidth.md").display());
             Ok(())
         }
         Command::Faults { model, variant, output } => {

@@ -1,0 +1,30 @@
+//! `hapticgen zwidth` in short form: the simulated stable region of the parallel link's
+//! virtual wall grows with the wall damping, stays under the analytic stability bound
+//! `2 (b + B)/T`, and contains the paper's Fig. 7 wall (1500 N/m, 5 N·s/m).
+
+use std::path::Path;
+
+use hapticgen_host::simulate::Simulation;
+use hapticgen_host::zwidth::{is_stable, sweep, write, Sweep};
+
+#[test]
+fn the_stable_region_grows_with_damping_and_lies_under_the_bound() {
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/parallel_link_2dof.yaml");
+    let sim = Simulation::load(&model, Some("horizontal")).expect("shipped model");
+    let z = sweep(&sim, &Sweep::quick()).expect("the sweep runs");
+    assert_eq!(z.boundary.len(), 3);
+    for pair in z.boundary.windows(2) {
+        assert!(pair[1].stable_stiffness > pair[0].stable_stiffness, "{:?}", z.boundary);
+    }
+    for p in &z.boundary {
+        assert!(p.stable_stiffness <= 1.05 * p.stable_bound, "{p:?}");
+    }
+    assert!(is_stable(&sim, 1500.0, 5.0, 1.0).unwrap(), "the paper's wall must be stable");
+    assert!(!is_stable(&sim, 30_000.0, 5.0, 1.0).unwrap(), "a wall far beyond the bound must not be");
+    let out = std::env::temp_dir().join(format!("hapticgen-zwidth-{}", std::process::id()));
+    write(&z, "parallel link", &out).expect("written");
+    for file in ["zwidth.csv", "zwidth.svg", "zwidth.png", "zwidth.md"] {
+        assert!(out.join(file).exists(), "{file}");
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
