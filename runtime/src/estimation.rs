@@ -29,6 +29,10 @@ pub enum EstimationStatus {
     /// An input or configuration value was NaN or infinite; outputs hold their last finite
     /// values (zero before the first good sample) and the filter state was not updated.
     NonFinite,
+    /// A counter moved by more than half a motor turn in one sample (30,000 rpm at 1 kHz,
+    /// several times any motor's top speed): an encoder glitch, not motion. Outputs hold their
+    /// last values and the reading is not accepted until [`JointStateEstimator::resynchronize`].
+    Implausible,
 }
 
 /// `α = 1 − e^{−2π f_c T}`, clamped to `[0, 1]`; zero (a frozen filter) for non-finite input.
@@ -75,6 +79,10 @@ pub struct JointStateEstimator<S, const N: usize> {
     state: JointState<S, N>,
     previous_position: [S; N],
     started: bool,
+    /// Largest plausible counter change per sample (half a motor turn).
+    max_step_counts: [i32; N],
+    /// Accept the next reading as the new counter reference (after an explicit reset).
+    resynchronize: bool,
 }
 
 impl<S: Real, const N: usize> JointStateEstimator<S, N> {
@@ -103,6 +111,14 @@ impl<S: Real, const N: usize> JointStateEstimator<S, N> {
             state: JointState { position: zero_offset, velocity: [S::ZERO; N], acceleration: [S::ZERO; N] },
             previous_position: zero_offset,
             started: false,
+            max_step_counts: {
+                let mut max = [i32::MAX; N];
+                for (m, drive) in max.iter_mut().zip(drives.iter()) {
+                    *m = i32::try_from(drive.encoder_counts_per_turn / 2).unwrap_or(i32::MAX).max(1);
+                }
+                max
+            },
+            resynchronize: false,
         }
     }
 
@@ -111,12 +127,27 @@ impl<S: Real, const N: usize> JointStateEstimator<S, N> {
         &self.state
     }
 
+    /// Accepts the next counter readings as continuing from the current estimate (after an
+    /// explicit fault reset that followed an implausible jump): the joint angles stay where
+    /// they were, the jump is not counted as motion.
+    pub fn resynchronize(&mut self) {
+        self.resynchronize = true;
+    }
+
     /// One sample of the encoder counters.
     pub fn update(&mut self, counts: &[i32; N]) -> EstimationStatus {
         let mut position = [S::ZERO; N];
         let mut accumulated = self.accumulated_counts;
+        if self.resynchronize {
+            // After a reset: the counters' new readings are where the joints are now.
+            self.last_counts = *counts;
+            self.resynchronize = false;
+        }
         for i in 0..N {
             let delta = counts[i].wrapping_sub(self.last_counts[i]);
+            if delta.unsigned_abs() > self.max_step_counts[i].unsigned_abs() {
+                return EstimationStatus::Implausible;
+            }
             accumulated[i] = accumulated[i].wrapping_add(i64::from(delta));
             position[i] = self.zero_offset[i] + S::from_i64(accumulated[i]) * self.radians_per_count[i];
         }
@@ -255,5 +286,25 @@ mod tests {
         assert_eq!(force, [0.0, 0.0]);
         assert_eq!(low_pass_coefficient(f64::INFINITY, 1e-3), 0.0);
         assert!((low_pass_coefficient(1e9, 1e-3) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn an_encoder_jump_is_implausible_until_resynchronised() {
+        let mut estimator = JointStateEstimator::new(&[drive()], &SETTINGS, [0.0], [0]);
+        assert_eq!(estimator.update(&[100]), EstimationStatus::Ok);
+        let before = *estimator.state();
+        // Half a motor turn per sample is the most a motor can do; a 2,000-count jump is a glitch.
+        let half_turn = drive().encoder_counts_per_turn as i32 / 2;
+        assert_eq!(estimator.update(&[100 + half_turn]), EstimationStatus::Ok);
+        assert_eq!(estimator.update(&[100 + half_turn + half_turn + 1]), EstimationStatus::Implausible);
+        let held = *estimator.state();
+        assert_eq!(estimator.update(&[5000]), EstimationStatus::Implausible);
+        assert_eq!(*estimator.state(), held);
+        assert_ne!(held, before);
+        // After an explicit reset the new reading continues from the held angle.
+        estimator.resynchronize();
+        assert_eq!(estimator.update(&[5000]), EstimationStatus::Ok);
+        assert!((estimator.state().position[0] - held.position[0]).abs() < 1e-12);
+        assert_eq!(estimator.update(&[5010]), EstimationStatus::Ok);
     }
 }

@@ -35,6 +35,8 @@ pub enum FaultCode {
     TickCounterStalled,
     /// The control law refused to compute a torque (non-square task, indefinite inertia, …).
     ControlRefused,
+    /// A sensor reading was physically implausible (an encoder counter jumped).
+    SensorImplausible,
 }
 
 /// The torque and current setpoints the monitor lets through.

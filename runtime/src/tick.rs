@@ -177,6 +177,7 @@ where
     pub fn reset_fault(&mut self) {
         self.safety.reset();
         self.current_loops.reset();
+        self.estimator.resynchronize();
         self.pending_impedance = NO_IMPEDANCE_PENDING;
     }
 
@@ -212,8 +213,10 @@ where
         self.pending_impedance = NO_IMPEDANCE_PENDING;
         self.safety.check_tick(inputs.tick);
         let estimation_status = self.estimator.update(&inputs.encoder_counts);
-        if estimation_status != EstimationStatus::Ok {
-            self.safety.latch(FaultCode::NonFiniteInput);
+        match estimation_status {
+            EstimationStatus::Ok => {}
+            EstimationStatus::NonFinite => self.safety.latch(FaultCode::NonFiniteInput),
+            EstimationStatus::Implausible => self.safety.latch(FaultCode::SensorImplausible),
         }
         (*self.estimator.state(), estimation_status)
     }

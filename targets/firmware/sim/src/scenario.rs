@@ -130,6 +130,7 @@ fn fault_number(fault: FaultCode) -> i64 {
         FaultCode::MissedTicks => 3,
         FaultCode::TickCounterStalled => 4,
         FaultCode::ControlRefused => 5,
+        FaultCode::SensorImplausible => 6,
     }
 }
 

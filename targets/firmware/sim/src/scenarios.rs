@@ -63,7 +63,9 @@ pub mod fig4_step {
             },
             options: ControlOptions {
                 omit_damping_compensation: false,
-                min_abs_jacobian_determinant: s(1e-6), spring_lead_time: s(0.0) },
+                min_abs_jacobian_determinant: s(1e-6),
+                spring_lead_time: s(0.0),
+            },
         };
         let q0 = [R::Scalar::ZERO];
         let fast = R::CURRENT_LOOP_HZ;
@@ -124,7 +126,9 @@ pub mod wall_contact {
             },
             options: ControlOptions {
                 omit_damping_compensation: false,
-                min_abs_jacobian_determinant: s(1e-6), spring_lead_time: s(0.0) },
+                min_abs_jacobian_determinant: s(1e-6),
+                spring_lead_time: s(0.0),
+            },
         };
         let fast = R::CURRENT_LOOP_HZ;
         let period = R::Scalar::ONE / s(f64::from(fast));

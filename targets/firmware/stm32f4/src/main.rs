@@ -170,7 +170,11 @@ fn main() -> ! {
                 damping: [damping; 2],
                 mass: [1.0; 2],
             },
-            options: ControlOptions { omit_damping_compensation: false, min_abs_jacobian_determinant: 1e-6, spring_lead_time: 0.0 },
+            options: ControlOptions {
+                omit_damping_compensation: false,
+                min_abs_jacobian_determinant: 1e-6,
+                spring_lead_time: 0.0,
+            },
         },
         estimator: EstimatorSettings {
             sample_period: 1.0 / image::IMPEDANCE_LOOP_HZ as f32,
