@@ -13,7 +13,7 @@
 //! ```
 //! and in the crate: `include!(concat!(env!("OUT_DIR"), "/parallel_link.rs"));`.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::{Diagnostics, Scalar};
 
@@ -51,3 +51,47 @@ pub fn generate_text(model: &Path, variant: Option<&str>, scalar: Scalar) -> Res
 }
 
 use crate::Diagnostic;
+
+/// A model file of a directory and its variants.
+#[derive(Clone, Debug)]
+pub struct ModelEntry {
+    /// The file.
+    pub path: PathBuf,
+    /// Its name in diagnostics and generated headers, `"<prefix>/<file name>"`.
+    pub display: String,
+    /// Its variants, or `[None]` for a model without variants.
+    pub variants: Vec<Option<String>>,
+}
+
+/// Every `*.yaml` model file in `dir`, sorted by name, with its variants (what build scripts
+/// and tests iterate over to cover every shipped rig).
+pub fn models_in(dir: &Path, prefix: &str) -> Result<Vec<ModelEntry>, Diagnostics> {
+    let unreadable = |e: std::io::Error| Diagnostic {
+        file: dir.display().to_string(),
+        line: 1,
+        column: 1,
+        path: String::new(),
+        message: format!("cannot list the model directory: {e}"),
+        hint: None,
+    };
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(unreadable)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "yaml"))
+        .collect();
+    files.sort();
+    files
+        .into_iter()
+        .map(|path| {
+            let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            let display = format!("{prefix}/{name}");
+            let model = crate::model::load_file(&path, &display, None)?;
+            let variants = if model.variants.is_empty() {
+                vec![None]
+            } else {
+                model.variants.iter().cloned().map(Some).collect()
+            };
+            Ok(ModelEntry { path, display, variants })
+        })
+        .collect()
+}

@@ -8,6 +8,7 @@
 // Matrix checks read best with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
+use hapticgen_codegen::build;
 use hapticgen_codegen::eval::State;
 use hapticgen_codegen::mechanics::{self, Mechanics};
 use hapticgen_codegen::model::{self, Model};
@@ -28,21 +29,11 @@ fn compiled_code_equals_the_evaluator() {
 /// Each shipped model and variant, loaded for the evaluator-only checks.
 fn shipped() -> Vec<(String, Option<String>, Model, Mechanics)> {
     let mut out = Vec::new();
-    let dir = workspace_root().join("models");
-    let mut files: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
-    files.sort();
-    for path in files.into_iter().filter(|p| p.extension().is_some_and(|x| x == "yaml")) {
-        let display = format!("models/{}", path.file_name().unwrap().to_string_lossy());
-        let base = model::load_file(&path, &display, None).unwrap();
-        let variants: Vec<Option<String>> = if base.variants.is_empty() {
-            vec![None]
-        } else {
-            base.variants.iter().cloned().map(Some).collect()
-        };
-        for v in variants {
-            let m = model::load_file(&path, &display, v.as_deref()).unwrap();
+    for entry in build::models_in(&workspace_root().join("models"), "models").unwrap() {
+        for v in entry.variants {
+            let m = model::load_file(&entry.path, &entry.display, v.as_deref()).unwrap();
             let mech = mechanics::derive(&m);
-            out.push((display.clone(), v, m, mech));
+            out.push((entry.display.clone(), v, m, mech));
         }
     }
     assert!(out.len() >= 3);

@@ -59,26 +59,21 @@ impl Locator<'_> {
 
     /// A diagnostic at the value found at `path`.
     pub(crate) fn at(&self, path: &[Segment], message: impl Into<String>) -> Diagnostic {
-        let (line, column) = self.index.value(&self.source_path(path));
-        Diagnostic {
-            file: self.file.to_string(),
-            line,
-            column,
-            path: display_path(path),
-            message: message.into(),
-            hint: None,
-        }
+        self.diagnostic(self.index.value(&self.source_path(path)), path, message.into())
     }
 
     /// A diagnostic at the key that introduces `path`.
     pub(crate) fn at_key(&self, path: &[Segment], message: impl Into<String>) -> Diagnostic {
-        let (line, column) = self.index.key(&self.source_path(path));
+        self.diagnostic(self.index.key(&self.source_path(path)), path, message.into())
+    }
+
+    fn diagnostic(&self, (line, column): (usize, usize), path: &[Segment], message: String) -> Diagnostic {
         Diagnostic {
             file: self.file.to_string(),
             line,
             column,
             path: display_path(path),
-            message: message.into(),
+            message,
             hint: None,
         }
     }
