@@ -146,6 +146,30 @@ struct StepRun<'a> {
 
 const STEP_AT: f64 = 0.2;
 
+impl<'a> StepRun<'a> {
+    /// A step run of `law` with impedance `(K_d, B_d, M_d)`, the loop's delay compensated.
+    fn new(
+        sim: &'a Simulation,
+        law: ImpedanceLaw,
+        (stiffness, damping, mass): (f64, f64, f64),
+        force: f64,
+        effects: Effects,
+        duration: f64,
+    ) -> Self {
+        StepRun {
+            sim,
+            law,
+            stiffness,
+            damping,
+            mass,
+            force,
+            effects,
+            duration,
+            spring_lead: sim.sampled_loop_delay(),
+        }
+    }
+}
+
 impl StepRun<'_> {
     fn run(&self, report: &mut Report) -> Result<(Trace, Option<StepFit>), String> {
         let mut cfg = SimConfig::new(self.sim.home());
@@ -173,17 +197,14 @@ fn figure4(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
     let inertia = joystick_inertia(sim);
     let w_pred = (kd / inertia).sqrt();
     let z_pred = bd / (2.0 * (kd * inertia).sqrt());
-    let base = StepRun {
+    let base = StepRun::new(
         sim,
-        law: ImpedanceLaw::Controller2Mobility,
-        stiffness: kd,
-        damping: bd,
-        mass: inertia,
+        ImpedanceLaw::Controller2Mobility,
+        (kd, bd, inertia),
         force,
-        effects: Effects { friction: false, ..Effects::ALL },
-        duration: d.step,
-        spring_lead: sim.sampled_loop_delay(),
-    };
+        Effects { friction: false, ..Effects::ALL },
+        d.step,
+    );
     let (smooth, fit) = base.run(report)?;
     let (rough, _) = StepRun { effects: Effects::ALL, ..base }.run(report)?;
     // Where a deviation of ζ comes from: the same loop with ideal sensing, and with an ideal
@@ -323,17 +344,8 @@ fn figure5(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
     let mut torque_series = Vec::new();
     let mut text = String::new();
     for &md in &DESIRED_MASSES {
-        let ideal_run = StepRun {
-            sim,
-            law: ImpedanceLaw::Controller2Accel,
-            stiffness: kd,
-            damping: bd,
-            mass: md,
-            force,
-            effects: Effects::IDEAL,
-            spring_lead: sim.sampled_loop_delay(),
-            duration: d.step,
-        };
+        let ideal_run =
+            StepRun::new(sim, ImpedanceLaw::Controller2Accel, (kd, bd, md), force, Effects::IDEAL, d.step);
         let (ideal, fit) = ideal_run.run(report)?;
         let quantised_effects = Effects { encoder_quantisation: true, ..Effects::IDEAL };
         let (quantised, qfit) = StepRun { effects: quantised_effects, ..ideal_run }.run(report)?;
@@ -446,17 +458,14 @@ fn figure6(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
     let mut noisy_series = Vec::new();
     let mut text = String::new();
     for &md in &DESIRED_MASSES {
-        let ideal_run = StepRun {
+        let ideal_run = StepRun::new(
             sim,
-            law: ImpedanceLaw::Controller1ForceSensing,
-            stiffness: kd,
-            damping: bd,
-            mass: md,
+            ImpedanceLaw::Controller1ForceSensing,
+            (kd, bd, md),
             force,
-            effects: Effects::IDEAL,
-            spring_lead: sim.sampled_loop_delay(),
-            duration: d.step,
-        };
+            Effects::IDEAL,
+            d.step,
+        );
         let (ideal, fit) = ideal_run.run(report)?;
         let noisy_effects = Effects { sensor_noise: true, encoder_quantisation: true, ..Effects::IDEAL };
         let (noisy, nfit) = StepRun { effects: noisy_effects, ..ideal_run }.run(report)?;
