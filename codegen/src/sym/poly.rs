@@ -57,6 +57,13 @@ impl Accumulator {
         if coefficient == 0.0 {
             return;
         }
+        // Most monomials are already reduced: no intermediate vector for them.
+        if !monomial.iter().any(|(atom, e)| matches!(atom, Atom::Sin(_)) && *e >= 2) {
+            let entry = self.sums.entry(monomial).or_insert((0.0, 0.0));
+            entry.0 += coefficient;
+            entry.1 += coefficient.abs();
+            return;
+        }
         for (reduced, c) in reduce_monomial(monomial, coefficient) {
             let entry = self.sums.entry(reduced).or_insert((0.0, 0.0));
             entry.0 += c;
