@@ -316,3 +316,52 @@ pub mod stack {
         [(600.0 * (2.0 * t).sin()) as i32, (900.0 * (1.3 * t).sin()) as i32]
     }
 }
+
+/// Dense linear algebra for the tests' independent checks (plain `Vec`s, no library).
+// Index loops mirror the textbook elimination.
+#[allow(clippy::needless_range_loop)]
+pub mod dense {
+    /// Solves `a x = b` by Gaussian elimination with partial pivoting.
+    pub fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
+        let n = b.len();
+        for k in 0..n {
+            let p = (k..n).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs())).unwrap_or(k);
+            a.swap(k, p);
+            b.swap(k, p);
+            for i in k + 1..n {
+                let f = a[i][k] / a[k][k];
+                for j in k..n {
+                    a[i][j] -= f * a[k][j];
+                }
+                b[i] -= f * b[k];
+            }
+        }
+        let mut x = vec![0.0; n];
+        for i in (0..n).rev() {
+            let s: f64 = (i + 1..n).map(|j| a[i][j] * x[j]).sum();
+            x[i] = (b[i] - s) / a[i][i];
+        }
+        x
+    }
+
+    /// `true` when a Cholesky factorisation exists: the matrix is symmetric positive definite.
+    pub fn is_positive_definite(a: &[Vec<f64>]) -> bool {
+        let n = a.len();
+        let mut l = vec![vec![0.0; n]; n];
+        for i in 0..n {
+            for j in 0..=i {
+                let s: f64 = (0..j).map(|k| l[i][k] * l[j][k]).sum();
+                if i == j {
+                    let d = a[i][i] - s;
+                    if d <= 0.0 {
+                        return false;
+                    }
+                    l[i][j] = d.sqrt();
+                } else {
+                    l[i][j] = (a[i][j] - s) / l[j][j];
+                }
+            }
+        }
+        true
+    }
+}

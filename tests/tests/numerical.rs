@@ -14,6 +14,7 @@ use hapticgen_codegen::mechanics::{self, Mechanics};
 use hapticgen_codegen::model::{self, Model};
 use hapticgen_runtime::fused::FusedImpedance;
 use hapticgen_tests::check::{eval_at, load, random_state, EvaluatorCheck, STATES};
+use hapticgen_tests::dense::{is_positive_definite, solve};
 use hapticgen_tests::{visit_all, workspace_root, RigInfo, RigVisitor};
 use rand::rngs::SmallRng;
 use rand::SeedableRng;
@@ -88,27 +89,6 @@ fn jacobians_match_finite_differences() {
     }
 }
 
-/// Cholesky factorisation succeeds exactly for symmetric positive definite matrices.
-fn is_positive_definite(a: &[Vec<f64>]) -> bool {
-    let n = a.len();
-    let mut l = vec![vec![0.0; n]; n];
-    for i in 0..n {
-        for j in 0..=i {
-            let s: f64 = (0..j).map(|k| l[i][k] * l[j][k]).sum();
-            if i == j {
-                let d = a[i][i] - s;
-                if d <= 0.0 {
-                    return false;
-                }
-                l[i][j] = d.sqrt();
-            } else {
-                l[i][j] = (a[i][j] - s) / l[j][j];
-            }
-        }
-    }
-    true
-}
-
 #[test]
 fn inertia_is_spd_and_ddot_minus_two_c_is_skew() {
     let h = 1e-6;
@@ -156,28 +136,6 @@ fn inertia_is_spd_and_ddot_minus_two_c_is_skew() {
             }
         }
     }
-}
-
-fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
-    let n = b.len();
-    for col in 0..n {
-        let pivot = (col..n).max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs())).unwrap();
-        a.swap(col, pivot);
-        b.swap(col, pivot);
-        for row in col + 1..n {
-            let f = a[row][col] / a[col][col];
-            for k in col..n {
-                a[row][k] -= f * a[col][k];
-            }
-            b[row] -= f * b[col];
-        }
-    }
-    let mut x = vec![0.0; n];
-    for row in (0..n).rev() {
-        let s: f64 = (row + 1..n).map(|k| a[row][k] * x[k]).sum();
-        x[row] = (b[row] - s) / a[row][row];
-    }
-    x
 }
 
 struct EnergyConservation {

@@ -23,6 +23,7 @@ use hapticgen_codegen::model::{self, Model};
 use hapticgen_codegen::sym::dag::{Dag, Node, NodeId};
 use hapticgen_codegen::sym::poly::{Atom, AtomValues, Poly};
 use hapticgen_codegen::Source;
+use hapticgen_tests::dense::{is_positive_definite, solve};
 use proptest::prelude::*;
 
 /// One joint and the body it moves.
@@ -232,49 +233,6 @@ impl Dynamics {
     }
 }
 
-/// Gaussian elimination with partial pivoting.
-fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
-    let n = b.len();
-    for k in 0..n {
-        let p = (k..n).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs())).unwrap_or(k);
-        a.swap(k, p);
-        b.swap(k, p);
-        for i in k + 1..n {
-            let f = a[i][k] / a[k][k];
-            for j in k..n {
-                a[i][j] -= f * a[k][j];
-            }
-            b[i] -= f * b[k];
-        }
-    }
-    let mut x = vec![0.0; n];
-    for i in (0..n).rev() {
-        let s: f64 = (i + 1..n).map(|j| a[i][j] * x[j]).sum();
-        x[i] = (b[i] - s) / a[i][i];
-    }
-    x
-}
-
-fn cholesky_ok(a: &[Vec<f64>]) -> bool {
-    let n = a.len();
-    let mut l = vec![vec![0.0; n]; n];
-    for i in 0..n {
-        for j in 0..=i {
-            let s: f64 = (0..j).map(|k| l[i][k] * l[j][k]).sum();
-            if i == j {
-                let d = a[i][i] - s;
-                if d <= 0.0 {
-                    return false;
-                }
-                l[i][j] = d.sqrt();
-            } else {
-                l[i][j] = (a[i][j] - s) / l[j][j];
-            }
-        }
-    }
-    true
-}
-
 fn config() -> ProptestConfig {
     ProptestConfig { cases: 48, ..ProptestConfig::default() }
 }
@@ -292,7 +250,7 @@ proptest! {
                 prop_assert_eq!(d[i][j], d[j][i], "D not symmetric at {:?}", c.q);
             }
         }
-        prop_assert!(cholesky_ok(&d), "D not positive definite at {:?}: {:?}", c.q, d);
+        prop_assert!(is_positive_definite(&d), "D not positive definite at {:?}: {:?}", c.q, d);
     }
 
     #[test]
