@@ -280,14 +280,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 ScalarArg::F64 => Scalar::F64,
             };
             let text = hapticgen_codegen::generate_model(m, scalar).file_text();
-            match output {
-                Some(path) => std::fs::write(&path, text)
-                    .map_err(|e| format!("error: cannot write {}: {e}", path.display())),
-                None => {
-                    print!("{text}");
-                    Ok(())
-                }
-            }
+            write_or_print(output.as_deref(), &text)
         }
         Command::Eval { model, variant, q, qd, point, json: _ } => {
             let m = load(&model, variant.as_deref())?;
@@ -362,27 +355,13 @@ fn run(cli: Cli) -> Result<(), String> {
             // What was written must load: a bad drive template is reported against it.
             model::load(&model::Source { name: "<imported model>", text: &yaml }, None)
                 .map_err(|d| d.to_string())?;
-            match output {
-                Some(path) => std::fs::write(&path, yaml)
-                    .map_err(|e| format!("error: cannot write {}: {e}", path.display())),
-                None => {
-                    print!("{yaml}");
-                    Ok(())
-                }
-            }
+            write_or_print(output.as_deref(), &yaml)
         }
         Command::ExportUrdf { model, variant, output } => {
             let m = load(&model, variant.as_deref())?;
             let text = hapticgen_codegen::urdf::export(&m)
                 .map_err(|e| format!("error: {}: {e}", model.display()))?;
-            match output {
-                Some(path) => std::fs::write(&path, text)
-                    .map_err(|e| format!("error: cannot write {}: {e}", path.display())),
-                None => {
-                    print!("{text}");
-                    Ok(())
-                }
-            }
+            write_or_print(output.as_deref(), &text)
         }
         Command::Schema => {
             print!("{}", model::json_schema());
@@ -496,6 +475,19 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
         println!("note: the safety monitor latched {fault} at t = {t:.3} s");
     }
     Ok(())
+}
+
+/// Writes `text` to `path`, or to standard output without one.
+fn write_or_print(path: Option<&std::path::Path>, text: &str) -> Result<(), String> {
+    match path {
+        Some(path) => {
+            std::fs::write(path, text).map_err(|e| format!("error: cannot write {}: {e}", path.display()))
+        }
+        None => {
+            print!("{text}");
+            Ok(())
+        }
+    }
 }
 
 fn main() -> ExitCode {
