@@ -11,8 +11,9 @@ use std::collections::HashMap;
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::{format_ident, quote};
 
-use crate::mechanics::Mechanics;
+use crate::mechanics::{Derivation, Mechanics};
 use crate::model::{JointKind, Model};
+use crate::recursive::Quantity;
 use crate::sym::dag::{Dag, Node, NodeId, OpCounts};
 use crate::sym::poly::{Atom, Poly};
 
@@ -126,10 +127,38 @@ pub struct FunctionSpec<'a> {
     pub doc: String,
     /// Result shape.
     pub shape: Shape,
-    /// The polynomials, row-major.
-    pub outputs: Vec<&'a Poly>,
+    /// The outputs, row-major.
+    pub outputs: Vec<Output<'a>>,
     /// Takes `qd` (the trait signature may require it even if unused).
     pub takes_qd: bool,
+    /// Takes `qdd` (the inverse dynamics).
+    pub takes_qdd: bool,
+}
+
+/// Where an output's expression comes from.
+#[derive(Clone, Copy, Debug)]
+pub enum Output<'a> {
+    /// A polynomial of the mechanics.
+    Poly(&'a Poly),
+    /// Entry `k` (row-major) of a quantity built with the model's derivation
+    /// ([`Mechanics::build`]): polynomial or recursive.
+    Quantity(Quantity, usize),
+}
+
+/// The DAG nodes of `outputs`; each quantity is built once per DAG.
+fn output_roots(dag: &mut Dag, model: &Model, mech: &Mechanics, outputs: &[Output<'_>]) -> Vec<NodeId> {
+    let mut built: HashMap<Quantity, Vec<NodeId>> = HashMap::new();
+    outputs
+        .iter()
+        .map(|output| match *output {
+            Output::Poly(p) => dag.polynomial(p),
+            Output::Quantity(q, k) => built.entry(q).or_insert_with(|| mech.build(dag, model, q))[k],
+        })
+        .collect()
+}
+
+fn quantity(q: Quantity, len: usize) -> Vec<Output<'static>> {
+    (0..len).map(|k| Output::Quantity(q, k)).collect()
 }
 
 /// Names of inputs and how the generated code reads them.
@@ -151,6 +180,7 @@ impl Naming<'_> {
                 name => name.to_string(),
             },
             Atom::Qd(j) => format!("{}_dot", joint(j)),
+            Atom::Qdd(j) => format!("{}_ddot", joint(j)),
             Atom::Param(k) => self.model.tunable[usize::from(k)].name.clone(),
             Atom::External(k) => self
                 .externals
@@ -290,6 +320,7 @@ impl<'m> BodyEmitter<'m> {
             Atom::Sin(j) => (1, j, 0),
             Atom::Cos(j) => (1, j, 1),
             Atom::Qd(j) => (2, j, 0),
+            Atom::Qdd(j) => (2, j, 1),
             Atom::Param(k) => (3, k, 0),
             Atom::External(k) => (4, k, 0),
         };
@@ -378,6 +409,10 @@ impl<'m> BodyEmitter<'m> {
                 Node::Input(Atom::Qd(j)) => {
                     let j = unsuffixed(usize::from(j));
                     quote!(qd[#j])
+                }
+                Node::Input(Atom::Qdd(j)) => {
+                    let j = unsuffixed(usize::from(j));
+                    quote!(qdd[#j])
                 }
                 Node::Input(Atom::External(k)) => {
                     self.naming.externals.get(usize::from(k)).map(|e| e.1.clone()).unwrap_or_default()
@@ -528,9 +563,14 @@ fn uses_atom(dag: &Dag, roots: &[NodeId], pred: impl Fn(Atom) -> bool) -> bool {
 }
 
 /// Emits one method; returns it with its operation counts.
-pub fn function(model: &Model, scalar: Scalar, spec: &FunctionSpec<'_>) -> (TokenStream, OpCounts) {
+pub fn function(
+    model: &Model,
+    mech: &Mechanics,
+    scalar: Scalar,
+    spec: &FunctionSpec<'_>,
+) -> (TokenStream, OpCounts) {
     let mut body = BodyEmitter::new(model, scalar);
-    let roots: Vec<NodeId> = spec.outputs.iter().map(|p| body.dag.polynomial(p)).collect();
+    let roots = output_roots(&mut body.dag, model, mech, &spec.outputs);
     let (statements, outputs, counts) = body.emit(&roots, &spec.name);
     let value = shape_value(spec.shape, &outputs);
     let ret = shape_tokens(spec.shape, scalar);
@@ -542,7 +582,11 @@ pub fn function(model: &Model, scalar: Scalar, spec: &FunctionSpec<'_>) -> (Toke
     let qd = if qd_used { quote!(qd) } else { quote!(_qd) };
     let name = format_ident!("{}", spec.name);
     let doc = &spec.doc;
-    let args = if spec.takes_qd {
+    let args = if spec.takes_qdd {
+        let qdd_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Qdd(_)));
+        let qdd = if qdd_used { quote!(qdd) } else { quote!(_qdd) };
+        quote!(&self, #q: &[#s; #n], #qd: &[#s; #n], #qdd: &[#s; #n])
+    } else if spec.takes_qd {
         quote!(&self, #q: &[#s; #n], #qd: &[#s; #n])
     } else {
         quote!(&self, #q: &[#s; #n])
@@ -584,8 +628,12 @@ pub fn rig_type_name(model: &Model) -> String {
     camel_case(&model.name)
 }
 
-fn row_major(m: &[Vec<Poly>]) -> Vec<&Poly> {
-    m.iter().flatten().collect()
+fn row_major(m: &[Vec<Poly>]) -> Vec<Output<'_>> {
+    m.iter().flatten().map(Output::Poly).collect()
+}
+
+fn each(list: &[Poly]) -> Vec<Output<'_>> {
+    list.iter().map(Output::Poly).collect()
 }
 
 /// The specs of every per-quantity function (shared by emission and statistics).
@@ -602,45 +650,68 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
     let mut specs = vec![
         FunctionSpec {
             name: "inertia_matrix".into(),
-            doc: " Inertia matrix `D(q)` of eq. (1), from the kinetic energy of every body plus the reflected rotor inertias `N² J_m`.".into(),
+            doc: format!(" Inertia matrix `D(q)` of eq. (1), {} plus the reflected rotor inertias `N² J_m`.", match mech.derivation {
+                Derivation::Polynomial => "from the kinetic energy of every body",
+                Derivation::Recursive => "by the composite-rigid-body algorithm",
+            }),
             shape: Shape::Matrix(n, n),
-            outputs: row_major(&mech.inertia_matrix),
+            outputs: quantity(Quantity::InertiaMatrix, n * n),
             takes_qd: false,
+            takes_qdd: false,
         },
         FunctionSpec {
             name: "coriolis_matrix".into(),
             doc: " Coriolis/centrifugal matrix `C(q, q̇)` of eq. (1), from the Christoffel symbols of `D`.".into(),
             shape: Shape::Matrix(n, n),
-            outputs: row_major(&mech.coriolis_matrix),
+            outputs: quantity(Quantity::CoriolisMatrix, n * n),
             takes_qd: true,
+            takes_qdd: false,
         },
         FunctionSpec {
             name: "coriolis_times_qdot".into(),
-            doc: " Coriolis and centrifugal torques `C(q, q̇) q̇`.".into(),
+            doc: format!(" Coriolis and centrifugal torques `C(q, q̇) q̇`{}.", match mech.derivation {
+                Derivation::Polynomial => "",
+                Derivation::Recursive => ", by the recursive Newton–Euler algorithm with `q̈ = 0` and no gravity",
+            }),
             shape: Shape::Vector(n),
-            outputs: mech.coriolis_times_qdot.iter().collect(),
+            outputs: quantity(Quantity::CoriolisTimesQdot, n),
             takes_qd: true,
+            takes_qdd: false,
         },
         FunctionSpec {
             name: "gravity".into(),
             doc: " Gravity torques `g(q) = ∂V/∂q` of eq. (1).".into(),
             shape: Shape::Vector(n),
-            outputs: mech.gravity.iter().collect(),
+            outputs: quantity(Quantity::Gravity, n),
             takes_qd: false,
+            takes_qdd: false,
+        },
+        FunctionSpec {
+            name: "inverse_dynamics".into(),
+            doc: format!(" Inverse dynamics of eq. (1) without damping and friction: `τ = D(q) q̈ + C(q, q̇) q̇ + g(q)`{}.", match mech.derivation {
+                Derivation::Polynomial => "",
+                Derivation::Recursive => ", by the recursive Newton–Euler algorithm",
+            }),
+            shape: Shape::Vector(n),
+            outputs: quantity(Quantity::InverseDynamics, n),
+            takes_qd: true,
+            takes_qdd: true,
         },
         FunctionSpec {
             name: "potential_energy".into(),
             doc: " Gravitational potential energy `V(q)`, J (zero at the origin of the base frame).".into(),
             shape: Shape::Scalar,
-            outputs: vec![&mech.potential_energy],
+            outputs: vec![Output::Poly(&mech.potential_energy)],
             takes_qd: false,
+            takes_qdd: false,
         },
         FunctionSpec {
             name: "position".into(),
             doc: format!(" Task position `p(q)`: {task_doc}."),
             shape: Shape::Vector(m),
-            outputs: mech.task.position.iter().collect(),
+            outputs: each(&mech.task.position),
             takes_qd: false,
+            takes_qdd: false,
         },
         FunctionSpec {
             name: "jacobian".into(),
@@ -648,6 +719,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             shape: Shape::Matrix(m, n),
             outputs: row_major(&mech.task.jacobian),
             takes_qd: false,
+            takes_qdd: false,
         },
         FunctionSpec {
             name: "jacobian_dot".into(),
@@ -655,13 +727,15 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             shape: Shape::Matrix(m, n),
             outputs: row_major(&mech.task.jacobian_dot),
             takes_qd: true,
+            takes_qdd: false,
         },
         FunctionSpec {
             name: "jacobian_dot_times_qdot".into(),
             doc: " `J̇(q, q̇) q̇`, the velocity term of eq. (2) and (4).".into(),
             shape: Shape::Vector(m),
-            outputs: mech.task.jacobian_dot_times_qdot.iter().collect(),
+            outputs: each(&mech.task.jacobian_dot_times_qdot),
             takes_qd: true,
+            takes_qdd: false,
         },
     ];
     for (point, kin) in model.points.iter().zip(&mech.points) {
@@ -671,8 +745,9 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             name: format!("{}_position", point.name),
             doc: format!(" Position of {what} in the base frame."),
             shape: Shape::Vector(d),
-            outputs: kin.position.iter().collect(),
+            outputs: each(&kin.position),
             takes_qd: false,
+            takes_qdd: false,
         });
         specs.push(FunctionSpec {
             name: format!("{}_jacobian", point.name),
@@ -680,26 +755,31 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             shape: Shape::Matrix(d, n),
             outputs: row_major(&kin.jacobian),
             takes_qd: false,
+            takes_qdd: false,
         });
         specs.push(FunctionSpec {
             name: format!("{}_jacobian_dot_times_qdot", point.name),
             doc: format!(" `J̇ q̇` of {what}."),
             shape: Shape::Vector(d),
-            outputs: kin.jacobian_dot_times_qdot.iter().collect(),
+            outputs: each(&kin.jacobian_dot_times_qdot),
             takes_qd: true,
+            takes_qdd: false,
         });
     }
     specs
 }
 
 /// The outputs of the fused per-tick function, in the order of `RigTerms`' fields.
-fn tick_outputs(mech: &Mechanics) -> Vec<&Poly> {
-    let mut outputs = row_major(&mech.inertia_matrix);
-    outputs.extend(mech.coriolis_times_qdot.iter());
-    outputs.extend(mech.gravity.iter());
-    outputs.extend(mech.task.position.iter());
+fn tick_outputs(mech: &Mechanics, include_position: bool) -> Vec<Output<'_>> {
+    let n = mech.joints;
+    let mut outputs = quantity(Quantity::InertiaMatrix, n * n);
+    outputs.extend(quantity(Quantity::CoriolisTimesQdot, n));
+    outputs.extend(quantity(Quantity::Gravity, n));
+    if include_position {
+        outputs.extend(each(&mech.task.position));
+    }
     outputs.extend(row_major(&mech.task.jacobian));
-    outputs.extend(mech.task.jacobian_dot_times_qdot.iter());
+    outputs.extend(each(&mech.task.jacobian_dot_times_qdot));
     outputs
 }
 
@@ -707,22 +787,13 @@ fn tick_outputs(mech: &Mechanics) -> Vec<&Poly> {
 /// computed together with shared subexpressions.
 pub fn tick_counts(model: &Model, mech: &Mechanics, include_position: bool) -> OpCounts {
     let mut body = BodyEmitter::new(model, Scalar::F64);
-    let mut outputs = row_major(&mech.inertia_matrix);
-    outputs.extend(mech.coriolis_times_qdot.iter());
-    outputs.extend(mech.gravity.iter());
-    if include_position {
-        outputs.extend(mech.task.position.iter());
-    }
-    outputs.extend(row_major(&mech.task.jacobian));
-    outputs.extend(mech.task.jacobian_dot_times_qdot.iter());
-    let roots: Vec<NodeId> = outputs.iter().map(|p| body.dag.polynomial(p)).collect();
+    let roots = output_roots(&mut body.dag, model, mech, &tick_outputs(mech, include_position));
     body.dag.count(&roots)
 }
 
 fn terms_function(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, OpCounts) {
     let mut body = BodyEmitter::new(model, scalar);
-    let outputs = tick_outputs(mech);
-    let roots: Vec<NodeId> = outputs.iter().map(|p| body.dag.polynomial(p)).collect();
+    let roots = output_roots(&mut body.dag, model, mech, &tick_outputs(mech, true));
     let (statements, values, counts) = body.emit(&roots, "terms");
     let n = mech.joints;
     let m = mech.task_dim;
@@ -775,7 +846,7 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
 
     let mut methods = TokenStream::new();
     for spec in function_specs(model, mech) {
-        let (tokens, counts) = function(model, scalar, &spec);
+        let (tokens, counts) = function(model, mech, scalar, &spec);
         methods.extend(tokens);
         stats.functions.push((spec.name.clone(), counts));
     }
@@ -992,6 +1063,9 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
             fn drives(&self) -> [::hapticgen_runtime::DriveTrain<#s>; #n] {
                 Self::DRIVES
             }
+            fn inverse_dynamics(&self, q: &[#s; #n], qd: &[#s; #n], qdd: &[#s; #n]) -> [#s; #n] {
+                Self::inverse_dynamics(self, q, qd, qdd)
+            }
         }
 
         #fused
@@ -1043,7 +1117,7 @@ fn fused_impl(model: &Model, mech: &Mechanics, scalar: Scalar, stats: &mut Stats
                 body.naming.externals.push((binding, access));
             }
         }
-        let nodes = build(&mut body.dag, mech, law);
+        let nodes = build(&mut body.dag, model, mech, law);
         if let Some(nodes) = &nodes {
             body.hints.extend(nodes.names.iter().cloned());
         }

@@ -26,7 +26,7 @@ impl AtomValues for State<'_> {
             Atom::Q(j) => get(self.q, j),
             Atom::Qd(j) => get(self.qd, j),
             Atom::Param(k) => get(self.parameters, k),
-            Atom::External(_) => f64::NAN,
+            Atom::Qdd(_) | Atom::External(_) => f64::NAN,
         }
     }
 }

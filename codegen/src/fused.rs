@@ -7,6 +7,8 @@
 //! adds the rig-independent checks (finite inputs, singularity fallback, `B q̇`).
 
 use crate::mechanics::Mechanics;
+use crate::model::Model;
+use crate::recursive::Quantity;
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::Atom;
 
@@ -138,7 +140,7 @@ fn solve(dag: &mut Dag, adjugate: &[Vec<NodeId>], det: NodeId, v: &[NodeId]) -> 
 
 /// Builds one law into `dag`; `None` if it needs `J⁻¹` and the task is not square (or
 /// larger than 3 × 3, where no closed form is emitted).
-pub fn build(dag: &mut Dag, mech: &Mechanics, law: Law) -> Option<LawNodes> {
+pub fn build(dag: &mut Dag, model: &Model, mech: &Mechanics, law: Law) -> Option<LawNodes> {
     let n = mech.joints;
     let m = mech.task_dim;
     let poly_matrix = |dag: &mut Dag, a: &[Vec<crate::sym::poly::Poly>]| -> Vec<Vec<NodeId>> {
@@ -167,13 +169,9 @@ pub fn build(dag: &mut Dag, mech: &Mechanics, law: Law) -> Option<LawNodes> {
     for (k, &r) in restoring.iter().enumerate() {
         names.push((r, format!("restoring_force_{k}")));
     }
-    let bias: Vec<NodeId> = (0..n)
-        .map(|i| {
-            let c = dag.polynomial(&mech.coriolis_times_qdot[i]);
-            let g = dag.polynomial(&mech.gravity[i]);
-            dag.add(c, g)
-        })
-        .collect();
+    let coriolis = mech.build(dag, model, Quantity::CoriolisTimesQdot);
+    let gravity = mech.build(dag, model, Quantity::Gravity);
+    let bias: Vec<NodeId> = coriolis.iter().zip(&gravity).map(|(&c, &g)| dag.add(c, g)).collect();
     let jacobian_t = transpose(&jacobian);
 
     if law == Law::Controller3 {
@@ -186,7 +184,8 @@ pub fn build(dag: &mut Dag, mech: &Mechanics, law: Law) -> Option<LawNodes> {
     }
     let (det_j, adj_j) = determinant_and_adjugate(dag, &jacobian)?;
     names.push((det_j, "jacobian_determinant".into()));
-    let inertia = poly_matrix(dag, &mech.inertia_matrix);
+    let inertia: Vec<Vec<NodeId>> =
+        mech.build(dag, model, Quantity::InertiaMatrix).chunks(n).map(<[NodeId]>::to_vec).collect();
     for (i, row) in inertia.iter().enumerate() {
         for (j, &d) in row.iter().enumerate().skip(i) {
             names.push((d, format!("inertia_{i}{j}")));

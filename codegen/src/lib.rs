@@ -16,6 +16,7 @@ pub mod eval;
 pub mod fused;
 pub mod mechanics;
 pub mod model;
+pub mod recursive;
 pub mod rig_macro;
 pub mod stability;
 pub mod sym;
@@ -57,7 +58,7 @@ pub fn generate(
 
 /// Emits the code of an already loaded model.
 pub fn generate_model(model: Model, scalar: Scalar) -> Generated {
-    let mechanics = mechanics::derive(&model);
+    let mechanics = mechanics::derive_for_emission(&model);
     let (tokens, stats) = emit::items(&model, &mechanics, scalar);
     Generated { model, mechanics, scalar, tokens, stats }
 }

@@ -12,7 +12,22 @@
 //! Nothing is derived by hand: every formula above is applied to whatever the model says.
 
 use crate::model::{JointKind, Model, Motion, TaskSpec};
+use crate::recursive::{self, Quantity};
+use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::{Atom, Poly};
+
+/// Serial models with at least this many joints always take the recursive path: their
+/// expanded polynomials grow exponentially with the chain (docs/performance.md).
+pub const RECURSIVE_FROM_JOINTS: usize = 4;
+
+/// How `D`, `C`, `C q̇` and `g` are built into emitted code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Derivation {
+    /// From the canonical polynomials of this module (Lagrangian, Christoffel symbols).
+    Polynomial,
+    /// With the recursive algorithms of [`crate::recursive`] on the expression DAG.
+    Recursive,
+}
 
 /// Kinematics of one point: position and its derivatives.
 #[derive(Clone, Debug)]
@@ -32,17 +47,19 @@ pub struct PointKinematics {
 /// All derived quantities of a model.
 #[derive(Clone, Debug)]
 pub struct Mechanics {
+    /// Which derivation the emitted code of `D`, `C`, `C q̇` and `g` uses.
+    pub derivation: Derivation,
     /// Number of joints.
     pub joints: usize,
     /// Task-space dimension.
     pub task_dim: usize,
-    /// `D(q)`.
+    /// `D(q)` (empty when derived for emission only on the recursive path).
     pub inertia_matrix: Vec<Vec<Poly>>,
-    /// `C(q, q̇)`.
+    /// `C(q, q̇)` (empty when derived for emission only on the recursive path).
     pub coriolis_matrix: Vec<Vec<Poly>>,
-    /// `C(q, q̇) q̇`.
+    /// `C(q, q̇) q̇` (empty when derived for emission only on the recursive path).
     pub coriolis_times_qdot: Vec<Poly>,
-    /// `g(q)`.
+    /// `g(q)` (empty when derived for emission only on the recursive path).
     pub gravity: Vec<Poly>,
     /// Diagonal of `B`.
     pub damping: Vec<Poly>,
@@ -108,9 +125,22 @@ struct Frame {
     rotation: Mat3,
 }
 
-/// Derives every quantity of the model.
+/// Derives every quantity of the model as polynomials (what the evaluator, the simulator and
+/// the checks use), and chooses the derivation of the emitted code.
 pub fn derive(model: &Model) -> Mechanics {
+    derive_with(model, true)
+}
+
+/// Derives what emission needs: on the recursive path the polynomials of `D`, `C`, `C q̇` and
+/// `g` are not expanded at all (the emitter builds them recursively), which is what keeps
+/// generation of long chains fast.
+pub fn derive_for_emission(model: &Model) -> Mechanics {
+    derive_with(model, false)
+}
+
+fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
     let n = model.joints.len();
+    let recursive_only = !all_polynomials && recursive::applies(model) && n >= RECURSIVE_FROM_JOINTS;
     let dof = |j: usize| j as u16;
 
     // Body frames, in dependency order.
@@ -164,80 +194,27 @@ pub fn derive(model: &Model) -> Mechanics {
         frames.push(frame);
     }
 
-    // Inertia matrix and potential energy.
-    let zero_matrix = |rows: usize, cols: usize| vec![vec![Poly::zero(); cols]; rows];
-    let mut inertia_terms: Vec<Vec<Vec<Poly>>> = vec![vec![Vec::new(); n]; n];
+    // Potential energy and gravity.
     let mut potential_terms = Vec::new();
     for (body, frame) in model.bodies.iter().zip(&frames) {
         let com_world = vec_add(&frame.origin, &mat_vec(&frame.rotation, &body.com));
-        let linear: Vec<Vec3> =
-            (0..n).map(|k| std::array::from_fn(|i| com_world[i].diff_q(dof(k)))).collect();
-        // Angular-velocity Jacobian columns: vee(∂R/∂q_k · Rᵀ).
-        let rotation_t = transpose(&frame.rotation);
-        let angular: Vec<Vec3> = (0..n)
-            .map(|k| {
-                let d_rotation: Mat3 = frame.rotation.clone().map(|row| row.map(|p| p.diff_q(dof(k))));
-                let w = mat_mul(&d_rotation, &rotation_t);
-                [w[2][1].clone(), w[0][2].clone(), w[1][0].clone()]
-            })
-            .collect();
-        let inertia_world = mat_mul(&mat_mul(&frame.rotation, &body.inertia), &rotation_t);
-        for a in 0..n {
-            for b in a..n {
-                let mut terms = Vec::new();
-                let dot: Vec<Poly> = (0..3).map(|i| linear[a][i].mul(&linear[b][i])).collect();
-                terms.push(body.mass.mul(&Poly::sum(&dot)));
-                let iw_b = mat_vec(&inertia_world, &angular[b]);
-                let rot: Vec<Poly> = (0..3).map(|i| angular[a][i].mul(&iw_b[i])).collect();
-                terms.push(Poly::sum(&rot));
-                inertia_terms[a][b].extend(terms);
-            }
-        }
         for (g, r) in model.gravity.iter().zip(&com_world) {
             potential_terms.push(body.mass.mul(g).mul(r).scale(-1.0));
         }
     }
-    let mut inertia_matrix = zero_matrix(n, n);
-    for a in 0..n {
-        for b in a..n {
-            let mut entry = Poly::sum(&inertia_terms[a][b]);
-            if a == b {
-                let drive = &model.joints[a].drive;
-                entry = entry
-                    .add(&Poly::constant(drive.gear_ratio * drive.gear_ratio * drive.motor.rotor_inertia));
-            }
-            inertia_matrix[a][b] = entry.clone();
-            inertia_matrix[b][a] = entry;
-        }
-    }
     let potential_energy = Poly::sum(&potential_terms);
-    let gravity: Vec<Poly> = (0..n).map(|k| potential_energy.diff_q(dof(k))).collect();
-
-    // Christoffel symbols.
-    let d_inertia: Vec<Vec<Vec<Poly>>> = (0..n)
-        .map(|i| inertia_matrix.iter().map(|row| row.iter().map(|p| p.diff_q(dof(i))).collect()).collect())
-        .collect();
-    let qd = |i: usize| Poly::atom(Atom::Qd(dof(i)));
-    let mut coriolis_matrix = zero_matrix(n, n);
-    for k in 0..n {
-        for j in 0..n {
-            let terms: Vec<Poly> = (0..n)
-                .map(|i| {
-                    let christoffel =
-                        d_inertia[i][k][j].add(&d_inertia[j][k][i]).sub(&d_inertia[k][i][j]).scale(0.5);
-                    christoffel.mul(&qd(i))
-                })
-                .collect();
-            coriolis_matrix[k][j] = Poly::sum(&terms);
-        }
-    }
-    let coriolis_times_qdot: Vec<Poly> = coriolis_matrix
-        .iter()
-        .map(|row| Poly::sum(&row.iter().enumerate().map(|(j, c)| c.mul(&qd(j))).collect::<Vec<_>>()))
-        .collect();
+    let (inertia_matrix, coriolis_matrix, coriolis_times_qdot, gravity) = if recursive_only {
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new())
+    } else {
+        let inertia_matrix = lagrangian_inertia_matrix(model, &frames);
+        let gravity: Vec<Poly> = (0..n).map(|k| potential_energy.diff_q(dof(k))).collect();
+        let (coriolis_matrix, coriolis_times_qdot) = christoffel(&inertia_matrix);
+        (inertia_matrix, coriolis_matrix, coriolis_times_qdot, gravity)
+    };
     let damping: Vec<Poly> = model.joints.iter().map(|j| j.damping.clone()).collect();
 
     // Points and task.
+    let qd = |i: usize| Poly::atom(Atom::Qd(dof(i)));
     let dim = model.dim();
     let point_world = |index: usize| -> Vec<Poly> {
         let point = &model.points[index];
@@ -279,7 +256,15 @@ pub fn derive(model: &Model) -> Mechanics {
         }
     };
 
+    let derivation = if !recursive::applies(model) {
+        Derivation::Polynomial
+    } else if n >= RECURSIVE_FROM_JOINTS {
+        Derivation::Recursive
+    } else {
+        cheaper_derivation(model, &inertia_matrix, &coriolis_times_qdot, &gravity, &task)
+    };
     Mechanics {
+        derivation,
         joints: n,
         task_dim: task.position.len(),
         inertia_matrix,
@@ -290,5 +275,157 @@ pub fn derive(model: &Model) -> Mechanics {
         potential_energy,
         task,
         points,
+    }
+}
+
+/// `D` from the kinetic energy of every body plus the reflected rotor inertias.
+fn lagrangian_inertia_matrix(model: &Model, frames: &[Frame]) -> Vec<Vec<Poly>> {
+    let n = model.joints.len();
+    let dof = |j: usize| j as u16;
+    let mut inertia_terms: Vec<Vec<Vec<Poly>>> = vec![vec![Vec::new(); n]; n];
+    for (body, frame) in model.bodies.iter().zip(frames) {
+        let com_world = vec_add(&frame.origin, &mat_vec(&frame.rotation, &body.com));
+        let linear: Vec<Vec3> =
+            (0..n).map(|k| std::array::from_fn(|i| com_world[i].diff_q(dof(k)))).collect();
+        // Angular-velocity Jacobian columns: vee(∂R/∂q_k · Rᵀ).
+        let rotation_t = transpose(&frame.rotation);
+        let angular: Vec<Vec3> = (0..n)
+            .map(|k| {
+                let d_rotation: Mat3 = frame.rotation.clone().map(|row| row.map(|p| p.diff_q(dof(k))));
+                let w = mat_mul(&d_rotation, &rotation_t);
+                [w[2][1].clone(), w[0][2].clone(), w[1][0].clone()]
+            })
+            .collect();
+        let inertia_world = mat_mul(&mat_mul(&frame.rotation, &body.inertia), &rotation_t);
+        for a in 0..n {
+            for b in a..n {
+                let dot: Vec<Poly> = (0..3).map(|i| linear[a][i].mul(&linear[b][i])).collect();
+                inertia_terms[a][b].push(body.mass.mul(&Poly::sum(&dot)));
+                let iw_b = mat_vec(&inertia_world, &angular[b]);
+                let rot: Vec<Poly> = (0..3).map(|i| angular[a][i].mul(&iw_b[i])).collect();
+                inertia_terms[a][b].push(Poly::sum(&rot));
+            }
+        }
+    }
+    let mut inertia_matrix = vec![vec![Poly::zero(); n]; n];
+    for a in 0..n {
+        for b in a..n {
+            let mut entry = Poly::sum(&inertia_terms[a][b]);
+            if a == b {
+                let drive = &model.joints[a].drive;
+                entry = entry
+                    .add(&Poly::constant(drive.gear_ratio * drive.gear_ratio * drive.motor.rotor_inertia));
+            }
+            inertia_matrix[a][b] = entry.clone();
+            inertia_matrix[b][a] = entry;
+        }
+    }
+    inertia_matrix
+}
+
+/// `C` from the Christoffel symbols of `D`, and `C q̇`.
+fn christoffel(inertia_matrix: &[Vec<Poly>]) -> (Vec<Vec<Poly>>, Vec<Poly>) {
+    let n = inertia_matrix.len();
+    let dof = |j: usize| j as u16;
+    let d_inertia: Vec<Vec<Vec<Poly>>> = (0..n)
+        .map(|i| inertia_matrix.iter().map(|row| row.iter().map(|p| p.diff_q(dof(i))).collect()).collect())
+        .collect();
+    let qd = |i: usize| Poly::atom(Atom::Qd(dof(i)));
+    let mut coriolis_matrix = vec![vec![Poly::zero(); n]; n];
+    for k in 0..n {
+        for j in 0..n {
+            let terms: Vec<Poly> = (0..n)
+                .map(|i| {
+                    let christoffel =
+                        d_inertia[i][k][j].add(&d_inertia[j][k][i]).sub(&d_inertia[k][i][j]).scale(0.5);
+                    christoffel.mul(&qd(i))
+                })
+                .collect();
+            coriolis_matrix[k][j] = Poly::sum(&terms);
+        }
+    }
+    let coriolis_times_qdot: Vec<Poly> = coriolis_matrix
+        .iter()
+        .map(|row| Poly::sum(&row.iter().enumerate().map(|(j, c)| c.mul(&qd(j))).collect::<Vec<_>>()))
+        .collect();
+    (coriolis_matrix, coriolis_times_qdot)
+}
+
+/// For a short serial chain both derivations are cheap to build: the one whose control-tick
+/// quantities (`D`, `C q̇`, `g`, `J`, `J̇ q̇`, shared subexpressions) take fewer operations wins.
+fn cheaper_derivation(
+    model: &Model,
+    inertia_matrix: &[Vec<Poly>],
+    coriolis_times_qdot: &[Poly],
+    gravity: &[Poly],
+    task: &PointKinematics,
+) -> Derivation {
+    let kinematics = |dag: &mut Dag| -> Vec<NodeId> {
+        let mut roots: Vec<NodeId> = task.jacobian.iter().flatten().map(|p| dag.polynomial(p)).collect();
+        roots.extend(task.jacobian_dot_times_qdot.iter().map(|p| dag.polynomial(p)));
+        roots
+    };
+    let cost = |dag: &Dag, roots: &[NodeId]| {
+        let c = dag.count(roots);
+        c.arithmetic() + c.trigonometric
+    };
+    let mut polynomial = Dag::new();
+    let mut roots: Vec<NodeId> = inertia_matrix.iter().flatten().map(|p| polynomial.polynomial(p)).collect();
+    roots.extend(coriolis_times_qdot.iter().chain(gravity).map(|p| polynomial.polynomial(p)));
+    roots.extend(kinematics(&mut polynomial));
+    let polynomial_cost = cost(&polynomial, &roots);
+    let mut recursive = Dag::new();
+    let mut roots = recursive::build(&mut recursive, model, Quantity::InertiaMatrix);
+    roots.extend(recursive::build(&mut recursive, model, Quantity::CoriolisTimesQdot));
+    roots.extend(recursive::build(&mut recursive, model, Quantity::Gravity));
+    roots.extend(kinematics(&mut recursive));
+    if cost(&recursive, &roots) < polynomial_cost {
+        Derivation::Recursive
+    } else {
+        Derivation::Polynomial
+    }
+}
+
+impl Mechanics {
+    /// Builds a quantity into `dag` with this model's derivation; matrices row-major.
+    pub fn build(&self, dag: &mut Dag, model: &Model, quantity: Quantity) -> Vec<NodeId> {
+        if self.derivation == Derivation::Recursive {
+            return recursive::build(dag, model, quantity);
+        }
+        let polys = |dag: &mut Dag, list: &[Poly]| -> Vec<NodeId> {
+            list.iter().map(|p| dag.polynomial(p)).collect()
+        };
+        match quantity {
+            Quantity::InertiaMatrix => {
+                self.inertia_matrix.iter().flat_map(|row| row.iter()).map(|p| dag.polynomial(p)).collect()
+            }
+            Quantity::CoriolisMatrix => {
+                self.coriolis_matrix.iter().flat_map(|row| row.iter()).map(|p| dag.polynomial(p)).collect()
+            }
+            Quantity::CoriolisTimesQdot => polys(dag, &self.coriolis_times_qdot),
+            Quantity::Gravity => polys(dag, &self.gravity),
+            Quantity::InverseDynamics => {
+                // D q̈ + C q̇ + g, row by row.
+                let inertia = self.build(dag, model, Quantity::InertiaMatrix);
+                let bias: Vec<NodeId> = (0..self.joints)
+                    .map(|i| {
+                        let c = dag.polynomial(&self.coriolis_times_qdot[i]);
+                        let g = dag.polynomial(&self.gravity[i]);
+                        dag.add(c, g)
+                    })
+                    .collect();
+                (0..self.joints)
+                    .map(|i| {
+                        let mut acc = bias[i];
+                        for k in 0..self.joints {
+                            let qdd = dag.input(Atom::Qdd(k as u16));
+                            let term = dag.mul(inertia[i * self.joints + k], qdd);
+                            acc = dag.add(acc, term);
+                        }
+                        acc
+                    })
+                    .collect()
+            }
+        }
     }
 }

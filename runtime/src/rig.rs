@@ -94,4 +94,25 @@ pub trait RigModel<const N: usize, const M: usize> {
     fn terms(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N]) -> RigTerms<Self::Scalar, N, M>;
     /// The drive train of each joint.
     fn drives(&self) -> [DriveTrain<Self::Scalar>; N];
+    /// Inverse dynamics of eq. (1) without damping and friction:
+    /// `τ = D(q) q̈ + C(q, q̇) q̇ + g(q)`. The default evaluates the three terms; generated rigs
+    /// override it with one straight-line function (the recursive Newton–Euler algorithm for
+    /// long serial chains), which is cheaper than `D` alone.
+    fn inverse_dynamics(
+        &self,
+        q: &[Self::Scalar; N],
+        qd: &[Self::Scalar; N],
+        qdd: &[Self::Scalar; N],
+    ) -> [Self::Scalar; N] {
+        let inertia = self.inertia_matrix(q);
+        let mut torque = self.coriolis_times_qdot(q, qd);
+        let gravity = self.gravity(q);
+        for (i, t) in torque.iter_mut().enumerate() {
+            *t += gravity[i];
+            for (k, a) in qdd.iter().enumerate() {
+                *t += inertia[i][k] * *a;
+            }
+        }
+        torque
+    }
 }

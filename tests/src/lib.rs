@@ -110,6 +110,17 @@ pub mod check {
         }
     }
 
+    /// `D q̈ + C q̇ + g` from the evaluator's values.
+    pub fn inverse_dynamics_of(e: &Evaluated, qdd: &[f64]) -> Vec<f64> {
+        (0..e.g.len())
+            .map(|i| {
+                e.inertia_matrix[i].iter().zip(qdd).map(|(d, a)| d * a).sum::<f64>()
+                    + e.coriolis_times_qdot[i]
+                    + e.g[i]
+            })
+            .collect()
+    }
+
     /// Compares each visited rig's compiled functions with the numeric evaluator at
     /// [`STATES`] random states: f64 to 1e-12, f32 to 1e-5 of each output's scale.
     #[derive(Default)]
@@ -158,6 +169,13 @@ pub mod check {
                     false,
                 );
                 assert_close("g", info, &rig.gravity(&qa), &e.g, tol, false);
+                // τ = D q̈ + C q̇ + g at a pseudo-random q̈ (the qd of another state).
+                let (_, qdd) = random_state(&model, &mut rng);
+                let qdda: [f64; N] = std::array::from_fn(|i| qdd[i]);
+                let expected = inverse_dynamics_of(&e, &qdd);
+                let scale = expected.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                let tau = rig.inverse_dynamics(&qa, &qda, &qdda);
+                assert_close("τ", info, &tau, &expected, tol * scale.max(1.0), false);
                 let b: Vec<f64> = (0..N).map(|i| e.damping[i][i]).collect();
                 assert_close("B", info, &rig.damping(), &b, tol, false);
                 assert_close("p", info, &rig.position(&qa), &e.p, tol, false);
@@ -238,6 +256,13 @@ pub mod check {
                     true,
                 );
                 assert_close("g", info, &v(&rig.gravity(&qa)), &e.g, tol, true);
+                let (_, qdd) = random_state(&model, &mut rng);
+                let qdd: Vec<f64> = qdd.iter().map(|&x| f64::from(x as f32)).collect();
+                let qdda: [f32; N] = std::array::from_fn(|i| qdd[i] as f32);
+                let expected = inverse_dynamics_of(&e, &qdd);
+                let scale = expected.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                let tau = v(&rig.inverse_dynamics(&qa, &qda, &qdda));
+                assert_close("τ", info, &tau, &expected, tol * scale.max(1.0), false);
                 assert_close("p", info, &v(&rig.position(&qa)), &e.p, tol, true);
                 assert_close("J", info, &flat(&rig.jacobian(&qa)), &flat_vec(&e.jacobian), tol, true);
                 assert_close(

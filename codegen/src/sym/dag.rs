@@ -157,10 +157,19 @@ impl Dag {
             (Some(x), Some(y)) => self.constant(x + y),
             (Some(0.0), _) => b,
             (_, Some(0.0)) => a,
-            _ => {
-                let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
-                self.intern(Node::Add(lo, hi))
-            }
+            // Negations are absorbed: `x + (−y) = x − y`, `(−x) + (−y) = −(x + y)`.
+            _ => match (self.nodes[a], self.nodes[b]) {
+                (Node::Neg(x), Node::Neg(y)) => {
+                    let sum = self.add(x, y);
+                    self.neg(sum)
+                }
+                (_, Node::Neg(y)) => self.sub(a, y),
+                (Node::Neg(x), _) => self.sub(b, x),
+                _ => {
+                    let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+                    self.intern(Node::Add(lo, hi))
+                }
+            },
         }
     }
 
@@ -170,7 +179,16 @@ impl Dag {
             (Some(x), Some(y)) => self.constant(x - y),
             (_, Some(0.0)) => a,
             (Some(0.0), _) => self.neg(b),
-            _ => self.intern(Node::Sub(a, b)),
+            _ if a == b => self.constant(0.0),
+            // `x − (−y) = x + y`, `(−x) − y = −(x + y)`.
+            _ => match (self.nodes[a], self.nodes[b]) {
+                (_, Node::Neg(y)) => self.add(a, y),
+                (Node::Neg(x), _) => {
+                    let sum = self.add(x, b);
+                    self.neg(sum)
+                }
+                _ => self.intern(Node::Sub(a, b)),
+            },
         }
     }
 
@@ -184,10 +202,22 @@ impl Dag {
             (_, Some(1.0)) => a,
             (Some(-1.0), _) => self.neg(b),
             (_, Some(-1.0)) => self.neg(a),
-            _ => {
-                let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
-                self.intern(Node::Mul(lo, hi))
-            }
+            // A sign moves out of a product, to be absorbed by a sum or a constant above it.
+            _ => match (self.nodes[a], self.nodes[b]) {
+                (Node::Neg(x), Node::Neg(y)) => self.mul(x, y),
+                (Node::Neg(x), _) => {
+                    let product = self.mul(x, b);
+                    self.neg(product)
+                }
+                (_, Node::Neg(y)) => {
+                    let product = self.mul(a, y);
+                    self.neg(product)
+                }
+                _ => {
+                    let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+                    self.intern(Node::Mul(lo, hi))
+                }
+            },
         }
     }
 

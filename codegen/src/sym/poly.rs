@@ -28,6 +28,8 @@ pub enum Atom {
     Q(u16),
     /// The velocity `q̇_j`.
     Qd(u16),
+    /// The acceleration `q̈_j` (input of the inverse dynamics only).
+    Qdd(u16),
     /// An input of a fused control law (reference, impedance parameter, sensed signal);
     /// never part of the mechanics' polynomials.
     External(u16),

@@ -72,7 +72,7 @@ impl Tape {
                         Atom::Q(j) => Source::Q(usize::from(j)),
                         Atom::Qd(j) => Source::Qd(usize::from(j)),
                         Atom::Param(k) => Source::Param(usize::from(k)),
-                        Atom::External(_) => Source::Zero,
+                        Atom::Qdd(_) | Atom::External(_) => Source::Zero,
                     };
                     inputs.push((slot, source));
                 }

@@ -1,0 +1,636 @@
+//! Recursive rigid-body algorithms run symbolically on the expression DAG: the second
+//! derivation path of eq. (1), for models whose bodies form a tree of joints.
+//!
+//! The polynomial path ([`crate::mechanics`]) expands every quantity into a canonical polynomial
+//! in the sines and cosines of the joint angles. That gives the smallest code for short chains
+//! (the sin² + cos² = 1 and angle-sum simplifications are complete), but for long spatial chains
+//! the expanded `D` and, above all, the Christoffel form of `C q̇` grow exponentially. The
+//! algorithms here keep the intermediate quantities factored instead, building one DAG node per
+//! arithmetic operation with constants folded and common subexpressions shared:
+//!
+//! * the recursive Newton–Euler algorithm (Luh, Walker and Paul 1980; Featherstone,
+//!   *Rigid Body Dynamics Algorithms*, ch. 5) for the inverse dynamics
+//!   `τ = D(q) q̈ + C(q, q̇) q̇ + g(q)` of eq. (1), for `C q̇` (q̈ = 0, no gravity) and for `g`
+//!   (q̇ = q̈ = 0): O(n) operations;
+//! * the composite-rigid-body algorithm (Walker and Orin 1982; Featherstone ch. 6) for `D`:
+//!   O(n²) operations;
+//! * `C(q, q̇)` from the Christoffel symbols of that `D`, differentiated on the DAG.
+//!
+//! Every body's quantities are expressed in its *joint frame* (the frame after the fixed origin
+//! transform and the joint, before a Denavit–Hartenberg tail), so masses, first moments
+//! `h = m c` and inertias about the frame origin are constants; a body's tail is folded into
+//! its children's fixed offsets at generation time. The rotor inertia `N² J_m` of each drive
+//! enters `D`'s diagonal and the inverse dynamics as in the polynomial path.
+
+use std::collections::HashMap;
+
+use crate::model::{JointKind, Model, Motion};
+use crate::sym::dag::{Dag, Node, NodeId};
+use crate::sym::poly::{Atom, Poly};
+
+/// A quantity the recursive path can build.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Quantity {
+    /// `D(q)`, row-major.
+    InertiaMatrix,
+    /// `C(q, q̇)`, row-major.
+    CoriolisMatrix,
+    /// `C(q, q̇) q̇`.
+    CoriolisTimesQdot,
+    /// `g(q)`.
+    Gravity,
+    /// `D(q) q̈ + C(q, q̇) q̇ + g(q)`, with `q̈` the inputs [`Atom::Qdd`].
+    InverseDynamics,
+}
+
+/// Whether the recursive algorithms apply: every body hangs from its parent (or the base) by
+/// one joint or a weld. Direct poses (closed chains written as absolute angles) do not.
+pub fn applies(model: &Model) -> bool {
+    model.bodies.iter().all(|b| matches!(b.motion, Motion::Serial { .. }))
+}
+
+type V3 = [NodeId; 3];
+type M3 = [[NodeId; 3]; 3];
+
+/// Constant data of one body in its joint frame.
+struct Link {
+    parent: Option<usize>,
+    /// Rotation from the parent's joint frame to this joint frame, before the joint.
+    offset_rotation: [[f64; 3]; 3],
+    /// Origin of this joint frame in the parent's joint frame, before a prismatic slide.
+    offset: [Poly; 3],
+    /// Joint index, kind and unit axis (in this joint frame).
+    joint: Option<(usize, JointKind, [f64; 3])>,
+    mass: Poly,
+    /// First moment `m c` about the joint-frame origin.
+    first_moment: [Poly; 3],
+    /// Inertia about the joint-frame origin, joint-frame axes.
+    inertia: [[Poly; 3]; 3],
+}
+
+fn mat3_mul(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
+}
+
+fn const_mat_poly_vec(a: &[[f64; 3]; 3], v: &[Poly; 3]) -> [Poly; 3] {
+    std::array::from_fn(|i| Poly::sum(&(0..3).map(|k| v[k].scale(a[i][k])).collect::<Vec<_>>()))
+}
+
+fn links(model: &Model) -> Vec<Link> {
+    const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let zero = || [Poly::zero(), Poly::zero(), Poly::zero()];
+    // Each body's tail (the fixed transform after its joint), to be folded into its children.
+    let tails: Vec<([[f64; 3]; 3], [Poly; 3])> = model
+        .bodies
+        .iter()
+        .map(|b| match &b.motion {
+            Motion::Serial { tail: Some(t), .. } => (t.rotation, t.xyz.clone()),
+            _ => (IDENTITY, zero()),
+        })
+        .collect();
+    model
+        .bodies
+        .iter()
+        .enumerate()
+        .map(|(index, body)| {
+            let Motion::Serial { parent, xyz, rotation, joint, .. } = &body.motion else {
+                unreachable!("recursive::applies was checked")
+            };
+            // Parent tail, then this body's origin transform.
+            let (parent_rotation, parent_offset) = match parent {
+                Some(p) => tails[*p].clone(),
+                None => (IDENTITY, zero()),
+            };
+            let offset_rotation = mat3_mul(&parent_rotation, rotation);
+            let rotated = const_mat_poly_vec(&parent_rotation, xyz);
+            let offset = std::array::from_fn(|i| parent_offset[i].add(&rotated[i]));
+            let joint = joint.map(|j| (j, model.joints[j].kind, model.joints[j].axis));
+            // Centre of mass and inertia, from the body frame to the joint frame.
+            let (tail_rotation, tail_offset) = &tails[index];
+            let com_rotated = const_mat_poly_vec(tail_rotation, &body.com);
+            let com: [Poly; 3] = std::array::from_fn(|i| tail_offset[i].add(&com_rotated[i]));
+            let mass = body.mass.clone();
+            let first_moment = com.clone().map(|c| mass.mul(&c));
+            // R I Rᵀ + m (|c|² 1 − c cᵀ): the parallel-axis theorem about the frame origin.
+            let rotated_inertia: [[Poly; 3]; 3] = std::array::from_fn(|i| {
+                std::array::from_fn(|j| {
+                    let mut terms = Vec::new();
+                    for k in 0..3 {
+                        for l in 0..3 {
+                            let w = tail_rotation[i][k] * tail_rotation[j][l];
+                            if w != 0.0 {
+                                terms.push(body.inertia[k][l].scale(w));
+                            }
+                        }
+                    }
+                    Poly::sum(&terms)
+                })
+            });
+            let com_sq = Poly::sum(&com.iter().map(|c| c.mul(c)).collect::<Vec<_>>());
+            let inertia = std::array::from_fn(|i| {
+                std::array::from_fn(|j| {
+                    let shift = if i == j {
+                        com_sq.sub(&com[i].mul(&com[j]))
+                    } else {
+                        com[i].mul(&com[j]).scale(-1.0)
+                    };
+                    rotated_inertia[i][j].add(&mass.mul(&shift))
+                })
+            });
+            Link { parent: *parent, offset_rotation, offset, joint, mass, first_moment, inertia }
+        })
+        .collect()
+}
+
+/// Vector algebra on DAG nodes.
+struct Builder<'d> {
+    dag: &'d mut Dag,
+}
+
+impl Builder<'_> {
+    fn zero(&mut self) -> NodeId {
+        self.dag.constant(0.0)
+    }
+
+    fn zero3(&mut self) -> V3 {
+        let z = self.zero();
+        [z, z, z]
+    }
+
+    fn poly(&mut self, p: &Poly) -> NodeId {
+        self.dag.polynomial(p)
+    }
+
+    fn poly3(&mut self, v: &[Poly; 3]) -> V3 {
+        std::array::from_fn(|i| self.poly(&v[i]))
+    }
+
+    fn sum(&mut self, terms: &[NodeId]) -> NodeId {
+        let mut acc = self.zero();
+        for &t in terms {
+            acc = self.dag.add(acc, t);
+        }
+        acc
+    }
+
+    fn add3(&mut self, a: &V3, b: &V3) -> V3 {
+        std::array::from_fn(|i| self.dag.add(a[i], b[i]))
+    }
+
+    fn scale3(&mut self, k: NodeId, v: &V3) -> V3 {
+        std::array::from_fn(|i| self.dag.mul(k, v[i]))
+    }
+
+    fn dot(&mut self, a: &V3, b: &V3) -> NodeId {
+        let products: Vec<NodeId> = (0..3).map(|i| self.dag.mul(a[i], b[i])).collect();
+        self.sum(&products)
+    }
+
+    fn cross(&mut self, a: &V3, b: &V3) -> V3 {
+        std::array::from_fn(|i| {
+            let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+            let x = self.dag.mul(a[j], b[k]);
+            let y = self.dag.mul(a[k], b[j]);
+            self.dag.sub(x, y)
+        })
+    }
+
+    fn mat_vec(&mut self, m: &M3, v: &V3) -> V3 {
+        std::array::from_fn(|i| self.dot(&m[i], v))
+    }
+
+    fn mat_t_vec(&mut self, m: &M3, v: &V3) -> V3 {
+        std::array::from_fn(|i| {
+            let column = [m[0][i], m[1][i], m[2][i]];
+            self.dot(&column, v)
+        })
+    }
+
+    fn const3(&mut self, v: [f64; 3]) -> V3 {
+        v.map(|x| self.dag.constant(x))
+    }
+
+    /// `U = [ω̇]× + [ω]×[ω]×`, so that `U v = ω̇ × v + ω × (ω × v)` for every `v` a body
+    /// carries (its first moment and its children's origins).
+    fn u_matrix(&mut self, w: &V3, wd: &V3) -> M3 {
+        let square = |b: &mut Self, i: usize| b.dag.mul(w[i], w[i]);
+        let squares = [square(self, 0), square(self, 1), square(self, 2)];
+        std::array::from_fn(|r| {
+            std::array::from_fn(|c| {
+                if r == c {
+                    // −(|ω|² − ω_r²): the two other squares.
+                    let (j, k) = ((r + 1) % 3, (r + 2) % 3);
+                    let sum = self.dag.add(squares[j], squares[k]);
+                    self.dag.neg(sum)
+                } else {
+                    // ω_r ω_c ∓ ω̇_k, with k the third index.
+                    let k = 3 - r - c;
+                    let product = self.dag.mul(w[r], w[c]);
+                    // [ω̇]× has +ω̇_k at (r, c) when (r, c, k) is a cyclic permutation.
+                    if (r + 1) % 3 == c {
+                        self.dag.sub(product, wd[k])
+                    } else {
+                        self.dag.add(product, wd[k])
+                    }
+                }
+            })
+        })
+    }
+
+    /// `R₀ · Rot(axis, q_j)` with Rodrigues' formula written per entry as
+    /// `(δ + K²) + K sin q − K² cos q`, so that a coordinate axis gives the familiar
+    /// `cos`/`sin` entries with no arithmetic.
+    fn joint_rotation(&mut self, offset: &[[f64; 3]; 3], axis: [f64; 3], joint: usize) -> M3 {
+        let j = joint as u16;
+        let (s, c) = (self.dag.input(Atom::Sin(j)), self.dag.input(Atom::Cos(j)));
+        let k = [[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]];
+        let k2: [[f64; 3]; 3] = mat3_mul(&k, &k);
+        // Entry (i, j) of R₀ · Rot = Σ_l R₀[i][l] (δ_lj + K²_lj + K_lj s − K²_lj c).
+        std::array::from_fn(|i| {
+            std::array::from_fn(|col| {
+                let (mut constant, mut sine, mut cosine) = (0.0, 0.0, 0.0);
+                for l in 0..3 {
+                    let r = offset[i][l];
+                    let delta = if l == col { 1.0 } else { 0.0 };
+                    constant += r * (delta + k2[l][col]);
+                    sine += r * k[l][col];
+                    cosine -= r * k2[l][col];
+                }
+                let (constant, sine, cosine) = (snap(constant), snap(sine), snap(cosine));
+                let constant = self.dag.constant(constant);
+                let sine_k = self.dag.constant(sine);
+                let cosine_k = self.dag.constant(cosine);
+                let sine_term = self.dag.mul(sine_k, s);
+                let cosine_term = self.dag.mul(cosine_k, c);
+                let partial = self.dag.add(constant, sine_term);
+                self.dag.add(partial, cosine_term)
+            })
+        })
+    }
+}
+
+/// Rounding noise of products of right-angle rotations becomes exact zeros and ones.
+fn snap(x: f64) -> f64 {
+    if x.abs() < 1e-14 {
+        0.0
+    } else if (x.abs() - 1.0).abs() < 1e-14 {
+        x.signum()
+    } else {
+        x
+    }
+}
+
+/// Per-body kinematic state of the forward pass, in the body's joint frame.
+struct Motion3 {
+    angular_velocity: V3,
+    angular_acceleration: V3,
+    /// Classical acceleration of the frame origin (gravity included as a base acceleration).
+    linear_acceleration: V3,
+}
+
+/// The recursive algorithms over one DAG.
+struct Recursion<'d> {
+    b: Builder<'d>,
+    links: Vec<Link>,
+    /// Rotation from the parent's joint frame to each joint frame (`E_i`).
+    rotations: Vec<M3>,
+    /// Origin of each joint frame in the parent's joint frame (`p_i`).
+    offsets: Vec<V3>,
+    rotor: Vec<Poly>,
+    gravity: [Poly; 3],
+}
+
+impl<'d> Recursion<'d> {
+    fn new(dag: &'d mut Dag, model: &Model) -> Self {
+        let links = links(model);
+        let mut b = Builder { dag };
+        let mut rotations = Vec::with_capacity(links.len());
+        let mut offsets = Vec::with_capacity(links.len());
+        for link in &links {
+            let mut offset = b.poly3(&link.offset);
+            let rotation = match link.joint {
+                Some((j, JointKind::Revolute, axis)) => b.joint_rotation(&link.offset_rotation, axis, j),
+                Some((j, JointKind::Prismatic, axis)) => {
+                    let q = b.dag.input(Atom::Q(j as u16));
+                    let direction = b.const3(mat_vec_f64(&link.offset_rotation, axis));
+                    let slide = b.scale3(q, &direction);
+                    offset = b.add3(&offset, &slide);
+                    link.offset_rotation.map(|row| row.map(|x| b.dag.constant(x)))
+                }
+                None => link.offset_rotation.map(|row| row.map(|x| b.dag.constant(x))),
+            };
+            rotations.push(rotation);
+            offsets.push(offset);
+        }
+        let rotor = model
+            .joints
+            .iter()
+            .map(|j| Poly::constant(j.drive.gear_ratio * j.drive.gear_ratio * j.drive.motor.rotor_inertia))
+            .collect();
+        Self { b, links, rotations, offsets, rotor, gravity: model.gravity.clone() }
+    }
+
+    /// The recursive Newton–Euler algorithm: joint torques for the given velocities and
+    /// accelerations (`None` = zero) and optionally gravity.
+    fn newton_euler(&mut self, velocity: bool, acceleration: bool, gravity: bool) -> Vec<NodeId> {
+        let n_joints = self.rotor.len();
+        let mut states: Vec<Motion3> = Vec::with_capacity(self.links.len());
+        let mut u_matrices: Vec<M3> = Vec::with_capacity(self.links.len());
+        for i in 0..self.links.len() {
+            let (parent_w, parent_wd, parent_a) = match self.links[i].parent {
+                Some(p) => {
+                    let s = &states[p];
+                    (s.angular_velocity, s.angular_acceleration, s.linear_acceleration)
+                }
+                None => {
+                    let z = self.b.zero3();
+                    let base_acceleration = if gravity {
+                        // The base accelerates upwards at −g⃗: gravity acts on every body.
+                        let g = self.gravity.clone().map(|p| p.scale(-1.0));
+                        self.b.poly3(&g)
+                    } else {
+                        z
+                    };
+                    (z, z, base_acceleration)
+                }
+            };
+            let rotation = self.rotations[i];
+            let offset = self.offsets[i];
+            // Origin acceleration in the parent frame: a_p + U_p p, with
+            // U_p p = ω̇_p × p + ω_p × (ω_p × p) (Khalil and Kleinfinger's U matrix).
+            let u_p = match self.links[i].parent {
+                Some(p) => u_matrices[p],
+                None => [[self.b.zero(); 3]; 3],
+            };
+            let u_offset = self.b.mat_vec(&u_p, &offset);
+            let a_parent = self.b.add3(&parent_a, &u_offset);
+            let mut linear = self.b.mat_t_vec(&rotation, &a_parent);
+            let mut angular_velocity = self.b.mat_t_vec(&rotation, &parent_w);
+            let mut angular_acceleration = self.b.mat_t_vec(&rotation, &parent_wd);
+            if let Some((j, kind, axis)) = self.links[i].joint {
+                let axis = self.b.const3(axis);
+                let qd = if velocity { self.b.dag.input(Atom::Qd(j as u16)) } else { self.b.zero() };
+                let qdd = if acceleration { self.b.dag.input(Atom::Qdd(j as u16)) } else { self.b.zero() };
+                let axis_qd = self.b.scale3(qd, &axis);
+                let axis_qdd = self.b.scale3(qdd, &axis);
+                match kind {
+                    JointKind::Revolute => {
+                        // ω̇ = Eᵀω̇_p + a q̈ + (Eᵀω_p) × a q̇
+                        let coupling = self.b.cross(&angular_velocity, &axis_qd);
+                        angular_acceleration = self.b.add3(&angular_acceleration, &axis_qdd);
+                        angular_acceleration = self.b.add3(&angular_acceleration, &coupling);
+                        angular_velocity = self.b.add3(&angular_velocity, &axis_qd);
+                    }
+                    JointKind::Prismatic => {
+                        // a = Eᵀ(…) + 2 ω × a q̇ + a q̈
+                        let coriolis = self.b.cross(&angular_velocity, &axis_qd);
+                        let two = self.b.dag.constant(2.0);
+                        let coriolis = self.b.scale3(two, &coriolis);
+                        linear = self.b.add3(&linear, &coriolis);
+                        linear = self.b.add3(&linear, &axis_qdd);
+                    }
+                }
+            }
+            u_matrices.push(self.b.u_matrix(&angular_velocity, &angular_acceleration));
+            states.push(Motion3 { angular_velocity, angular_acceleration, linear_acceleration: linear });
+        }
+
+        // Body forces about each joint-frame origin, then the backward pass.
+        let mut forces: Vec<V3> = Vec::with_capacity(self.links.len());
+        let mut moments: Vec<V3> = Vec::with_capacity(self.links.len());
+        for (i, (state, u)) in states.iter().zip(&u_matrices).enumerate() {
+            let link = &self.links[i];
+            let mass = self.b.poly(&link.mass);
+            let h = self.b.poly3(&link.first_moment);
+            let inertia: M3 =
+                std::array::from_fn(|r| std::array::from_fn(|c| self.b.poly(&link.inertia[r][c])));
+            let (w, wd, a) = (state.angular_velocity, state.angular_acceleration, state.linear_acceleration);
+            // f = m a + ω̇ × h + ω × (ω × h) = m a + U h
+            let ma = self.b.scale3(mass, &a);
+            let u_h = self.b.mat_vec(u, &h);
+            let f = self.b.add3(&ma, &u_h);
+            // n = I ω̇ + ω × (I ω) + h × a
+            let i_wd = self.b.mat_vec(&inertia, &wd);
+            let i_w = self.b.mat_vec(&inertia, &w);
+            let w_i_w = self.b.cross(&w, &i_w);
+            let h_a = self.b.cross(&h, &a);
+            let n = self.b.add3(&i_wd, &w_i_w);
+            let n = self.b.add3(&n, &h_a);
+            forces.push(f);
+            moments.push(n);
+        }
+        let mut torques = vec![self.b.zero(); n_joints];
+        for i in (0..self.links.len()).rev() {
+            if let Some((j, kind, axis)) = self.links[i].joint {
+                let axis = self.b.const3(axis);
+                let along = match kind {
+                    JointKind::Revolute => moments[i],
+                    JointKind::Prismatic => forces[i],
+                };
+                let mut tau = self.b.dot(&axis, &along);
+                if acceleration {
+                    let rotor = self.b.poly(&self.rotor[j]);
+                    let qdd = self.b.dag.input(Atom::Qdd(j as u16));
+                    let reflected = self.b.dag.mul(rotor, qdd);
+                    tau = self.b.dag.add(tau, reflected);
+                }
+                torques[j] = tau;
+            }
+            if let Some(p) = self.links[i].parent {
+                let (f, n) = self.moved_to_parent(i, forces[i], moments[i]);
+                forces[p] = self.b.add3(&forces[p], &f);
+                moments[p] = self.b.add3(&moments[p], &n);
+            }
+        }
+        torques
+    }
+
+    /// A force and moment about body `i`'s origin, expressed about its parent's origin in the
+    /// parent's frame: `f' = E f`, `n' = E n + p × f'`.
+    fn moved_to_parent(&mut self, i: usize, f: V3, n: V3) -> (V3, V3) {
+        let rotation = self.rotations[i];
+        let offset = self.offsets[i];
+        let f_parent = self.b.mat_vec(&rotation, &f);
+        let n_rotated = self.b.mat_vec(&rotation, &n);
+        let moment_arm = self.b.cross(&offset, &f_parent);
+        (f_parent, self.b.add3(&n_rotated, &moment_arm))
+    }
+
+    /// The composite-rigid-body algorithm: `D(q)`, row-major.
+    fn inertia_matrix(&mut self) -> Vec<NodeId> {
+        let n_joints = self.rotor.len();
+        let count = self.links.len();
+        // Composite mass, first moment and inertia of each subtree, in its joint frame.
+        let mut mass: Vec<NodeId> = Vec::with_capacity(count);
+        let mut moment: Vec<V3> = Vec::with_capacity(count);
+        let mut inertia: Vec<M3> = Vec::with_capacity(count);
+        for link in &self.links {
+            mass.push(self.b.poly(&link.mass));
+            moment.push(self.b.poly3(&link.first_moment));
+            let i: M3 = std::array::from_fn(|r| std::array::from_fn(|c| self.b.poly(&link.inertia[r][c])));
+            inertia.push(i);
+        }
+        for i in (0..count).rev() {
+            let Some(p) = self.links[i].parent else { continue };
+            let (m, h, inertia_i) = (mass[i], moment[i], inertia[i]);
+            let rotation = self.rotations[i];
+            let offset = self.offsets[i];
+            let h_rotated = self.b.mat_vec(&rotation, &h);
+            // E I Eᵀ, symmetric: six distinct entries.
+            let columns: M3 = std::array::from_fn(|c| {
+                let column = [inertia_i[0][c], inertia_i[1][c], inertia_i[2][c]];
+                self.b.mat_vec(&rotation, &column)
+            });
+            // columns[c] = E · I[:, c]; (E I Eᵀ)[r][s] = Σ_c (E I)[r][c] E[s][c].
+            let mut rotated = [[self.b.zero(); 3]; 3];
+            for r in 0..3 {
+                for s in r..3 {
+                    let row = [columns[0][r], columns[1][r], columns[2][r]];
+                    let value = self.b.dot(&row, &rotation[s]);
+                    rotated[r][s] = value;
+                    rotated[s][r] = value;
+                }
+            }
+            // Shift to the parent's origin: + (2 h·p + m|p|²) 1 − h pᵀ − p hᵀ − m p pᵀ.
+            let m_p = self.b.scale3(m, &offset);
+            let h_total = self.b.add3(&h_rotated, &m_p);
+            let two = self.b.dag.constant(2.0);
+            let h_dot_p = self.b.dot(&h_rotated, &offset);
+            let twice = self.b.dag.mul(two, h_dot_p);
+            let m_p_p = self.b.dot(&m_p, &offset);
+            let diagonal = self.b.dag.add(twice, m_p_p);
+            // h pᵀ + p hᵀ + m p pᵀ = h_total pᵀ + p h_rotatedᵀ, symmetric.
+            for r in 0..3 {
+                for s in r..3 {
+                    let x = self.b.dag.mul(h_total[r], offset[s]);
+                    let y = self.b.dag.mul(offset[r], h_rotated[s]);
+                    let outer = self.b.dag.add(x, y);
+                    let mut value = self.b.dag.sub(rotated[r][s], outer);
+                    if r == s {
+                        value = self.b.dag.add(value, diagonal);
+                    }
+                    let total = self.b.dag.add(inertia[p][r][s], value);
+                    inertia[p][r][s] = total;
+                    inertia[p][s][r] = total;
+                }
+            }
+            mass[p] = self.b.dag.add(mass[p], m);
+            moment[p] = self.b.add3(&moment[p], &h_total);
+        }
+        let mut d = vec![self.b.zero(); n_joints * n_joints];
+        for i in 0..count {
+            let Some((ji, kind, axis)) = self.links[i].joint else { continue };
+            let axis_nodes = self.b.const3(axis);
+            // Force and moment that accelerate the composite body `i` at unit q̈_i.
+            let (mut f, mut n) = match kind {
+                JointKind::Revolute => {
+                    let f = self.b.cross(&axis_nodes, &moment[i]);
+                    let n = self.b.mat_vec(&inertia[i], &axis_nodes);
+                    (f, n)
+                }
+                JointKind::Prismatic => {
+                    let f = self.b.scale3(mass[i], &axis_nodes);
+                    let n = self.b.cross(&moment[i], &axis_nodes);
+                    (f, n)
+                }
+            };
+            let along = |kind: JointKind, f: &V3, n: &V3| if kind == JointKind::Revolute { *n } else { *f };
+            let diagonal = self.b.dot(&axis_nodes, &along(kind, &f, &n));
+            let rotor = self.b.poly(&self.rotor[ji]);
+            d[ji * n_joints + ji] = self.b.dag.add(diagonal, rotor);
+            let mut body = i;
+            while let Some(p) = self.links[body].parent {
+                let moved = self.moved_to_parent(body, f, n);
+                f = moved.0;
+                n = moved.1;
+                body = p;
+                if let Some((jp, kind_p, axis_p)) = self.links[p].joint {
+                    let axis_p = self.b.const3(axis_p);
+                    let value = self.b.dot(&axis_p, &along(kind_p, &f, &n));
+                    d[ji * n_joints + jp] = value;
+                    d[jp * n_joints + ji] = value;
+                }
+            }
+        }
+        d
+    }
+}
+
+fn mat_vec_f64(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|i| (0..3).map(|k| m[i][k] * v[k]).sum())
+}
+
+/// The partial derivative of each of `roots` with respect to `q_joint`, built in the DAG.
+pub fn derivative(dag: &mut Dag, roots: &[NodeId], joint: u16) -> Vec<NodeId> {
+    let order = dag.reachable(roots);
+    let mut d: HashMap<NodeId, NodeId> = HashMap::with_capacity(order.len());
+    let zero = dag.constant(0.0);
+    for id in order {
+        let value = match dag.nodes()[id] {
+            Node::Const(_) => zero,
+            Node::Input(Atom::Sin(j)) if j == joint => dag.input(Atom::Cos(j)),
+            Node::Input(Atom::Cos(j)) if j == joint => {
+                let s = dag.input(Atom::Sin(j));
+                dag.neg(s)
+            }
+            Node::Input(Atom::Q(j)) if j == joint => dag.constant(1.0),
+            Node::Input(_) => zero,
+            Node::Add(a, b) => dag.add(d[&a], d[&b]),
+            Node::Sub(a, b) => dag.sub(d[&a], d[&b]),
+            Node::Neg(a) => dag.neg(d[&a]),
+            Node::Mul(a, b) => {
+                let x = dag.mul(d[&a], b);
+                let y = dag.mul(a, d[&b]);
+                dag.add(x, y)
+            }
+            Node::Div(a, b) => {
+                // (a/b)' = (a' − (a/b) b') / b
+                let quotient = dag.div(a, b);
+                let t = dag.mul(quotient, d[&b]);
+                let numerator = dag.sub(d[&a], t);
+                dag.div(numerator, b)
+            }
+        };
+        d.insert(id, value);
+    }
+    roots.iter().map(|r| d[r]).collect()
+}
+
+/// Builds a quantity of the model with the recursive algorithms; its nodes join `dag`.
+pub fn build(dag: &mut Dag, model: &Model, quantity: Quantity) -> Vec<NodeId> {
+    let mut recursion = Recursion::new(dag, model);
+    match quantity {
+        Quantity::InertiaMatrix => recursion.inertia_matrix(),
+        Quantity::CoriolisTimesQdot => recursion.newton_euler(true, false, false),
+        Quantity::Gravity => recursion.newton_euler(false, false, true),
+        Quantity::InverseDynamics => recursion.newton_euler(true, true, true),
+        Quantity::CoriolisMatrix => {
+            let d = recursion.inertia_matrix();
+            let n = model.joints.len();
+            drop(recursion);
+            christoffel(dag, &d, n)
+        }
+    }
+}
+
+/// `C_kj = Σ_i ½ (∂D_kj/∂q_i + ∂D_ki/∂q_j − ∂D_ij/∂q_k) q̇_i`, row-major.
+pub fn christoffel(dag: &mut Dag, inertia: &[NodeId], n: usize) -> Vec<NodeId> {
+    let partials: Vec<Vec<NodeId>> = (0..n).map(|i| derivative(dag, inertia, i as u16)).collect();
+    let half = dag.constant(0.5);
+    let mut c = Vec::with_capacity(n * n);
+    for k in 0..n {
+        for j in 0..n {
+            let mut acc = dag.constant(0.0);
+            for i in 0..n {
+                let x = dag.add(partials[i][k * n + j], partials[j][k * n + i]);
+                let symbol = dag.sub(x, partials[k][i * n + j]);
+                let symbol = dag.mul(half, symbol);
+                let qd = dag.input(Atom::Qd(i as u16));
+                let term = dag.mul(symbol, qd);
+                acc = dag.add(acc, term);
+            }
+            c.push(acc);
+        }
+    }
+    c
+}
