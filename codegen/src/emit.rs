@@ -162,6 +162,7 @@ fn quantity(q: Quantity, len: usize) -> Vec<Output<'static>> {
 }
 
 /// Names of inputs and how the generated code reads them.
+#[derive(Clone)]
 struct Naming<'m> {
     model: &'m Model,
     /// Inputs of fused control laws: binding name and how to read the value.
@@ -291,8 +292,19 @@ impl<'m> BodyEmitter<'m> {
         }
     }
 
-    /// Emits `let` statements for shared nodes and the expressions of `roots`.
+    /// Emits `let` statements for shared nodes and the expressions of `roots`, after merging
+    /// sums ([`Dag::merged_sums`]) where that saves operations.
     fn emit(&self, roots: &[NodeId], context: &str) -> (TokenStream, Vec<TokenStream>, OpCounts) {
+        let (dag, new_roots, map) = self.dag.merged_sums(roots);
+        if cost(dag.count(&new_roots)) < cost(self.dag.count(roots)) {
+            let hints = self.hints.iter().filter_map(|(id, name)| Some((*map.get(id)?, name.clone()))).collect();
+            let merged = BodyEmitter { dag, naming: self.naming.clone(), scalar: self.scalar, hints };
+            return merged.emit_dag(&new_roots, context);
+        }
+        self.emit_dag(roots, context)
+    }
+
+    fn emit_dag(&self, roots: &[NodeId], context: &str) -> (TokenStream, Vec<TokenStream>, OpCounts) {
         let order = self.dag.reachable(roots);
         let mut uses: HashMap<NodeId, usize> = HashMap::new();
         for &id in &order {
@@ -525,6 +537,11 @@ impl<'m> BodyEmitter<'m> {
             }
         }
     }
+}
+
+/// Arithmetic plus trigonometric operations: what the emitter minimises.
+fn cost(c: OpCounts) -> usize {
+    c.arithmetic() + c.trigonometric
 }
 
 /// An integer literal without a type suffix (`2`, not `2usize`).
@@ -788,7 +805,13 @@ fn tick_outputs(mech: &Mechanics, include_position: bool) -> Vec<Output<'_>> {
 pub fn tick_counts(model: &Model, mech: &Mechanics, include_position: bool) -> OpCounts {
     let mut body = BodyEmitter::new(model, Scalar::F64);
     let roots = output_roots(&mut body.dag, model, mech, &tick_outputs(mech, include_position));
-    body.dag.count(&roots)
+    let (merged, new_roots, _) = body.dag.merged_sums(&roots);
+    let (before, after) = (body.dag.count(&roots), merged.count(&new_roots));
+    if cost(after) < cost(before) {
+        after
+    } else {
+        before
+    }
 }
 
 fn terms_function(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, OpCounts) {

@@ -66,6 +66,10 @@ struct Link {
     first_moment: [Poly; 3],
     /// Inertia about the joint-frame origin, joint-frame axes.
     inertia: [[Poly; 3]; 3],
+    /// Centre of mass in the joint frame.
+    com: [Poly; 3],
+    /// Inertia about the centre of mass, joint-frame axes.
+    central_inertia: [[Poly; 3]; 3],
 }
 
 fn mat3_mul(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
@@ -137,7 +141,17 @@ fn links(model: &Model) -> Vec<Link> {
                     rotated_inertia[i][j].add(&mass.mul(&shift))
                 })
             });
-            Link { parent: *parent, offset_rotation, offset, joint, mass, first_moment, inertia }
+            Link {
+                parent: *parent,
+                offset_rotation,
+                offset,
+                joint,
+                mass,
+                first_moment,
+                inertia,
+                com,
+                central_inertia: rotated_inertia,
+            }
         })
         .collect()
 }
@@ -208,6 +222,34 @@ impl Builder<'_> {
 
     fn const3(&mut self, v: [f64; 3]) -> V3 {
         v.map(|x| self.dag.constant(x))
+    }
+
+    /// `ω × (I ω)` for a symmetric `I`, written in the products `ω_r ω_c` that the `U` matrix
+    /// computes anyway: component `i` (with `j, k` the next indices cyclically) is
+    /// `I_ki ω_i ω_j − I_ji ω_i ω_k + I_jk (ω_j² − ω_k²) + (I_kk − I_jj) ω_j ω_k`, which for a
+    /// principal-axis inertia is the one product of Euler's equations.
+    fn gyroscopic(&mut self, inertia: &M3, w: &V3) -> V3 {
+        std::array::from_fn(|i| {
+            let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+            let w_ij = self.dag.mul(w[i], w[j]);
+            let w_ik = self.dag.mul(w[i], w[k]);
+            let w_jk = self.dag.mul(w[j], w[k]);
+            let w_jj = self.dag.mul(w[j], w[j]);
+            let w_kk = self.dag.mul(w[k], w[k]);
+            let t1 = self.dag.mul(inertia[k][i], w_ij);
+            let t2 = self.dag.mul(inertia[j][i], w_ik);
+            let squares = if self.dag.constant_value(inertia[j][k]) == Some(0.0) {
+                self.zero()
+            } else {
+                self.dag.sub(w_jj, w_kk)
+            };
+            let t3 = self.dag.mul(inertia[j][k], squares);
+            let difference = self.dag.sub(inertia[k][k], inertia[j][j]);
+            let t4 = self.dag.mul(difference, w_jk);
+            let a = self.dag.sub(t1, t2);
+            let b = self.dag.add(t3, t4);
+            self.dag.add(a, b)
+        })
     }
 
     /// `U = [ω̇]× + [ω]×[ω]×`, so that `U v = ω̇ × v + ω × (ω × v)` for every `v` a body
@@ -298,6 +340,7 @@ struct Recursion<'d> {
     offsets: Vec<V3>,
     rotor: Vec<Poly>,
     gravity: [Poly; 3],
+    about_com: bool,
 }
 
 impl<'d> Recursion<'d> {
@@ -327,7 +370,7 @@ impl<'d> Recursion<'d> {
             .iter()
             .map(|j| Poly::constant(j.drive.gear_ratio * j.drive.gear_ratio * j.drive.motor.rotor_inertia))
             .collect();
-        Self { b, links, rotations, offsets, rotor, gravity: model.gravity.clone() }
+        Self { b, links, rotations, offsets, rotor, gravity: model.gravity.clone(), about_com: std::env::var("HG_COM").is_ok() }
     }
 
     /// The recursive Newton–Euler algorithm: joint torques for the given velocities and
@@ -405,17 +448,31 @@ impl<'d> Recursion<'d> {
             let inertia: M3 =
                 std::array::from_fn(|r| std::array::from_fn(|c| self.b.poly(&link.inertia[r][c])));
             let (w, wd, a) = (state.angular_velocity, state.angular_acceleration, state.linear_acceleration);
-            // f = m a + ω̇ × h + ω × (ω × h) = m a + U h
-            let ma = self.b.scale3(mass, &a);
-            let u_h = self.b.mat_vec(u, &h);
-            let f = self.b.add3(&ma, &u_h);
-            // n = I ω̇ + ω × (I ω) + h × a
-            let i_wd = self.b.mat_vec(&inertia, &wd);
-            let i_w = self.b.mat_vec(&inertia, &w);
-            let w_i_w = self.b.cross(&w, &i_w);
-            let h_a = self.b.cross(&h, &a);
-            let n = self.b.add3(&i_wd, &w_i_w);
-            let n = self.b.add3(&n, &h_a);
+            let (f, n) = if self.about_com {
+                // a_c = a + U c, f = m a_c, n = I_c ω̇ + ω × (I_c ω) + c × f
+                let com = self.b.poly3(&link.com);
+                let central: M3 =
+                    std::array::from_fn(|r| std::array::from_fn(|c| self.b.poly(&link.central_inertia[r][c])));
+                let u_c = self.b.mat_vec(u, &com);
+                let a_c = self.b.add3(&a, &u_c);
+                let f = self.b.scale3(mass, &a_c);
+                let i_wd = self.b.mat_vec(&central, &wd);
+                let w_i_w = self.b.gyroscopic(&central, &w);
+                let c_f = self.b.cross(&com, &f);
+                let n = self.b.add3(&i_wd, &w_i_w);
+                (f, self.b.add3(&n, &c_f))
+            } else {
+                // f = m a + ω̇ × h + ω × (ω × h) = m a + U h
+                let ma = self.b.scale3(mass, &a);
+                let u_h = self.b.mat_vec(u, &h);
+                let f = self.b.add3(&ma, &u_h);
+                // n = I ω̇ + ω × (I ω) + h × a
+                let i_wd = self.b.mat_vec(&inertia, &wd);
+                let w_i_w = self.b.gyroscopic(&inertia, &w);
+                let h_a = self.b.cross(&h, &a);
+                let n = self.b.add3(&i_wd, &w_i_w);
+                (f, self.b.add3(&n, &h_a))
+            };
             forces.push(f);
             moments.push(n);
         }

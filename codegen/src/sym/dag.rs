@@ -461,3 +461,174 @@ impl Dag {
         values[id]
     }
 }
+
+/// A linear combination of nodes (of the rebuilt DAG) plus a constant, used while merging sums.
+#[derive(Clone, Default)]
+struct Linear {
+    terms: Vec<(NodeId, f64)>,
+    constant: f64,
+}
+
+impl Linear {
+    fn atom(id: NodeId) -> Self {
+        Self { terms: vec![(id, 1.0)], constant: 0.0 }
+    }
+
+    fn scaled(mut self, k: f64) -> Self {
+        for t in &mut self.terms {
+            t.1 *= k;
+        }
+        self.constant *= k;
+        self
+    }
+
+    fn plus(mut self, other: Linear) -> Self {
+        self.terms.extend(other.terms);
+        self.constant += other.constant;
+        self
+    }
+}
+
+impl Dag {
+    /// Rebuilds the nodes needed for `roots` with every chain of additions, subtractions,
+    /// negations and constant multiples that is used once flattened into one linear
+    /// combination: equal terms merge (`c₁ x + c₂ x = (c₁ + c₂) x`, and exact cancellations
+    /// vanish), and terms with the same coefficient magnitude share one multiplication
+    /// (`c x − c y = c (x − y)`). Nodes used more than once stay shared. Returns the new DAG, the
+    /// new roots and, for every node that still exists, its new id.
+    pub fn merged_sums(&self, roots: &[NodeId]) -> (Dag, Vec<NodeId>, HashMap<NodeId, NodeId>) {
+        let order = self.reachable(roots);
+        let mut uses = vec![0usize; self.nodes.len()];
+        for &id in &order {
+            match self.nodes[id] {
+                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => {
+                    uses[a] += 1;
+                    uses[b] += 1;
+                }
+                Node::Neg(a) => uses[a] += 1,
+                _ => {}
+            }
+        }
+        for &r in roots {
+            uses[r] += 2;
+        }
+        let mut out = Dag::new();
+        let mut linear: HashMap<NodeId, Linear> = HashMap::new();
+        let mut built: HashMap<NodeId, NodeId> = HashMap::new();
+        // The linear form of a child: its own (if used once and linear) or the child as a term.
+        fn form(
+            id: NodeId,
+            uses: &[usize],
+            linear: &HashMap<NodeId, Linear>,
+            built: &mut HashMap<NodeId, NodeId>,
+            out: &mut Dag,
+        ) -> Linear {
+            if uses[id] == 1 {
+                if let Some(l) = linear.get(&id) {
+                    return l.clone();
+                }
+            }
+            Linear::atom(materialize(id, linear, built, out))
+        }
+        fn materialize(
+            id: NodeId,
+            linear: &HashMap<NodeId, Linear>,
+            built: &mut HashMap<NodeId, NodeId>,
+            out: &mut Dag,
+        ) -> NodeId {
+            if let Some(&b) = built.get(&id) {
+                return b;
+            }
+            let l = linear.get(&id).cloned().unwrap_or_default();
+            let node = out.linear_combination(&l);
+            built.insert(id, node);
+            node
+        }
+        for &id in &order {
+            match self.nodes[id] {
+                Node::Const(bits) => {
+                    let c = out.constant(f64::from_bits(bits));
+                    built.insert(id, c);
+                    linear.insert(id, Linear { terms: Vec::new(), constant: f64::from_bits(bits) });
+                }
+                Node::Input(atom) => {
+                    let x = out.input(atom);
+                    built.insert(id, x);
+                }
+                Node::Add(a, b) | Node::Sub(a, b) => {
+                    let x = form(a, &uses, &linear, &mut built, &mut out);
+                    let y = form(b, &uses, &linear, &mut built, &mut out);
+                    let y = if matches!(self.nodes[id], Node::Sub(..)) { y.scaled(-1.0) } else { y };
+                    linear.insert(id, x.plus(y));
+                }
+                Node::Neg(a) => {
+                    let x = form(a, &uses, &linear, &mut built, &mut out);
+                    linear.insert(id, x.scaled(-1.0));
+                }
+                Node::Mul(a, b) => match (self.constant_value(a), self.constant_value(b)) {
+                    (Some(k), _) => {
+                        let x = form(b, &uses, &linear, &mut built, &mut out);
+                        linear.insert(id, x.scaled(k));
+                    }
+                    (_, Some(k)) => {
+                        let x = form(a, &uses, &linear, &mut built, &mut out);
+                        linear.insert(id, x.scaled(k));
+                    }
+                    _ => {
+                        let x = materialize(a, &linear, &mut built, &mut out);
+                        let y = materialize(b, &linear, &mut built, &mut out);
+                        let p = out.mul(x, y);
+                        built.insert(id, p);
+                    }
+                },
+                Node::Div(a, b) => {
+                    let x = materialize(a, &linear, &mut built, &mut out);
+                    let y = materialize(b, &linear, &mut built, &mut out);
+                    let q = out.div(x, y);
+                    built.insert(id, q);
+                }
+            }
+        }
+        let new_roots = roots.iter().map(|&r| materialize(r, &linear, &mut built, &mut out)).collect();
+        (out, new_roots, built)
+    }
+
+    /// Builds `Σ c_i x_i + c₀`: equal terms merged, terms grouped by coefficient magnitude.
+    fn linear_combination(&mut self, l: &Linear) -> NodeId {
+        let mut merged: Vec<(NodeId, f64, f64)> = Vec::new(); // (node, sum, magnitude)
+        for &(id, c) in &l.terms {
+            match merged.iter_mut().find(|m| m.0 == id) {
+                Some(m) => {
+                    m.1 += c;
+                    m.2 += c.abs();
+                }
+                None => merged.push((id, c, c.abs())),
+            }
+        }
+        // Exact symbolic cancellation, up to rounding of the constants.
+        merged.retain(|m| m.1.abs() > 1e-12 * m.2);
+        // Groups of equal coefficient magnitude, in order of first appearance.
+        let mut groups: Vec<(f64, Vec<Signed>)> = Vec::new();
+        for (id, c, _) in merged {
+            let s = Signed { id, negative: c < 0.0 };
+            match groups.iter_mut().find(|g| g.0 == c.abs()) {
+                Some(g) => g.1.push(s),
+                None => groups.push((c.abs(), vec![s])),
+            }
+        }
+        let mut parts: Vec<Signed> = Vec::new();
+        for (k, members) in groups {
+            let inner = self.signed_sum(members);
+            let k = self.constant(k);
+            parts.push(Signed { id: self.mul(k, inner.id), negative: inner.negative });
+        }
+        if l.constant != 0.0 {
+            parts.push(Signed { id: self.constant(l.constant.abs()), negative: l.constant < 0.0 });
+        }
+        if parts.is_empty() {
+            return self.constant(0.0);
+        }
+        let total = self.signed_sum(parts);
+        self.resolve(total)
+    }
+}
