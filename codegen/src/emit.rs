@@ -13,7 +13,7 @@ use quote::{format_ident, quote};
 
 use crate::mechanics::{Derivation, Mechanics};
 use crate::model::{JointKind, Model};
-use crate::recursive::Quantity;
+use crate::recursive::{PointQuantity, Quantity};
 use crate::sym::dag::{Dag, Node, NodeId, OpCounts};
 use crate::sym::poly::{Atom, Poly};
 
@@ -297,7 +297,8 @@ impl<'m> BodyEmitter<'m> {
     fn emit(&self, roots: &[NodeId], context: &str) -> (TokenStream, Vec<TokenStream>, OpCounts) {
         let (dag, new_roots, map) = self.dag.merged_sums(roots);
         if cost(dag.count(&new_roots)) < cost(self.dag.count(roots)) {
-            let hints = self.hints.iter().filter_map(|(id, name)| Some((*map.get(id)?, name.clone()))).collect();
+            let hints =
+                self.hints.iter().filter_map(|(id, name)| Some((*map.get(id)?, name.clone()))).collect();
             let merged = BodyEmitter { dag, naming: self.naming.clone(), scalar: self.scalar, hints };
             return merged.emit_dag(&new_roots, context);
         }
@@ -653,6 +654,18 @@ fn each(list: &[Poly]) -> Vec<Output<'_>> {
     list.iter().map(Output::Poly).collect()
 }
 
+/// The task's position, Jacobian or `J̇ q̇`: a point's quantity, or joint-coordinate polynomials.
+fn task(mech: &Mechanics, what: PointQuantity) -> Vec<Output<'_>> {
+    let (m, n) = (mech.task_dim, mech.joints);
+    match (mech.task_point, what) {
+        (Some(i), PointQuantity::Jacobian) => quantity(Quantity::Point(i, what), m * n),
+        (Some(i), _) => quantity(Quantity::Point(i, what), m),
+        (None, PointQuantity::Position) => each(&mech.task.position),
+        (None, PointQuantity::Jacobian) => row_major(&mech.task.jacobian),
+        (None, PointQuantity::JacobianDotTimesQdot) => each(&mech.task.jacobian_dot_times_qdot),
+    }
+}
+
 /// The specs of every per-quantity function (shared by emission and statistics).
 pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpec<'a>> {
     let n = mech.joints;
@@ -726,7 +739,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             name: "position".into(),
             doc: format!(" Task position `p(q)`: {task_doc}."),
             shape: Shape::Vector(m),
-            outputs: each(&mech.task.position),
+            outputs: task(mech, PointQuantity::Position),
             takes_qd: false,
             takes_qdd: false,
         },
@@ -734,7 +747,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             name: "jacobian".into(),
             doc: " Task Jacobian `J(q) = ∂p/∂q` (eq. (2), eq. (15) for the parallel link).".into(),
             shape: Shape::Matrix(m, n),
-            outputs: row_major(&mech.task.jacobian),
+            outputs: task(mech, PointQuantity::Jacobian),
             takes_qd: false,
             takes_qdd: false,
         },
@@ -750,19 +763,20 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             name: "jacobian_dot_times_qdot".into(),
             doc: " `J̇(q, q̇) q̇`, the velocity term of eq. (2) and (4).".into(),
             shape: Shape::Vector(m),
-            outputs: each(&mech.task.jacobian_dot_times_qdot),
+            outputs: task(mech, PointQuantity::JacobianDotTimesQdot),
             takes_qd: true,
             takes_qdd: false,
         },
     ];
-    for (point, kin) in model.points.iter().zip(&mech.points) {
+    for (index, (point, kin)) in model.points.iter().zip(&mech.points).enumerate() {
         let d = kin.position.len();
+        let point_outputs = |what: PointQuantity, len: usize| quantity(Quantity::Point(index, what), len);
         let what = point.description.clone().unwrap_or_else(|| format!("point `{}`", point.name));
         specs.push(FunctionSpec {
             name: format!("{}_position", point.name),
             doc: format!(" Position of {what} in the base frame."),
             shape: Shape::Vector(d),
-            outputs: each(&kin.position),
+            outputs: point_outputs(PointQuantity::Position, d),
             takes_qd: false,
             takes_qdd: false,
         });
@@ -770,7 +784,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             name: format!("{}_jacobian", point.name),
             doc: format!(" Jacobian of the position of {what}."),
             shape: Shape::Matrix(d, n),
-            outputs: row_major(&kin.jacobian),
+            outputs: point_outputs(PointQuantity::Jacobian, d * n),
             takes_qd: false,
             takes_qdd: false,
         });
@@ -778,7 +792,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             name: format!("{}_jacobian_dot_times_qdot", point.name),
             doc: format!(" `J̇ q̇` of {what}."),
             shape: Shape::Vector(d),
-            outputs: each(&kin.jacobian_dot_times_qdot),
+            outputs: point_outputs(PointQuantity::JacobianDotTimesQdot, d),
             takes_qd: true,
             takes_qdd: false,
         });
@@ -793,10 +807,10 @@ fn tick_outputs(mech: &Mechanics, include_position: bool) -> Vec<Output<'_>> {
     outputs.extend(quantity(Quantity::CoriolisTimesQdot, n));
     outputs.extend(quantity(Quantity::Gravity, n));
     if include_position {
-        outputs.extend(each(&mech.task.position));
+        outputs.extend(task(mech, PointQuantity::Position));
     }
-    outputs.extend(row_major(&mech.task.jacobian));
-    outputs.extend(each(&mech.task.jacobian_dot_times_qdot));
+    outputs.extend(task(mech, PointQuantity::Jacobian));
+    outputs.extend(task(mech, PointQuantity::JacobianDotTimesQdot));
     outputs
 }
 

@@ -8,7 +8,7 @@
 
 use crate::mechanics::Mechanics;
 use crate::model::Model;
-use crate::recursive::Quantity;
+use crate::recursive::{PointQuantity, Quantity};
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::Atom;
 
@@ -143,11 +143,12 @@ fn solve(dag: &mut Dag, adjugate: &[Vec<NodeId>], det: NodeId, v: &[NodeId]) -> 
 pub fn build(dag: &mut Dag, model: &Model, mech: &Mechanics, law: Law) -> Option<LawNodes> {
     let n = mech.joints;
     let m = mech.task_dim;
-    let poly_matrix = |dag: &mut Dag, a: &[Vec<crate::sym::poly::Poly>]| -> Vec<Vec<NodeId>> {
-        a.iter().map(|row| row.iter().map(|p| dag.polynomial(p)).collect()).collect()
-    };
-    let jacobian = poly_matrix(dag, &mech.task.jacobian);
-    let position: Vec<NodeId> = mech.task.position.iter().map(|p| dag.polynomial(p)).collect();
+    let jacobian: Vec<Vec<NodeId>> = mech
+        .build_task(dag, model, PointQuantity::Jacobian)
+        .chunks(n.max(1))
+        .map(<[NodeId]>::to_vec)
+        .collect();
+    let position = mech.build_task(dag, model, PointQuantity::Position);
     let qd: Vec<NodeId> = (0..n).map(|i| dag.input(Atom::Qd(i as u16))).collect();
     let ext = |dag: &mut Dag, kind: External, k: usize| dag.input(kind.atom(k, m));
 
@@ -191,7 +192,7 @@ pub fn build(dag: &mut Dag, model: &Model, mech: &Mechanics, law: Law) -> Option
             names.push((d, format!("inertia_{i}{j}")));
         }
     }
-    let jdot_qd: Vec<NodeId> = mech.task.jacobian_dot_times_qdot.iter().map(|p| dag.polynomial(p)).collect();
+    let jdot_qd = mech.build_task(dag, model, PointQuantity::JacobianDotTimesQdot);
     let mut accel_command = Vec::with_capacity(m); // a_x
     let mut force_command: Option<Vec<NodeId>> = None; // a_f
     match law {

@@ -12,7 +12,7 @@
 //! Nothing is derived by hand: every formula above is applied to whatever the model says.
 
 use crate::model::{JointKind, Model, Motion, TaskSpec};
-use crate::recursive::{self, Quantity};
+use crate::recursive::{self, PointQuantity, Quantity};
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::{Atom, Poly};
 
@@ -49,6 +49,10 @@ pub struct PointKinematics {
 pub struct Mechanics {
     /// Which derivation the emitted code of `D`, `C`, `C q̇` and `g` uses.
     pub derivation: Derivation,
+    /// Which derivation the emitted code of points' positions, Jacobians and `J̇ q̇` uses.
+    pub kinematics: Derivation,
+    /// The task's point (index into the model's points), if the task is a point.
+    pub task_point: Option<usize>,
     /// Number of joints.
     pub joints: usize,
     /// Task-space dimension.
@@ -263,8 +267,18 @@ fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
     } else {
         cheaper_derivation(model, &inertia_matrix, &coriolis_times_qdot, &gravity, &task)
     };
+    let task_point = match &model.task {
+        TaskSpec::Point(i) => Some(*i),
+        TaskSpec::Joints(_) => None,
+    };
+    let kinematics = match task_point {
+        Some(i) if recursive::applies(model) => cheaper_kinematics(model, &points[i], i),
+        _ => Derivation::Polynomial,
+    };
     Mechanics {
         derivation,
+        kinematics,
+        task_point,
         joints: n,
         task_dim: task.position.len(),
         inertia_matrix,
@@ -386,10 +400,49 @@ fn cheaper_derivation(
     }
 }
 
+/// The cheaper way to build a point's `J` and `J̇ q̇` (with `p`) for the control tick.
+fn cheaper_kinematics(model: &Model, point: &PointKinematics, index: usize) -> Derivation {
+    let cost = |dag: &Dag, roots: &[NodeId]| {
+        let c = dag.count(roots);
+        c.arithmetic() + c.trigonometric
+    };
+    let mut polynomial = Dag::new();
+    let roots: Vec<NodeId> = point
+        .position
+        .iter()
+        .chain(point.jacobian.iter().flatten())
+        .chain(&point.jacobian_dot_times_qdot)
+        .map(|p| polynomial.polynomial(p))
+        .collect();
+    let polynomial_cost = cost(&polynomial, &roots);
+    let mut recursive = Dag::new();
+    let mut roots = Vec::new();
+    for what in [PointQuantity::Position, PointQuantity::Jacobian, PointQuantity::JacobianDotTimesQdot] {
+        roots.extend(recursive::build(&mut recursive, model, Quantity::Point(index, what)));
+    }
+    if cost(&recursive, &roots) < polynomial_cost {
+        Derivation::Recursive
+    } else {
+        Derivation::Polynomial
+    }
+}
+
 impl Mechanics {
+    /// The task's position, Jacobian (row-major) or `J̇ q̇`, built into `dag`.
+    pub fn build_task(&self, dag: &mut Dag, model: &Model, what: PointQuantity) -> Vec<NodeId> {
+        match self.task_point {
+            Some(i) => self.build(dag, model, Quantity::Point(i, what)),
+            None => point_polys(&self.task, what).iter().map(|p| dag.polynomial(p)).collect(),
+        }
+    }
+
     /// Builds a quantity into `dag` with this model's derivation; matrices row-major.
     pub fn build(&self, dag: &mut Dag, model: &Model, quantity: Quantity) -> Vec<NodeId> {
-        if self.derivation == Derivation::Recursive {
+        let recursive = match quantity {
+            Quantity::Point(..) => self.kinematics == Derivation::Recursive,
+            _ => self.derivation == Derivation::Recursive,
+        };
+        if recursive {
             return recursive::build(dag, model, quantity);
         }
         let polys = |dag: &mut Dag, list: &[Poly]| -> Vec<NodeId> {
@@ -404,6 +457,9 @@ impl Mechanics {
             }
             Quantity::CoriolisTimesQdot => polys(dag, &self.coriolis_times_qdot),
             Quantity::Gravity => polys(dag, &self.gravity),
+            Quantity::Point(i, what) => {
+                point_polys(&self.points[i], what).iter().map(|p| dag.polynomial(p)).collect()
+            }
             Quantity::InverseDynamics => {
                 // D q̈ + C q̇ + g, row by row.
                 let inertia = self.build(dag, model, Quantity::InertiaMatrix);
@@ -427,5 +483,14 @@ impl Mechanics {
                     .collect()
             }
         }
+    }
+}
+
+/// A point's polynomials of one kind, row-major.
+fn point_polys(point: &PointKinematics, what: PointQuantity) -> Vec<&Poly> {
+    match what {
+        PointQuantity::Position => point.position.iter().collect(),
+        PointQuantity::Jacobian => point.jacobian.iter().flatten().collect(),
+        PointQuantity::JacobianDotTimesQdot => point.jacobian_dot_times_qdot.iter().collect(),
     }
 }

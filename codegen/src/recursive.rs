@@ -41,6 +41,22 @@ pub enum Quantity {
     Gravity,
     /// `D(q) q̈ + C(q, q̇) q̇ + g(q)`, with `q̈` the inputs [`Atom::Qdd`].
     InverseDynamics,
+    /// Kinematics of the named point with this index.
+    Point(usize, PointQuantity),
+}
+
+/// Position, Jacobian or `J̇ q̇` of the named point with this index (`Model::points`), in the
+/// base frame, by composing the joint frames (`J`'s columns `z_k × (p − o_k)` for revolute and
+/// `z_k` for prismatic joints; `J̇ q̇` the point's acceleration from the forward pass at
+/// `q̈ = 0` without gravity).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum PointQuantity {
+    /// `p(q)`.
+    Position,
+    /// `J(q)`, row-major.
+    Jacobian,
+    /// `J̇(q, q̇) q̇`.
+    JacobianDotTimesQdot,
 }
 
 /// Whether the recursive algorithms apply: every body hangs from its parent (or the base) by
@@ -70,6 +86,8 @@ struct Link {
     com: [Poly; 3],
     /// Inertia about the centre of mass, joint-frame axes.
     central_inertia: [[Poly; 3]; 3],
+    /// The body frame in the joint frame (a Denavit–Hartenberg tail; identity otherwise).
+    tail: ([[f64; 3]; 3], [Poly; 3]),
 }
 
 fn mat3_mul(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
@@ -151,6 +169,7 @@ fn links(model: &Model) -> Vec<Link> {
                 inertia,
                 com,
                 central_inertia: rotated_inertia,
+                tail: tails[index].clone(),
             }
         })
         .collect()
@@ -340,11 +359,15 @@ struct Recursion<'d> {
     offsets: Vec<V3>,
     rotor: Vec<Poly>,
     gravity: [Poly; 3],
+    /// Newton–Euler equations about each centre of mass (`a_c = a + U c`, `f = m a_c`,
+    /// `n = I_c ω̇ + ω × I_c ω + c × f`) instead of about the frame origin with the first
+    /// moment `h` (`f = m a + U h`, `n = I_o ω̇ + ω × I_o ω + h × a`). Which is cheaper depends on
+    /// the model: principal-axis inertias favour the former, full tensors the latter.
     about_com: bool,
 }
 
 impl<'d> Recursion<'d> {
-    fn new(dag: &'d mut Dag, model: &Model) -> Self {
+    fn new(dag: &'d mut Dag, model: &Model, about_com: bool) -> Self {
         let links = links(model);
         let mut b = Builder { dag };
         let mut rotations = Vec::with_capacity(links.len());
@@ -370,13 +393,12 @@ impl<'d> Recursion<'d> {
             .iter()
             .map(|j| Poly::constant(j.drive.gear_ratio * j.drive.gear_ratio * j.drive.motor.rotor_inertia))
             .collect();
-        Self { b, links, rotations, offsets, rotor, gravity: model.gravity.clone(), about_com: std::env::var("HG_COM").is_ok() }
+        Self { b, links, rotations, offsets, rotor, gravity: model.gravity.clone(), about_com }
     }
 
-    /// The recursive Newton–Euler algorithm: joint torques for the given velocities and
-    /// accelerations (`None` = zero) and optionally gravity.
-    fn newton_euler(&mut self, velocity: bool, acceleration: bool, gravity: bool) -> Vec<NodeId> {
-        let n_joints = self.rotor.len();
+    /// The forward pass: each body's angular velocity and acceleration and its origin's
+    /// acceleration (with gravity as an upward base acceleration if asked), and its `U` matrix.
+    fn forward(&mut self, velocity: bool, acceleration: bool, gravity: bool) -> (Vec<Motion3>, Vec<M3>) {
         let mut states: Vec<Motion3> = Vec::with_capacity(self.links.len());
         let mut u_matrices: Vec<M3> = Vec::with_capacity(self.links.len());
         for i in 0..self.links.len() {
@@ -437,9 +459,18 @@ impl<'d> Recursion<'d> {
             u_matrices.push(self.b.u_matrix(&angular_velocity, &angular_acceleration));
             states.push(Motion3 { angular_velocity, angular_acceleration, linear_acceleration: linear });
         }
+        (states, u_matrices)
+    }
+
+    /// The recursive Newton–Euler algorithm: joint torques for the given velocities and
+    /// accelerations (`None` = zero) and optionally gravity.
+    fn newton_euler(&mut self, velocity: bool, acceleration: bool, gravity: bool) -> Vec<NodeId> {
+        let n_joints = self.rotor.len();
+        let (states, u_matrices) = self.forward(velocity, acceleration, gravity);
 
         // Body forces about each joint-frame origin, then the backward pass.
         let mut forces: Vec<V3> = Vec::with_capacity(self.links.len());
+
         let mut moments: Vec<V3> = Vec::with_capacity(self.links.len());
         for (i, (state, u)) in states.iter().zip(&u_matrices).enumerate() {
             let link = &self.links[i];
@@ -451,8 +482,9 @@ impl<'d> Recursion<'d> {
             let (f, n) = if self.about_com {
                 // a_c = a + U c, f = m a_c, n = I_c ω̇ + ω × (I_c ω) + c × f
                 let com = self.b.poly3(&link.com);
-                let central: M3 =
-                    std::array::from_fn(|r| std::array::from_fn(|c| self.b.poly(&link.central_inertia[r][c])));
+                let central: M3 = std::array::from_fn(|r| {
+                    std::array::from_fn(|c| self.b.poly(&link.central_inertia[r][c]))
+                });
                 let u_c = self.b.mat_vec(u, &com);
                 let a_c = self.b.add3(&a, &u_c);
                 let f = self.b.scale3(mass, &a_c);
@@ -511,6 +543,85 @@ impl<'d> Recursion<'d> {
         let n_rotated = self.b.mat_vec(&rotation, &n);
         let moment_arm = self.b.cross(&offset, &f_parent);
         (f_parent, self.b.add3(&n_rotated, &moment_arm))
+    }
+
+    /// Each joint frame's rotation and origin in the base frame.
+    fn world_frames(&mut self) -> Vec<(M3, V3)> {
+        let mut frames: Vec<(M3, V3)> = Vec::with_capacity(self.links.len());
+        for i in 0..self.links.len() {
+            let (rotation, offset) = (self.rotations[i], self.offsets[i]);
+            let frame = match self.links[i].parent {
+                None => (rotation, offset),
+                Some(p) => {
+                    let (parent_rotation, parent_origin) = frames[p];
+                    let columns: [V3; 3] = std::array::from_fn(|c| {
+                        let column = [rotation[0][c], rotation[1][c], rotation[2][c]];
+                        self.b.mat_vec(&parent_rotation, &column)
+                    });
+                    let world_rotation = std::array::from_fn(|r| std::array::from_fn(|c| columns[c][r]));
+                    let shift = self.b.mat_vec(&parent_rotation, &offset);
+                    (world_rotation, self.b.add3(&parent_origin, &shift))
+                }
+            };
+            frames.push(frame);
+        }
+        frames
+    }
+
+    /// Position, Jacobian (row-major) or `J̇ q̇` of a point, first `dim` coordinates.
+    fn point(&mut self, model: &Model, index: usize, what: PointQuantity) -> Vec<NodeId> {
+        let n_joints = self.rotor.len();
+        let dim = model.dim();
+        let point = &model.points[index];
+        let Some(body) = point.body else {
+            // A point of the base: constant position, zero Jacobian and J̇ q̇.
+            return match what {
+                PointQuantity::Position => (0..dim).map(|i| self.b.poly(&point.position[i])).collect(),
+                PointQuantity::Jacobian => vec![self.b.zero(); dim * n_joints],
+                PointQuantity::JacobianDotTimesQdot => vec![self.b.zero(); dim],
+            };
+        };
+        // The point in its body's joint frame.
+        let (tail_rotation, tail_offset) = self.links[body].tail.clone();
+        let rotated = const_mat_poly_vec(&tail_rotation, &point.position);
+        let local: [Poly; 3] = std::array::from_fn(|i| tail_offset[i].add(&rotated[i]));
+        let local = self.b.poly3(&local);
+        if what == PointQuantity::JacobianDotTimesQdot {
+            let frames = self.world_frames();
+            let (states, u_matrices) = self.forward(true, false, false);
+            let u_r = self.b.mat_vec(&u_matrices[body], &local);
+            let a = self.b.add3(&states[body].linear_acceleration, &u_r);
+            let world = self.b.mat_vec(&frames[body].0, &a);
+            return world[..dim].to_vec();
+        }
+        let frames = self.world_frames();
+        let (rotation, origin) = frames[body];
+        let arm = self.b.mat_vec(&rotation, &local);
+        let position = self.b.add3(&origin, &arm);
+        if what == PointQuantity::Position {
+            return position[..dim].to_vec();
+        }
+        let mut jacobian = vec![self.b.zero(); dim * n_joints];
+        let mut k = Some(body);
+        while let Some(link) = k {
+            if let Some((j, kind, axis)) = self.links[link].joint {
+                let (rotation, origin) = frames[link];
+                let axis = self.b.const3(axis);
+                let z = self.b.mat_vec(&rotation, &axis);
+                let column = match kind {
+                    JointKind::Revolute => {
+                        let lever = std::array::from_fn(|i| self.b.dag.sub(position[i], origin[i]));
+                        self.b.cross(&z, &lever)
+                    }
+                    JointKind::Prismatic => z,
+                };
+                for (r, &value) in column.iter().take(dim).enumerate() {
+                    jacobian[r * n_joints + j] = value;
+                }
+            }
+            k = self.links[link].parent;
+        }
+        jacobian
     }
 
     /// The composite-rigid-body algorithm: `D(q)`, row-major.
@@ -655,12 +766,17 @@ pub fn derivative(dag: &mut Dag, roots: &[NodeId], joint: u16) -> Vec<NodeId> {
 
 /// Builds a quantity of the model with the recursive algorithms; its nodes join `dag`.
 pub fn build(dag: &mut Dag, model: &Model, quantity: Quantity) -> Vec<NodeId> {
-    let mut recursion = Recursion::new(dag, model);
+    build_with(dag, model, quantity, newton_euler_about_com(model))
+}
+
+fn build_with(dag: &mut Dag, model: &Model, quantity: Quantity, about_com: bool) -> Vec<NodeId> {
+    let mut recursion = Recursion::new(dag, model, about_com);
     match quantity {
         Quantity::InertiaMatrix => recursion.inertia_matrix(),
         Quantity::CoriolisTimesQdot => recursion.newton_euler(true, false, false),
         Quantity::Gravity => recursion.newton_euler(false, false, true),
         Quantity::InverseDynamics => recursion.newton_euler(true, true, true),
+        Quantity::Point(index, what) => recursion.point(model, index, what),
         Quantity::CoriolisMatrix => {
             let d = recursion.inertia_matrix();
             let n = model.joints.len();
@@ -668,6 +784,19 @@ pub fn build(dag: &mut Dag, model: &Model, quantity: Quantity) -> Vec<NodeId> {
             christoffel(dag, &d, n)
         }
     }
+}
+
+/// Whether the Newton–Euler equations about the centres of mass give a smaller inverse
+/// dynamics than about the frame origins, for this model (both are built and counted; a tie
+/// keeps the frame origins).
+fn newton_euler_about_com(model: &Model) -> bool {
+    let cost = |about_com: bool| {
+        let mut dag = Dag::new();
+        let roots = build_with(&mut dag, model, Quantity::InverseDynamics, about_com);
+        let counts = dag.count(&roots);
+        counts.arithmetic() + counts.trigonometric
+    };
+    cost(true) < cost(false)
 }
 
 /// `C_kj = Σ_i ½ (∂D_kj/∂q_i + ∂D_ki/∂q_j − ∂D_ij/∂q_k) q̇_i`, row-major.

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use hapticgen_codegen::eval::{evaluate, State};
 use hapticgen_codegen::mechanics;
 use hapticgen_codegen::model::load_file;
-use hapticgen_codegen::recursive::{self, Quantity};
+use hapticgen_codegen::recursive::{self, PointQuantity, Quantity};
 use hapticgen_codegen::sym::dag::Dag;
 use hapticgen_codegen::sym::poly::Atom;
 
@@ -57,6 +57,12 @@ fn recursive_algorithms_equal_the_lagrangian_polynomials() {
             let g = recursive::build(&mut dag, &model, Quantity::Gravity);
             let c = recursive::build(&mut dag, &model, Quantity::CoriolisMatrix);
             let tau = recursive::build(&mut dag, &model, Quantity::InverseDynamics);
+            let points: Vec<[Vec<_>; 3]> = (0..model.points.len())
+                .map(|i| {
+                    [PointQuantity::Position, PointQuantity::Jacobian, PointQuantity::JacobianDotTimesQdot]
+                        .map(|what| recursive::build(&mut dag, &model, Quantity::Point(i, what)))
+                })
+                .collect();
             let parameters = model.nominal_parameters();
             let mut rng = Lcg(0x5eed ^ n as u64);
             for _ in 0..20 {
@@ -95,6 +101,28 @@ fn recursive_algorithms_equal_the_lagrangian_polynomials() {
                         + want.coriolis_times_qdot[r]
                         + want.g[r];
                     close(&format!("τ[{r}]"), value(tau[r]), expected);
+                }
+                for (i, [p, jac, jdot]) in points.iter().enumerate() {
+                    let want = evaluate(
+                        &mech,
+                        &State { q: &q, qd: &qd, parameters: &parameters },
+                        Some(&mech.points[i]),
+                    );
+                    for r in 0..p.len() {
+                        close(&format!("point {i} p[{r}]"), value(p[r]), want.p[r]);
+                        close(
+                            &format!("point {i} J̇ q̇[{r}]"),
+                            value(jdot[r]),
+                            want.jacobian_dot_times_qdot[r],
+                        );
+                        for k in 0..n {
+                            close(
+                                &format!("point {i} J[{r}][{k}]"),
+                                value(jac[r * n + k]),
+                                want.jacobian[r][k],
+                            );
+                        }
+                    }
                 }
             }
             checked += 1;
