@@ -28,11 +28,17 @@ fn main() {
             )
             .unwrap();
         }
-        writeln!(list, "    (\"{}\", {}),", v.name, v.impedance_budget).unwrap();
+        let b = v.budget;
+        writeln!(
+            list,
+            "    (\"{}\", Limits {{ impedance: {}, current: {}, flash: {}, ram: {} }}),",
+            v.name, b.impedance, b.current, b.flash, b.ram
+        )
+        .unwrap();
     }
     writeln!(
         text,
-        "/// Every image: name and impedance-tick budget (instructions).\npub const VARIANTS: &[(&str, u32)] = &[\n{list}];\n\
+        "/// Every image: name and limits (`variants.txt`).\npub const VARIANTS: &[(&str, Limits)] = &[\n{list}];\n\
          /// Runs the scenario of image `name` in `scalar` (`f32` or `f64`), writing its output lines.\n\
          pub fn run(name: &str, scalar: &str, out: &mut impl Sink) -> Result<(), &'static str> {{\n    match (name, scalar) {{\n{arms}        _ => Err(\"unknown variant or scalar\"),\n    }}\n}}"
     )

@@ -23,12 +23,18 @@ mod variants {
     include!(concat!(env!("OUT_DIR"), "/variants.rs"));
 }
 
-/// Limit on one current-loop tick (all motors), instructions.
-const CURRENT_TICK_BUDGET: u64 = 150;
-/// Limit on flash (text + rodata + vector table + data load image), bytes.
-const FLASH_BUDGET: u64 = 32 * 1024;
-/// Limit on static RAM (data + bss), bytes.
-const RAM_BUDGET: u64 = 8 * 1024;
+/// The limits of one image, from its line of `variants.txt`.
+#[derive(Clone, Copy, Debug)]
+pub struct Limits {
+    /// Largest impedance tick, instructions.
+    pub impedance: u64,
+    /// Largest current-loop tick (all motors), instructions.
+    pub current: u64,
+    /// Flash (text + rodata + vector table + data load image), bytes.
+    pub flash: u64,
+    /// Static RAM (data + bss), bytes.
+    pub ram: u64,
+}
 /// SysTick/APB-timer ticks per instruction under `-icount shift=10` at the MPS2's 25 MHz:
 /// 2^10 ns per instruction / 40 ns per tick = 25.6.
 const TICKS_PER_INSTRUCTION: f64 = 1024.0 / 40.0;
@@ -88,7 +94,7 @@ fn check(name: &str, qemu_output: &str, elf_path: &str, limits_warn: bool) -> Re
     let mut errors = Vec::new();
     let mut limit_errors = Vec::new();
     let budget = match variants::VARIANTS.iter().find(|(n, _)| *n == name) {
-        Some((_, b)) => u64::from(*b),
+        Some((_, l)) => *l,
         None => return Err(vec![format!("unknown image `{name}`")]),
     };
     let target = std::fs::read_to_string(qemu_output).map_err(|e| vec![format!("{qemu_output}: {e}")])?;
@@ -194,14 +200,11 @@ fn check(name: &str, qemu_output: &str, elf_path: &str, limits_warn: bool) -> Re
             ((0, 0, 0), (0, 0, 0))
         }
     };
-    if imp.1 > budget {
-        limit_errors.push(format!("{name}: impedance tick: max {} instructions > limit {budget}", imp.1));
+    if imp.1 > budget.impedance {
+        limit_errors.push(format!("{name}: impedance tick: max {} instructions > limit {}", imp.1, budget.impedance));
     }
-    if cur.1 > CURRENT_TICK_BUDGET {
-        limit_errors.push(format!(
-            "{name}: current-loop tick: max {} instructions > limit {CURRENT_TICK_BUDGET}",
-            cur.1
-        ));
+    if cur.1 > budget.current {
+        limit_errors.push(format!("{name}: current-loop tick: max {} instructions > limit {}", cur.1, budget.current));
     }
     let mut profile = String::new();
     for line in target.lines().filter(|l| l.starts_with("PROFILE ")) {
@@ -219,16 +222,27 @@ fn check(name: &str, qemu_output: &str, elf_path: &str, limits_warn: bool) -> Re
             (0, 0)
         }
     };
-    if flash > FLASH_BUDGET {
-        limit_errors.push(format!("{name}: flash {flash} B > limit {FLASH_BUDGET} B"));
+    if flash > budget.flash {
+        limit_errors.push(format!("{name}: flash {flash} B > limit {} B", budget.flash));
     }
-    if ram > RAM_BUDGET {
-        limit_errors.push(format!("{name}: static RAM {ram} B > limit {RAM_BUDGET} B"));
+    if ram > budget.ram {
+        limit_errors.push(format!("{name}: static RAM {ram} B > limit {} B", budget.ram));
     }
 
     println!(
-        "| {name} | {} | {} | {} (≤ {budget}) | {} | {} | {} (≤ {CURRENT_TICK_BUDGET}) | {flash} | {ram} | {checksum} | {} (≤ {x_tol}) / {} (≤ {i_tol}) |",
-        imp.0, imp.2, imp.1, cur.0, cur.2, cur.1, worst[1].0, worst[2].0
+        "| {name} | {} | {} | {} (≤ {}) | {} | {} | {} (≤ {}) | {flash} (≤ {}) | {ram} (≤ {}) | {checksum} | {} (≤ {x_tol}) / {} (≤ {i_tol}) |",
+        imp.0,
+        imp.2,
+        imp.1,
+        budget.impedance,
+        cur.0,
+        cur.2,
+        cur.1,
+        budget.current,
+        budget.flash,
+        budget.ram,
+        worst[1].0,
+        worst[2].0
     );
     println!("  profile (instructions, min..max):{profile}");
     for e in limit_errors {

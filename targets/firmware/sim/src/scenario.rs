@@ -22,13 +22,16 @@ use hapticgen_runtime::{Real, RigModel};
 
 use crate::plant::SimBoard;
 
-/// What a scenario takes from the model file (computed by the build script).
+/// What a scenario takes from the model file and `variants.txt` (computed by the build script).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Setup<S> {
-    /// Current-loop gains from `hapticgen_codegen::current_loop::design_current_loop`.
-    pub current_gains: CurrentLoopGains<S>,
+pub struct Setup<S, const N: usize> {
+    /// Each joint's current-loop gains, designed from its motor by the model loader
+    /// (`hapticgen_codegen::current_loop::design_current_loop`; the generated `CURRENT_LOOP_GAINS`).
+    pub current_gains: [CurrentLoopGains<S>; N],
     /// Time constant standing for the anti-aliasing filter on the current sense, s.
     pub sense_time_constant: S,
+    /// Start pose (the `pose` column of `variants.txt`), rad or m.
+    pub start: [S; N],
     /// Free-space grid spacing, wall stiffness and damping (`rendering:` in the model).
     pub rendering: Option<[S; 3]>,
 }
