@@ -176,7 +176,9 @@ pub fn generate(
         .iter()
         .zip(loaded.joints.iter())
         .map(|(&x, j)| match j.kind {
-            model::JointKind::Revolute => format!("S::from_f64({})", literal(x / 180.0 * std::f64::consts::PI)),
+            model::JointKind::Revolute => {
+                format!("S::from_f64({})", literal(x / 180.0 * std::f64::consts::PI))
+            }
             model::JointKind::Prismatic => format!("S::from_f64({})", literal(x / 1000.0)),
         })
         .collect();

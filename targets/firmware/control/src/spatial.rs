@@ -26,7 +26,7 @@ pub enum Primitive<S, const M: usize> {
     Ball {
         /// Centre.
         center: [S; M],
-        /// Radius, > 0.
+        /// Radius, > 0 and finite.
         radius: S,
     },
     /// The half-space `n · (x − p) < 0` (`n` points out of it, towards free space when solid).
@@ -84,7 +84,7 @@ impl<S: Real, const M: usize> Primitive<S, M> {
     pub fn closest_surface_point(&self, p: &[S; M]) -> Option<Surface<S, M>> {
         let surface = match *self {
             Primitive::Ball { center, radius } => {
-                if !(radius > S::ZERO) {
+                if !radius.is_finite() || radius <= S::ZERO {
                     return None;
                 }
                 let mut offset = [S::ZERO; M];
@@ -224,7 +224,7 @@ impl<S: Real, const K: usize, const M: usize> SpatialScene<S, K, M> {
             };
             if violated {
                 let depth = distance_squared(&surface.point, hip);
-                if deepest.map_or(true, |(d, _, _)| depth > d) {
+                if deepest.is_none_or(|(d, _, _)| depth > d) {
                     deepest = Some((depth, index, surface.point));
                 }
             }
@@ -253,7 +253,8 @@ impl<S: Real, const K: usize, const M: usize> ReferenceSource<S, M> for SpatialS
         task_position: &[S; M],
         parameters: &mut ImpedanceParameters<S, M>,
     ) -> TaskReference<S, M> {
-        let (proxy, stiffness, damping) = self.render(task_position).unwrap_or((self.last_proxy, S::ZERO, S::ZERO));
+        let (proxy, stiffness, damping) =
+            self.render(task_position).unwrap_or((self.last_proxy, S::ZERO, S::ZERO));
         parameters.stiffness = [stiffness; M];
         parameters.damping = [damping; M];
         TaskReference::at_rest(proxy)

@@ -201,10 +201,14 @@ fn check(name: &str, qemu_output: &str, elf_path: &str, limits_warn: bool) -> Re
         }
     };
     if imp.1 > budget.impedance {
-        limit_errors.push(format!("{name}: impedance tick: max {} instructions > limit {}", imp.1, budget.impedance));
+        limit_errors
+            .push(format!("{name}: impedance tick: max {} instructions > limit {}", imp.1, budget.impedance));
     }
     if cur.1 > budget.current {
-        limit_errors.push(format!("{name}: current-loop tick: max {} instructions > limit {}", cur.1, budget.current));
+        limit_errors.push(format!(
+            "{name}: current-loop tick: max {} instructions > limit {}",
+            cur.1, budget.current
+        ));
     }
     let mut profile = String::new();
     for line in target.lines().filter(|l| l.starts_with("PROFILE ")) {

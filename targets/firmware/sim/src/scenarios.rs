@@ -34,7 +34,11 @@ fn controller3<S: Real, const M: usize>(
 ) -> ImpedanceController<S, M> {
     ImpedanceController {
         law: ImpedanceLaw::Controller3,
-        parameters: ImpedanceParameters { stiffness: [stiffness; M], damping: [damping; M], mass: [S::ONE; M] },
+        parameters: ImpedanceParameters {
+            stiffness: [stiffness; M],
+            damping: [damping; M],
+            mass: [S::ONE; M],
+        },
         options: ControlOptions {
             omit_damping_compensation,
             min_abs_jacobian_determinant: s(1e-6),
@@ -66,7 +70,10 @@ where
         },
         zero_offset: setup.start,
         initial_counts: [0; N],
-        force_calibration: ForceSensorCalibration { scale: [R::Scalar::ONE; M], offset: [R::Scalar::ZERO; M] },
+        force_calibration: ForceSensorCalibration {
+            scale: [R::Scalar::ONE; M],
+            offset: [R::Scalar::ZERO; M],
+        },
         current_gains: first_gains,
         max_tick_gap: 1,
     };
@@ -76,10 +83,10 @@ where
 }
 
 /// The simulated board at rest at the line's pose, stepped at the current-loop rate.
-fn board<R: RigModel<N, M>, const N: usize, const M: usize>(rig: &R, setup: &Setup<R::Scalar, N>) -> SimBoard<R, N, M>
-where
-    R: Clone,
-{
+fn board<R: RigModel<N, M> + Clone, const N: usize, const M: usize>(
+    rig: &R,
+    setup: &Setup<R::Scalar, N>,
+) -> SimBoard<R, N, M> {
     let period = R::Scalar::ONE / s(f64::from(R::CURRENT_LOOP_HZ));
     SimBoard::new(rig.clone(), setup.start, period, setup.sense_time_constant)
 }
@@ -166,7 +173,8 @@ pub mod wall_contact {
         })?;
         let fast = R::CURRENT_LOOP_HZ;
         let board = board(&rig, setup);
-        let controller = controller(rig, scene, controller3(wall_stiffness, wall_damping, false), setup, profile)?;
+        let controller =
+            controller(rig, scene, controller3(wall_stiffness, wall_damping, false), setup, profile)?;
         let load = Load { start: fast / 10, end: fast, force: [s(2.0), R::Scalar::ZERO] };
         // Two grid spacings: on the rebound after the operator lets go, each run snaps the
         // proxy through its own sequence of grid nodes (a discontinuous, path-dependent map),
@@ -219,7 +227,8 @@ pub mod sphere_cavity {
         })?;
         let fast = R::CURRENT_LOOP_HZ;
         let board = board(&rig, setup);
-        let controller = controller(rig, scene, controller3(wall_stiffness, wall_damping, false), setup, profile)?;
+        let controller =
+            controller(rig, scene, controller3(wall_stiffness, wall_damping, false), setup, profile)?;
         let third = FORCE / 3.0;
         let load = Load { start: fast / 10, end: fast, force: [s(2.0 * third), s(third), s(2.0 * third)] };
         // As for the wall: the free-space proxy may rest one node apart in each run.
