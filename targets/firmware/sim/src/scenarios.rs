@@ -12,7 +12,7 @@ use hapticgen_runtime::tick::{HapticLoopSettings, ReferenceSource};
 use hapticgen_runtime::{Real, RigModel};
 
 use crate::plant::SimBoard;
-use crate::scenario::{trace_tolerance, Load, Scenario, Setup};
+use crate::scenario::{current_tolerance, trace_tolerance, Load, Scenario, Setup};
 
 fn s<S: Real>(value: f64) -> S {
     S::from_f64(value)
@@ -132,6 +132,7 @@ pub mod fig4_step {
         let tolerance = trace_tolerance(board.rig(), &setup.start, R::Scalar::ZERO);
         let mut run = Scenario::new(name, controller, board, load, 2 * fast, fast / 100);
         run.task_tolerance = tolerance;
+        run.current_tolerance = current_tolerance(run.board.rig(), &setup.start, s(1.0), tolerance);
         Some(run)
     }
 }
@@ -182,6 +183,7 @@ pub mod wall_contact {
         let tolerance = trace_tolerance(board.rig(), &setup.start, grid + grid);
         let mut run = Scenario::new(name, controller, board, load, 3 * fast / 2, fast / 100);
         run.task_tolerance = tolerance;
+        run.current_tolerance = current_tolerance(run.board.rig(), &setup.start, wall_stiffness, tolerance);
         Some(run)
     }
 }
@@ -235,6 +237,7 @@ pub mod sphere_cavity {
         let tolerance = trace_tolerance(board.rig(), &setup.start, grid + grid);
         let mut run = Scenario::new(name, controller, board, load, 3 * fast / 2, fast / 100);
         run.task_tolerance = tolerance;
+        run.current_tolerance = current_tolerance(run.board.rig(), &setup.start, wall_stiffness, tolerance);
         Some(run)
     }
 }
@@ -280,6 +283,7 @@ pub mod hold_pose {
         let tolerance = trace_tolerance(board.rig(), &setup.start, R::Scalar::ZERO);
         let mut run = Scenario::new(name, controller, board, load, 3 * fast / 2, fast / 100);
         run.task_tolerance = tolerance;
+        run.current_tolerance = current_tolerance(run.board.rig(), &setup.start, s(STIFFNESS), tolerance);
         Some(run)
     }
 }
