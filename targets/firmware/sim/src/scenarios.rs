@@ -244,9 +244,10 @@ pub mod sphere_cavity {
 
 /// Holding a pose against gravity and a push, for any rig (`N` joints, `M` task coordinates,
 /// redundant ones included): Controller 3 with a fixed reference at the start pose's task
-/// point, `K_d` = [`STIFFNESS`], `B_d` = [`DAMPING`] on every axis; the generated `g(q)` holds
-/// the arm up. The operator pushes with [`FORCE`] along −x_M (down, for a spatial arm) from
-/// 0.1 s to 1.0 s (the point settles `FORCE / K_d` = 10 mm down), then lets go; 1.5 s in all.
+/// point, `K_d` = [`STIFFNESS`](hold_pose::STIFFNESS), `B_d` = [`DAMPING`](hold_pose::DAMPING)
+/// on every axis; the generated `g(q)` holds the arm up. The operator pushes with
+/// [`FORCE`](hold_pose::FORCE) along −x_M (down, for a spatial arm) from 0.1 s to 1.0 s (the
+/// point settles `FORCE / K_d` = 10 mm down), then lets go; 1.5 s in all.
 /// The device's own viscous friction is *not* compensated (`omit_damping_compensation`): it is
 /// what damps the `N − M` joint-space directions the task spring does not see (the null space
 /// of `J`).
