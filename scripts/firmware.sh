@@ -56,8 +56,11 @@ fi
 
 step "lint: host-side crates (clippy, warnings are errors)"
 rustup component add --toolchain "$TOOLCHAIN" clippy >/dev/null 2>&1 || true
-cargo clippy --locked -j1 -p hapticgen-fw-control -p hapticgen-fw-sim -p hapticgen-fw-host -p hapticgen-fw-build \
-    -- -D warnings
+cargo clippy --locked -j1 --all-targets -p hapticgen-fw-control -p hapticgen-fw-sim -p hapticgen-fw-host \
+    -p hapticgen-fw-build -- -D warnings
+
+step "unit tests: renderer, table parser, and each scenario's reference run against its closed-form physics"
+cargo test --locked -j1 -q -p hapticgen-fw-control -p hapticgen-fw-build -p hapticgen-fw-host
 
 step "host reference (hapticgen-fw-host)"
 cargo build --locked -j1 -p hapticgen-fw-host

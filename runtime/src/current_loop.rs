@@ -157,6 +157,14 @@ impl<S: Real, const N: usize> CurrentLoopBank<S, N> {
         Self { controllers }
     }
 
+    /// Gives each motor its own gains (e.g. the model's per-joint designs, the generated
+    /// `CURRENT_LOOP_GAINS`, for a rig whose motors differ); supplies and integrals are kept.
+    pub fn set_gains(&mut self, gains: &[CurrentLoopGains<S>; N]) {
+        for (controller, g) in self.controllers.iter_mut().zip(gains.iter()) {
+            controller.gains = *g;
+        }
+    }
+
     /// One sample for every motor.
     pub fn step(&mut self, references: &[S; N], measured: &[S; N]) -> [CurrentLoopOutput<S>; N] {
         let mut out = [CurrentLoopOutput { voltage: S::ZERO, status: CurrentLoopStatus::Ok }; N];
@@ -289,5 +297,19 @@ mod tests {
         assert_eq!(out[1].voltage, -12.0);
         bank.reset();
         assert_eq!(bank.controllers[0].integral(), 0.0);
+    }
+
+    #[test]
+    fn per_motor_gains_apply_to_their_motor_only() {
+        let mut bank = CurrentLoopBank::new(GAINS, &[24.0, 24.0]);
+        let other = CurrentLoopGains { kp: 2.0, ..GAINS };
+        bank.set_gains(&[GAINS, other]);
+        assert_eq!(*bank.controllers[0].gains(), GAINS);
+        assert_eq!(*bank.controllers[1].gains(), other);
+        let out = bank.step(&[0.0, 0.0], &[1.0, 1.0]);
+        // p = kp·(0·r − y): each motor's own kp, and the supplies are unchanged.
+        assert_eq!(out[0].voltage, -GAINS.kp);
+        assert_eq!(out[1].voltage, -other.kp);
+        assert_eq!(bank.step(&[0.0, 0.0], &[100.0, 100.0])[1].voltage, -24.0);
     }
 }

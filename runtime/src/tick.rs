@@ -168,6 +168,13 @@ where
         })
     }
 
+    /// Gives each motor's current loop its own gains (`HapticLoopSettings::current_gains`
+    /// applies one set to every motor); for rigs whose motors differ, e.g. the generated
+    /// `CURRENT_LOOP_GAINS`. Integrals and supply limits are kept.
+    pub fn set_current_loop_gains(&mut self, gains: &[CurrentLoopGains<R::Scalar>; N]) {
+        self.current_loops.set_gains(gains);
+    }
+
     /// The safety monitor (latched fault, limits).
     pub fn safety(&self) -> &SafetyMonitor<R::Scalar, N> {
         &self.safety

@@ -22,7 +22,8 @@ fn main() {
         .unwrap_or_else(|e| panic!("{e}"));
     std::fs::write(out.join("image.rs"), glue).expect("OUT_DIR is writable");
     // MPS2-AN386 under QEMU: 4 MiB SSRAM1 at 0 (code), 4 MiB SSRAM2 at 0x2000_0000 (data).
-    // The 32 KiB flash / 8 KiB RAM budgets are checked on the ELF by scripts/firmware.sh.
+    // Each image's flash and RAM limits (variants.txt) are checked on the ELF by
+    // scripts/firmware.sh.
     std::fs::write(
         out.join("memory.x"),
         "MEMORY\n{\n  FLASH : ORIGIN = 0x00000000, LENGTH = 4M\n  RAM : ORIGIN = 0x20000000, LENGTH = 4M\n}\n",

@@ -8,6 +8,8 @@
 //!   impedance tick (estimation → rig terms → reference/rendering → impedance law → safety).
 //!   It times both with the board's cycle counter, and optionally times the sub-steps of
 //!   the impedance tick on a copy of the state ([`app::Profile`]).
+//! * [`spatial`]: point-based haptic rendering (solid/cavity balls and half-spaces, the
+//!   anti-drift grid) in an `M`-dimensional task space, for rigs whose task point moves in 3-D.
 //! * [`report`]: integer-only text output (no `core::fmt`, no float formatting: it costs
 //!   ~29 KB of flash), shared by the target and the host reference so both print the same
 //!   lines.
@@ -17,6 +19,7 @@
 pub mod app;
 pub mod board;
 pub mod report;
+pub mod spatial;
 
 pub use app::{Controller, CostStats, Profile};
 pub use board::{Board, CurrentSense, CycleCounter, Encoders, ForceSense, TickTimer, VoltageOutput};

@@ -22,13 +22,16 @@ use hapticgen_runtime::{Real, RigModel};
 
 use crate::plant::SimBoard;
 
-/// What a scenario takes from the model file (computed by the build script).
+/// What a scenario takes from the model file and `variants.txt` (computed by the build script).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Setup<S> {
-    /// Current-loop gains from `hapticgen_codegen::current_loop::design_current_loop`.
-    pub current_gains: CurrentLoopGains<S>,
+pub struct Setup<S, const N: usize> {
+    /// Each joint's current-loop gains, designed from its motor by the model loader
+    /// (`hapticgen_codegen::current_loop::design_current_loop`; the generated `CURRENT_LOOP_GAINS`).
+    pub current_gains: [CurrentLoopGains<S>; N],
     /// Time constant standing for the anti-aliasing filter on the current sense, s.
     pub sense_time_constant: S,
+    /// Start pose (the `pose` column of `variants.txt`), rad or m.
+    pub start: [S; N],
     /// Free-space grid spacing, wall stiffness and damping (`rendering:` in the model).
     pub rendering: Option<[S; 3]>,
 }
@@ -64,6 +67,9 @@ where
     /// How far an `f32` run's task coordinates may stray from the `f64` reference (m or rad):
     /// see [`trace_tolerance`].
     pub task_tolerance: R::Scalar,
+    /// How far an `f32` run's motor currents may stray from the `f64` reference (A): see
+    /// [`current_tolerance`].
+    pub current_tolerance: R::Scalar,
     done: u32,
     checksum: u32,
 }
@@ -72,11 +78,40 @@ where
 /// [`trace_tolerance`]).
 pub const TOLERANCE_COUNTS: f64 = 4.0;
 
-/// Current disagreement allowed between an `f32` and an `f64` run, mA: 0.5 A, the motor
-/// current of 0.18 N·m (a quarter of the 3 N·m limit would be 2 A; one encoder count through
-/// the paper's 1500 N/m wall is 0.06 N = 0.02 A at the motor, so this leaves a wide margin
-/// for the current loop's transients).
+/// The part of the current tolerance that covers the current loop's transients, mA: 0.5 A,
+/// the motor current of 0.18 N·m on the paper's rigs (a quarter of the 3 N·m limit would be
+/// 2 A; one encoder count through the paper's 1500 N/m wall is 0.06 N = 0.02 A at the motor).
+/// See [`current_tolerance`] for the part that grows with the rendered stiffness.
 pub const CURRENT_TOLERANCE_MILLIAMP: i64 = 500;
+
+/// The tolerance of the motor currents of an `f32` run against the `f64` reference, A:
+/// [`CURRENT_TOLERANCE_MILLIAMP`] plus the current that the allowed task disagreement
+/// `task_tolerance` (see [`trace_tolerance`]) produces through the stiffness `K_d` in
+/// effect, `max_j Σ_k |J_kj(q0)| K_d tol / (N_j η_j k_t,j)`. The two runs may rest one
+/// grid node or a few encoder counts apart (the position check accepts that); the spring
+/// then pulls each to its own point, and on a rig with long levers or low gearing that
+/// difference in force is a large current (PHANToM-like arm: 0.3 mm through 1500 N/m at
+/// 0.33 m is 0.6 A, a quarter of its current limit).
+pub fn current_tolerance<R: RigModel<N, M>, const N: usize, const M: usize>(
+    rig: &R,
+    q0: &[R::Scalar; N],
+    stiffness: R::Scalar,
+    task_tolerance: R::Scalar,
+) -> R::Scalar {
+    let jacobian = rig.jacobian(q0);
+    let drives = rig.drives();
+    let mut worst = R::Scalar::ZERO;
+    for (j, drive) in drives.iter().enumerate() {
+        let mut lever = R::Scalar::ZERO;
+        for row in jacobian.iter() {
+            lever += row[j].abs();
+        }
+        let amps_per_newton_metre =
+            R::Scalar::ONE / (drive.gear_ratio * drive.efficiency * drive.torque_constant);
+        worst = worst.max(lever * stiffness.abs() * task_tolerance * amps_per_newton_metre);
+    }
+    R::Scalar::from_f64(CURRENT_TOLERANCE_MILLIAMP as f64 / 1000.0) + worst
+}
 
 /// The tolerance of the task coordinates of an `f32` run against the `f64` reference:
 /// [`TOLERANCE_COUNTS`] encoder counts mapped to the task through `|J(q0)|` (largest row sum
@@ -156,6 +191,7 @@ where
             periods,
             sample_every,
             task_tolerance: R::Scalar::ZERO,
+            current_tolerance: R::Scalar::from_f64(CURRENT_TOLERANCE_MILLIAMP as f64 / 1000.0),
             done: 0,
             checksum: FNV_OFFSET,
         }
@@ -243,7 +279,7 @@ where
         line.kv("plant_ok", i64::from(!self.board.broken));
         line.kx("checksum", self.checksum);
         line.emit(out);
-        line.str("TOL").kv("x", micro(self.task_tolerance)).kv("i", CURRENT_TOLERANCE_MILLIAMP);
+        line.str("TOL").kv("x", micro(self.task_tolerance)).kv("i", micro(self.current_tolerance) / 1000);
         line.emit(out);
         for (label, stats) in [("current", &c.current_cost), ("impedance", &c.impedance_cost)] {
             line.str("COST ").str(label);

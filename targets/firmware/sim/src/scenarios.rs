@@ -1,60 +1,117 @@
 //! The scenarios a variant can name in `targets/firmware/variants.txt`. Each module offers
-//! `Run<R>` (the scenario type for a rig `R`) and `new(name, rig, setup, profile)`.
+//! `Run<R, N, M>` (the scenario type for a rig `R` with `N` joints and `M` task coordinates)
+//! and `new(name, rig, setup, profile)`; `new` states which `N`, `M` it accepts (a line that
+//! pairs a scenario with an unsuitable rig does not compile). Every run starts at rest at the
+//! `pose` of its line.
 
 use hapticgen_fw_control::Controller;
 use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
-use hapticgen_runtime::tick::HapticLoopSettings;
+use hapticgen_runtime::fused::FusedImpedance;
+use hapticgen_runtime::tick::{HapticLoopSettings, ReferenceSource};
 use hapticgen_runtime::{Real, RigModel};
 
 use crate::plant::SimBoard;
-use crate::scenario::{trace_tolerance, Load, Scenario, Setup};
+use crate::scenario::{current_tolerance, trace_tolerance, Load, Scenario, Setup};
 
 fn s<S: Real>(value: f64) -> S {
     S::from_f64(value)
 }
 
-fn settings<S: Real, const N: usize, const M: usize>(
-    controller: ImpedanceController<S, M>,
-    setup: &Setup<S>,
-    impedance_hz: u32,
-    q0: [S; N],
-) -> HapticLoopSettings<S, N, M> {
-    HapticLoopSettings {
-        controller,
-        estimator: EstimatorSettings {
-            sample_period: S::ONE / s(f64::from(impedance_hz)),
-            velocity_cutoff_hz: s(50.0),
-            acceleration_cutoff_hz: s(20.0),
+/// Rendering parameters when the model has no `rendering:` section: the paper's Fig. 7 values
+/// (grid 0.3 mm, walls and free space 1500 N/m and 5 N·s/m).
+pub const PAPER_RENDERING: [f64; 3] = [0.3e-3, 1500.0, 5.0];
+
+fn rendering<S: Real, const N: usize>(setup: &Setup<S, N>) -> [S; 3] {
+    setup.rendering.unwrap_or([s(PAPER_RENDERING[0]), s(PAPER_RENDERING[1]), s(PAPER_RENDERING[2])])
+}
+
+/// Controller 3 (`a_q = 0`, no `J⁻¹`: any `N`, `M`) with `K_d`, `B_d` on every task axis.
+fn controller3<S: Real, const M: usize>(
+    stiffness: S,
+    damping: S,
+    omit_damping_compensation: bool,
+) -> ImpedanceController<S, M> {
+    ImpedanceController {
+        law: ImpedanceLaw::Controller3,
+        parameters: ImpedanceParameters {
+            stiffness: [stiffness; M],
+            damping: [damping; M],
+            mass: [S::ONE; M],
         },
-        zero_offset: q0,
-        initial_counts: [0; N],
-        force_calibration: ForceSensorCalibration { scale: [S::ONE; M], offset: [S::ZERO; M] },
-        current_gains: setup.current_gains,
-        max_tick_gap: 1,
+        options: ControlOptions {
+            omit_damping_compensation,
+            min_abs_jacobian_determinant: s(1e-6),
+            spring_lead_time: s(0.0),
+        },
     }
 }
 
+/// The firmware controller for `rig` at the line's pose, with each joint's own current-loop
+/// gains.
+fn controller<R, Src, const N: usize, const M: usize>(
+    rig: R,
+    source: Src,
+    law: ImpedanceController<R::Scalar, M>,
+    setup: &Setup<R::Scalar, N>,
+    profile: bool,
+) -> Option<Controller<R, Src, N, M>>
+where
+    R: FusedImpedance<N, M> + Clone,
+    Src: ReferenceSource<R::Scalar, M> + Clone,
+{
+    let first_gains = *setup.current_gains.first()?;
+    let settings = HapticLoopSettings {
+        controller: law,
+        estimator: EstimatorSettings {
+            sample_period: R::Scalar::ONE / s(f64::from(R::IMPEDANCE_LOOP_HZ)),
+            velocity_cutoff_hz: s(50.0),
+            acceleration_cutoff_hz: s(20.0),
+        },
+        zero_offset: setup.start,
+        initial_counts: [0; N],
+        force_calibration: ForceSensorCalibration {
+            scale: [R::Scalar::ONE; M],
+            offset: [R::Scalar::ZERO; M],
+        },
+        current_gains: first_gains,
+        max_tick_gap: 1,
+    };
+    let mut controller = Controller::new(rig, source, &settings, profile)?;
+    controller.haptic.set_current_loop_gains(&setup.current_gains);
+    Some(controller)
+}
+
+/// The simulated board at rest at the line's pose, stepped at the current-loop rate.
+fn board<R: RigModel<N, M> + Clone, const N: usize, const M: usize>(
+    rig: &R,
+    setup: &Setup<R::Scalar, N>,
+) -> SimBoard<R, N, M> {
+    let period = R::Scalar::ONE / s(f64::from(R::CURRENT_LOOP_HZ));
+    SimBoard::new(rig.clone(), setup.start, period, setup.sense_time_constant)
+}
+
 /// The paper's Fig. 4 on a 1-DOF rig: Controller 2, second variant (`M_d = W⁻¹`),
-/// `K_d = 1 N·m/rad`, `B_d = 0.01 N·m·s/rad`, reference `x_d = 0` (upright), a 1 N·m step
-/// of operator torque at 0.1 s held to the end of the 2 s run. The closed loop is
-/// `D q̈ + B_d q̇ + K_d q = τ_op`: a lightly damped (ζ ≈ 0.09) 2.9 Hz oscillation settling at
-/// 1 rad.
+/// `K_d = 1 N·m/rad`, `B_d = 0.01 N·m·s/rad`, reference at the start pose (upright for the
+/// joystick's line), a 1 N·m step of operator torque at 0.1 s held to the end of the 2 s run.
+/// The closed loop is `D q̈ + B_d q̇ + K_d q = τ_op`: a lightly damped (ζ ≈ 0.09) 2.9 Hz
+/// oscillation settling at 1 rad.
 pub mod fig4_step {
     use super::*;
     use hapticgen_runtime::control::TaskReference;
 
-    /// The scenario type for a rig `R`.
-    pub type Run<R> = Scenario<R, TaskReference<<R as RigModel<1, 1>>::Scalar, 1>, 1, 1>;
+    /// The scenario type for a rig `R` (`N = M = 1`).
+    pub type Run<R, const N: usize, const M: usize> =
+        Scenario<R, TaskReference<<R as RigModel<N, M>>::Scalar, M>, N, M>;
 
     /// Builds the run; `None` if the rig's rates are unusable.
-    pub fn new<R: hapticgen_runtime::fused::FusedImpedance<1, 1> + Clone>(
+    pub fn new<R: FusedImpedance<1, 1> + Clone>(
         name: &'static str,
         rig: R,
-        setup: &Setup<R::Scalar>,
+        setup: &Setup<R::Scalar, 1>,
         profile: bool,
-    ) -> Option<Run<R>> {
-        let controller = ImpedanceController {
+    ) -> Option<Run<R, 1, 1>> {
+        let law = ImpedanceController {
             law: ImpedanceLaw::Controller2Mobility,
             parameters: ImpedanceParameters {
                 stiffness: [s(1.0)],
@@ -67,44 +124,42 @@ pub mod fig4_step {
                 spring_lead_time: s(0.0),
             },
         };
-        let q0 = [R::Scalar::ZERO];
         let fast = R::CURRENT_LOOP_HZ;
-        let period = R::Scalar::ONE / s(f64::from(fast));
-        let board = SimBoard::new(rig.clone(), q0, period, setup.sense_time_constant);
-        let reference = TaskReference::at_rest([R::Scalar::ZERO]);
-        let settings = settings(controller, setup, R::IMPEDANCE_LOOP_HZ, q0);
-        let controller = Controller::new(rig, reference, &settings, profile)?;
+        let board = board(&rig, setup);
+        let reference = TaskReference::at_rest(rig.position(&setup.start));
+        let controller = controller(rig, reference, law, setup, profile)?;
         let load = Load { start: fast / 10, end: u32::MAX, force: [s(1.0)] };
-        let tolerance = trace_tolerance(board.rig(), &q0, R::Scalar::ZERO);
+        let tolerance = trace_tolerance(board.rig(), &setup.start, R::Scalar::ZERO);
         let mut run = Scenario::new(name, controller, board, load, 2 * fast, fast / 100);
         run.task_tolerance = tolerance;
+        run.current_tolerance = current_tolerance(run.board.rig(), &setup.start, s(1.0), tolerance);
         Some(run)
     }
 }
 
-/// A virtual wall on a 2-DOF planar rig with Controller 3 and the proxy renderer: the
-/// end-effector starts in free space at `q = (π/2, 0)`, a solid wall's face 5 mm to its +x1
-/// side; the operator pushes with 2 N along +x1 from 0.1 s to 1.0 s, then lets go; 1.5 s in
-/// all. `K_d`, `B_d` of the wall and of free space, and the anti-drift grid, come from the
-/// model's `rendering:` section (1500 N/m, 5 N·s/m, 0.3 mm for the paper's rig).
+/// A virtual wall for a planar task (`M = 2`, any number of joints) with Controller 3 and the
+/// runtime's proxy renderer: the task point starts in free space at the line's pose, a solid
+/// wall's face 5 mm to its +x1 side; the operator pushes with 2 N along +x1 from 0.1 s to
+/// 1.0 s, then lets go; 1.5 s in all. `K_d`, `B_d` of the wall and of free space and the
+/// anti-drift grid come from the model's `rendering:` section (1500 N/m, 5 N·s/m, 0.3 mm for
+/// the paper's rig), else [`PAPER_RENDERING`]. Penetration settles at 2 N / `K_d`.
 pub mod wall_contact {
     use super::*;
     use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
 
-    /// The scenario type for a rig `R`.
-    pub type Run<R> = Scenario<R, Scene<<R as RigModel<2, 2>>::Scalar, 1, 1>, 2, 2>;
+    /// The scenario type for a rig `R` (`M = 2`).
+    pub type Run<R, const N: usize, const M: usize> =
+        Scenario<R, Scene<<R as RigModel<N, M>>::Scalar, 1, 1>, N, M>;
 
-    /// Builds the run; `None` if the rig's rates are unusable or the model has no
-    /// `rendering:` section.
-    pub fn new<R: hapticgen_runtime::fused::FusedImpedance<2, 2> + Clone>(
+    /// Builds the run; `None` if the rig's rates are unusable.
+    pub fn new<R: FusedImpedance<N, 2> + Clone, const N: usize>(
         name: &'static str,
         rig: R,
-        setup: &Setup<R::Scalar>,
+        setup: &Setup<R::Scalar, N>,
         profile: bool,
-    ) -> Option<Run<R>> {
-        let [grid, wall_stiffness, wall_damping] = setup.rendering?;
-        let q0 = [s(core::f64::consts::FRAC_PI_2), R::Scalar::ZERO];
-        let start = rig.position(&q0);
+    ) -> Option<Run<R, N, 2>> {
+        let [grid, wall_stiffness, wall_damping] = rendering(setup);
+        let start = rig.position(&setup.start);
         let mut scene = Scene::new(wall_stiffness, wall_damping, grid);
         let half = [s(0.05), s(0.1)];
         scene.add(VirtualObject {
@@ -117,31 +172,119 @@ pub mod wall_contact {
             stiffness: wall_stiffness,
             damping: wall_damping,
         })?;
-        let controller = ImpedanceController {
-            law: ImpedanceLaw::Controller3,
-            parameters: ImpedanceParameters {
-                stiffness: [wall_stiffness; 2],
-                damping: [wall_damping; 2],
-                mass: [R::Scalar::ONE; 2],
-            },
-            options: ControlOptions {
-                omit_damping_compensation: false,
-                min_abs_jacobian_determinant: s(1e-6),
-                spring_lead_time: s(0.0),
-            },
-        };
         let fast = R::CURRENT_LOOP_HZ;
-        let period = R::Scalar::ONE / s(f64::from(fast));
-        let board = SimBoard::new(rig.clone(), q0, period, setup.sense_time_constant);
-        let settings = settings(controller, setup, R::IMPEDANCE_LOOP_HZ, q0);
-        let controller = Controller::new(rig, scene, &settings, profile)?;
+        let board = board(&rig, setup);
+        let controller =
+            controller(rig, scene, controller3(wall_stiffness, wall_damping, false), setup, profile)?;
         let load = Load { start: fast / 10, end: fast, force: [s(2.0), R::Scalar::ZERO] };
         // Two grid spacings: on the rebound after the operator lets go, each run snaps the
         // proxy through its own sequence of grid nodes (a discontinuous, path-dependent map),
         // so the runs can differ by a node at the moment of a jump and by a node at rest.
-        let tolerance = trace_tolerance(board.rig(), &q0, grid + grid);
+        let tolerance = trace_tolerance(board.rig(), &setup.start, grid + grid);
         let mut run = Scenario::new(name, controller, board, load, 3 * fast / 2, fast / 100);
         run.task_tolerance = tolerance;
+        run.current_tolerance = current_tolerance(run.board.rig(), &setup.start, wall_stiffness, tolerance);
+        Some(run)
+    }
+}
+
+/// A spherical cavity for a spatial task (`M = 3`, any number of joints) with Controller 3
+/// and the `M`-dimensional renderer (`hapticgen_fw_control::spatial`): the task point starts
+/// at rest at the centre of a 10 mm-radius cavity; the operator pushes with 1 N along the
+/// oblique direction `(2, 1, 2)/3` (forward, sideways and up: the arm's gravity load and the
+/// push do not add up beyond the drives' current limit) from 0.1 s to 1.0 s (through free space on the anti-drift
+/// grid, then against the curved wall, where the proxy is the sphere's closest point and the
+/// point settles 1 N / `K_d` beyond the wall along the push: a stable equilibrium, the
+/// inside of a sphere being concave), then lets go; 1.5 s in all. Exercises all three task
+/// axes, gravity and the coupling of every joint. Gains and grid as in [`wall_contact`].
+pub mod sphere_cavity {
+    use super::*;
+    use hapticgen_fw_control::spatial::{Primitive, SpatialObject, SpatialScene};
+    use hapticgen_runtime::render::ObjectKind;
+
+    /// Radius of the cavity, m.
+    pub const RADIUS: f64 = 0.010;
+    /// Operator force, N, along `(2, 1, 2)/3`.
+    pub const FORCE: f64 = 1.0;
+
+    /// The scenario type for a rig `R` (`M = 3`).
+    pub type Run<R, const N: usize, const M: usize> =
+        Scenario<R, SpatialScene<<R as RigModel<N, M>>::Scalar, 1, M>, N, M>;
+
+    /// Builds the run; `None` if the rig's rates are unusable.
+    pub fn new<R: FusedImpedance<N, 3> + Clone, const N: usize>(
+        name: &'static str,
+        rig: R,
+        setup: &Setup<R::Scalar, N>,
+        profile: bool,
+    ) -> Option<Run<R, N, 3>> {
+        let [grid, wall_stiffness, wall_damping] = rendering(setup);
+        let start = rig.position(&setup.start);
+        let mut scene = SpatialScene::new(wall_stiffness, wall_damping, grid);
+        scene.add(SpatialObject {
+            shape: Primitive::Ball { center: start, radius: s(RADIUS) },
+            kind: ObjectKind::Cavity,
+            stiffness: wall_stiffness,
+            damping: wall_damping,
+        })?;
+        let fast = R::CURRENT_LOOP_HZ;
+        let board = board(&rig, setup);
+        let controller =
+            controller(rig, scene, controller3(wall_stiffness, wall_damping, false), setup, profile)?;
+        let third = FORCE / 3.0;
+        let load = Load { start: fast / 10, end: fast, force: [s(2.0 * third), s(third), s(2.0 * third)] };
+        // As for the wall: the free-space proxy may rest one node apart in each run.
+        let tolerance = trace_tolerance(board.rig(), &setup.start, grid + grid);
+        let mut run = Scenario::new(name, controller, board, load, 3 * fast / 2, fast / 100);
+        run.task_tolerance = tolerance;
+        run.current_tolerance = current_tolerance(run.board.rig(), &setup.start, wall_stiffness, tolerance);
+        Some(run)
+    }
+}
+
+/// Holding a pose against gravity and a push, for any rig (`N` joints, `M` task coordinates,
+/// redundant ones included): Controller 3 with a fixed reference at the start pose's task
+/// point, `K_d` = [`STIFFNESS`](hold_pose::STIFFNESS), `B_d` = [`DAMPING`](hold_pose::DAMPING)
+/// on every axis; the generated `g(q)` holds the arm up. The operator pushes with
+/// [`FORCE`](hold_pose::FORCE) along −x_M (down, for a spatial arm) from 0.1 s to 1.0 s (the
+/// point settles `FORCE / K_d` = 10 mm down), then lets go; 1.5 s in all.
+/// The device's own viscous friction is *not* compensated (`omit_damping_compensation`): it is
+/// what damps the `N − M` joint-space directions the task spring does not see (the null space
+/// of `J`).
+pub mod hold_pose {
+    use super::*;
+    use hapticgen_runtime::control::TaskReference;
+
+    /// `K_d`, N/m.
+    pub const STIFFNESS: f64 = 2000.0;
+    /// `B_d`, N·s/m.
+    pub const DAMPING: f64 = 150.0;
+    /// Operator force, N.
+    pub const FORCE: f64 = 20.0;
+
+    /// The scenario type for a rig `R`.
+    pub type Run<R, const N: usize, const M: usize> =
+        Scenario<R, TaskReference<<R as RigModel<N, M>>::Scalar, M>, N, M>;
+
+    /// Builds the run; `None` if the rig's rates are unusable or `M = 0`.
+    pub fn new<R: FusedImpedance<N, M> + Clone, const N: usize, const M: usize>(
+        name: &'static str,
+        rig: R,
+        setup: &Setup<R::Scalar, N>,
+        profile: bool,
+    ) -> Option<Run<R, N, M>> {
+        let fast = R::CURRENT_LOOP_HZ;
+        let board = board(&rig, setup);
+        let reference = TaskReference::at_rest(rig.position(&setup.start));
+        let law = controller3(s(STIFFNESS), s(DAMPING), true);
+        let controller = controller(rig, reference, law, setup, profile)?;
+        let mut force = [R::Scalar::ZERO; M];
+        *force.last_mut()? = s(-FORCE);
+        let load = Load { start: fast / 10, end: fast, force };
+        let tolerance = trace_tolerance(board.rig(), &setup.start, R::Scalar::ZERO);
+        let mut run = Scenario::new(name, controller, board, load, 3 * fast / 2, fast / 100);
+        run.task_tolerance = tolerance;
+        run.current_tolerance = current_tolerance(run.board.rig(), &setup.start, s(STIFFNESS), tolerance);
         Some(run)
     }
 }

@@ -160,8 +160,9 @@ fn main() -> ! {
     // A free-space scene with the model's rendering settings; add walls with `Scene::add`.
     let [grid, stiffness, damping] = setup.rendering.unwrap_or([3e-4, 1500.0, 5.0]);
     let scene = Scene::new(stiffness, damping, grid);
-    // Homing: the device is assumed to start at q = (π/2, 0) (link 1 upright, link 2 level).
-    let q0 = [core::f32::consts::FRAC_PI_2, 0.0];
+    // Homing: the device is assumed to start at the image's pose in variants.txt (for the
+    // parallel link q = (π/2, 0): link 1 upright, link 2 level).
+    let q0 = setup.start;
     let settings = HapticLoopSettings {
         controller: ImpedanceController {
             law: ImpedanceLaw::Controller3,
@@ -184,10 +185,12 @@ fn main() -> ! {
         zero_offset: q0,
         initial_counts: board.counts(),
         force_calibration: ForceSensorCalibration { scale: [5.0; 2], offset: [2.5; 2] },
-        current_gains: setup.current_gains,
+        current_gains: setup.current_gains[0],
         max_tick_gap: 1,
     };
     let Some(mut app) = App::new(rig, scene, &settings, false) else { halt() };
+    // Each motor's own gains (identical for the parallel link's two motors).
+    app.haptic.set_current_loop_gains(&setup.current_gains);
     app.calibrate(&Cycles);
     cortex_m::interrupt::free(|cs| STATE.borrow(cs).replace(Some((app, board))));
     SysTickTimer(cp.SYST).start(image::CURRENT_LOOP_HZ);
