@@ -260,24 +260,13 @@ fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
         }
     };
 
-    let derivation = if !recursive::applies(model) {
-        Derivation::Polynomial
-    } else if n >= RECURSIVE_FROM_JOINTS {
-        Derivation::Recursive
-    } else {
-        cheaper_derivation(model, &inertia_matrix, &coriolis_times_qdot, &gravity, &task)
-    };
     let task_point = match &model.task {
         TaskSpec::Point(i) => Some(*i),
         TaskSpec::Joints(_) => None,
     };
-    let kinematics = match task_point {
-        Some(i) if recursive::applies(model) => cheaper_kinematics(model, &points[i], i),
-        _ => Derivation::Polynomial,
-    };
-    Mechanics {
-        derivation,
-        kinematics,
+    let mut mechanics = Mechanics {
+        derivation: Derivation::Polynomial,
+        kinematics: Derivation::Polynomial,
         task_point,
         joints: n,
         task_dim: task.position.len(),
@@ -289,6 +278,48 @@ fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
         potential_energy,
         task,
         points,
+    };
+    if recursive::applies(model) {
+        choose_derivations(model, &mut mechanics);
+    }
+    mechanics
+}
+
+/// For a serial model, the derivations of the dynamics and of the task kinematics whose
+/// control-tick quantities (`D`, `C q̇`, `g`, `J`, `J̇ q̇` with shared subexpressions, after
+/// merging sums as the emitter does) take the fewest operations. Long chains take the
+/// recursive dynamics without comparison: their polynomials are not even expanded.
+fn choose_derivations(model: &Model, mechanics: &mut Mechanics) {
+    let both = [Derivation::Polynomial, Derivation::Recursive];
+    let dynamics: &[Derivation] =
+        if model.joints.len() >= RECURSIVE_FROM_JOINTS { &both[1..] } else { &both };
+    let kinematics: &[Derivation] = if mechanics.task_point.is_some() { &both } else { &both[..1] };
+    let mut best: Option<(usize, Derivation, Derivation)> = None;
+    for &d in dynamics {
+        for &k in kinematics {
+            mechanics.derivation = d;
+            mechanics.kinematics = k;
+            let mut dag = Dag::new();
+            let mut roots = mechanics.build(&mut dag, model, Quantity::InertiaMatrix);
+            roots.extend(mechanics.build(&mut dag, model, Quantity::CoriolisTimesQdot));
+            roots.extend(mechanics.build(&mut dag, model, Quantity::Gravity));
+            roots.extend(mechanics.build_task(&mut dag, model, PointQuantity::Jacobian));
+            roots.extend(mechanics.build_task(&mut dag, model, PointQuantity::JacobianDotTimesQdot));
+            let (merged, merged_roots, _) = dag.merged_sums(&roots);
+            let cost = [dag.count(&roots), merged.count(&merged_roots)]
+                .iter()
+                .map(|c| c.arithmetic() + c.trigonometric)
+                .min()
+                .unwrap_or(usize::MAX);
+            // Strictly cheaper wins; ties keep the polynomial form (listed first).
+            if best.is_none_or(|(b, _, _)| cost < b) {
+                best = Some((cost, d, k));
+            }
+        }
+    }
+    if let Some((_, d, k)) = best {
+        mechanics.derivation = d;
+        mechanics.kinematics = k;
     }
 }
 
@@ -363,68 +394,6 @@ fn christoffel(inertia_matrix: &[Vec<Poly>]) -> (Vec<Vec<Poly>>, Vec<Poly>) {
         .map(|row| Poly::sum(&row.iter().enumerate().map(|(j, c)| c.mul(&qd(j))).collect::<Vec<_>>()))
         .collect();
     (coriolis_matrix, coriolis_times_qdot)
-}
-
-/// For a short serial chain both derivations are cheap to build: the one whose control-tick
-/// quantities (`D`, `C q̇`, `g`, `J`, `J̇ q̇`, shared subexpressions) take fewer operations wins.
-fn cheaper_derivation(
-    model: &Model,
-    inertia_matrix: &[Vec<Poly>],
-    coriolis_times_qdot: &[Poly],
-    gravity: &[Poly],
-    task: &PointKinematics,
-) -> Derivation {
-    let kinematics = |dag: &mut Dag| -> Vec<NodeId> {
-        let mut roots: Vec<NodeId> = task.jacobian.iter().flatten().map(|p| dag.polynomial(p)).collect();
-        roots.extend(task.jacobian_dot_times_qdot.iter().map(|p| dag.polynomial(p)));
-        roots
-    };
-    let cost = |dag: &Dag, roots: &[NodeId]| {
-        let c = dag.count(roots);
-        c.arithmetic() + c.trigonometric
-    };
-    let mut polynomial = Dag::new();
-    let mut roots: Vec<NodeId> = inertia_matrix.iter().flatten().map(|p| polynomial.polynomial(p)).collect();
-    roots.extend(coriolis_times_qdot.iter().chain(gravity).map(|p| polynomial.polynomial(p)));
-    roots.extend(kinematics(&mut polynomial));
-    let polynomial_cost = cost(&polynomial, &roots);
-    let mut recursive = Dag::new();
-    let mut roots = recursive::build(&mut recursive, model, Quantity::InertiaMatrix);
-    roots.extend(recursive::build(&mut recursive, model, Quantity::CoriolisTimesQdot));
-    roots.extend(recursive::build(&mut recursive, model, Quantity::Gravity));
-    roots.extend(kinematics(&mut recursive));
-    if cost(&recursive, &roots) < polynomial_cost {
-        Derivation::Recursive
-    } else {
-        Derivation::Polynomial
-    }
-}
-
-/// The cheaper way to build a point's `J` and `J̇ q̇` (with `p`) for the control tick.
-fn cheaper_kinematics(model: &Model, point: &PointKinematics, index: usize) -> Derivation {
-    let cost = |dag: &Dag, roots: &[NodeId]| {
-        let c = dag.count(roots);
-        c.arithmetic() + c.trigonometric
-    };
-    let mut polynomial = Dag::new();
-    let roots: Vec<NodeId> = point
-        .position
-        .iter()
-        .chain(point.jacobian.iter().flatten())
-        .chain(&point.jacobian_dot_times_qdot)
-        .map(|p| polynomial.polynomial(p))
-        .collect();
-    let polynomial_cost = cost(&polynomial, &roots);
-    let mut recursive = Dag::new();
-    let mut roots = Vec::new();
-    for what in [PointQuantity::Position, PointQuantity::Jacobian, PointQuantity::JacobianDotTimesQdot] {
-        roots.extend(recursive::build(&mut recursive, model, Quantity::Point(index, what)));
-    }
-    if cost(&recursive, &roots) < polynomial_cost {
-        Derivation::Recursive
-    } else {
-        Derivation::Polynomial
-    }
 }
 
 impl Mechanics {

@@ -102,6 +102,10 @@ impl OpCounts {
 pub struct Dag {
     nodes: Vec<Node>,
     index: HashMap<Node, NodeId, BuildHasherDefault<NodeHasher>>,
+    /// Linear combinations built by [`Dag::merged_sums`], keyed by their terms with the
+    /// coefficients divided by the first one: a later combination proportional to an earlier
+    /// one is one multiplication of it.
+    linear_index: HashMap<Vec<(NodeId, i64)>, (NodeId, f64)>,
 }
 
 /// A node id with a pending sign, used while building sums.
@@ -607,6 +611,34 @@ impl Dag {
         }
         // Exact symbolic cancellation, up to rounding of the constants.
         merged.retain(|m| m.1.abs() > 1e-12 * m.2);
+        // A combination proportional to one built before is a multiple of it.
+        let mut key: Vec<(NodeId, i64)> = Vec::new();
+        let mut scale = 0.0;
+        if merged.len() >= 2 {
+            let mut sorted: Vec<(NodeId, f64)> = merged.iter().map(|m| (m.0, m.1)).collect();
+            sorted.sort_by_key(|t| t.0);
+            scale = sorted[0].1;
+            // Ratios rounded to 12 significant digits, so that rounding of the constants
+            // does not hide a proportionality.
+            key = sorted.iter().map(|&(id, c)| (id, ((c / scale) * 1e12).round() as i64)).collect();
+            if let Some(&(base, base_scale)) = self.linear_index.get(&key) {
+                let k = self.constant(scale / base_scale);
+                let multiple = self.mul(k, base);
+                let c = self.constant(l.constant);
+                return self.add(multiple, c);
+            }
+        }
+        let constant = l.constant;
+        let variable = self.variable_part(merged);
+        if !key.is_empty() {
+            self.linear_index.insert(key, (variable, scale));
+        }
+        let c = self.constant(constant);
+        self.add(variable, c)
+    }
+
+    /// `Σ c_i x_i` with equal coefficient magnitudes sharing one multiplication.
+    fn variable_part(&mut self, merged: Vec<(NodeId, f64, f64)>) -> NodeId {
         // Groups of equal coefficient magnitude, in order of first appearance.
         let mut groups: Vec<(f64, Vec<Signed>)> = Vec::new();
         for (id, c, _) in merged {
@@ -621,9 +653,6 @@ impl Dag {
             let inner = self.signed_sum(members);
             let k = self.constant(k);
             parts.push(Signed { id: self.mul(k, inner.id), negative: inner.negative });
-        }
-        if l.constant != 0.0 {
-            parts.push(Signed { id: self.constant(l.constant.abs()), negative: l.constant < 0.0 });
         }
         if parts.is_empty() {
             return self.constant(0.0);
