@@ -295,8 +295,7 @@ impl<'m> BodyEmitter<'m> {
     /// Emits `let` statements for shared nodes and the expressions of `roots`, after merging
     /// sums ([`Dag::merged_sums`]) where that saves operations.
     fn emit(&self, roots: &[NodeId], context: &str) -> (TokenStream, Vec<TokenStream>, OpCounts) {
-        let (dag, new_roots, map) = self.dag.merged_sums(roots);
-        if cost(dag.count(&new_roots)) < cost(self.dag.count(roots)) {
+        if let Some((dag, new_roots, map)) = self.dag.optimised(roots) {
             let hints =
                 self.hints.iter().filter_map(|(id, name)| Some((*map.get(id)?, name.clone()))).collect();
             let merged = BodyEmitter { dag, naming: self.naming.clone(), scalar: self.scalar, hints };
@@ -538,11 +537,6 @@ impl<'m> BodyEmitter<'m> {
             }
         }
     }
-}
-
-/// Arithmetic plus trigonometric operations: what the emitter minimises.
-fn cost(c: OpCounts) -> usize {
-    c.arithmetic() + c.trigonometric
 }
 
 /// An integer literal without a type suffix (`2`, not `2usize`).
@@ -819,12 +813,9 @@ fn tick_outputs(mech: &Mechanics, include_position: bool) -> Vec<Output<'_>> {
 pub fn tick_counts(model: &Model, mech: &Mechanics, include_position: bool) -> OpCounts {
     let mut body = BodyEmitter::new(model, Scalar::F64);
     let roots = output_roots(&mut body.dag, model, mech, &tick_outputs(mech, include_position));
-    let (merged, new_roots, _) = body.dag.merged_sums(&roots);
-    let (before, after) = (body.dag.count(&roots), merged.count(&new_roots));
-    if cost(after) < cost(before) {
-        after
-    } else {
-        before
+    match body.dag.optimised(&roots) {
+        Some((dag, new_roots, _)) => dag.count(&new_roots),
+        None => body.dag.count(&roots),
     }
 }
 

@@ -11,6 +11,8 @@
 //! `V = −Σ_b m_b gᵀ r_b`, the task position `p(q)`, `J = ∂p/∂q` and `J̇ = Σ_i ∂J/∂q_i q̇_i`.
 //! Nothing is derived by hand: every formula above is applied to whatever the model says.
 
+use std::collections::HashMap;
+
 use crate::model::{JointKind, Model, Motion, TaskSpec};
 use crate::recursive::{self, PointQuantity, Quantity};
 use crate::sym::dag::{Dag, NodeId};
@@ -53,6 +55,9 @@ pub struct Mechanics {
     pub kinematics: Derivation,
     /// The task's point (index into the model's points), if the task is a point.
     pub task_point: Option<usize>,
+    /// On the polynomial path, build `C q̇` as `Σ_{i≤j} Γ_kij q̇_i q̇_j` from shared partial
+    /// derivatives of `D` rather than from its expanded polynomial.
+    pub structured_coriolis: bool,
     /// Number of joints.
     pub joints: usize,
     /// Task-space dimension.
@@ -268,6 +273,7 @@ fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
         derivation: Derivation::Polynomial,
         kinematics: Derivation::Polynomial,
         task_point,
+        structured_coriolis: false,
         joints: n,
         task_dim: task.position.len(),
         inertia_matrix,
@@ -279,9 +285,7 @@ fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
         task,
         points,
     };
-    if recursive::applies(model) {
-        choose_derivations(model, &mut mechanics);
-    }
+    choose_derivations(model, &mut mechanics);
     mechanics
 }
 
@@ -291,35 +295,48 @@ fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
 /// recursive dynamics without comparison: their polynomials are not even expanded.
 fn choose_derivations(model: &Model, mechanics: &mut Mechanics) {
     let both = [Derivation::Polynomial, Derivation::Recursive];
-    let dynamics: &[Derivation] =
-        if model.joints.len() >= RECURSIVE_FROM_JOINTS { &both[1..] } else { &both };
-    let kinematics: &[Derivation] = if mechanics.task_point.is_some() { &both } else { &both[..1] };
-    let mut best: Option<(usize, Derivation, Derivation)> = None;
-    for &d in dynamics {
+    let serial = recursive::applies(model);
+    let dynamics: &[Derivation] = if !serial {
+        &both[..1]
+    } else if model.joints.len() >= RECURSIVE_FROM_JOINTS {
+        &both[1..]
+    } else {
+        &both
+    };
+    let kinematics: &[Derivation] = if serial && mechanics.task_point.is_some() { &both } else { &both[..1] };
+    let mut best: Option<(usize, Derivation, Derivation, bool)> = None;
+    let options: Vec<(Derivation, bool)> = dynamics
+        .iter()
+        .flat_map(
+            |&d| if d == Derivation::Polynomial { vec![(d, false), (d, true)] } else { vec![(d, false)] },
+        )
+        .collect();
+    for &(d, structured) in &options {
         for &k in kinematics {
             mechanics.derivation = d;
             mechanics.kinematics = k;
+            mechanics.structured_coriolis = structured;
             let mut dag = Dag::new();
             let mut roots = mechanics.build(&mut dag, model, Quantity::InertiaMatrix);
             roots.extend(mechanics.build(&mut dag, model, Quantity::CoriolisTimesQdot));
             roots.extend(mechanics.build(&mut dag, model, Quantity::Gravity));
             roots.extend(mechanics.build_task(&mut dag, model, PointQuantity::Jacobian));
             roots.extend(mechanics.build_task(&mut dag, model, PointQuantity::JacobianDotTimesQdot));
-            let (merged, merged_roots, _) = dag.merged_sums(&roots);
-            let cost = [dag.count(&roots), merged.count(&merged_roots)]
-                .iter()
-                .map(|c| c.arithmetic() + c.trigonometric)
-                .min()
-                .unwrap_or(usize::MAX);
+            let counts = match dag.optimised(&roots) {
+                Some((optimised, optimised_roots, _)) => optimised.count(&optimised_roots),
+                None => dag.count(&roots),
+            };
+            let cost = counts.arithmetic() + counts.trigonometric;
             // Strictly cheaper wins; ties keep the polynomial form (listed first).
-            if best.is_none_or(|(b, _, _)| cost < b) {
-                best = Some((cost, d, k));
+            if best.is_none_or(|(b, _, _, _)| cost < b) {
+                best = Some((cost, d, k, structured));
             }
         }
     }
-    if let Some((_, d, k)) = best {
+    if let Some((_, d, k, structured)) = best {
         mechanics.derivation = d;
         mechanics.kinematics = k;
+        mechanics.structured_coriolis = structured;
     }
 }
 
@@ -397,6 +414,55 @@ fn christoffel(inertia_matrix: &[Vec<Poly>]) -> (Vec<Vec<Poly>>, Vec<Poly>) {
 }
 
 impl Mechanics {
+    /// `C q̇ = Σ_k Σ_{i≤j} Γ_kij q̇_i q̇_j` with the Christoffel combinations
+    /// `Γ_kij = ∂_i D_kj + ∂_j D_ki − ∂_k D_ij` (`i < j`) and `∂_i D_ki − ½ ∂_k D_ii` (`i = j`) built
+    /// from the partial derivatives of `D` as shared nodes (the diagonal ones as
+    /// `(2 ∂_i D_ki − ∂_k D_ii) · ½ q̇_i²`).
+    fn christoffel_form(&self, dag: &mut Dag) -> Vec<NodeId> {
+        let n = self.joints;
+        let mut partial: HashMap<(usize, usize, usize), NodeId> = HashMap::new();
+        let mut d = |dag: &mut Dag, i: usize, r: usize, c: usize| -> NodeId {
+            let (r, c) = (r.min(c), r.max(c));
+            *partial
+                .entry((i, r, c))
+                .or_insert_with(|| dag.polynomial(&self.inertia_matrix[r][c].diff_q(i as u16)))
+        };
+        let half = dag.constant(0.5);
+        (0..n)
+            .map(|k| {
+                let mut acc = dag.constant(0.0);
+                for i in 0..n {
+                    for j in i..n {
+                        let (qi, qj) = (dag.input(Atom::Qd(i as u16)), dag.input(Atom::Qd(j as u16)));
+                        let velocities = dag.mul(qi, qj);
+                        if i == j {
+                            // (2 ∂_i D_ki − ∂_k D_ii) · ½ q̇_i²: the half square is shared by every row.
+                            let a = d(dag, i, k, i);
+                            let b = d(dag, k, i, i);
+                            let two = dag.constant(2.0);
+                            let a = dag.mul(two, a);
+                            let symbol = dag.sub(a, b);
+                            let half_square = dag.mul(half, velocities);
+                            let term = dag.mul(symbol, half_square);
+                            acc = dag.add(acc, term);
+                            continue;
+                        }
+                        let symbol = {
+                            let a = d(dag, i, k, j);
+                            let b = d(dag, j, k, i);
+                            let c = d(dag, k, i, j);
+                            let ab = dag.add(a, b);
+                            dag.sub(ab, c)
+                        };
+                        let term = dag.mul(symbol, velocities);
+                        acc = dag.add(acc, term);
+                    }
+                }
+                acc
+            })
+            .collect()
+    }
+
     /// The task's position, Jacobian (row-major) or `J̇ q̇`, built into `dag`.
     pub fn build_task(&self, dag: &mut Dag, model: &Model, what: PointQuantity) -> Vec<NodeId> {
         match self.task_point {
@@ -424,6 +490,7 @@ impl Mechanics {
             Quantity::CoriolisMatrix => {
                 self.coriolis_matrix.iter().flat_map(|row| row.iter()).map(|p| dag.polynomial(p)).collect()
             }
+            Quantity::CoriolisTimesQdot if self.structured_coriolis => self.christoffel_form(dag),
             Quantity::CoriolisTimesQdot => polys(dag, &self.coriolis_times_qdot),
             Quantity::Gravity => polys(dag, &self.gravity),
             Quantity::Point(i, what) => {

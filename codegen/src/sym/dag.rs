@@ -661,3 +661,104 @@ impl Dag {
         self.resolve(total)
     }
 }
+
+impl Dag {
+    /// Rebuilds the nodes needed for `roots`, removing negations of products whose other
+    /// factor is a difference used nowhere else: `−(x (a − b)) = x (b − a)`. Returns the new
+    /// DAG, the new roots and, for every node that still exists, its new id.
+    pub fn pushed_negations(&self, roots: &[NodeId]) -> (Dag, Vec<NodeId>, HashMap<NodeId, NodeId>) {
+        let order = self.reachable(roots);
+        let mut uses = vec![0usize; self.nodes.len()];
+        for &id in &order {
+            match self.nodes[id] {
+                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => {
+                    uses[a] += 1;
+                    uses[b] += 1;
+                }
+                Node::Neg(a) => uses[a] += 1,
+                _ => {}
+            }
+        }
+        for &r in roots {
+            uses[r] += 2;
+        }
+        let mut out = Dag::new();
+        let mut map: HashMap<NodeId, NodeId> = HashMap::with_capacity(order.len());
+        for &id in &order {
+            let new = match self.nodes[id] {
+                Node::Const(bits) => out.constant(f64::from_bits(bits)),
+                Node::Input(atom) => out.input(atom),
+                Node::Add(a, b) => out.add(map[&a], map[&b]),
+                Node::Sub(a, b) => out.sub(map[&a], map[&b]),
+                Node::Mul(a, b) => out.mul(map[&a], map[&b]),
+                Node::Div(a, b) => out.div(map[&a], map[&b]),
+                Node::Neg(m) => match self.free_negation(m, &uses, &map, &mut out) {
+                    Some(flipped) => flipped,
+                    None => out.neg(map[&m]),
+                },
+            };
+            map.insert(id, new);
+        }
+        let new_roots = roots.iter().map(|r| map[r]).collect();
+        (out, new_roots, map)
+    }
+
+    /// `−x` for an old node `x` used only once, built in `out` without a negation when the sign
+    /// can be absorbed: `−(a − b) = b − a`, `−(c x) = (−c) x`, `−(x y) = x (−y)`,
+    /// `−(a + b) = (−a) − b`.
+    fn free_negation(
+        &self,
+        id: NodeId,
+        uses: &[usize],
+        map: &HashMap<NodeId, NodeId>,
+        out: &mut Dag,
+    ) -> Option<NodeId> {
+        if uses[id] != 1 {
+            return None;
+        }
+        match self.nodes[id] {
+            Node::Const(bits) => Some(out.constant(-f64::from_bits(bits))),
+            Node::Neg(x) => Some(map[&x]),
+            Node::Sub(a, b) => Some(out.sub(map[&b], map[&a])),
+            Node::Mul(x, y) => {
+                for (x, y) in [(x, y), (y, x)] {
+                    if let Some(k) = self.constant_value(x) {
+                        let k = out.constant(-k);
+                        return Some(out.mul(k, map[&y]));
+                    }
+                    if let Some(negated) = self.free_negation(y, uses, map, out) {
+                        return Some(out.mul(map[&x], negated));
+                    }
+                }
+                None
+            }
+            Node::Add(a, b) => {
+                for (a, b) in [(a, b), (b, a)] {
+                    if let Some(negated) = self.free_negation(a, uses, map, out) {
+                        return Some(out.sub(negated, map[&b]));
+                    }
+                }
+                None
+            }
+            _ => None,
+        }
+    }
+
+    /// The cheapest of the DAG as built, after [`Dag::merged_sums`], and after that and
+    /// [`Dag::pushed_negations`] (arithmetic plus trigonometric operations), with the map from
+    /// old node ids to new ones (`None`: unchanged).
+    pub fn optimised(&self, roots: &[NodeId]) -> Option<(Dag, Vec<NodeId>, HashMap<NodeId, NodeId>)> {
+        let cost = |dag: &Dag, roots: &[NodeId]| {
+            let c = dag.count(roots);
+            c.arithmetic() + c.trigonometric
+        };
+        let original = cost(self, roots);
+        let (merged, merged_roots, merged_map) = self.merged_sums(roots);
+        let (pushed, pushed_roots, pushed_map) = merged.pushed_negations(&merged_roots);
+        let composed: HashMap<NodeId, NodeId> =
+            merged_map.iter().filter_map(|(old, mid)| Some((*old, *pushed_map.get(mid)?))).collect();
+        let candidates = [(merged_roots.clone(), merged, merged_map), (pushed_roots, pushed, composed)];
+        let best = candidates.into_iter().map(|(r, d, m)| (cost(&d, &r), d, r, m)).min_by_key(|c| c.0)?;
+        (best.0 < original).then_some((best.1, best.2, best.3))
+    }
+}
