@@ -152,6 +152,7 @@ impl Naming<'_> {
             },
             Atom::Qd(j) => format!("{}_dot", joint(j)),
             Atom::Param(k) => self.model.tunable[usize::from(k)].name.clone(),
+            Atom::Closure(k) => format!("closure_{k}"),
             Atom::External(k) => self
                 .externals
                 .get(usize::from(k))
@@ -180,12 +181,11 @@ enum Precedence {
 
 impl<'m> BodyEmitter<'m> {
     fn new(model: &'m Model, scalar: Scalar) -> Self {
-        Self {
-            dag: Dag::new(),
-            naming: Naming { model, externals: Vec::new() },
-            scalar,
-            hints: HashMap::new(),
-        }
+        // A closed chain's passive coordinates enter every polynomial as nodes computed from
+        // the actuated ones (`crate::closure`), named after their role.
+        let mut dag = Dag::new();
+        let hints = crate::closure::install(&mut dag, model.closures.as_ref()).hints.into_iter().collect();
+        Self { dag, naming: Naming { model, externals: Vec::new() }, scalar, hints }
     }
 
     /// A descriptive name for a node, if a short one exists.
@@ -221,6 +221,7 @@ impl<'m> BodyEmitter<'m> {
             Node::Sub(a, b) => format!("{}_minus_{}", name_of(a)?, name_of(b)?),
             Node::Neg(a) => format!("minus_{}", name_of(a)?),
             Node::Div(a, b) => format!("{}_over_{}", name_of(a)?, name_of(b)?),
+            Node::Sqrt(a) => format!("sqrt_{}", name_of(a)?),
             _ => return None,
         };
         (name.len() <= 32).then_some(name)
@@ -271,7 +272,7 @@ impl<'m> BodyEmitter<'m> {
                     *uses.entry(a).or_default() += 1;
                     *uses.entry(b).or_default() += 1;
                 }
-                Node::Neg(a) => *uses.entry(a).or_default() += 1,
+                Node::Neg(a) | Node::Sqrt(a) => *uses.entry(a).or_default() += 1,
                 _ => {}
             }
         }
@@ -292,6 +293,7 @@ impl<'m> BodyEmitter<'m> {
             Atom::Qd(j) => (2, j, 0),
             Atom::Param(k) => (3, k, 0),
             Atom::External(k) => (4, k, 0),
+            Atom::Closure(k) => (5, k, 0),
         };
         order.sort_by_key(|&id| match self.dag.nodes()[id] {
             Node::Input(a) => (0, Some(input_rank(a)), id),
@@ -487,6 +489,10 @@ impl<'m> BodyEmitter<'m> {
                 let x = wrap(self.expression(a, names, false), Precedence::Product);
                 let y = wrap(self.expression(b, names, false), Precedence::Atomic);
                 (quote!(#x / #y), Precedence::Product)
+            }
+            Node::Sqrt(a) => {
+                let (x, _) = self.expression(a, names, false);
+                (quote!(::hapticgen_runtime::Real::sqrt(#x)), Precedence::Atomic)
             }
         }
     }

@@ -52,6 +52,12 @@ pub struct Mechanics {
     pub task: PointKinematics,
     /// Every named point of the model (planar: x, y; spatial: x, y, z).
     pub points: Vec<PointKinematics>,
+    /// A closed chain's elimination: its polynomials also contain the passive joints' atoms
+    /// and [`Atom::Closure`] atoms, which [`crate::closure::install`] defines.
+    pub closures: Option<crate::closure::Closures>,
+    /// A closed chain's open-tree mechanics, in all coordinates (actuated, then passive),
+    /// before the reduction to the actuated coordinates.
+    pub tree: Option<Box<Mechanics>>,
 }
 
 type Vec3 = [Poly; 3];
@@ -108,12 +114,9 @@ struct Frame {
     rotation: Mat3,
 }
 
-/// Derives every quantity of the model.
-pub fn derive(model: &Model) -> Mechanics {
-    let n = model.joints.len();
+/// Body frames, in dependency order, over all coordinates of the open tree.
+fn body_frames(model: &Model) -> Vec<Frame> {
     let dof = |j: usize| j as u16;
-
-    // Body frames, in dependency order.
     let mut frames: Vec<Frame> = Vec::with_capacity(model.bodies.len());
     let base = || Frame { origin: [Poly::zero(), Poly::zero(), Poly::zero()], rotation: identity() };
     for body in &model.bodies {
@@ -128,14 +131,12 @@ pub fn derive(model: &Model) -> Mechanics {
                 let rotation = match joint {
                     None => offset_rotation,
                     Some(j) => {
-                        let joint = &model.joints[*j];
-                        match joint.kind {
-                            JointKind::Revolute => {
-                                mat_mul(&offset_rotation, &axis_rotation(joint.axis, dof(*j)))
-                            }
+                        let (kind, axis) = model.coordinate_axis(*j);
+                        match kind {
+                            JointKind::Revolute => mat_mul(&offset_rotation, &axis_rotation(axis, dof(*j))),
                             JointKind::Prismatic => {
                                 let q = Poly::atom(Atom::Q(dof(*j)));
-                                let slide: Vec3 = joint.axis.map(|a| q.scale(a));
+                                let slide: Vec3 = axis.map(|a| q.scale(a));
                                 origin = vec_add(&origin, &mat_vec(&offset_rotation, &slide));
                                 offset_rotation
                             }
@@ -163,6 +164,41 @@ pub fn derive(model: &Model) -> Mechanics {
         };
         frames.push(frame);
     }
+    frames
+}
+
+/// The world position of named point `index` (2 or 3 entries) over all tree coordinates.
+fn point_world(model: &Model, frames: &[Frame], index: usize) -> Vec<Poly> {
+    let point = &model.points[index];
+    let world = match point.body {
+        Some(b) => vec_add(&frames[b].origin, &mat_vec(&frames[b].rotation, &point.position)),
+        None => point.position.clone(),
+    };
+    world[..model.dim()].to_vec()
+}
+
+/// The world positions of every named point, polynomials over all coordinates of the open
+/// tree (a closed chain's passive joints included).
+pub fn point_positions(model: &Model) -> Vec<Vec<Poly>> {
+    let frames = body_frames(model);
+    (0..model.points.len()).map(|i| point_world(model, &frames, i)).collect()
+}
+
+/// Derives every quantity of the model; a closed chain's are reduced to the actuated
+/// coordinates (see [`crate::closure`]).
+pub fn derive(model: &Model) -> Mechanics {
+    let tree = derive_tree(model);
+    match &model.closures {
+        Some(closures) => crate::closure::reduce(tree, closures),
+        None => tree,
+    }
+}
+
+/// The mechanics of the open tree, in all coordinates.
+fn derive_tree(model: &Model) -> Mechanics {
+    let n = model.tree_coordinates();
+    let dof = |j: usize| j as u16;
+    let frames = body_frames(model);
 
     // Inertia matrix and potential energy.
     let zero_matrix = |rows: usize, cols: usize| vec![vec![Poly::zero(); cols]; rows];
@@ -201,8 +237,8 @@ pub fn derive(model: &Model) -> Mechanics {
     for a in 0..n {
         for b in a..n {
             let mut entry = Poly::sum(&inertia_terms[a][b]);
-            if a == b {
-                let drive = &model.joints[a].drive;
+            if let (true, Some(joint)) = (a == b, model.joints.get(a)) {
+                let drive = &joint.drive;
                 entry = entry
                     .add(&Poly::constant(drive.gear_ratio * drive.gear_ratio * drive.motor.rotor_inertia));
             }
@@ -235,18 +271,10 @@ pub fn derive(model: &Model) -> Mechanics {
         .iter()
         .map(|row| Poly::sum(&row.iter().enumerate().map(|(j, c)| c.mul(&qd(j))).collect::<Vec<_>>()))
         .collect();
-    let damping: Vec<Poly> = model.joints.iter().map(|j| j.damping.clone()).collect();
+    let damping: Vec<Poly> =
+        (0..n).map(|j| model.joints.get(j).map(|j| j.damping.clone()).unwrap_or_default()).collect();
 
     // Points and task.
-    let dim = model.dim();
-    let point_world = |index: usize| -> Vec<Poly> {
-        let point = &model.points[index];
-        let world = match point.body {
-            Some(b) => vec_add(&frames[b].origin, &mat_vec(&frames[b].rotation, &point.position)),
-            None => point.position.clone(),
-        };
-        world[..dim].to_vec()
-    };
     let kinematics = |name: &str, position: Vec<Poly>| -> PointKinematics {
         let jacobian: Vec<Vec<Poly>> =
             position.iter().map(|p| (0..n).map(|k| p.diff_q(dof(k))).collect()).collect();
@@ -267,7 +295,7 @@ pub fn derive(model: &Model) -> Mechanics {
         PointKinematics { name: name.to_string(), position, jacobian, jacobian_dot, jacobian_dot_times_qdot }
     };
     let points: Vec<PointKinematics> =
-        (0..model.points.len()).map(|i| kinematics(&model.points[i].name, point_world(i))).collect();
+        (0..model.points.len()).map(|i| kinematics(&model.points[i].name, point_world(model, &frames, i))).collect();
     let task = match &model.task {
         TaskSpec::Point(i) => {
             let mut k = points[*i].clone();
@@ -290,5 +318,7 @@ pub fn derive(model: &Model) -> Mechanics {
         potential_energy,
         task,
         points,
+        closures: None,
+        tree: None,
     }
 }

@@ -71,6 +71,8 @@ pub enum Node {
     Neg(NodeId),
     /// `a / b`.
     Div(NodeId, NodeId),
+    /// `√a` (closed-chain position level: the two-circle intersection).
+    Sqrt(NodeId),
 }
 
 /// Operation counts of a set of outputs.
@@ -102,6 +104,9 @@ impl OpCounts {
 pub struct Dag {
     nodes: Vec<Node>,
     index: HashMap<Node, NodeId, BuildHasherDefault<NodeHasher>>,
+    /// Atoms that stand for nodes built from other inputs (a closed chain's passive
+    /// coordinates, see `crate::closure`): [`Dag::input`] returns the node instead.
+    substitutions: HashMap<Atom, NodeId>,
 }
 
 /// A node id with a pending sign, used while building sums.
@@ -146,9 +151,25 @@ impl Dag {
         self.intern(Node::Const(value.to_bits()))
     }
 
-    /// An input node.
+    /// An input node, or the node an atom was [substituted](Dag::substitute) by.
     pub fn input(&mut self, atom: Atom) -> NodeId {
-        self.intern(Node::Input(atom))
+        match self.substitutions.get(&atom) {
+            Some(&id) => id,
+            None => self.intern(Node::Input(atom)),
+        }
+    }
+
+    /// From now on, `atom` stands for the node `id` in every polynomial added.
+    pub fn substitute(&mut self, atom: Atom, id: NodeId) {
+        self.substitutions.insert(atom, id);
+    }
+
+    /// `√a`, folded for constants.
+    pub fn sqrt(&mut self, a: NodeId) -> NodeId {
+        match self.constant_value(a) {
+            Some(x) => self.constant(x.sqrt()),
+            None => self.intern(Node::Sqrt(a)),
+        }
     }
 
     /// `a + b`, folded.
@@ -391,7 +412,7 @@ impl Dag {
                     stack.push(a);
                     stack.push(b);
                 }
-                Node::Neg(a) => stack.push(a),
+                Node::Neg(a) | Node::Sqrt(a) => stack.push(a),
                 _ => {}
             }
         }
@@ -407,6 +428,7 @@ impl Dag {
                 Node::Mul(..) => counts.multiplications += 1,
                 Node::Neg(..) => counts.negations += 1,
                 Node::Div(..) => counts.divisions += 1,
+                Node::Sqrt(..) => counts.square_roots += 1,
                 Node::Input(Atom::Sin(_) | Atom::Cos(_)) => counts.trigonometric += 1,
                 _ => {}
             }
@@ -416,8 +438,17 @@ impl Dag {
 
     /// Evaluates a node given input values.
     pub fn eval(&self, id: NodeId, input: &dyn Fn(Atom) -> f64) -> f64 {
-        let mut values = vec![0.0; id + 1];
-        for (i, node) in self.nodes[..=id].iter().enumerate() {
+        self.eval_prefix(id + 1, input)[id]
+    }
+
+    /// Evaluates every node given input values.
+    pub fn eval_all(&self, input: &dyn Fn(Atom) -> f64) -> Vec<f64> {
+        self.eval_prefix(self.nodes.len(), input)
+    }
+
+    fn eval_prefix(&self, len: usize, input: &dyn Fn(Atom) -> f64) -> Vec<f64> {
+        let mut values = vec![0.0; len];
+        for (i, node) in self.nodes[..len].iter().enumerate() {
             values[i] = match *node {
                 Node::Const(bits) => f64::from_bits(bits),
                 Node::Input(a) => input(a),
@@ -426,8 +457,9 @@ impl Dag {
                 Node::Mul(a, b) => values[a] * values[b],
                 Node::Neg(a) => -values[a],
                 Node::Div(a, b) => values[a] / values[b],
+                Node::Sqrt(a) => values[a].sqrt(),
             };
         }
-        values[id]
+        values
     }
 }
