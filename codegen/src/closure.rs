@@ -72,6 +72,8 @@ pub struct Loop {
     pub name: String,
     /// The two passive joints, as coordinates of the open tree.
     pub joints: [usize; 2],
+    /// The two points that coincide (indices into the model's points).
+    pub points: [usize; 2],
     /// `σ = +1` (`left`) or `−1` (`right`).
     pub branch_sign: f64,
     /// `c_k`: the axis of each passive joint in the base frame (functions of `q_a`).
@@ -214,12 +216,13 @@ pub fn analyse(model: &Model, declarations: &[Declaration]) -> Result<Closures, 
                                 problems.push(problem(
                                     Some("points"),
                                     format!(
-                                        "point `{point}` moves with passive joint `{}` as well as `{joint}`",
+                                        "point `{point}` moves with passive joint `{}`, but it must hang on the link of `{joint}`",
                                         names[usize::from(j)]
                                     ),
-                                    Some(format!(
-                                        "each point of a closure hangs on the link its own joint turns, after the actuated joints only: `{point}` on the link of `{joint}`"
-                                    )),
+                                    Some(
+                                        "pair points and joints in order: `points[k]` hangs on the link that `joints[k]` turns, after actuated joints only"
+                                            .into(),
+                                    ),
                                 ));
                                 continue 'closures;
                             }
@@ -323,6 +326,7 @@ pub fn analyse(model: &Model, declarations: &[Declaration]) -> Result<Closures, 
         loops.push(Loop {
             name: d.name.clone(),
             joints: d.joints,
+            points: d.points,
             branch_sign: if d.branch == Branch::Left { 1.0 } else { -1.0 },
             centres,
             arms,
@@ -360,6 +364,10 @@ pub fn install(dag: &mut Dag, closures: Option<&Closures>) -> Installed {
         // Position level: the intersection of the two circles.
         let centre = |dag: &mut Dag, k: usize| [poly(dag, &l.centres[k][0]), poly(dag, &l.centres[k][1])];
         let (a, b) = (centre(dag, 0), centre(dag, 1));
+        for (k, centre) in [a, b].iter().enumerate() {
+            name(dag, centre[0], format!("{}_axis_x", passive_names[k]), &mut out);
+            name(dag, centre[1], format!("{}_axis_y", passive_names[k]), &mut out);
+        }
         let r1 = poly(dag, &l.radii_squared[0]);
         let r2 = poly(dag, &l.radii_squared[1]);
         let dx = dag.sub(b[0], a[0]);
