@@ -16,6 +16,9 @@ hapticgen_macros::rig!(mod vertical_f64 = "../models/parallel_link_2dof.yaml", v
 hapticgen_macros::rig!(mod vertical_f32 = "../models/parallel_link_2dof.yaml", variant = "vertical", scalar = f32);
 hapticgen_macros::rig!(mod horizontal_f64 = "../models/parallel_link_2dof.yaml", variant = "horizontal");
 hapticgen_macros::rig!(mod horizontal_f32 = "../models/parallel_link_2dof.yaml", variant = "horizontal", scalar = f32);
+hapticgen_macros::rig!(mod pantograph_f64 = "../models/pantograph_5bar.yaml", variant = "vertical");
+hapticgen_macros::rig!(mod pantograph_f32 = "../models/pantograph_5bar.yaml", scalar = f32);
+hapticgen_macros::rig!(mod five_bar_f64 = "../codegen/tests/good-models/five_bar_2dof.yaml");
 
 #[test]
 fn macro_generated_rigs_equal_the_evaluator() {
@@ -28,7 +31,13 @@ fn macro_generated_rigs_equal_the_evaluator() {
     check.visit_f32(&info(Some("vertical"), "vertical_f32"), &vertical_f32::ParallelLink2dof::NOMINAL);
     check.visit_f64(&info(Some("horizontal"), "horizontal_f64"), &horizontal_f64::ParallelLink2dof::NOMINAL);
     check.visit_f32(&info(Some("horizontal"), "horizontal_f32"), &horizontal_f32::ParallelLink2dof::NOMINAL);
-    assert_eq!(check.rigs, 6);
+    // Closed chains: the five-bars, reduced to their motors.
+    let info = |variant, module| RigInfo { file: "models/pantograph_5bar.yaml", variant, module };
+    check.visit_f64(&info(Some("vertical"), "pantograph_f64"), &pantograph_f64::Pantograph5bar::NOMINAL);
+    check.visit_f32(&info(Some("horizontal"), "pantograph_f32"), &pantograph_f32::Pantograph5bar::NOMINAL);
+    let info = RigInfo { file: "codegen/tests/good-models/five_bar_2dof.yaml", variant: None, module: "five_bar_f64" };
+    check.visit_f64(&info, &five_bar_f64::FiveBar2dof::NOMINAL);
+    assert_eq!(check.rigs, 9);
 }
 
 #[test]
