@@ -187,7 +187,10 @@ pub fn analyse(model: &Model, declarations: &[Declaration]) -> Result<Closures, 
     let total = model.tree_coordinates();
     let positions = crate::mechanics::point_positions(model);
     let parameters = model.nominal_parameters();
-    let nominal = Nominal { q: model.joints.iter().map(|j| 0.5 * (j.lower + j.upper)).collect(), parameters: &parameters };
+    let nominal = Nominal {
+        q: model.joints.iter().map(|j| 0.5 * (j.lower + j.upper)).collect(),
+        parameters: &parameters,
+    };
     let names: Vec<String> = (0..total).map(|j| model.coordinate_name(j).to_string()).collect();
     let mut problems = Vec::new();
     let mut loops = Vec::new();
@@ -264,13 +267,15 @@ pub fn analyse(model: &Model, declarations: &[Declaration]) -> Result<Closures, 
             if det.atoms().any(|a| !matches!(a, Atom::Param(_))) {
                 problems.push(problem(
                     Some("points"),
-                    format!("the distance of point `{point}` from the axis of joint `{joint}` is not constant"),
+                    format!(
+                        "the distance of point `{point}` from the axis of joint `{joint}` is not constant"
+                    ),
                     None,
                 ));
                 continue 'closures;
             }
             let value = det.eval(&nominal);
-            if !(value.abs() > 1e-16) {
+            if value.is_nan() || value.abs() <= 1e-16 {
                 problems.push(problem(
                     Some("points"),
                     format!("point `{point}` lies on the axis of joint `{joint}`"),
@@ -288,7 +293,7 @@ pub fn analyse(model: &Model, declarations: &[Declaration]) -> Result<Closures, 
         let k_value = span * span + r1 * r1 - r2 * r2;
         let discriminant = 4.0 * span * span * r1 * r1 - k_value * k_value;
         let scale = 4.0 * span * span * r1 * r1;
-        if !(discriminant > 1e-9 * scale) {
+        if discriminant.is_nan() || discriminant <= 1e-9 * scale {
             let at: Vec<String> =
                 model.joints.iter().zip(&nominal.q).map(|(j, q)| format!("{} = {q:.4}", j.name)).collect();
             let why = if span > r1 + r2 {
@@ -317,7 +322,9 @@ pub fn analyse(model: &Model, declarations: &[Declaration]) -> Result<Closures, 
         let residual = [p1[0].sub(&p2[0]), p1[1].sub(&p2[1])];
         let diff = |p: &Poly, j: usize| p.diff_q(j as u16);
         let rate = |p: &Poly| {
-            Poly::sum(&(0..total).map(|k| diff(p, k).mul(&Poly::atom(Atom::Qd(k as u16)))).collect::<Vec<_>>())
+            Poly::sum(
+                &(0..total).map(|k| diff(p, k).mul(&Poly::atom(Atom::Qd(k as u16)))).collect::<Vec<_>>(),
+            )
         };
         let passive_jacobian = residual.clone().map(|phi| d.joints.map(|j| diff(&phi, j)));
         let actuated_jacobian = residual.clone().map(|phi| (0..n).map(|j| diff(&phi, j)).collect::<Vec<_>>());
@@ -535,12 +542,10 @@ pub fn reduce(tree: Mechanics, closures: &Closures) -> Mechanics {
     let s_dot_qd = mat_vec(&s_dot, &qd);
     let st = transpose(&s);
     let d_s = mat_mul(&tree.inertia_matrix, &s);
-    let mut inertia_matrix = mat_mul(&st, &d_s);
-    for i in 0..n {
-        for j in 0..i {
-            inertia_matrix[i][j] = inertia_matrix[j][i].clone();
-        }
-    }
+    let product = mat_mul(&st, &d_s);
+    // Symmetric by construction; mirrored so that rounding cannot make it otherwise.
+    let inertia_matrix: Matrix =
+        (0..n).map(|i| (0..n).map(|j| product[i.min(j)][i.max(j)].clone()).collect()).collect();
     let coriolis_matrix =
         mat_mul(&st, &mat_add(&mat_mul(&tree.coriolis_matrix, &s), &mat_mul(&tree.inertia_matrix, &s_dot)));
     let tree_cqd: Vec<Poly> = tree

@@ -294,8 +294,9 @@ fn derive_tree(model: &Model) -> Mechanics {
             .collect();
         PointKinematics { name: name.to_string(), position, jacobian, jacobian_dot, jacobian_dot_times_qdot }
     };
-    let points: Vec<PointKinematics> =
-        (0..model.points.len()).map(|i| kinematics(&model.points[i].name, point_world(model, &frames, i))).collect();
+    let points: Vec<PointKinematics> = (0..model.points.len())
+        .map(|i| kinematics(&model.points[i].name, point_world(model, &frames, i)))
+        .collect();
     let task = match &model.task {
         TaskSpec::Point(i) => {
             let mut k = points[*i].clone();

@@ -258,7 +258,10 @@ fn reduced_dynamics_equal_the_tree_projected_numerically() {
             let values = Full::new(&mech, &state);
             for j in n..total {
                 let (s, c) = (values.value(Atom::Sin(j as u16)), values.value(Atom::Cos(j as u16)));
-                assert!((s - q[j].sin()).abs() < 1e-10 && (c - q[j].cos()).abs() < 1e-10, "{name}: passive angle");
+                assert!(
+                    (s - q[j].sin()).abs() < 1e-10 && (c - q[j].cos()).abs() < 1e-10,
+                    "{name}: passive angle"
+                );
             }
             // S = ∂q/∂q_a and γ by finite differences of the passive angles.
             let passive_at = |qa: &[f64], guess: &[f64]| -> Vec<f64> {
@@ -287,8 +290,9 @@ fn reduced_dynamics_equal_the_tree_projected_numerically() {
             let h2 = 3e-4;
             let along = |k: f64| -> Vec<f64> { qa.iter().zip(&qda).map(|(x, v)| x + k * h2 * v).collect() };
             let (qp, qm) = (passive_at(&along(1.0), &q), passive_at(&along(-1.0), &q));
-            let gamma: Vec<f64> =
-                (0..total).map(|i| if i < n { 0.0 } else { (qp[i] - 2.0 * q[i] + qm[i]) / (h2 * h2) }).collect();
+            let gamma: Vec<f64> = (0..total)
+                .map(|i| if i < n { 0.0 } else { (qp[i] - 2.0 * q[i] + qm[i]) / (h2 * h2) })
+                .collect();
             let qd_full = mat_vec(&s, &qda);
             // The tree at the full state.
             let t: Evaluated = evaluate(tree, &State { q: &q, qd: &qd_full, parameters: &parameters }, None);
@@ -302,8 +306,15 @@ fn reduced_dynamics_equal_the_tree_projected_numerically() {
             let flat = |m: &[Vec<f64>]| m.iter().flatten().copied().collect::<Vec<_>>();
             assert_close(&format!("{name}: D"), &flat(&reduced.inertia_matrix), &flat(&d_a), 1e-7);
             // γ carries the error of a second difference: compare relative to the terms' size.
-            let terms = largest(&mat_t_vec(&s, &t.coriolis_times_qdot)).max(largest(&mat_t_vec(&s, &d_gamma)));
-            assert_close_at(&format!("{name}: C q̇"), &reduced.coriolis_times_qdot, &mat_t_vec(&s, &cqd), 1e-5, terms);
+            let terms =
+                largest(&mat_t_vec(&s, &t.coriolis_times_qdot)).max(largest(&mat_t_vec(&s, &d_gamma)));
+            assert_close_at(
+                &format!("{name}: C q̇"),
+                &reduced.coriolis_times_qdot,
+                &mat_t_vec(&s, &cqd),
+                1e-5,
+                terms,
+            );
             if t.g.iter().any(|g| *g != 0.0) {
                 assert_close(&format!("{name}: g"), &reduced.g, &mat_t_vec(&s, &t.g), 1e-7);
             }
@@ -333,8 +344,9 @@ fn reduced_dynamics_conserve_energy() {
         };
         let energy = |q: &[f64], qd: &[f64]| -> f64 {
             let e = eval(q, qd);
-            let kinetic: f64 =
-                (0..n).map(|i| (0..n).map(|j| 0.5 * qd[i] * e.inertia_matrix[i][j] * qd[j]).sum::<f64>()).sum();
+            let kinetic: f64 = (0..n)
+                .map(|i| (0..n).map(|j| 0.5 * qd[i] * e.inertia_matrix[i][j] * qd[j]).sum::<f64>())
+                .sum();
             kinetic + e.potential_energy
         };
         let inside = |q: &[f64]| model.joints.iter().zip(q).all(|(j, x)| *x > j.lower && *x < j.upper);
@@ -346,7 +358,9 @@ fn reduced_dynamics_conserve_energy() {
         let mut worst = 0.0f64;
         let mut steps = 0;
         while steps < 3000 && inside(&q) {
-            let add = |a: &[f64], b: &[f64], k: f64| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x + k * y).collect() };
+            let add = |a: &[f64], b: &[f64], k: f64| -> Vec<f64> {
+                a.iter().zip(b).map(|(x, y)| x + k * y).collect()
+            };
             let k1q = qd.clone();
             let k1v = acceleration(&q, &qd);
             let k2q = add(&qd, &k1v, dt / 2.0);

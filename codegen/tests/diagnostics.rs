@@ -959,8 +959,9 @@ fn closure_that_cannot_close() {
     let first = &d.0[0];
     assert_eq!((first.line, first.column, first.path.as_str()), (line, column, "closures[0]"));
     assert!(
-        first.message.starts_with("the loop cannot close at the middle of the actuated joints' ranges (q1 = 2.0500, q2 = 1.0900)")
-            && first.message.ends_with("do not intersect: they are too far apart"),
+        first.message.starts_with(
+            "the loop cannot close at the middle of the actuated joints' ranges (q1 = 2.0500, q2 = 1.0900)"
+        ) && first.message.ends_with("do not intersect: they are too far apart"),
         "{first}"
     );
 }

@@ -35,7 +35,11 @@ fn macro_generated_rigs_equal_the_evaluator() {
     let info = |variant, module| RigInfo { file: "models/pantograph_5bar.yaml", variant, module };
     check.visit_f64(&info(Some("vertical"), "pantograph_f64"), &pantograph_f64::Pantograph5bar::NOMINAL);
     check.visit_f32(&info(Some("horizontal"), "pantograph_f32"), &pantograph_f32::Pantograph5bar::NOMINAL);
-    let info = RigInfo { file: "codegen/tests/good-models/five_bar_2dof.yaml", variant: None, module: "five_bar_f64" };
+    let info = RigInfo {
+        file: "codegen/tests/good-models/five_bar_2dof.yaml",
+        variant: None,
+        module: "five_bar_f64",
+    };
     check.visit_f64(&info, &five_bar_f64::FiveBar2dof::NOMINAL);
     assert_eq!(check.rigs, 9);
 }

@@ -178,7 +178,8 @@ impl RigVisitor for EnergyConservation {
             // A closed chain's reduced dynamics hold where the loop closes: its run ends when
             // it leaves the box of joint limits (chosen inside the workspace).
             let closed = model.closures.is_some();
-            let inside = |q: &[f64; N]| model.joints.iter().zip(q).all(|(j, x)| *x >= j.lower && *x <= j.upper);
+            let inside =
+                |q: &[f64; N]| model.joints.iter().zip(q).all(|(j, x)| *x >= j.lower && *x <= j.upper);
             let mut steps = 0;
             for _ in 0..10_000 {
                 if closed && !inside(&q) {
