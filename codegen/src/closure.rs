@@ -105,6 +105,8 @@ pub struct Closures {
     pub names: Vec<String>,
     /// The closures.
     pub loops: Vec<Loop>,
+    /// The elimination as a DAG, built on first use by [`Closures::values`].
+    evaluator: std::sync::OnceLock<(Dag, Installed)>,
 }
 
 impl Closures {
@@ -131,8 +133,11 @@ impl Closures {
     /// Values of every substituted atom (passive sines, cosines and velocities, `A`, `Ȧ`)
     /// at a state of the actuated coordinates, in `f64`.
     pub fn values(&self, q: &[f64], qd: &[f64], parameters: &[f64]) -> Vec<(Atom, f64)> {
-        let mut dag = Dag::new();
-        let installed = install(&mut dag, Some(self));
+        let (dag, installed) = self.evaluator.get_or_init(|| {
+            let mut dag = Dag::new();
+            let installed = install(&mut dag, Some(self));
+            (dag, installed)
+        });
         let get = |v: &[f64], i: u16| v.get(usize::from(i)).copied().unwrap_or(0.0);
         let values = dag.eval_all(&|a: Atom| match a {
             Atom::Sin(j) => get(q, j).sin(),
@@ -347,7 +352,7 @@ pub fn analyse(model: &Model, declarations: &[Declaration]) -> Result<Closures, 
         });
     }
     if problems.is_empty() {
-        Ok(Closures { actuated: n, names, loops })
+        Ok(Closures { actuated: n, names, loops, evaluator: std::sync::OnceLock::new() })
     } else {
         Err(problems)
     }

@@ -910,6 +910,35 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
             .map(|d| format!(": {}", d.trim().trim_end_matches('.')))
             .unwrap_or_default()
     );
+    let closure_doc: Vec<String> = match &model.closures {
+        None => Vec::new(),
+        Some(c) => {
+            let loops: Vec<String> = c
+                .loops
+                .iter()
+                .map(|l| {
+                    format!(
+                        "`{}` (passive `{}` and `{}`, branch {})",
+                        l.name,
+                        c.names[l.joints[0]],
+                        c.names[l.joints[1]],
+                        if l.branch_sign > 0.0 { "left" } else { "right" }
+                    )
+                })
+                .collect();
+            vec![
+                String::new(),
+                format!(
+                    " A closed chain reduced to its actuated joints by the closures {}.",
+                    loops.join(", ")
+                ),
+                " Where the loop cannot close, or at the aligned-links boundary, the functions return".into(),
+                " non-finite values (they never panic), which the runtime's safety monitor latches as a"
+                    .into(),
+                " fault with zero torque.".into(),
+            ]
+        }
+    };
     let variant_doc = format!(
         " Generated from `{}`{}; `{}` joints, `{}` task coordinates.",
         model.file,
@@ -922,6 +951,7 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
         #[doc = #description]
         ///
         #[doc = #variant_doc]
+        #(#[doc = #closure_doc])*
         #[derive(Clone, Copy, Debug, PartialEq)]
         #struct_def
 

@@ -80,3 +80,23 @@ fn expansion_tracks_the_model_file() {
     assert!(tokens.contains("include_bytes"), "no include_bytes! in the expansion");
     assert!(tokens.contains(&format!("{:?}", tracked.to_string_lossy())), "the model path is not tracked");
 }
+
+#[test]
+fn closed_chain_where_the_loop_cannot_close_is_non_finite_without_panicking() {
+    use hapticgen_runtime::RigModel;
+    let rig = five_bar_f64::FiveBar2dof::NOMINAL;
+    // The elbows 16 mm apart, closer than the difference of the distal lengths (20 mm): one
+    // circle lies inside the other and the loop cannot close.
+    let (q, qd) = ([std::f64::consts::FRAC_PI_2, 0.95], [0.1, -0.1]);
+    let terms = rig.terms(&q, &qd);
+    assert!(terms.inertia_matrix.iter().flatten().all(|x| !x.is_finite()), "{:?}", terms.inertia_matrix);
+    assert!(terms.position.iter().all(|x| !x.is_finite()));
+    // Inside the workspace everything is finite.
+    let terms = rig.terms(&[1.2, 1.9], &qd);
+    assert!(terms
+        .inertia_matrix
+        .iter()
+        .flatten()
+        .chain(terms.jacobian.iter().flatten())
+        .all(|x| x.is_finite()));
+}
