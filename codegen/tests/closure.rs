@@ -4,7 +4,9 @@
 //! - the reduced `D`, `C q̇`, `g`, `J`, `J̇ q̇` equal the open tree's, projected numerically:
 //!   `q_p(q_a)` found by Newton's method on `Φ` (continued from a branch chosen by its
 //!   definition), `S = ∂q/∂q_a` and the passive accelerations `γ` by finite differences of it;
-//! - energy is conserved by the reduced dynamics (RK4, no damping, no input).
+//! - energy is conserved by the reduced dynamics (RK4, no damping, no input);
+//! - `J` and `J̇` match finite differences of `p` and `J`, `Ḋ − 2C` is skew-symmetric (`Ḋ` by
+//!   finite differences) and `D` is symmetric positive definite.
 //!
 //! The models: `models/pantograph_5bar.yaml` (both variants) and
 //! `codegen/tests/good-models/five_bar_2dof.yaml` (passive joints listed first, a clockwise
@@ -303,7 +305,6 @@ fn reduced_dynamics_equal_the_tree_projected_numerically() {
             let j_gamma = mat_vec(&t.jacobian, &gamma);
             let jdq: Vec<f64> = t.jacobian_dot_times_qdot.iter().zip(&j_gamma).map(|(a, b)| a + b).collect();
             let j_a: Vec<Vec<f64>> = t.jacobian.iter().map(|row| mat_t_vec(&s, row)).collect();
-            let flat = |m: &[Vec<f64>]| m.iter().flatten().copied().collect::<Vec<_>>();
             assert_close(&format!("{name}: D"), &flat(&reduced.inertia_matrix), &flat(&d_a), 1e-7);
             // γ carries the error of a second difference: compare relative to the terms' size.
             let terms =
@@ -378,4 +379,80 @@ fn reduced_dynamics_conserve_energy() {
         assert!(steps >= 500, "{name}: left the workspace after {steps} steps");
         assert!(worst < 1e-9, "{name}: relative energy drift {worst:e}");
     }
+}
+
+#[test]
+fn jacobians_and_skew_symmetry_match_finite_differences() {
+    for (name, model, mech) in closed_chains() {
+        let parameters = model.nominal_parameters();
+        let n = model.joints.len();
+        let eval = |q: &[f64], qd: &[f64]| evaluate(&mech, &State { q, qd, parameters: &parameters }, None);
+        let mut rng = Rng(0x5851_f42d_4c95_7f2d);
+        let h = 1e-6;
+        for _ in 0..50 {
+            let q = rng.actuated(&model);
+            let qd: Vec<f64> = (0..n).map(|_| 4.0 * rng.next() - 2.0).collect();
+            let e = eval(&q, &qd);
+            let shifted = |k: usize, delta: f64| {
+                let mut qq = q.clone();
+                qq[k] += delta;
+                eval(&qq, &qd)
+            };
+            let along = |delta: f64| {
+                let qq: Vec<f64> = q.iter().zip(&qd).map(|(x, v)| x + delta * v).collect();
+                eval(&qq, &qd)
+            };
+            // J = ∂p/∂q_a.
+            for k in 0..n {
+                let (plus, minus) = (shifted(k, h), shifted(k, -h));
+                let column: Vec<f64> = (0..e.p.len()).map(|i| (plus.p[i] - minus.p[i]) / (2.0 * h)).collect();
+                let got: Vec<f64> = e.jacobian.iter().map(|row| row[k]).collect();
+                assert_close_at(
+                    &format!("{name}: J column {k}"),
+                    &got,
+                    &column,
+                    1e-6,
+                    largest(&flat(&e.jacobian)),
+                );
+            }
+            // J̇ = dJ/dt along q̇, and D̊ = dD/dt.
+            let (plus, minus) = (along(h), along(-h));
+            let jdot: Vec<f64> = flat(&plus.jacobian)
+                .iter()
+                .zip(flat(&minus.jacobian))
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect();
+            assert_close_at(
+                &format!("{name}: J̇"),
+                &flat(&e.jacobian_dot),
+                &jdot,
+                1e-5,
+                largest(&jdot).max(1e-12),
+            );
+            let ddot: Vec<f64> = flat(&plus.inertia_matrix)
+                .iter()
+                .zip(flat(&minus.inertia_matrix))
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect();
+            let c = flat(&e.coriolis_matrix);
+            let scale = largest(&ddot).max(largest(&c));
+            for i in 0..n {
+                for j in 0..n {
+                    let x = ddot[i * n + j] - 2.0 * c[i * n + j];
+                    let y = ddot[j * n + i] - 2.0 * c[j * n + i];
+                    assert!((x + y).abs() <= 1e-6 * scale, "{name}: Ḋ − 2C not skew-symmetric: {x} vs {y}");
+                }
+            }
+            // D is symmetric positive definite.
+            let d = &e.inertia_matrix;
+            assert!(
+                d[0][1] == d[1][0] && d[0][0] > 0.0 && d[0][0] * d[1][1] - d[0][1] * d[1][0] > 0.0,
+                "{name}: D"
+            );
+        }
+    }
+}
+
+fn flat(m: &[Vec<f64>]) -> Vec<f64> {
+    m.iter().flatten().copied().collect()
 }

@@ -42,6 +42,7 @@ const CASES: &[(&str, Option<&str>)] = &[
     ("negative-resistance", None),
     ("parent-cycle", None),
     ("passive-not-closed", None),
+    ("passive-prismatic", None),
     ("passive-with-drive", None),
     ("pose-parent-cycle", None),
     ("scalar-inertia-spatial", None),
@@ -990,6 +991,20 @@ fn closure_in_a_spatial_model() {
             token: "name",
             path: "closures[0]",
             message: "closures are supported for planar models only",
+        },
+    );
+}
+
+#[test]
+fn passive_joint_that_slides() {
+    check(
+        "passive-prismatic",
+        None,
+        Expect {
+            context: "type: prismatic",
+            token: "prismatic",
+            path: "joints[3].type",
+            message: "passive joint `right_elbow` must be revolute",
         },
     );
 }
