@@ -158,6 +158,11 @@ pub struct Installed {
     pub hints: Vec<(NodeId, String)>,
     /// Every atom substituted, with its node.
     pub atoms: Vec<(Atom, NodeId)>,
+    /// Per closure, its assembly margin `Δ / (4 |d|² r₁²)`: the squared sine of the angle
+    /// between the first distal link and the line joining the two passive joints' axes. 1 with
+    /// the links square to that line, 0 with them aligned (the singular boundary, where
+    /// `det Φ_p = 0`), negative where the loop cannot close.
+    pub margins: Vec<NodeId>,
 }
 
 fn poly_of_monomial(monomial: &[(Atom, u32)], coefficient: f64) -> Poly {
@@ -396,6 +401,9 @@ pub fn install(dag: &mut Dag, closures: Option<&Closures>) -> Installed {
         let k2 = dag.mul(k, k);
         let discriminant = dag.sub(scaled, k2);
         name(dag, discriminant, format!("{}_discriminant", l.name), &mut out);
+        let margin = dag.div(discriminant, scaled);
+        name(dag, margin, format!("{}_margin", l.name), &mut out);
+        out.margins.push(margin);
         let root = dag.sqrt(discriminant);
         let root = if l.branch_sign < 0.0 { dag.neg(root) } else { root };
         name(dag, root, format!("{}_root", l.name), &mut out);

@@ -770,6 +770,32 @@ fn terms_function(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStre
     (tokens, counts)
 }
 
+/// A closed chain's `closure_margin` method (see `crate::closure::Installed::margins`).
+fn closure_margin_function(model: &Model, scalar: Scalar) -> Option<(TokenStream, OpCounts)> {
+    let closures = model.closures.as_ref()?;
+    let mut body = BodyEmitter::new(model, scalar);
+    // Installing again into the same DAG re-interns the same nodes: it only reports them.
+    let roots = crate::closure::install(&mut body.dag, Some(closures)).margins;
+    let (statements, values, counts) = body.emit(&roots, "closure_margin");
+    let (n, k) = (unsuffixed(model.joints.len()), unsuffixed(roots.len()));
+    let s = scalar.tokens();
+    let names: Vec<String> = closures.loops.iter().map(|l| format!("`{}`", l.name)).collect();
+    let doc = format!(
+        " Assembly margin of each closure ({}): the squared sine of the angle between the first distal link and the line joining the passive joints' axes; 1 with the link square to it, 0 at the singular boundary (links aligned), negative where the loop cannot close (NaN if the axes coincide). Guard the workspace with it: the dynamics grow without bound as it approaches 0.",
+        names.join(", ")
+    );
+    let tokens = quote! {
+        #[doc = #doc]
+        #[inline]
+        #[must_use]
+        pub fn closure_margin(&self, q: &[#s; #n]) -> [#s; #k] {
+            #statements
+            [#(#values),*]
+        }
+    };
+    Some((tokens, counts))
+}
+
 /// Emits every item of a rig: the struct, its methods and the `RigModel` implementation.
 pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, Stats) {
     let s = scalar.tokens();
@@ -788,6 +814,10 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
     let (terms, tick) = terms_function(model, mech, scalar);
     stats.functions.push(("terms".into(), tick));
     methods.extend(terms);
+    if let Some((margin, counts)) = closure_margin_function(model, scalar) {
+        stats.functions.push(("closure_margin".into(), counts));
+        methods.extend(margin);
+    }
     let fused = fused_impl(model, mech, scalar, &mut stats);
 
     // Damping depends on tunable parameters at most.

@@ -91,8 +91,11 @@ fn closed_chain_where_the_loop_cannot_close_is_non_finite_without_panicking() {
     let terms = rig.terms(&q, &qd);
     assert!(terms.inertia_matrix.iter().flatten().all(|x| !x.is_finite()), "{:?}", terms.inertia_matrix);
     assert!(terms.position.iter().all(|x| !x.is_finite()));
+    assert!(rig.closure_margin(&q)[0] < 0.0, "the margin says so: {:?}", rig.closure_margin(&q));
     // Inside the workspace everything is finite.
     let terms = rig.terms(&[1.2, 1.9], &qd);
+    let margin = rig.closure_margin(&[1.2, 1.9])[0];
+    assert!(margin > 0.3 && margin <= 1.0, "{margin}");
     assert!(terms
         .inertia_matrix
         .iter()
