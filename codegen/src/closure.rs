@@ -415,15 +415,13 @@ pub fn install(dag: &mut Dag, closures: Option<&Closures>) -> Installed {
         let rdx = dag.mul(root, dx);
         let ox = dag.sub(kdx, rdy);
         let oy = dag.add(kdy, rdx);
+        // E − c₁, and E − c₂ = (E − c₁) − d.
         let ox = dag.div(ox, denominator);
         let oy = dag.div(oy, denominator);
-        let ex = dag.add(a[0], ox);
-        let ey = dag.add(a[1], oy);
-        name(dag, ex, format!("{}_x", l.name), &mut out);
-        name(dag, ey, format!("{}_y", l.name), &mut out);
-        for (kk, centre) in [a, b].iter().enumerate() {
-            let ux = dag.sub(ex, centre[0]);
-            let uy = dag.sub(ey, centre[1]);
+        name(dag, ox, format!("{}_from_{}_x", l.name, passive_names[0]), &mut out);
+        name(dag, oy, format!("{}_from_{}_y", l.name, passive_names[0]), &mut out);
+        let relative = [[ox, oy], [dag.sub(ox, dx), dag.sub(oy, dy)]];
+        for (kk, &[ux, uy]) in relative.iter().enumerate() {
             let m = l.arms[kk].clone().map(|row| row.map(|p| dag.polynomial(&p)));
             let det = poly(dag, &l.arm_determinants[kk]);
             // [cos; sin] = adj(M) u / det M.

@@ -103,6 +103,10 @@ pub struct Evaluated {
     /// Potential energy.
     #[serde(rename = "V")]
     pub potential_energy: f64,
+    /// A closed chain's passive joint angles (in `(−π, π]`), eliminated from the actuated
+    /// state; empty for open chains.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub passive: Vec<f64>,
 }
 
 fn vector(v: &[Poly], s: &Full<'_>) -> Vec<f64> {
@@ -130,5 +134,11 @@ pub fn evaluate(mech: &Mechanics, state: &State<'_>, point: Option<&PointKinemat
         g: vector(&mech.gravity, state),
         damping: (0..n).map(|i| (0..n).map(|j| if i == j { damping[i] } else { 0.0 }).collect()).collect(),
         potential_energy: mech.potential_energy.eval(state),
+        passive: match &mech.closures {
+            Some(c) => (c.actuated..c.names.len())
+                .map(|j| state.value(Atom::Sin(j as u16)).atan2(state.value(Atom::Cos(j as u16))))
+                .collect(),
+            None => Vec::new(),
+        },
     }
 }
