@@ -83,7 +83,6 @@ fn expansion_tracks_the_model_file() {
 
 #[test]
 fn closed_chain_where_the_loop_cannot_close_is_non_finite_without_panicking() {
-    use hapticgen_runtime::RigModel;
     let rig = five_bar_f64::FiveBar2dof::NOMINAL;
     // The elbows 16 mm apart, closer than the difference of the distal lengths (20 mm): one
     // circle lies inside the other and the loop cannot close.
