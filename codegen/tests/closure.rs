@@ -6,7 +6,8 @@
 //!   definition), `S = ∂q/∂q_a` and the passive accelerations `γ` by finite differences of it;
 //! - energy is conserved by the reduced dynamics (RK4, no damping, no input);
 //! - `J` and `J̇` match finite differences of `p` and `J`, `Ḋ − 2C` is skew-symmetric (`Ḋ` by
-//!   finite differences) and `D` is symmetric positive definite.
+//!   finite differences) and `D` is symmetric positive definite;
+//! - the paper's parallelogram described as a closed chain equals its direct-pose model.
 //!
 //! The models: `models/pantograph_5bar.yaml` (both variants) and
 //! `codegen/tests/good-models/five_bar_2dof.yaml` (passive joints listed first, a clockwise
@@ -455,4 +456,50 @@ fn jacobians_and_skew_symmetry_match_finite_differences() {
 
 fn flat(m: &[Vec<f64>]) -> Vec<f64> {
     m.iter().flatten().copied().collect()
+}
+
+#[test]
+fn the_paper_parallelogram_as_a_closed_chain_equals_its_direct_poses() {
+    // `codegen/tests/closed-chains/parallel_link_closed.yaml` hangs links 3 and 4 on passive
+    // joints and closes the loop; `models/parallel_link_2dof.yaml` poses them directly. The
+    // elimination must reproduce the direct model (checked against Pinocchio) exactly.
+    for variant in ["vertical", "horizontal"] {
+        let load = |file: &str| {
+            let m = model::load_file(&repo_root().join(file), file, Some(variant))
+                .unwrap_or_else(|e| panic!("{e}"));
+            let mech = mechanics::derive(&m);
+            (m, mech)
+        };
+        let (direct, direct_mech) = load("models/parallel_link_2dof.yaml");
+        let (closed, closed_mech) = load("codegen/tests/closed-chains/parallel_link_closed.yaml");
+        assert!(direct.closures.is_none() && closed.closures.is_some());
+        let parameters = direct.nominal_parameters();
+        let mut rng = Rng(0x1234_5678_9abc_def1);
+        let mut compared = 0;
+        while compared < 100 {
+            let q = rng.actuated(&direct);
+            // Away from the collapsed parallelogram (q1 = q2), where the loop is singular.
+            if !(0.3..std::f64::consts::PI - 0.3).contains(&(q[0] - q[1])) {
+                continue;
+            }
+            let qd = [4.0 * rng.next() - 2.0, 4.0 * rng.next() - 2.0];
+            let state = State { q: &q, qd: &qd, parameters: &parameters };
+            let (a, b) = (evaluate(&closed_mech, &state, None), evaluate(&direct_mech, &state, None));
+            let close = |what: &str, x: &[f64], y: &[f64]| {
+                assert_close_at(&format!("{variant}: {what}"), x, y, 1e-12, largest(y).max(1e-12));
+            };
+            close("D", &flat(&a.inertia_matrix), &flat(&b.inertia_matrix));
+            close("C", &flat(&a.coriolis_matrix), &flat(&b.coriolis_matrix));
+            close("C q̇", &a.coriolis_times_qdot, &b.coriolis_times_qdot);
+            close("g", &a.g, &b.g);
+            close("p", &a.p, &b.p);
+            close("J", &flat(&a.jacobian), &flat(&b.jacobian));
+            close("J̇", &flat(&a.jacobian_dot), &flat(&b.jacobian_dot));
+            close("J̇ q̇", &a.jacobian_dot_times_qdot, &b.jacobian_dot_times_qdot);
+            close("V", &[a.potential_energy], &[b.potential_energy]);
+            // The passive angles are the parallelogram's: e3 = q1 − q2, e4 = q2 − q1.
+            close("passive", &a.passive, &[q[0] - q[1], q[1] - q[0]]);
+            compared += 1;
+        }
+    }
 }
