@@ -183,6 +183,7 @@ impl Naming<'_> {
             Atom::Qd(j) => format!("{}_dot", joint(j)),
             Atom::Qdd(j) => format!("{}_ddot", joint(j)),
             Atom::Param(k) => self.model.tunable[usize::from(k)].name.clone(),
+            Atom::Closure(k) => format!("closure_{k}"),
             Atom::External(k) => self
                 .externals
                 .get(usize::from(k))
@@ -211,12 +212,11 @@ enum Precedence {
 
 impl<'m> BodyEmitter<'m> {
     fn new(model: &'m Model, scalar: Scalar) -> Self {
-        Self {
-            dag: Dag::new(),
-            naming: Naming { model, externals: Vec::new() },
-            scalar,
-            hints: HashMap::new(),
-        }
+        // A closed chain's passive coordinates enter every polynomial as nodes computed from
+        // the actuated ones (`crate::closure`), named after their role.
+        let mut dag = Dag::new();
+        let hints = crate::closure::install(&mut dag, model.closures.as_ref()).hints.into_iter().collect();
+        Self { dag, naming: Naming { model, externals: Vec::new() }, scalar, hints }
     }
 
     /// A descriptive name for a node, if a short one exists.
@@ -252,6 +252,7 @@ impl<'m> BodyEmitter<'m> {
             Node::Sub(a, b) => format!("{}_minus_{}", name_of(a)?, name_of(b)?),
             Node::Neg(a) => format!("minus_{}", name_of(a)?),
             Node::Div(a, b) => format!("{}_over_{}", name_of(a)?, name_of(b)?),
+            Node::Sqrt(a) => format!("sqrt_{}", name_of(a)?),
             _ => return None,
         };
         (name.len() <= 32).then_some(name)
@@ -313,7 +314,7 @@ impl<'m> BodyEmitter<'m> {
                     *uses.entry(a).or_default() += 1;
                     *uses.entry(b).or_default() += 1;
                 }
-                Node::Neg(a) => *uses.entry(a).or_default() += 1,
+                Node::Neg(a) | Node::Sqrt(a) => *uses.entry(a).or_default() += 1,
                 _ => {}
             }
         }
@@ -335,6 +336,7 @@ impl<'m> BodyEmitter<'m> {
             Atom::Qdd(j) => (2, j, 1),
             Atom::Param(k) => (3, k, 0),
             Atom::External(k) => (4, k, 0),
+            Atom::Closure(k) => (5, k, 0),
         };
         order.sort_by_key(|&id| match self.dag.nodes()[id] {
             Node::Input(a) => (0, Some(input_rank(a)), id),
@@ -534,6 +536,10 @@ impl<'m> BodyEmitter<'m> {
                 let x = wrap(self.expression(a, names, false), Precedence::Product);
                 let y = wrap(self.expression(b, names, false), Precedence::Atomic);
                 (quote!(#x / #y), Precedence::Product)
+            }
+            Node::Sqrt(a) => {
+                let (x, _) = self.expression(a, names, false);
+                (quote!(::hapticgen_runtime::Real::sqrt(#x)), Precedence::Atomic)
             }
         }
     }
@@ -863,6 +869,32 @@ fn terms_function(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStre
     (tokens, counts)
 }
 
+/// A closed chain's `closure_margin` method (see `crate::closure::Installed::margins`).
+fn closure_margin_function(model: &Model, scalar: Scalar) -> Option<(TokenStream, OpCounts)> {
+    let closures = model.closures.as_ref()?;
+    let mut body = BodyEmitter::new(model, scalar);
+    // Installing again into the same DAG re-interns the same nodes: it only reports them.
+    let roots = crate::closure::install(&mut body.dag, Some(closures)).margins;
+    let (statements, values, counts) = body.emit(&roots, "closure_margin");
+    let (n, k) = (unsuffixed(model.joints.len()), unsuffixed(roots.len()));
+    let s = scalar.tokens();
+    let names: Vec<String> = closures.loops.iter().map(|l| format!("`{}`", l.name)).collect();
+    let doc = format!(
+        " Assembly margin of each closure ({}): the squared sine of the angle between the first distal link and the line joining the passive joints' axes; 1 with the link square to it, 0 at the singular boundary (links aligned), negative where the loop cannot close (NaN if the axes coincide). Guard the workspace with it: the dynamics grow without bound as it approaches 0.",
+        names.join(", ")
+    );
+    let tokens = quote! {
+        #[doc = #doc]
+        #[inline]
+        #[must_use]
+        pub fn closure_margin(&self, q: &[#s; #n]) -> [#s; #k] {
+            #statements
+            [#(#values),*]
+        }
+    };
+    Some((tokens, counts))
+}
+
 /// Emits every item of a rig: the struct, its methods and the `RigModel` implementation.
 pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, Stats) {
     let s = scalar.tokens();
@@ -881,6 +913,10 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
     let (terms, tick) = terms_function(model, mech, scalar);
     stats.functions.push(("terms".into(), tick));
     methods.extend(terms);
+    if let Some((margin, counts)) = closure_margin_function(model, scalar) {
+        stats.functions.push(("closure_margin".into(), counts));
+        methods.extend(margin);
+    }
     let fused = fused_impl(model, mech, scalar, &mut stats);
 
     // Damping depends on tunable parameters at most.
@@ -1003,6 +1039,35 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
             .map(|d| format!(": {}", d.trim().trim_end_matches('.')))
             .unwrap_or_default()
     );
+    let closure_doc: Vec<String> = match &model.closures {
+        None => Vec::new(),
+        Some(c) => {
+            let loops: Vec<String> = c
+                .loops
+                .iter()
+                .map(|l| {
+                    format!(
+                        "`{}` (passive `{}` and `{}`, branch {})",
+                        l.name,
+                        c.names[l.joints[0]],
+                        c.names[l.joints[1]],
+                        if l.branch_sign > 0.0 { "left" } else { "right" }
+                    )
+                })
+                .collect();
+            vec![
+                String::new(),
+                format!(
+                    " A closed chain reduced to its actuated joints by the closures {}.",
+                    loops.join(", ")
+                ),
+                " Where the loop cannot close, or at the aligned-links boundary, the functions return".into(),
+                " non-finite values (they never panic), which the runtime's safety monitor latches as a"
+                    .into(),
+                " fault with zero torque.".into(),
+            ]
+        }
+    };
     let variant_doc = format!(
         " Generated from `{}`{}; `{}` joints, `{}` task coordinates.",
         model.file,
@@ -1015,6 +1080,7 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
         #[doc = #description]
         ///
         #[doc = #variant_doc]
+        #(#[doc = #closure_doc])*
         #[derive(Clone, Copy, Debug, PartialEq)]
         #struct_def
 

@@ -26,7 +26,35 @@ impl AtomValues for State<'_> {
             Atom::Q(j) => get(self.q, j),
             Atom::Qd(j) => get(self.qd, j),
             Atom::Param(k) => get(self.parameters, k),
-            Atom::Qdd(_) | Atom::External(_) => f64::NAN,
+            Atom::Qdd(_) | Atom::External(_) | Atom::Closure(_) => f64::NAN,
+        }
+    }
+}
+
+/// Atom values at a state of a model's mechanics: the state's own atoms, and for a closed
+/// chain the eliminated ones (passive joints' sines, cosines and velocities, `∂q_p/∂q_a`
+/// and its rate), computed in closed form from the actuated state.
+pub struct Full<'a> {
+    state: &'a State<'a>,
+    eliminated: Vec<(Atom, f64)>,
+}
+
+impl<'a> Full<'a> {
+    /// The values at `state` for `mech`.
+    pub fn new(mech: &Mechanics, state: &'a State<'a>) -> Self {
+        let eliminated = match &mech.closures {
+            Some(c) => c.values(state.q, state.qd, state.parameters),
+            None => Vec::new(),
+        };
+        Full { state, eliminated }
+    }
+}
+
+impl AtomValues for Full<'_> {
+    fn value(&self, atom: Atom) -> f64 {
+        match self.eliminated.iter().find(|(a, _)| *a == atom) {
+            Some(&(_, v)) => v,
+            None => self.state.value(atom),
         }
     }
 }
@@ -75,13 +103,17 @@ pub struct Evaluated {
     /// Potential energy.
     #[serde(rename = "V")]
     pub potential_energy: f64,
+    /// A closed chain's passive joint angles (in `(−π, π]`), eliminated from the actuated
+    /// state; empty for open chains.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub passive: Vec<f64>,
 }
 
-fn vector(v: &[Poly], s: &State<'_>) -> Vec<f64> {
+fn vector(v: &[Poly], s: &Full<'_>) -> Vec<f64> {
     v.iter().map(|p| p.eval(s)).collect()
 }
 
-fn matrix(m: &[Vec<Poly>], s: &State<'_>) -> Vec<Vec<f64>> {
+fn matrix(m: &[Vec<Poly>], s: &Full<'_>) -> Vec<Vec<f64>> {
     m.iter().map(|row| vector(row, s)).collect()
 }
 
@@ -89,6 +121,7 @@ fn matrix(m: &[Vec<Poly>], s: &State<'_>) -> Vec<Vec<f64>> {
 pub fn evaluate(mech: &Mechanics, state: &State<'_>, point: Option<&PointKinematics>) -> Evaluated {
     let kin = point.unwrap_or(&mech.task);
     let n = mech.joints;
+    let state = &Full::new(mech, state);
     let damping = vector(&mech.damping, state);
     Evaluated {
         p: vector(&kin.position, state),
@@ -101,5 +134,11 @@ pub fn evaluate(mech: &Mechanics, state: &State<'_>, point: Option<&PointKinemat
         g: vector(&mech.gravity, state),
         damping: (0..n).map(|i| (0..n).map(|j| if i == j { damping[i] } else { 0.0 }).collect()).collect(),
         potential_energy: mech.potential_energy.eval(state),
+        passive: match &mech.closures {
+            Some(c) => (c.actuated..c.names.len())
+                .map(|j| state.value(Atom::Sin(j as u16)).atan2(state.value(Atom::Cos(j as u16))))
+                .collect(),
+            None => Vec::new(),
+        },
     }
 }

@@ -9,6 +9,7 @@
 #![deny(missing_docs)]
 
 pub mod build;
+pub mod closure;
 pub mod current_loop;
 pub mod diag;
 pub mod emit;

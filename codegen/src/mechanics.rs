@@ -78,6 +78,12 @@ pub struct Mechanics {
     pub task: PointKinematics,
     /// Every named point of the model (planar: x, y; spatial: x, y, z).
     pub points: Vec<PointKinematics>,
+    /// A closed chain's elimination: its polynomials also contain the passive joints' atoms
+    /// and [`Atom::Closure`] atoms, which [`crate::closure::install`] defines.
+    pub closures: Option<crate::closure::Closures>,
+    /// A closed chain's open-tree mechanics, in all coordinates (actuated, then passive),
+    /// before the reduction to the actuated coordinates.
+    pub tree: Option<Box<Mechanics>>,
 }
 
 type Vec3 = [Poly; 3];
@@ -134,25 +140,9 @@ struct Frame {
     rotation: Mat3,
 }
 
-/// Derives every quantity of the model as polynomials (what the evaluator, the simulator and
-/// the checks use), and chooses the derivation of the emitted code.
-pub fn derive(model: &Model) -> Mechanics {
-    derive_with(model, true)
-}
-
-/// Derives what emission needs: on the recursive path the polynomials of `D`, `C`, `C q̇` and
-/// `g` are not expanded at all (the emitter builds them recursively), which is what keeps
-/// generation of long chains fast.
-pub fn derive_for_emission(model: &Model) -> Mechanics {
-    derive_with(model, false)
-}
-
-fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
-    let n = model.joints.len();
-    let recursive_only = !all_polynomials && recursive::applies(model) && n >= RECURSIVE_FROM_JOINTS;
+/// Body frames, in dependency order, over all coordinates of the open tree.
+fn body_frames(model: &Model) -> Vec<Frame> {
     let dof = |j: usize| j as u16;
-
-    // Body frames, in dependency order.
     let mut frames: Vec<Frame> = Vec::with_capacity(model.bodies.len());
     let base = || Frame { origin: [Poly::zero(), Poly::zero(), Poly::zero()], rotation: identity() };
     for body in &model.bodies {
@@ -167,14 +157,12 @@ fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
                 let rotation = match joint {
                     None => offset_rotation,
                     Some(j) => {
-                        let joint = &model.joints[*j];
-                        match joint.kind {
-                            JointKind::Revolute => {
-                                mat_mul(&offset_rotation, &axis_rotation(joint.axis, dof(*j)))
-                            }
+                        let (kind, axis) = model.coordinate_axis(*j);
+                        match kind {
+                            JointKind::Revolute => mat_mul(&offset_rotation, &axis_rotation(axis, dof(*j))),
                             JointKind::Prismatic => {
                                 let q = Poly::atom(Atom::Q(dof(*j)));
-                                let slide: Vec3 = joint.axis.map(|a| q.scale(a));
+                                let slide: Vec3 = axis.map(|a| q.scale(a));
                                 origin = vec_add(&origin, &mat_vec(&offset_rotation, &slide));
                                 offset_rotation
                             }
@@ -202,6 +190,56 @@ fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
         };
         frames.push(frame);
     }
+    frames
+}
+
+/// The world position of named point `index` (2 or 3 entries) over all tree coordinates.
+fn point_world(model: &Model, frames: &[Frame], index: usize) -> Vec<Poly> {
+    let point = &model.points[index];
+    let world = match point.body {
+        Some(b) => vec_add(&frames[b].origin, &mat_vec(&frames[b].rotation, &point.position)),
+        None => point.position.clone(),
+    };
+    world[..model.dim()].to_vec()
+}
+
+/// The world positions of every named point, polynomials over all coordinates of the open
+/// tree (a closed chain's passive joints included).
+pub fn point_positions(model: &Model) -> Vec<Vec<Poly>> {
+    let frames = body_frames(model);
+    (0..model.points.len()).map(|i| point_world(model, &frames, i)).collect()
+}
+
+/// Derives every quantity of the model as polynomials (what the evaluator, the simulator and
+/// the checks use), and chooses the derivation of the emitted code.
+pub fn derive(model: &Model) -> Mechanics {
+    derive_with(model, true)
+}
+
+/// Derives what emission needs: on the recursive path the polynomials of `D`, `C`, `C q̇` and
+/// `g` are not expanded at all (the emitter builds them recursively), which is what keeps
+/// generation of long chains fast.
+pub fn derive_for_emission(model: &Model) -> Mechanics {
+    derive_with(model, false)
+}
+
+fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
+    let mut mechanics = derive_tree(model, all_polynomials);
+    if let Some(closures) = &model.closures {
+        // A closed chain: reduced to the actuated coordinates as polynomials (see
+        // `crate::closure`); the emitted code uses those polynomials as they are.
+        return crate::closure::reduce(mechanics, closures);
+    }
+    choose_derivations(model, &mut mechanics);
+    mechanics
+}
+
+/// The mechanics of the open tree, in all coordinates.
+fn derive_tree(model: &Model, all_polynomials: bool) -> Mechanics {
+    let n = model.tree_coordinates();
+    let dof = |j: usize| j as u16;
+    let frames = body_frames(model);
+    let recursive_only = !all_polynomials && recursive::applies(model) && n >= RECURSIVE_FROM_JOINTS;
 
     // Potential energy and gravity.
     let mut potential_terms = Vec::new();
@@ -220,19 +258,11 @@ fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
         let (coriolis_matrix, coriolis_times_qdot) = christoffel(&inertia_matrix);
         (inertia_matrix, coriolis_matrix, coriolis_times_qdot, gravity)
     };
-    let damping: Vec<Poly> = model.joints.iter().map(|j| j.damping.clone()).collect();
+    let damping: Vec<Poly> =
+        (0..n).map(|j| model.joints.get(j).map(|j| j.damping.clone()).unwrap_or_default()).collect();
 
     // Points and task.
     let qd = |i: usize| Poly::atom(Atom::Qd(dof(i)));
-    let dim = model.dim();
-    let point_world = |index: usize| -> Vec<Poly> {
-        let point = &model.points[index];
-        let world = match point.body {
-            Some(b) => vec_add(&frames[b].origin, &mat_vec(&frames[b].rotation, &point.position)),
-            None => point.position.clone(),
-        };
-        world[..dim].to_vec()
-    };
     let kinematics = |name: &str, position: Vec<Poly>| -> PointKinematics {
         let jacobian: Vec<Vec<Poly>> =
             position.iter().map(|p| (0..n).map(|k| p.diff_q(dof(k))).collect()).collect();
@@ -252,8 +282,9 @@ fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
             .collect();
         PointKinematics { name: name.to_string(), position, jacobian, jacobian_dot, jacobian_dot_times_qdot }
     };
-    let points: Vec<PointKinematics> =
-        (0..model.points.len()).map(|i| kinematics(&model.points[i].name, point_world(i))).collect();
+    let points: Vec<PointKinematics> = (0..model.points.len())
+        .map(|i| kinematics(&model.points[i].name, point_world(model, &frames, i)))
+        .collect();
     let task = match &model.task {
         TaskSpec::Point(i) => {
             let mut k = points[*i].clone();
@@ -269,7 +300,7 @@ fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
         TaskSpec::Point(i) => Some(*i),
         TaskSpec::Joints(_) => None,
     };
-    let mut mechanics = Mechanics {
+    Mechanics {
         derivation: Derivation::Polynomial,
         kinematics: Derivation::Polynomial,
         task_point,
@@ -284,9 +315,9 @@ fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
         potential_energy,
         task,
         points,
-    };
-    choose_derivations(model, &mut mechanics);
-    mechanics
+        closures: None,
+        tree: None,
+    }
 }
 
 /// For a serial model, the derivations of the dynamics and of the task kinematics whose
@@ -342,7 +373,7 @@ fn choose_derivations(model: &Model, mechanics: &mut Mechanics) {
 
 /// `D` from the kinetic energy of every body plus the reflected rotor inertias.
 fn lagrangian_inertia_matrix(model: &Model, frames: &[Frame]) -> Vec<Vec<Poly>> {
-    let n = model.joints.len();
+    let n = model.tree_coordinates();
     let dof = |j: usize| j as u16;
     let mut inertia_terms: Vec<Vec<Vec<Poly>>> = vec![vec![Vec::new(); n]; n];
     for (body, frame) in model.bodies.iter().zip(frames) {
@@ -373,8 +404,8 @@ fn lagrangian_inertia_matrix(model: &Model, frames: &[Frame]) -> Vec<Vec<Poly>> 
     for a in 0..n {
         for b in a..n {
             let mut entry = Poly::sum(&inertia_terms[a][b]);
-            if a == b {
-                let drive = &model.joints[a].drive;
+            if let (true, Some(joint)) = (a == b, model.joints.get(a)) {
+                let drive = &joint.drive;
                 entry = entry
                     .add(&Poly::constant(drive.gear_ratio * drive.gear_ratio * drive.motor.rotor_inertia));
             }

@@ -60,9 +60,10 @@ pub enum PointQuantity {
 }
 
 /// Whether the recursive algorithms apply: every body hangs from its parent (or the base) by
-/// one joint or a weld. Direct poses (closed chains written as absolute angles) do not.
+/// one joint or a weld, and no loop closes. Direct poses (closed chains written as absolute
+/// angles) and closures (reduced as polynomials, see `crate::closure`) do not.
 pub fn applies(model: &Model) -> bool {
-    model.bodies.iter().all(|b| matches!(b.motion, Motion::Serial { .. }))
+    model.closures.is_none() && model.bodies.iter().all(|b| matches!(b.motion, Motion::Serial { .. }))
 }
 
 type V3 = [NodeId; 3];
@@ -750,6 +751,12 @@ pub fn derivative(dag: &mut Dag, roots: &[NodeId], joint: u16) -> Vec<NodeId> {
                 let x = dag.mul(d[&a], b);
                 let y = dag.mul(a, d[&b]);
                 dag.add(x, y)
+            }
+            Node::Sqrt(a) => {
+                // (√a)' = a' / (2 √a)
+                let two = dag.constant(2.0);
+                let twice = dag.mul(two, id);
+                dag.div(d[&a], twice)
             }
             Node::Div(a, b) => {
                 // (a/b)' = (a' − (a/b) b') / b

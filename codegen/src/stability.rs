@@ -128,6 +128,7 @@ pub fn task_damping(model: &Model, mech: &Mechanics, q: &[f64]) -> Option<f64> {
     let parameters = model.nominal_parameters();
     let qd = vec![0.0; q.len()];
     let state = State { q, qd: &qd, parameters: &parameters };
+    let state = crate::eval::Full::new(mech, &state);
     let damping: Vec<f64> = mech.damping.iter().map(|p| p.eval(&state)).collect();
     let jacobian: Vec<Vec<f64>> =
         mech.task.jacobian.iter().map(|row| row.iter().map(|p| p.eval(&state)).collect()).collect();

@@ -111,6 +111,12 @@ pub fn point_link_name(point: &str) -> String {
 /// Writes a serial model as URDF (the robot is named after the model). Models with direct
 /// poses are closed chains in disguise and are rejected with a message naming the body.
 pub fn export(model: &Model) -> Result<String, String> {
+    if let Some(passive) = model.passive.first() {
+        return Err(format!(
+            "joint `{}` is passive, part of a closed chain (`closures`): URDF describes trees of actuated joints",
+            passive.name
+        ));
+    }
     let parameters = model.nominal_parameters();
     let mut tails = Vec::with_capacity(model.bodies.len());
     for body in &model.bodies {

@@ -12,6 +12,10 @@ use hapticgen_codegen::{Diagnostic, Diagnostics};
 
 /// Every fixture of `tests/bad-models/` and the variant it is loaded with.
 const CASES: &[(&str, Option<&str>)] = &[
+    ("closure-actuated-joint", None),
+    ("closure-points-swapped", None),
+    ("closure-spatial", None),
+    ("closure-unreachable", None),
     ("com-three-entries", None),
     ("current-loop-infeasible", None),
     ("dh-and-origin", None),
@@ -37,6 +41,9 @@ const CASES: &[(&str, Option<&str>)] = &[
     ("negative-mass", None),
     ("negative-resistance", None),
     ("parent-cycle", None),
+    ("passive-not-closed", None),
+    ("passive-prismatic", None),
+    ("passive-with-drive", None),
     ("pose-parent-cycle", None),
     ("scalar-inertia-spatial", None),
     ("task-unknown-point", None),
@@ -899,4 +906,105 @@ fn mutated_models_never_panic() {
     assert!(total >= 300, "only {total} mutations");
     assert!(rejected > total / 4, "suspiciously few mutations rejected: {rejected} of {total}");
     assert!(failures.is_empty(), "{} of {total} mutations failed:\n{}", failures.len(), failures.join("\n"));
+}
+
+#[test]
+fn closure_naming_an_actuated_joint() {
+    let d = check(
+        "closure-actuated-joint",
+        None,
+        Expect {
+            context: "joints: [q1, right_elbow]",
+            token: "q1",
+            path: "closures[0].joints[0]",
+            message: "joint `q1` is actuated: a closure eliminates passive joints",
+        },
+    );
+    // The passive joint it should have named is left over.
+    assert_eq!(d.0[1].message, "passive joint `left_elbow` is not eliminated by any closure");
+}
+
+#[test]
+fn passive_joint_with_a_drive() {
+    check(
+        "passive-with-drive",
+        None,
+        Expect {
+            context: "passive: true\n    drive: direct",
+            token: "direct",
+            path: "joints[2].drive",
+            message: "joint `left_elbow` is passive: it has no drive",
+        },
+    );
+}
+
+#[test]
+fn passive_joint_without_a_closure() {
+    let d = check(
+        "passive-not-closed",
+        None,
+        Expect {
+            context: "left proximal link\n    passive: true",
+            token: "true",
+            path: "joints[2].passive",
+            message: "passive joint `left_elbow` is not eliminated by any closure",
+        },
+    );
+    assert_eq!(d.0.len(), 2);
+}
+
+#[test]
+fn closure_that_cannot_close() {
+    let (text, d) = reject("closure-unreachable", None);
+    let (line, column) = locate(&text, "  - name: tip\n", "name");
+    let first = &d.0[0];
+    assert_eq!((first.line, first.column, first.path.as_str()), (line, column, "closures[0]"));
+    assert!(
+        first.message.starts_with(
+            "the loop cannot close at the middle of the actuated joints' ranges (q1 = 2.0500, q2 = 1.0900)"
+        ) && first.message.ends_with("do not intersect: they are too far apart"),
+        "{first}"
+    );
+}
+
+#[test]
+fn closure_points_paired_with_the_wrong_joints() {
+    check(
+        "closure-points-swapped",
+        None,
+        Expect {
+            context: "points: [right_tip, end_effector]",
+            token: "[right_tip",
+            path: "closures[0].points",
+            message: "point `right_tip` moves with passive joint `right_elbow`, but it must hang on the link of `left_elbow`",
+        },
+    );
+}
+
+#[test]
+fn closure_in_a_spatial_model() {
+    check(
+        "closure-spatial",
+        None,
+        Expect {
+            context: "  - name: loop\n",
+            token: "name",
+            path: "closures[0]",
+            message: "closures are supported for planar models only",
+        },
+    );
+}
+
+#[test]
+fn passive_joint_that_slides() {
+    check(
+        "passive-prismatic",
+        None,
+        Expect {
+            context: "type: prismatic",
+            token: "prismatic",
+            path: "joints[3].type",
+            message: "passive joint `right_elbow` must be revolute",
+        },
+    );
 }

@@ -78,7 +78,7 @@ fn recursive_algorithms_equal_the_lagrangian_polynomials() {
                         Atom::Qd(j) => qd[usize::from(j)],
                         Atom::Qdd(j) => qdd[usize::from(j)],
                         Atom::Param(k) => parameters[usize::from(k)],
-                        Atom::External(_) => f64::NAN,
+                        Atom::External(_) | Atom::Closure(_) => f64::NAN,
                     })
                 };
                 let scale = want.inertia_matrix.iter().flatten().fold(1.0f64, |m, x| m.max(x.abs()))

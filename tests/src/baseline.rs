@@ -106,10 +106,11 @@ impl Chain {
 }
 
 impl PlanarBaseline {
-    /// Builds the baseline of a planar model with revolute joints and constant parameters;
-    /// `None` for other models.
+    /// Builds the baseline of a planar open-chain model with revolute joints and constant
+    /// parameters; `None` for other models (closed chains with passive joints included).
     pub fn new(model: &Model) -> Option<Self> {
         if !model.planar
+            || !model.passive.is_empty()
             || !model.tunable.is_empty()
             || model.joints.iter().any(|j| j.kind != JointKind::Revolute)
         {

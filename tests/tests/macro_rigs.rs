@@ -16,6 +16,9 @@ hapticgen_macros::rig!(mod vertical_f64 = "../models/parallel_link_2dof.yaml", v
 hapticgen_macros::rig!(mod vertical_f32 = "../models/parallel_link_2dof.yaml", variant = "vertical", scalar = f32);
 hapticgen_macros::rig!(mod horizontal_f64 = "../models/parallel_link_2dof.yaml", variant = "horizontal");
 hapticgen_macros::rig!(mod horizontal_f32 = "../models/parallel_link_2dof.yaml", variant = "horizontal", scalar = f32);
+hapticgen_macros::rig!(mod pantograph_f64 = "../models/pantograph_5bar.yaml", variant = "vertical");
+hapticgen_macros::rig!(mod pantograph_f32 = "../models/pantograph_5bar.yaml", scalar = f32);
+hapticgen_macros::rig!(mod five_bar_f64 = "../codegen/tests/good-models/five_bar_2dof.yaml");
 
 #[test]
 fn macro_generated_rigs_equal_the_evaluator() {
@@ -28,7 +31,17 @@ fn macro_generated_rigs_equal_the_evaluator() {
     check.visit_f32(&info(Some("vertical"), "vertical_f32"), &vertical_f32::ParallelLink2dof::NOMINAL);
     check.visit_f64(&info(Some("horizontal"), "horizontal_f64"), &horizontal_f64::ParallelLink2dof::NOMINAL);
     check.visit_f32(&info(Some("horizontal"), "horizontal_f32"), &horizontal_f32::ParallelLink2dof::NOMINAL);
-    assert_eq!(check.rigs, 6);
+    // Closed chains: the five-bars, reduced to their motors.
+    let info = |variant, module| RigInfo { file: "models/pantograph_5bar.yaml", variant, module };
+    check.visit_f64(&info(Some("vertical"), "pantograph_f64"), &pantograph_f64::Pantograph5bar::NOMINAL);
+    check.visit_f32(&info(Some("horizontal"), "pantograph_f32"), &pantograph_f32::Pantograph5bar::NOMINAL);
+    let info = RigInfo {
+        file: "codegen/tests/good-models/five_bar_2dof.yaml",
+        variant: None,
+        module: "five_bar_f64",
+    };
+    check.visit_f64(&info, &five_bar_f64::FiveBar2dof::NOMINAL);
+    assert_eq!(check.rigs, 9);
 }
 
 #[test]
@@ -66,4 +79,26 @@ fn expansion_tracks_the_model_file() {
     let tracked = manifest_dir.join("../models/joystick_1dof.yaml");
     assert!(tokens.contains("include_bytes"), "no include_bytes! in the expansion");
     assert!(tokens.contains(&format!("{:?}", tracked.to_string_lossy())), "the model path is not tracked");
+}
+
+#[test]
+fn closed_chain_where_the_loop_cannot_close_is_non_finite_without_panicking() {
+    let rig = five_bar_f64::FiveBar2dof::NOMINAL;
+    // The elbows 16 mm apart, closer than the difference of the distal lengths (20 mm): one
+    // circle lies inside the other and the loop cannot close.
+    let (q, qd) = ([std::f64::consts::FRAC_PI_2, 0.95], [0.1, -0.1]);
+    let terms = rig.terms(&q, &qd);
+    assert!(terms.inertia_matrix.iter().flatten().all(|x| !x.is_finite()), "{:?}", terms.inertia_matrix);
+    assert!(terms.position.iter().all(|x| !x.is_finite()));
+    assert!(rig.closure_margin(&q)[0] < 0.0, "the margin says so: {:?}", rig.closure_margin(&q));
+    // Inside the workspace everything is finite.
+    let terms = rig.terms(&[1.2, 1.9], &qd);
+    let margin = rig.closure_margin(&[1.2, 1.9])[0];
+    assert!(margin > 0.3 && margin <= 1.0, "{margin}");
+    assert!(terms
+        .inertia_matrix
+        .iter()
+        .flatten()
+        .chain(terms.jacobian.iter().flatten())
+        .all(|x| x.is_finite()));
 }

@@ -196,6 +196,7 @@ fn eval_nodes(dag: &Dag, q: &[f64], qd: &[f64]) -> Vec<f64> {
             Node::Mul(a, b) => values[a] * values[b],
             Node::Neg(a) => -values[a],
             Node::Div(a, b) => values[a] / values[b],
+            Node::Sqrt(a) => values[a].sqrt(),
         };
         values.push(v);
     }

@@ -18,9 +18,10 @@ use serde::de::DeserializeOwned;
 use crate::diag::{Diagnostic, Diagnostics};
 use crate::sym::poly::Poly;
 use positions::{display_path, KeyPath, PositionIndex, Segment};
-pub use schema::{Drive, JointKind, ModelFile, Rendering, Sensor};
+pub use schema::{Branch, Drive, JointKind, ModelFile, Rendering, Sensor};
 pub use validate::{
-    FixedTransform, Model, Motion, ResolvedBody, ResolvedJoint, ResolvedParameter, ResolvedPoint, TaskSpec,
+    FixedTransform, Model, Motion, PassiveJoint, ResolvedBody, ResolvedJoint, ResolvedParameter,
+    ResolvedPoint, TaskSpec,
 };
 
 /// The text of a model file and how to name it in diagnostics.

@@ -57,6 +57,9 @@ pub struct ModelFile {
     /// Named points fixed on bodies (operational points, sensor locations, plot points).
     #[serde(default)]
     pub points: Vec<Point>,
+    /// Loop-closure constraints of a closed chain: each one eliminates two passive joints.
+    #[serde(default)]
+    pub closures: Vec<Closure>,
     /// The task coordinates `x` the impedance controllers act on.
     pub task: Task,
     /// Sensors besides the joint encoders.
@@ -161,7 +164,8 @@ pub enum JointKind {
     Prismatic,
 }
 
-/// One generalised coordinate and its actuator.
+/// One joint: an actuated generalised coordinate with its drive, or a passive joint of a
+/// closed chain (`passive: true`, no drive), eliminated by a [`Closure`].
 #[derive(Clone, Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Joint {
@@ -177,13 +181,54 @@ pub struct Joint {
     /// `[0, 0, -1]` for revolute joints and a 2-vector for prismatic ones.
     #[serde(default)]
     pub axis: Option<Vec<f64>>,
-    /// Range of motion.
-    pub limits: Limits,
-    /// Viscous damping at the joint, N·m·s/rad (N·s/m for prismatic joints).
+    /// Range of motion (required for actuated joints; optional, documentation only, for
+    /// passive ones).
+    #[serde(default)]
+    pub limits: Option<Limits>,
+    /// Viscous damping at the joint, N·m·s/rad (N·s/m for prismatic joints); actuated
+    /// joints only.
     #[serde(default)]
     pub damping: Option<Value>,
-    /// Name of the entry of `drives` that actuates this joint.
-    pub drive: String,
+    /// Name of the entry of `drives` that actuates this joint (required unless `passive`).
+    #[serde(default)]
+    pub drive: Option<String>,
+    /// An unactuated joint of a closed chain, eliminated by an entry of `closures`; it is
+    /// not a coordinate of the generated code.
+    #[serde(default)]
+    pub passive: bool,
+}
+
+/// A loop-closure constraint of a planar closed chain: two passive revolute joints (the
+/// distal joints of an RRR dyad, e.g. the elbows of a five-bar) and one point on the
+/// chain of each, which must coincide. The passive angles are eliminated in closed form
+/// (intersection of two circles).
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Closure {
+    /// Identifier, used to name intermediates in the generated code.
+    pub name: String,
+    /// What the loop is.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// The two passive revolute joints `[j1, j2]` the constraint eliminates.
+    pub joints: Vec<String>,
+    /// The two points `[p1, p2]` (names of `points`) that coincide: `p1` is moved by `j1`,
+    /// `p2` by `j2`.
+    pub points: Vec<String>,
+    /// Which of the two assemblies: the joined point lies to the `left` or `right` of the
+    /// line from the axis of `j1` to the axis of `j2`.
+    pub branch: Branch,
+}
+
+/// One of the two assemblies of a closure.
+#[derive(Clone, Copy, Debug, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Branch {
+    /// Counter-clockwise of the line from `j1`'s axis to `j2`'s axis:
+    /// `(P2 − P1) × (E − P1) > 0`.
+    Left,
+    /// Clockwise of that line: `(P2 − P1) × (E − P1) < 0`.
+    Right,
 }
 
 /// A closed interval.

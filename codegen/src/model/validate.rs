@@ -164,6 +164,22 @@ pub struct Model {
     pub rendering: Option<Rendering>,
     /// The current-loop design of each joint's drive, in the order of `q`.
     pub current_loop_designs: Vec<crate::current_loop::CurrentLoopDesign>,
+    /// Passive joints of closed chains: coordinates `joints.len() + k` of the mechanics'
+    /// open tree, eliminated by `closures`, not coordinates of the generated code.
+    pub passive: Vec<PassiveJoint>,
+    /// The loop closures and their elimination, if the model is a closed chain.
+    pub closures: Option<crate::closure::Closures>,
+}
+
+/// A passive (unactuated) revolute joint of a closed chain.
+#[derive(Clone, Debug)]
+pub struct PassiveJoint {
+    /// Name.
+    pub name: String,
+    /// Documentation.
+    pub description: Option<String>,
+    /// Unit axis in the joint frame (`[0, 0, ±1]`).
+    pub axis: [f64; 3],
 }
 
 impl Model {
@@ -181,6 +197,30 @@ impl Model {
         match &self.task {
             TaskSpec::Point(_) => self.dim(),
             TaskSpec::Joints(j) => j.len(),
+        }
+    }
+
+    /// Number of coordinates of the open tree: actuated plus passive joints.
+    pub fn tree_coordinates(&self) -> usize {
+        self.joints.len() + self.passive.len()
+    }
+
+    /// Kind and axis of coordinate `j` of the open tree (actuated, then passive joints).
+    pub fn coordinate_axis(&self, j: usize) -> (JointKind, [f64; 3]) {
+        match self.joints.get(j) {
+            Some(joint) => (joint.kind, joint.axis),
+            None => {
+                let axis = self.passive.get(j - self.joints.len()).map(|p| p.axis).unwrap_or([0.0, 0.0, 1.0]);
+                (JointKind::Revolute, axis)
+            }
+        }
+    }
+
+    /// Name of coordinate `j` of the open tree.
+    pub fn coordinate_name(&self, j: usize) -> &str {
+        match self.joints.get(j) {
+            Some(joint) => &joint.name,
+            None => self.passive.get(j - self.joints.len()).map(|p| p.name.as_str()).unwrap_or("passive"),
         }
     }
 
@@ -466,6 +506,7 @@ pub(crate) fn resolve(
     let mut joint_index: HashMap<String, usize> = HashMap::new();
     let mut duplicate_joints = Vec::new();
     let mut joints = Vec::new();
+    let mut passive = Vec::new();
     if file.joints.is_empty() {
         r.error(&[key("joints")], "a model needs at least one joint");
     }
@@ -493,11 +534,44 @@ pub(crate) fn resolve(
         } else {
             joint_index.insert(j.name.clone(), i);
         }
-        if j.limits.lower >= j.limits.upper || j.limits.lower.is_nan() || j.limits.upper.is_nan() {
-            r.error(
-                &at("limits"),
-                format!("lower limit {} must be below upper limit {}", j.limits.lower, j.limits.upper),
-            );
+        let (lower, upper) = match &j.limits {
+            Some(l) => {
+                if l.lower >= l.upper || l.lower.is_nan() || l.upper.is_nan() {
+                    r.error(
+                        &at("limits"),
+                        format!("lower limit {} must be below upper limit {}", l.lower, l.upper),
+                    );
+                }
+                (l.lower, l.upper)
+            }
+            None if j.passive => (-std::f64::consts::PI, std::f64::consts::PI),
+            None => {
+                r.error(&base, "missing key `limits`");
+                (0.0, 0.0)
+            }
+        };
+        if j.passive {
+            if j.drive.is_some() {
+                r.error_hint(
+                    &at("drive"),
+                    format!("joint `{}` is passive: it has no drive", j.name),
+                    "remove `drive`, or `passive: true` if a motor turns the joint",
+                );
+            }
+            if j.damping.is_some() {
+                r.error_hint(
+                    &at("damping"),
+                    format!("joint `{}` is passive: damping of passive joints is not supported", j.name),
+                    "model the friction at the actuated joints",
+                );
+            }
+            if j.kind != JointKind::Revolute {
+                r.error_hint(
+                    &at("type"),
+                    format!("passive joint `{}` must be revolute", j.name),
+                    "closures eliminate the revolute distal joints of a planar dyad",
+                );
+            }
         }
         let damping = match &j.damping {
             Some(v) => {
@@ -507,21 +581,32 @@ pub(crate) fn resolve(
             }
             None => Poly::zero(),
         };
-        let drive = match file.drives.get(&j.drive) {
-            Some(d) => d.clone(),
-            None => {
-                let mut known: Vec<&String> = file.drives.keys().collect();
-                known.sort();
+        let drive = match (&j.drive, j.passive) {
+            (_, true) => None,
+            (None, false) => {
                 r.error_hint(
-                    &at("drive"),
-                    format!("joint `{}` references unknown drive `{}`", j.name, j.drive),
-                    format!(
-                        "defined drives: {}",
-                        known.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
-                    ),
+                    &base,
+                    "missing key `drive`",
+                    "an actuated joint names its entry of `drives`; a joint without a motor in a closed chain is `passive: true`",
                 );
                 continue;
             }
+            (Some(name), false) => match file.drives.get(name) {
+                Some(d) => Some(d.clone()),
+                None => {
+                    let mut known: Vec<&String> = file.drives.keys().collect();
+                    known.sort();
+                    r.error_hint(
+                        &at("drive"),
+                        format!("joint `{}` references unknown drive `{}`", j.name, name),
+                        format!(
+                            "defined drives: {}",
+                            known.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+                        ),
+                    );
+                    continue;
+                }
+            },
         };
         let axis = match (&j.axis, planar, j.kind) {
             (None, true, JointKind::Revolute) => [0.0, 0.0, 1.0],
@@ -561,18 +646,35 @@ pub(crate) fn resolve(
                 }
             }
         };
+        let Some(drive) = drive else {
+            passive.push(PassiveJoint { name: j.name.clone(), description: j.description.clone(), axis });
+            continue;
+        };
         joints.push(ResolvedJoint {
             name: j.name.clone(),
             kind: j.kind,
             description: j.description.clone(),
             axis,
-            lower: j.limits.lower,
-            upper: j.limits.upper,
+            lower,
+            upper,
             damping,
-            drive_name: j.drive.clone(),
+            drive_name: j.drive.clone().unwrap_or_default(),
             drive,
         });
     }
+    // Coordinates: the actuated joints in file order, then the passive ones.
+    let actuated_count = file.joints.iter().filter(|j| !j.passive).count();
+    let coordinate_of: Vec<usize> = {
+        let (mut a, mut p) = (0, actuated_count);
+        file.joints
+            .iter()
+            .map(|j| {
+                let slot = if j.passive { &mut p } else { &mut a };
+                *slot += 1;
+                *slot - 1
+            })
+            .collect()
+    };
 
     // Bodies: names first, so that references can point forwards.
     let mut body_index: HashMap<String, usize> = HashMap::new();
@@ -941,6 +1043,13 @@ pub(crate) fn resolve(
                     if !seen.insert(j) {
                         r.error(&path, format!("joint `{name}` is listed twice"));
                     }
+                    if file.joints[j].passive {
+                        r.error_hint(
+                            &path,
+                            format!("joint `{name}` is passive: a joint-space task uses actuated joints"),
+                            "make the task a point (`task: {point: ...}`)",
+                        );
+                    }
                     list.push(j);
                 }
             }
@@ -958,6 +1067,103 @@ pub(crate) fn resolve(
             TaskSpec::Joints(vec![])
         }
     };
+
+    // Closures.
+    let mut declared = Vec::new();
+    let mut closing: HashMap<usize, usize> = HashMap::new();
+    let mut closure_names = HashSet::new();
+    for (i, c) in file.closures.iter().enumerate() {
+        let base = vec![key("closures"), Segment::Index(i)];
+        let at = |k: &str| {
+            let mut p = base.clone();
+            p.push(key(k));
+            p
+        };
+        if !planar {
+            r.error_hint(
+                &base,
+                "closures are supported for planar models only",
+                "a spatial closed chain (Delta robot, Stewart platform) cannot be described yet",
+            );
+            continue;
+        }
+        if !is_identifier(&c.name) {
+            r.error(&at("name"), format!("`{}` is not a valid closure name", c.name));
+        }
+        if !closure_names.insert(c.name.clone()) {
+            r.error(&at("name"), format!("closure `{}` is defined twice", c.name));
+        }
+        let what = format!("closure `{}`", c.name);
+        let mut resolved_joints = Vec::new();
+        if c.joints.len() != 2 {
+            r.error_hint(
+                &at("joints"),
+                format!("expected 2 joints, got {}", c.joints.len()),
+                "name the two passive distal joints of the dyad: `joints: [left_elbow, right_elbow]`",
+            );
+        } else {
+            for (k, name) in c.joints.iter().enumerate() {
+                let mut path = at("joints");
+                path.push(Segment::Index(k));
+                let Some(j) = lookup_joint(&mut r, name, &path, &what) else { continue };
+                if !file.joints[j].passive {
+                    r.error_hint(
+                        &path,
+                        format!("joint `{name}` is actuated: a closure eliminates passive joints"),
+                        "mark the distal joints of the dyad `passive: true` (without a drive)",
+                    );
+                } else if let Some(other) = closing.insert(j, i) {
+                    r.error(
+                        &path,
+                        format!(
+                            "joint `{name}` is already eliminated by closure `{}`",
+                            file.closures[other].name
+                        ),
+                    );
+                }
+                resolved_joints.push(j);
+            }
+        }
+        let mut resolved_points = Vec::new();
+        if c.points.len() != 2 {
+            r.error_hint(
+                &at("points"),
+                format!("expected 2 points, got {}", c.points.len()),
+                "name the point of each joint's link that meets the other: `points: [left_tip, right_tip]`",
+            );
+        } else {
+            for (k, name) in c.points.iter().enumerate() {
+                let mut path = at("points");
+                path.push(Segment::Index(k));
+                match points.iter().position(|p| &p.name == name) {
+                    Some(p) => resolved_points.push(p),
+                    None => r.error_hint(
+                        &path,
+                        format!("{what} references unknown point `{name}`"),
+                        "name an entry of `points`",
+                    ),
+                }
+            }
+        }
+        if let (&[j1, j2], &[p1, p2]) = (&resolved_joints[..], &resolved_points[..]) {
+            if j1 == j2 {
+                r.error(&at("joints"), "the two joints must differ");
+            } else if p1 == p2 {
+                r.error(&at("points"), "the two points must differ");
+            } else {
+                declared.push((i, j1, j2, p1, p2, c.branch));
+            }
+        }
+    }
+    for (j, joint) in file.joints.iter().enumerate() {
+        if joint.passive && !closing.contains_key(&j) && !duplicate_joints.contains(&j) {
+            r.error_hint(
+                &[key("joints"), Segment::Index(j), key("passive")],
+                format!("passive joint `{}` is not eliminated by any closure", joint.name),
+                "list it in the `joints` of an entry of `closures`",
+            );
+        }
+    }
 
     // Sensors, rates, current loop, rendering.
     let mut sensor_names = HashSet::new();
@@ -1115,7 +1321,18 @@ pub(crate) fn resolve(
     for p in &mut points {
         p.body = remap(p.body);
     }
-    Ok(Model {
+    // Joint references become coordinate indices (actuated first, then passive).
+    for body in &mut ordered {
+        match &mut body.motion {
+            Motion::Serial { joint, .. } => *joint = joint.map(|j| coordinate_of[j]),
+            Motion::Direct { angle_joint, .. } => *angle_joint = coordinate_of[*angle_joint],
+        }
+    }
+    let task = match task {
+        TaskSpec::Joints(list) => TaskSpec::Joints(list.into_iter().map(|j| coordinate_of[j]).collect()),
+        point => point,
+    };
+    let mut model = Model {
         file: locator.file.to_string(),
         variant,
         variants,
@@ -1133,5 +1350,38 @@ pub(crate) fn resolve(
         current_loop: file.current_loop,
         rendering: file.rendering,
         current_loop_designs,
-    })
+        passive,
+        closures: None,
+    };
+    if !declared.is_empty() {
+        let declarations: Vec<crate::closure::Declaration> = declared
+            .iter()
+            .map(|&(i, j1, j2, p1, p2, branch)| crate::closure::Declaration {
+                name: file.closures[i].name.clone(),
+                joints: [coordinate_of[j1], coordinate_of[j2]],
+                points: [p1, p2],
+                branch,
+            })
+            .collect();
+        match crate::closure::analyse(&model, &declarations) {
+            Ok(closures) => model.closures = Some(closures),
+            Err(problems) => {
+                let errors = problems
+                    .into_iter()
+                    .map(|p| {
+                        let (i, ..) = declared[p.closure];
+                        let mut path = vec![key("closures"), Segment::Index(i)];
+                        path.extend(p.key.map(key));
+                        let d = locator.at(&path, p.message);
+                        match p.hint {
+                            Some(h) => d.with_hint(h),
+                            None => d,
+                        }
+                    })
+                    .collect();
+                return Err(Diagnostics(errors));
+            }
+        }
+    }
+    Ok(model)
 }

@@ -71,6 +71,8 @@ pub enum Node {
     Neg(NodeId),
     /// `a / b`.
     Div(NodeId, NodeId),
+    /// `√a` (closed-chain position level: the two-circle intersection).
+    Sqrt(NodeId),
 }
 
 /// Operation counts of a set of outputs.
@@ -106,6 +108,9 @@ pub struct Dag {
     /// coefficients divided by the first one: a later combination proportional to an earlier
     /// one is one multiplication of it.
     linear_index: HashMap<Vec<(NodeId, i64)>, (NodeId, f64)>,
+    /// Atoms that stand for nodes built from other inputs (a closed chain's passive
+    /// coordinates, see `crate::closure`): [`Dag::input`] returns the node instead.
+    substitutions: HashMap<Atom, NodeId>,
 }
 
 /// A node id with a pending sign, used while building sums.
@@ -150,9 +155,25 @@ impl Dag {
         self.intern(Node::Const(value.to_bits()))
     }
 
-    /// An input node.
+    /// An input node, or the node an atom was [substituted](Dag::substitute) by.
     pub fn input(&mut self, atom: Atom) -> NodeId {
-        self.intern(Node::Input(atom))
+        match self.substitutions.get(&atom) {
+            Some(&id) => id,
+            None => self.intern(Node::Input(atom)),
+        }
+    }
+
+    /// From now on, `atom` stands for the node `id` in every polynomial added.
+    pub fn substitute(&mut self, atom: Atom, id: NodeId) {
+        self.substitutions.insert(atom, id);
+    }
+
+    /// `√a`, folded for constants.
+    pub fn sqrt(&mut self, a: NodeId) -> NodeId {
+        match self.constant_value(a) {
+            Some(x) => self.constant(x.sqrt()),
+            None => self.intern(Node::Sqrt(a)),
+        }
     }
 
     /// `a + b`, folded.
@@ -425,7 +446,7 @@ impl Dag {
                     stack.push(a);
                     stack.push(b);
                 }
-                Node::Neg(a) => stack.push(a),
+                Node::Neg(a) | Node::Sqrt(a) => stack.push(a),
                 _ => {}
             }
         }
@@ -441,6 +462,7 @@ impl Dag {
                 Node::Mul(..) => counts.multiplications += 1,
                 Node::Neg(..) => counts.negations += 1,
                 Node::Div(..) => counts.divisions += 1,
+                Node::Sqrt(..) => counts.square_roots += 1,
                 Node::Input(Atom::Sin(_) | Atom::Cos(_)) => counts.trigonometric += 1,
                 _ => {}
             }
@@ -450,8 +472,17 @@ impl Dag {
 
     /// Evaluates a node given input values.
     pub fn eval(&self, id: NodeId, input: &dyn Fn(Atom) -> f64) -> f64 {
-        let mut values = vec![0.0; id + 1];
-        for (i, node) in self.nodes[..=id].iter().enumerate() {
+        self.eval_prefix(id + 1, input)[id]
+    }
+
+    /// Evaluates every node given input values.
+    pub fn eval_all(&self, input: &dyn Fn(Atom) -> f64) -> Vec<f64> {
+        self.eval_prefix(self.nodes.len(), input)
+    }
+
+    fn eval_prefix(&self, len: usize, input: &dyn Fn(Atom) -> f64) -> Vec<f64> {
+        let mut values = vec![0.0; len];
+        for (i, node) in self.nodes[..len].iter().enumerate() {
             values[i] = match *node {
                 Node::Const(bits) => f64::from_bits(bits),
                 Node::Input(a) => input(a),
@@ -460,9 +491,10 @@ impl Dag {
                 Node::Mul(a, b) => values[a] * values[b],
                 Node::Neg(a) => -values[a],
                 Node::Div(a, b) => values[a] / values[b],
+                Node::Sqrt(a) => values[a].sqrt(),
             };
         }
-        values[id]
+        values
     }
 }
 
@@ -509,7 +541,7 @@ impl Dag {
                     uses[a] += 1;
                     uses[b] += 1;
                 }
-                Node::Neg(a) => uses[a] += 1,
+                Node::Neg(a) | Node::Sqrt(a) => uses[a] += 1,
                 _ => {}
             }
         }
@@ -590,6 +622,11 @@ impl Dag {
                     let y = materialize(b, &linear, &mut built, &mut out);
                     let q = out.div(x, y);
                     built.insert(id, q);
+                }
+                Node::Sqrt(a) => {
+                    let x = materialize(a, &linear, &mut built, &mut out);
+                    let r = out.sqrt(x);
+                    built.insert(id, r);
                 }
             }
         }
@@ -675,7 +712,7 @@ impl Dag {
                     uses[a] += 1;
                     uses[b] += 1;
                 }
-                Node::Neg(a) => uses[a] += 1,
+                Node::Neg(a) | Node::Sqrt(a) => uses[a] += 1,
                 _ => {}
             }
         }
@@ -692,6 +729,7 @@ impl Dag {
                 Node::Sub(a, b) => out.sub(map[&a], map[&b]),
                 Node::Mul(a, b) => out.mul(map[&a], map[&b]),
                 Node::Div(a, b) => out.div(map[&a], map[&b]),
+                Node::Sqrt(a) => out.sqrt(map[&a]),
                 Node::Neg(m) => match self.free_negation(m, &uses, &map, &mut out) {
                     Some(flipped) => flipped,
                     None => out.neg(map[&m]),

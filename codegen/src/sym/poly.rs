@@ -33,6 +33,10 @@ pub enum Atom {
     /// An input of a fused control law (reference, impedance parameter, sensed signal);
     /// never part of the mechanics' polynomials.
     External(u16),
+    /// A quantity of a closed chain's elimination (an entry of `∂q_p/∂q_a` or of its time
+    /// derivative), computed in closed form from the actuated coordinates and velocities
+    /// before the outputs (see `crate::closure`); never an input of the generated code.
+    Closure(u16),
 }
 
 /// A product of atoms with positive exponents, sorted by atom.

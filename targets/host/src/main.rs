@@ -262,8 +262,18 @@ fn run(cli: Cli) -> Result<(), String> {
                     eprintln!("warning: {d}");
                 }
             }
+            // A closed chain also names its eliminated passive joints.
+            let passive = match &m.closures {
+                Some(c) => format!(
+                    " (+{} passive, eliminated by {} closure{})",
+                    m.passive.len(),
+                    c.loops.len(),
+                    if c.loops.len() == 1 { "" } else { "s" }
+                ),
+                None => String::new(),
+            };
             println!(
-                "{}: ok: rig `{}`{}, {} joints, {} bodies, task dimension {}",
+                "{}: ok: rig `{}`{}, {} joints{passive}, {} bodies, task dimension {}",
                 model.display(),
                 m.name,
                 m.variant.as_ref().map(|v| format!(" (variant {v})")).unwrap_or_default(),

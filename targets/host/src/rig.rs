@@ -112,7 +112,8 @@ impl CompiledModel {
         kinematics.extend(mech.task.jacobian_dot_times_qdot.iter().cloned());
         let coriolis = flat(&mech.coriolis_matrix);
         let jacobian_dot = flat(&mech.task.jacobian_dot);
-        let compile = |v: Vec<Poly>| Tape::compile(&v.iter().collect::<Vec<_>>(), n);
+        let compile =
+            |v: Vec<Poly>| Tape::compile_closed(&v.iter().collect::<Vec<_>>(), n, mech.closures.as_ref());
         let parameters = model.nominal_parameters();
         let nominal = hapticgen_codegen::eval::NominalAtoms(&parameters);
         CompiledModel {

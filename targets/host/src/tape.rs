@@ -8,9 +8,10 @@
 //! (`hapticgen_codegen::sym::dag::Dag`, with its Horner factoring and common-subexpression
 //! elimination), and the nodes reachable from the requested outputs are flattened into a
 //! register tape: constants and inputs are registers filled before the run, every other node
-//! is one `Add`/`Sub`/`Mul`/`Div`/`Neg` instruction writing its own register. Evaluating a tape is a
+//! is one `Add`/`Sub`/`Mul`/`Div`/`Neg`/`Sqrt` instruction writing its own register. Evaluating a tape is a
 //! single pass over a `Vec<f64>`, with one `sin`/`cos` per joint.
 
+use hapticgen_codegen::closure::Closures;
 use hapticgen_codegen::sym::dag::{Dag, Node, NodeId};
 use hapticgen_codegen::sym::poly::{Atom, Poly};
 
@@ -22,6 +23,7 @@ enum Op {
     Mul(u32, u32, u32),
     Div(u32, u32, u32),
     Neg(u32, u32),
+    Sqrt(u32, u32),
 }
 
 /// Where an input register takes its value from.
@@ -51,7 +53,14 @@ pub struct Tape {
 impl Tape {
     /// Compiles `outputs` (polynomials of one model with `joints` joints).
     pub fn compile(outputs: &[&Poly], joints: usize) -> Tape {
+        Tape::compile_closed(outputs, joints, None)
+    }
+
+    /// Compiles `outputs` of a model whose closed chains `closures` eliminates (the
+    /// elimination's nodes are computed on the tape in front of the outputs).
+    pub fn compile_closed(outputs: &[&Poly], joints: usize, closures: Option<&Closures>) -> Tape {
         let mut dag = Dag::new();
+        hapticgen_codegen::closure::install(&mut dag, closures);
         let roots: Vec<NodeId> = outputs.iter().map(|p| dag.polynomial(p)).collect();
         let reachable = dag.reachable(&roots);
         let mut register_of = vec![u32::MAX; dag.nodes().len()];
@@ -72,7 +81,7 @@ impl Tape {
                         Atom::Q(j) => Source::Q(usize::from(j)),
                         Atom::Qd(j) => Source::Qd(usize::from(j)),
                         Atom::Param(k) => Source::Param(usize::from(k)),
-                        Atom::Qdd(_) | Atom::External(_) => Source::Zero,
+                        Atom::Qdd(_) | Atom::External(_) | Atom::Closure(_) => Source::Zero,
                     };
                     inputs.push((slot, source));
                 }
@@ -95,6 +104,10 @@ impl Tape {
                 Node::Neg(a) => {
                     registers.push(0.0);
                     ops.push(Op::Neg(slot, r(a)));
+                }
+                Node::Sqrt(a) => {
+                    registers.push(0.0);
+                    ops.push(Op::Sqrt(slot, r(a)));
                 }
             }
         }
@@ -154,6 +167,7 @@ impl Tape {
                 Op::Mul(d, a, b) => scratch[d as usize] = scratch[a as usize] * scratch[b as usize],
                 Op::Div(d, a, b) => scratch[d as usize] = scratch[a as usize] / scratch[b as usize],
                 Op::Neg(d, a) => scratch[d as usize] = -scratch[a as usize],
+                Op::Sqrt(d, a) => scratch[d as usize] = scratch[a as usize].sqrt(),
             }
         }
         for (slot, &register) in out.iter_mut().zip(&self.outputs) {
@@ -182,5 +196,49 @@ mod tests {
         let expected = 2.0 * q[0].sin() * q[1].cos() - qd[0] * qd[0] + 0.5;
         assert!((out[0] - expected).abs() < 1e-12, "{} vs {expected}", out[0]);
         assert!((out[1] + expected * q[1].cos()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn closed_chain_tapes_match_the_evaluator() {
+        use hapticgen_codegen::eval::{evaluate, State};
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        for (file, variant) in [
+            ("models/pantograph_5bar.yaml", Some("vertical")),
+            ("codegen/tests/good-models/five_bar_2dof.yaml", None),
+        ] {
+            let model = hapticgen_codegen::model::load_file(&root.join(file), file, variant)
+                .unwrap_or_else(|e| panic!("{e}"));
+            let mech = hapticgen_codegen::mechanics::derive(&model);
+            let mut outputs: Vec<&Poly> = mech.inertia_matrix.iter().flatten().collect();
+            outputs.extend(&mech.coriolis_times_qdot);
+            outputs.extend(&mech.gravity);
+            outputs.extend(&mech.task.position);
+            outputs.extend(mech.task.jacobian.iter().flatten());
+            outputs.extend(&mech.task.jacobian_dot_times_qdot);
+            let tape = Tape::compile_closed(&outputs, mech.joints, mech.closures.as_ref());
+            let parameters = model.nominal_parameters();
+            let mut scratch = tape.scratch();
+            let mut out = vec![0.0; tape.len()];
+            for (i, j) in [(0.2, 0.7), (0.5, 0.5), (0.9, 0.1)] {
+                let q: Vec<f64> = model
+                    .joints
+                    .iter()
+                    .zip([i, j])
+                    .map(|(jt, t)| jt.lower + t * (jt.upper - jt.lower))
+                    .collect();
+                let qd = [0.4, -0.9];
+                tape.eval(&mut scratch, &q, &qd, &parameters, &mut out);
+                let e = evaluate(&mech, &State { q: &q, qd: &qd, parameters: &parameters }, None);
+                let mut want: Vec<f64> = e.inertia_matrix.concat();
+                want.extend(&e.coriolis_times_qdot);
+                want.extend(&e.g);
+                want.extend(&e.p);
+                want.extend(e.jacobian.concat());
+                want.extend(&e.jacobian_dot_times_qdot);
+                for (k, (a, b)) in out.iter().zip(&want).enumerate() {
+                    assert!((a - b).abs() <= 1e-12 * b.abs().max(1e-3), "{file} output {k}: {a} vs {b}");
+                }
+            }
+        }
     }
 }
