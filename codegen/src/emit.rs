@@ -11,7 +11,7 @@ use std::collections::HashMap;
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::{format_ident, quote};
 
-use crate::mechanics::{Derivation, Mechanics};
+use crate::mechanics::{Choice, Derivation, Mechanics};
 use crate::model::{JointKind, Model};
 use crate::recursive::{PointQuantity, Quantity};
 use crate::sym::dag::{Dag, Node, NodeId, OpCounts};
@@ -145,16 +145,80 @@ pub enum Output<'a> {
     Quantity(Quantity, usize),
 }
 
-/// The DAG nodes of `outputs`; each quantity is built once per DAG.
+/// The DAG nodes of `outputs` with the model's default derivations; each quantity is built
+/// once per DAG.
 fn output_roots(dag: &mut Dag, model: &Model, mech: &Mechanics, outputs: &[Output<'_>]) -> Vec<NodeId> {
+    output_roots_with(dag, model, mech, outputs, mech.choice())
+}
+
+fn output_roots_with(
+    dag: &mut Dag,
+    model: &Model,
+    mech: &Mechanics,
+    outputs: &[Output<'_>],
+    choice: Choice,
+) -> Vec<NodeId> {
     let mut built: HashMap<Quantity, Vec<NodeId>> = HashMap::new();
     outputs
         .iter()
         .map(|output| match *output {
             Output::Poly(p) => dag.polynomial(p),
-            Output::Quantity(q, k) => built.entry(q).or_insert_with(|| mech.build(dag, model, q))[k],
+            Output::Quantity(q, k) => {
+                built.entry(q).or_insert_with(|| mech.build_with(dag, model, q, choice))[k]
+            }
         })
         .collect()
+}
+
+/// How a function's outputs were derived, for its doc comment (empty for the Lagrangian
+/// polynomials, which the module documentation describes).
+fn derivation_note(outputs: &[Output<'_>], choice: Choice) -> &'static str {
+    let Some(Output::Quantity(quantity, _)) = outputs.iter().find(|o| matches!(o, Output::Quantity(..)))
+    else {
+        return "";
+    };
+    match (quantity, choice.dynamics, choice.kinematics) {
+        (Quantity::Point(..), _, Derivation::Recursive) => {
+            " Built by composing the joint frames (`J̇ q̇`: the Newton–Euler forward pass at `q̈ = 0`)."
+        }
+        (Quantity::Point(..), _, Derivation::Polynomial) => "",
+        (Quantity::InertiaMatrix, Derivation::Recursive, _) => " Built by the composite-rigid-body algorithm.",
+        (Quantity::CoriolisMatrix, Derivation::Recursive, _) => {
+            " From the Christoffel symbols of the composite-rigid-body `D`, differentiated on the expression graph."
+        }
+        (_, Derivation::Recursive, _) => " Built by the recursive Newton–Euler algorithm.",
+        (Quantity::CoriolisTimesQdot | Quantity::InverseDynamics, Derivation::Polynomial, _)
+            if choice.structured_coriolis =>
+        {
+            " `C q̇` in the Christoffel form `Σ_{i≤j} Γ_kij q̇_i q̇_j` over shared partial derivatives of `D`."
+        }
+        _ => "",
+    }
+}
+
+/// The derivation choice under which `outputs` take the fewest operations on their own.
+fn cheapest_choice(model: &Model, mech: &Mechanics, outputs: &[Output<'_>]) -> Choice {
+    if !outputs.iter().any(|o| matches!(o, Output::Quantity(..))) {
+        return mech.choice();
+    }
+    let cost = |choice: Choice| {
+        let mut dag = Dag::new();
+        let roots = output_roots_with(&mut dag, model, mech, outputs, choice);
+        let counts = match dag.optimised(&roots) {
+            Some((optimised, optimised_roots, _)) => optimised.count(&optimised_roots),
+            None => dag.count(&roots),
+        };
+        counts.arithmetic() + counts.trigonometric
+    };
+    // The default first, so that a tie keeps it.
+    let mut best = (cost(mech.choice()), mech.choice());
+    for choice in mech.choices(model) {
+        let c = cost(choice);
+        if c < best.0 {
+            best = (c, choice);
+        }
+    }
+    best.1
 }
 
 fn quantity(q: Quantity, len: usize) -> Vec<Output<'static>> {
@@ -588,7 +652,9 @@ pub fn function(
     spec: &FunctionSpec<'_>,
 ) -> (TokenStream, OpCounts) {
     let mut body = BodyEmitter::new(model, scalar);
-    let roots = output_roots(&mut body.dag, model, mech, &spec.outputs);
+    let choice = cheapest_choice(model, mech, &spec.outputs);
+    let roots = output_roots_with(&mut body.dag, model, mech, &spec.outputs, choice);
+    let doc = format!("{}{}", spec.doc, derivation_note(&spec.outputs, choice));
     let (statements, outputs, counts) = body.emit(&roots, &spec.name);
     let value = shape_value(spec.shape, &outputs);
     let ret = shape_tokens(spec.shape, scalar);
@@ -599,7 +665,6 @@ pub fn function(
     let q = if q_used { quote!(q) } else { quote!(_q) };
     let qd = if qd_used { quote!(qd) } else { quote!(_qd) };
     let name = format_ident!("{}", spec.name);
-    let doc = &spec.doc;
     let args = if spec.takes_qdd {
         let qdd_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Qdd(_)));
         let qdd = if qdd_used { quote!(qdd) } else { quote!(_qdd) };
@@ -680,10 +745,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
     let mut specs = vec![
         FunctionSpec {
             name: "inertia_matrix".into(),
-            doc: format!(" Inertia matrix `D(q)` of eq. (1), {} plus the reflected rotor inertias `N² J_m`.", match mech.derivation {
-                Derivation::Polynomial => "from the kinetic energy of every body",
-                Derivation::Recursive => "by the composite-rigid-body algorithm",
-            }),
+            doc: " Inertia matrix `D(q)` of eq. (1), including the reflected rotor inertias `N² J_m`.".into(),
             shape: Shape::Matrix(n, n),
             outputs: quantity(Quantity::InertiaMatrix, n * n),
             takes_qd: false,
@@ -691,7 +753,8 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
         },
         FunctionSpec {
             name: "coriolis_matrix".into(),
-            doc: " Coriolis/centrifugal matrix `C(q, q̇)` of eq. (1), from the Christoffel symbols of `D`.".into(),
+            doc: " Coriolis/centrifugal matrix `C(q, q̇)` of eq. (1), from the Christoffel symbols of `D`."
+                .into(),
             shape: Shape::Matrix(n, n),
             outputs: quantity(Quantity::CoriolisMatrix, n * n),
             takes_qd: true,
@@ -699,10 +762,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
         },
         FunctionSpec {
             name: "coriolis_times_qdot".into(),
-            doc: format!(" Coriolis and centrifugal torques `C(q, q̇) q̇`{}.", match mech.derivation {
-                Derivation::Polynomial => "",
-                Derivation::Recursive => ", by the recursive Newton–Euler algorithm with `q̈ = 0` and no gravity",
-            }),
+            doc: " Coriolis and centrifugal torques `C(q, q̇) q̇`.".into(),
             shape: Shape::Vector(n),
             outputs: quantity(Quantity::CoriolisTimesQdot, n),
             takes_qd: true,
@@ -718,10 +778,9 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
         },
         FunctionSpec {
             name: "inverse_dynamics".into(),
-            doc: format!(" Inverse dynamics of eq. (1) without damping and friction: `τ = D(q) q̈ + C(q, q̇) q̇ + g(q)`{}.", match mech.derivation {
-                Derivation::Polynomial => "",
-                Derivation::Recursive => ", by the recursive Newton–Euler algorithm",
-            }),
+            doc:
+                " Inverse dynamics of eq. (1) without damping and friction: `τ = D(q) q̈ + C(q, q̇) q̇ + g(q)`."
+                    .into(),
             shape: Shape::Vector(n),
             outputs: quantity(Quantity::InverseDynamics, n),
             takes_qd: true,

@@ -22,6 +22,17 @@ use crate::sym::poly::{Atom, Poly};
 /// expanded polynomials grow exponentially with the chain (docs/performance.md).
 pub const RECURSIVE_FROM_JOINTS: usize = 4;
 
+/// The derivations used to build the emitted code of one function.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Choice {
+    /// For `D`, `C`, `C q̇`, `g` and the inverse dynamics.
+    pub dynamics: Derivation,
+    /// For points' positions, Jacobians and `J̇ q̇`.
+    pub kinematics: Derivation,
+    /// `C q̇` in the Christoffel form (polynomial dynamics only).
+    pub structured_coriolis: bool,
+}
+
 /// How `D`, `C`, `C q̇` and `g` are built into emitted code.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum Derivation {
@@ -502,11 +513,55 @@ impl Mechanics {
         }
     }
 
+    /// The derivations this model's emitted code uses by default (the control tick's best).
+    pub fn choice(&self) -> Choice {
+        Choice {
+            dynamics: self.derivation,
+            kinematics: self.kinematics,
+            structured_coriolis: self.structured_coriolis,
+        }
+    }
+
+    /// Every combination of derivations this model supports (the emitter takes the cheapest
+    /// for each function on its own).
+    pub fn choices(&self, model: &Model) -> Vec<Choice> {
+        let serial = recursive::applies(model);
+        let polynomial_dynamics =
+            self.closures.is_some() || !self.inertia_matrix.is_empty() || self.joints == 0;
+        let mut out = Vec::new();
+        for dynamics in [Derivation::Polynomial, Derivation::Recursive] {
+            for kinematics in [Derivation::Polynomial, Derivation::Recursive] {
+                for structured_coriolis in [false, true] {
+                    let ok = match dynamics {
+                        Derivation::Polynomial => polynomial_dynamics,
+                        Derivation::Recursive => serial && !structured_coriolis,
+                    } && (kinematics == Derivation::Polynomial || serial)
+                        && (!structured_coriolis || self.closures.is_none());
+                    if ok {
+                        out.push(Choice { dynamics, kinematics, structured_coriolis });
+                    }
+                }
+            }
+        }
+        out
+    }
+
     /// Builds a quantity into `dag` with this model's derivation; matrices row-major.
     pub fn build(&self, dag: &mut Dag, model: &Model, quantity: Quantity) -> Vec<NodeId> {
+        self.build_with(dag, model, quantity, self.choice())
+    }
+
+    /// Builds a quantity into `dag` with the given derivations (one of [`Mechanics::choices`]).
+    pub fn build_with(
+        &self,
+        dag: &mut Dag,
+        model: &Model,
+        quantity: Quantity,
+        choice: Choice,
+    ) -> Vec<NodeId> {
         let recursive = match quantity {
-            Quantity::Point(..) => self.kinematics == Derivation::Recursive,
-            _ => self.derivation == Derivation::Recursive,
+            Quantity::Point(..) => choice.kinematics == Derivation::Recursive,
+            _ => choice.dynamics == Derivation::Recursive,
         };
         if recursive {
             return recursive::build(dag, model, quantity);
@@ -521,7 +576,7 @@ impl Mechanics {
             Quantity::CoriolisMatrix => {
                 self.coriolis_matrix.iter().flat_map(|row| row.iter()).map(|p| dag.polynomial(p)).collect()
             }
-            Quantity::CoriolisTimesQdot if self.structured_coriolis => self.christoffel_form(dag),
+            Quantity::CoriolisTimesQdot if choice.structured_coriolis => self.christoffel_form(dag),
             Quantity::CoriolisTimesQdot => polys(dag, &self.coriolis_times_qdot),
             Quantity::Gravity => polys(dag, &self.gravity),
             Quantity::Point(i, what) => {
@@ -529,11 +584,13 @@ impl Mechanics {
             }
             Quantity::InverseDynamics => {
                 // D q̈ + C q̇ + g, row by row.
-                let inertia = self.build(dag, model, Quantity::InertiaMatrix);
-                let bias: Vec<NodeId> = (0..self.joints)
-                    .map(|i| {
-                        let c = dag.polynomial(&self.coriolis_times_qdot[i]);
-                        let g = dag.polynomial(&self.gravity[i]);
+                let inertia = self.build_with(dag, model, Quantity::InertiaMatrix, choice);
+                let coriolis = self.build_with(dag, model, Quantity::CoriolisTimesQdot, choice);
+                let bias: Vec<NodeId> = coriolis
+                    .iter()
+                    .zip(&self.gravity)
+                    .map(|(&c, g)| {
+                        let g = dag.polynomial(g);
                         dag.add(c, g)
                     })
                     .collect();
