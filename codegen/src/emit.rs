@@ -182,9 +182,11 @@ fn derivation_note(outputs: &[Output<'_>], choice: Choice) -> &'static str {
             " Built by composing the joint frames (`J̇ q̇`: the Newton–Euler forward pass at `q̈ = 0`)."
         }
         (Quantity::Point(..), _, Derivation::Polynomial) => "",
-        (Quantity::InertiaMatrix, Derivation::Recursive, _) => " Built by the composite-rigid-body algorithm.",
+        (Quantity::InertiaMatrix, Derivation::Recursive, _) => {
+            " Built by the composite-rigid-body algorithm."
+        }
         (Quantity::CoriolisMatrix, Derivation::Recursive, _) => {
-            " From the Christoffel symbols of the composite-rigid-body `D`, differentiated on the expression graph."
+            " `D` from the composite-rigid-body algorithm, differentiated on the expression graph."
         }
         (_, Derivation::Recursive, _) => " Built by the recursive Newton–Euler algorithm.",
         (Quantity::CoriolisTimesQdot | Quantity::InverseDynamics, Derivation::Polynomial, _)
@@ -567,6 +569,14 @@ impl<'m> BodyEmitter<'m> {
                 (quote!(#ident), Precedence::Atomic)
             }
             Node::Add(a, b) => {
+                // `x + (−c)` reads as `x − c`.
+                for (x, c) in [(a, b), (b, a)] {
+                    if let Some(k) = self.dag.constant_value(c).filter(|k| *k < 0.0) {
+                        let x = wrap(self.expression(x, names, false), Precedence::Sum);
+                        let c = self.scalar.literal(-k);
+                        return (quote!(#x - #c), Precedence::Sum);
+                    }
+                }
                 // `x + (−c)·y` reads as `x − c·y`.
                 if let Some(y) = self.negated_product(b, names) {
                     let x = wrap(self.expression(a, names, false), Precedence::Sum);
