@@ -150,7 +150,7 @@ mod single {
 
 /// `√x` in single precision: the FPU's `vsqrt.f32` with the `fpu-sqrt` feature on ARM (14
 /// cycles on the Cortex-M4F, with four `vmov`s), else libm's `sqrtf` (software on targets
-/// whose libm has no hardware path, as on ARM: about 60 instructions a call). Both are
+/// whose libm has no hardware path, as on ARM: about 50 instructions a call). Both are
 /// correctly rounded (IEEE 754), so an `f32` run on the host and on the target agree bit
 /// for bit; negative input gives NaN in both.
 #[inline]
