@@ -15,6 +15,7 @@ fn main() {
     let mut list = String::new();
     let mut scenarios = String::new();
     let mut renderings = String::new();
+    let mut pushes = String::new();
     for v in &table {
         for scalar in [Scalar::F64, Scalar::F32] {
             let module = format!("{}_{}", v.name, scalar.name());
@@ -32,6 +33,14 @@ fn main() {
         }
         writeln!(scenarios, "    (\"{}\", \"{}\"),", v.name, v.scenario).unwrap();
         writeln!(renderings, "        \"{0}\" => {0}_f64::setup().rendering,", v.name).unwrap();
+        if v.scenario == "wall_contact" {
+            writeln!(
+                pushes,
+                "        \"{0}\" => Some(::hapticgen_fw_sim::scenarios::wall_contact::push(&{0}_f64::Rig::NOMINAL, &{0}_f64::setup().start)),",
+                v.name
+            )
+            .unwrap();
+        }
         let b = v.budget;
         writeln!(
             list,
@@ -46,6 +55,8 @@ fn main() {
          /// Every image: name and scenario.\npub const SCENARIOS: &[(&str, &str)] = &[\n{scenarios}];\n\
          /// The model's `rendering:` (grid, wall stiffness, wall damping) of image `name`, if any.\n\
          pub fn rendering(name: &str) -> Option<[f64; 3]> {{\n    match name {{\n{renderings}        _ => None,\n    }}\n}}\n\
+         /// The operator's push (N) of image `name` if its scenario is `wall_contact`.\n\
+         pub fn wall_push(name: &str) -> Option<f64> {{\n    match name {{\n{pushes}        _ => None,\n    }}\n}}\n\
          /// Runs the scenario of image `name` in `scalar` (`f32` or `f64`), writing its output lines.\n\
          pub fn run(name: &str, scalar: &str, out: &mut impl Sink) -> Result<(), &'static str> {{\n    match (name, scalar) {{\n{arms}        _ => Err(\"unknown variant or scalar\"),\n    }}\n}}"
     )

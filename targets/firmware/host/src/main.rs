@@ -4,6 +4,7 @@
 //! hapticgen-fw-host list                          image names, one per line
 //! hapticgen-fw-host run <image> <f32|f64>         the scenario on the host (same output format)
 //! hapticgen-fw-host size <elf>                    flash and static RAM of an image
+//! hapticgen-fw-host push <image>                  the operator's push (N) of a `wall_contact` image
 //! hapticgen-fw-host check <image> <qemu-output> <elf> [--limits=warn]
 //! ```
 //!
@@ -267,6 +268,13 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     match args.as_slice() {
+        ["push", name] => match variants::wall_push(name) {
+            Some(f) => {
+                println!("{f}");
+                ExitCode::SUCCESS
+            }
+            None => ExitCode::FAILURE,
+        },
         ["list"] => {
             for (name, _) in variants::VARIANTS {
                 println!("{name}");
@@ -302,7 +310,7 @@ fn main() -> ExitCode {
             }
         }
         _ => {
-            eprintln!("usage: hapticgen-fw-host list | run <image> <f32|f64> | size <elf> | check <image> <qemu-output> <elf> [--limits=warn]");
+            eprintln!("usage: hapticgen-fw-host list | run <image> <f32|f64> | size <elf> | push <image> | check <image> <qemu-output> <elf> [--limits=warn]");
             ExitCode::from(2)
         }
     }
@@ -314,7 +322,7 @@ fn main() -> ExitCode {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hapticgen_fw_sim::scenarios::{hold_pose, sphere_cavity, PAPER_RENDERING};
+    use hapticgen_fw_sim::scenarios::{hold_pose, sphere_cavity, wall_contact, PAPER_RENDERING};
 
     /// `(k, q, x)` of every trace line of the f64 reference run (µrad, µm or µrad).
     fn trace(name: &str) -> Vec<(i64, Vec<i64>, Vec<i64>)> {
@@ -389,12 +397,12 @@ mod tests {
     fn wall_contact_stops_the_point_at_the_wall() {
         let names = images("wall_contact");
         assert!(!names.is_empty());
-        let force = 2.0;
         for name in names {
+            let force = variants::wall_push(name).unwrap();
             let [_, stiffness, _] = variants::rendering(name).unwrap_or(PAPER_RENDERING);
             let t = trace(name);
             let start = &t[0].2;
-            let wall = 0.005;
+            let wall = wall_contact::WALL;
             let pushed: Vec<(i64, f64)> = t
                 .iter()
                 .filter(|(k, _, _)| (750..=7500).contains(k))
