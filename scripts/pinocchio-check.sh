@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Independent check of hapticgen's dynamics for every serial model: Pinocchio (PyPI `pin`)
 # computes D (crba), C·q̇ + g (nonLinearEffects), g (computeGeneralizedGravity) and each named
-# point's frame Jacobian (LOCAL_WORLD_ALIGNED, position rows) from the URDF that hapticgen
+# point's frame Jacobian (LOCAL_WORLD_ALIGNED, position rows) and each named frame's rotation
+# (oMf) and angular rows of its LOCAL_WORLD_ALIGNED frame Jacobian, from the URDF that hapticgen
 # exports, at 50 random states per model; every entry must agree with hapticgen's evaluator to
 # 1e-10 (relative to the quantity's scale when that exceeds 1).
 #
@@ -48,7 +49,7 @@ for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
         failures.append(f"{name}: Pinocchio's joints {names} differ from hapticgen's {ref['joints']}")
         continue
     armature = np.diag(ref["armature"])
-    worst = {"D": 0.0, "nle": 0.0, "g": 0.0, "J": 0.0, "p": 0.0}
+    worst = {"D": 0.0, "nle": 0.0, "g": 0.0, "J": 0.0, "p": 0.0, "R": 0.0, "Jw": 0.0}
 
     def compare(what, got, want, state):
         scale = max(1.0, float(np.max(np.abs(want))) if np.size(want) else 1.0)
@@ -70,6 +71,11 @@ for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
             jacobian = np.reshape(pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED), (6, model.nv))[:3, :]
             compare(f"J[{frame}]", jacobian, np.array(values["J"]), k)
             compare(f"p[{frame}]", data.oMf[fid].translation, np.array(values["p"]), k)
+        for frame, values in s.get("frames", {}).items():
+            fid = model.getFrameId(frame)
+            jacobian = np.reshape(pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED), (6, model.nv))[3:, :]
+            compare(f"Jw[{frame}]", jacobian, np.array(values["Jw"]), k)
+            compare(f"R[{frame}]", data.oMf[fid].rotation, np.array(values["R"]), k)
     summary.append(
         f"{name:<36} {model.nq} dof, {len(ref['states'])} states: max error "
         + ", ".join(f"{k} {v:.1e}" for k, v in worst.items())

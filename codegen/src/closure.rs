@@ -600,6 +600,8 @@ pub fn reduce(tree: Mechanics, closures: &Closures) -> Mechanics {
         potential_energy: tree.potential_energy.clone(),
         task: reduce_kinematics(&tree.task),
         points: tree.points.iter().map(reduce_kinematics).collect(),
+        // Closed chains are planar, and frames are declared on spatial models only.
+        frames: Vec::new(),
         closures: Some(closures.clone()),
         tree: Some(Box::new(tree)),
     }

@@ -866,6 +866,25 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             takes_qdd: false,
         });
     }
+    for (frame, kin) in model.frames.iter().zip(&mech.frames) {
+        let what = frame.description.clone().unwrap_or_else(|| format!("frame `{}`", frame.name));
+        specs.push(FunctionSpec {
+            name: format!("{}_orientation", frame.name),
+            doc: format!(" Orientation of {what}: the rotation matrix `R(q)` from the frame to the base frame (columns: its axes in base coordinates)."),
+            shape: Shape::Matrix(3, 3),
+            outputs: row_major(&kin.rotation),
+            takes_qd: false,
+            takes_qdd: false,
+        });
+        specs.push(FunctionSpec {
+            name: format!("{}_angular_jacobian", frame.name),
+            doc: format!(" Angular-velocity Jacobian of {what}: `ω = J_ω(q) q̇` in base-frame coordinates (`Ṙ Rᵀ = [ω]×`)."),
+            shape: Shape::Matrix(3, n),
+            outputs: row_major(&kin.angular_jacobian),
+            takes_qd: false,
+            takes_qdd: false,
+        });
+    }
     specs
 }
 

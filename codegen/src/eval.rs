@@ -4,7 +4,7 @@
 //! it is independent of the optimiser and emitter: tests compare the compiled, emitted code
 //! against it, and the CLI's `eval` command uses it.
 
-use crate::mechanics::{Mechanics, PointKinematics};
+use crate::mechanics::{FrameKinematics, Mechanics, PointKinematics};
 use crate::sym::poly::{Atom, AtomValues, Poly};
 
 /// Atom values at a state `(q, q̇)` with given tunable parameters.
@@ -140,5 +140,25 @@ pub fn evaluate(mech: &Mechanics, state: &State<'_>, point: Option<&PointKinemat
                 .collect(),
             None => Vec::new(),
         },
+    }
+}
+
+/// A named frame's orientation at one state.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct EvaluatedFrame {
+    /// Rotation matrix of the frame in the base frame.
+    #[serde(rename = "R")]
+    pub rotation: Vec<Vec<f64>>,
+    /// Angular-velocity Jacobian (3 × joints), base-frame coordinates.
+    #[serde(rename = "J_omega")]
+    pub angular_jacobian: Vec<Vec<f64>>,
+}
+
+/// Evaluates a named frame's rotation and angular-velocity Jacobian at a state.
+pub fn evaluate_frame(mech: &Mechanics, state: &State<'_>, frame: &FrameKinematics) -> EvaluatedFrame {
+    let state = &Full::new(mech, state);
+    EvaluatedFrame {
+        rotation: matrix(&frame.rotation, state),
+        angular_jacobian: matrix(&frame.angular_jacobian, state),
     }
 }

@@ -57,6 +57,18 @@ pub struct PointKinematics {
     pub jacobian_dot_times_qdot: Vec<Poly>,
 }
 
+/// Orientation of one named frame (spatial models).
+#[derive(Clone, Debug)]
+pub struct FrameKinematics {
+    /// Frame name.
+    pub name: String,
+    /// Rotation matrix of the frame in the base frame, 3 × 3.
+    pub rotation: Vec<Vec<Poly>>,
+    /// Angular-velocity Jacobian in base-frame coordinates, 3 × joints: `ω = J_ω q̇`, column
+    /// `k` being `vee(∂R/∂q_k · Rᵀ)`.
+    pub angular_jacobian: Vec<Vec<Poly>>,
+}
+
 /// All derived quantities of a model.
 #[derive(Clone, Debug)]
 pub struct Mechanics {
@@ -89,6 +101,8 @@ pub struct Mechanics {
     pub task: PointKinematics,
     /// Every named point of the model (planar: x, y; spatial: x, y, z).
     pub points: Vec<PointKinematics>,
+    /// Every named frame of the model (spatial models; none for planar ones).
+    pub frames: Vec<FrameKinematics>,
     /// A closed chain's elimination: its polynomials also contain the passive joints' atoms
     /// and [`Atom::Closure`] atoms, which [`crate::closure::install`] defines.
     pub closures: Option<crate::closure::Closures>,
@@ -204,6 +218,40 @@ fn body_frames(model: &Model) -> Vec<Frame> {
     frames
 }
 
+/// Angular-velocity Jacobian columns of a frame with rotation `rotation` over `n`
+/// coordinates: `vee(∂R/∂q_k · Rᵀ)` (the skew-symmetric `Ṙ Rᵀ = [ω]×`).
+fn angular_jacobian_columns(rotation: &Mat3, n: usize) -> Vec<Vec3> {
+    let rotation_t = transpose(rotation);
+    (0..n)
+        .map(|k| {
+            let d_rotation: Mat3 = rotation.clone().map(|row| row.map(|p| p.diff_q(k as u16)));
+            let w = mat_mul(&d_rotation, &rotation_t);
+            [w[2][1].clone(), w[0][2].clone(), w[1][0].clone()]
+        })
+        .collect()
+}
+
+/// Rotation and angular-velocity Jacobian of named frame `index`, over all tree coordinates.
+fn frame_kinematics(model: &Model, frames: &[Frame], index: usize) -> FrameKinematics {
+    let frame = &model.frames[index];
+    let n = model.tree_coordinates();
+    let offset = constant_matrix(frame.rotation);
+    let rotation = match frame.body {
+        Some(b) => mat_mul(&frames[b].rotation, &offset),
+        None => offset,
+    };
+    // The fixed offset does not change ω: ∂(R_b R_o)/∂q (R_b R_o)ᵀ = ∂R_b/∂q R_bᵀ.
+    let columns = match frame.body {
+        Some(b) => angular_jacobian_columns(&frames[b].rotation, n),
+        None => vec![[Poly::zero(), Poly::zero(), Poly::zero()]; n],
+    };
+    FrameKinematics {
+        name: frame.name.clone(),
+        rotation: rotation.iter().map(|row| row.to_vec()).collect(),
+        angular_jacobian: (0..3).map(|i| columns.iter().map(|c| c[i].clone()).collect()).collect(),
+    }
+}
+
 /// The world position of named point `index` (2 or 3 entries) over all tree coordinates.
 fn point_world(model: &Model, frames: &[Frame], index: usize) -> Vec<Poly> {
     let point = &model.points[index];
@@ -296,6 +344,8 @@ fn derive_tree(model: &Model, all_polynomials: bool) -> Mechanics {
     let points: Vec<PointKinematics> = (0..model.points.len())
         .map(|i| kinematics(&model.points[i].name, point_world(model, &frames, i)))
         .collect();
+    let named_frames: Vec<FrameKinematics> =
+        (0..model.frames.len()).map(|i| frame_kinematics(model, &frames, i)).collect();
     let task = match &model.task {
         TaskSpec::Point(i) => {
             let mut k = points[*i].clone();
@@ -326,6 +376,7 @@ fn derive_tree(model: &Model, all_polynomials: bool) -> Mechanics {
         potential_energy,
         task,
         points,
+        frames: named_frames,
         closures: None,
         tree: None,
     }
@@ -393,13 +444,7 @@ fn lagrangian_inertia_matrix(model: &Model, frames: &[Frame]) -> Vec<Vec<Poly>> 
             (0..n).map(|k| std::array::from_fn(|i| com_world[i].diff_q(dof(k)))).collect();
         // Angular-velocity Jacobian columns: vee(∂R/∂q_k · Rᵀ).
         let rotation_t = transpose(&frame.rotation);
-        let angular: Vec<Vec3> = (0..n)
-            .map(|k| {
-                let d_rotation: Mat3 = frame.rotation.clone().map(|row| row.map(|p| p.diff_q(dof(k))));
-                let w = mat_mul(&d_rotation, &rotation_t);
-                [w[2][1].clone(), w[0][2].clone(), w[1][0].clone()]
-            })
-            .collect();
+        let angular = angular_jacobian_columns(&frame.rotation, n);
         let inertia_world = mat_mul(&mat_mul(&frame.rotation, &body.inertia), &rotation_t);
         for a in 0..n {
             for b in a..n {

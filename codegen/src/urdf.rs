@@ -6,7 +6,8 @@
 //! moves the tail into what is expressed in the body frame: the centre of mass and inertia
 //! (`<inertial>`), the origins of child joints and the named points. Each named point becomes a
 //! massless link `point_<name>` on a fixed joint, so that a URDF tool can ask for its frame
-//! Jacobian. Tunable parameters take their nominal values. What URDF has no place for (the
+//! Jacobian; each named frame a massless link `frame_<name>` turned as the frame (after the
+//! body's tail). Tunable parameters take their nominal values. What URDF has no place for (the
 //! drives' rotor inertia, gear ratio and motor data, the task, the rates) is listed in a
 //! comment at the top; viscous damping goes into `<dynamics damping>`.
 
@@ -106,6 +107,11 @@ fn escape(text: &str) -> String {
 /// The name of the URDF link that carries a named point.
 pub fn point_link_name(point: &str) -> String {
     format!("point_{point}")
+}
+
+/// The name of the URDF link of a named (orientation) frame.
+pub fn frame_link_name(frame: &str) -> String {
+    format!("frame_{frame}")
 }
 
 /// Writes a serial model as URDF (the robot is named after the model). Models with direct
@@ -225,6 +231,20 @@ pub fn export(model: &Model) -> Result<String, String> {
         };
         let at = Transform { xyz: tail.apply(&nominal3(&point.position, &parameters)), rotation: IDENTITY };
         let name = point_link_name(&point.name);
+        let _ = writeln!(out, "  <link name=\"{name}\"/>");
+        let _ = writeln!(out, "  <joint name=\"{name}_joint\" type=\"fixed\">");
+        let _ = writeln!(out, "    <parent link=\"{link}\"/>");
+        let _ = writeln!(out, "    <child link=\"{name}\"/>");
+        let _ = writeln!(out, "    {}", at.origin_element());
+        let _ = writeln!(out, "  </joint>");
+    }
+    for frame in &model.frames {
+        let (link, tail) = match frame.body {
+            Some(b) => (model.bodies[b].name.as_str(), tails[b]),
+            None => ("base", Transform::IDENTITY),
+        };
+        let at = tail.then(&Transform { xyz: [0.0; 3], rotation: frame.rotation });
+        let name = frame_link_name(&frame.name);
         let _ = writeln!(out, "  <link name=\"{name}\"/>");
         let _ = writeln!(out, "  <joint name=\"{name}_joint\" type=\"fixed\">");
         let _ = writeln!(out, "    <parent link=\"{link}\"/>");

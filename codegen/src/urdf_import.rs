@@ -4,7 +4,7 @@
 //! becomes a body placed by its parent joint's `<origin>` (`xyz` + `rpy`, the model's own
 //! convention), moved by the joint (`revolute`, `continuous`, `prismatic`) or welded
 //! (`fixed`). A massless leaf link on a fixed joint (a tool or sensor frame) becomes a named
-//! point. `<inertial>` gives mass, centre of mass and inertia; an inertial frame turned by `rpy`
+//! point, or a named frame if its name starts with `frame_` (as `urdf::export` writes them). `<inertial>` gives mass, centre of mass and inertia; an inertial frame turned by `rpy`
 //! is rotated into the link frame. `<dynamics damping>` becomes the joint's damping.
 //!
 //! URDF has no drives, gravity, task or loop rates: every joint gets its own drive, a copy of
@@ -290,6 +290,7 @@ pub fn import(text: &str, file: &str, drive: &str) -> Result<String, Diagnostics
     let mut joint_yaml = String::new();
     let mut body_yaml = String::new();
     let mut point_yaml = String::new();
+    let mut frame_yaml = String::new();
     let mut drive_yaml = String::new();
     let mut last_point = None;
     let mut last_body = None;
@@ -349,6 +350,14 @@ pub fn import(text: &str, file: &str, drive: &str) -> Result<String, Diagnostics
             }
         };
         let massless = inertial.as_ref().is_none_or(|i| i.mass == 0.0);
+        if let (true, Some(frame)) =
+            (massless && j.kind == "fixed" && !has_children(link), body.strip_prefix("frame_"))
+        {
+            // An orientation frame (as `export` writes them): a named frame; its origin's
+            // translation is irrelevant, its rotation is the frame's `rpy`.
+            let _ = writeln!(frame_yaml, "  - name: {frame}\n    body: {}\n    rpy: {}", parent, list(&rpy));
+            continue;
+        }
         if massless && j.kind == "fixed" && !has_children(link) {
             // A frame: a named point.
             let point = body.strip_prefix("point_").unwrap_or(&body).to_string();
@@ -473,6 +482,9 @@ pub fn import(text: &str, file: &str, drive: &str) -> Result<String, Diagnostics
     let _ = writeln!(out, "bodies:\n{body_yaml}");
     if !point_yaml.is_empty() {
         let _ = writeln!(out, "points:\n{point_yaml}");
+    }
+    if !frame_yaml.is_empty() {
+        let _ = writeln!(out, "frames:\n{frame_yaml}");
     }
     let _ = writeln!(out, "task:\n  point: {task}\n");
     let _ = writeln!(out, "rates:\n  current_loop_hz: 7500\n  impedance_loop_hz: 1000\n");

@@ -28,6 +28,12 @@ const CASES: &[(&str, Option<&str>)] = &[
     ("duplicate-key", None),
     ("empty-value", None),
     ("filter-order", None),
+    ("frame-clashes-with-point", None),
+    ("frame-duplicate", None),
+    ("frame-planar", None),
+    ("frame-rpy-entries", None),
+    ("frame-unknown-body", None),
+    ("frame-unknown-key", None),
     ("gravity-three-entries", None),
     ("impedance-faster-than-current", None),
     ("inertia-not-positive-definite", None),
@@ -1007,4 +1013,94 @@ fn passive_joint_that_slides() {
             message: "passive joint `right_elbow` must be revolute",
         },
     );
+}
+
+#[test]
+fn frame_on_an_unknown_body() {
+    let d = check(
+        "frame-unknown-body",
+        None,
+        Expect {
+            context: "body: wrist",
+            token: "wrist",
+            path: "frames[0].body",
+            message: "frame `stylus_frame` references unknown body `wrist`",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "name a body of `bodies`, or `base` for the fixed ground");
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn frame_defined_twice() {
+    let d = check(
+        "frame-duplicate",
+        None,
+        Expect {
+            context: "  - name: stylus_frame\n    body: forearm",
+            token: "stylus_frame",
+            path: "frames[1].name",
+            message: "frame `stylus_frame` is defined twice",
+        },
+    );
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn frame_in_a_planar_model() {
+    let d = check(
+        "frame-planar",
+        None,
+        Expect {
+            context: "  - name: tool_frame",
+            token: "name",
+            path: "frames[0]",
+            message: "frames (orientation outputs) need a spatial model",
+        },
+    );
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn frame_with_an_unknown_key() {
+    let d = check(
+        "frame-unknown-key",
+        None,
+        Expect {
+            context: "    xyz: [0.05",
+            token: "xyz",
+            path: "frames[0].xyz",
+            message: "unknown key `xyz`",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "expected one of `name`, `description`, `body`, `rpy`");
+}
+
+#[test]
+fn frame_rpy_with_two_entries() {
+    check(
+        "frame-rpy-entries",
+        None,
+        Expect {
+            context: "rpy: [0.0, 1.0]",
+            token: "[",
+            path: "frames[0].rpy",
+            message: "expected 3 entries (roll, pitch, yaw), got 2",
+        },
+    );
+}
+
+#[test]
+fn frame_whose_methods_clash_with_a_point() {
+    let d = check(
+        "frame-clashes-with-point",
+        None,
+        Expect {
+            context: "frames:\n  - name: stylus",
+            token: "stylus",
+            path: "frames[0].name",
+            message: "frame `stylus` clashes with point `stylus_angular`: both would emit `stylus_angular_jacobian`",
+        },
+    );
+    assert_eq!(d.0.len(), 1, "{d}");
 }

@@ -279,6 +279,8 @@ fn good_models_load_with_every_variant_and_cover_every_feature() {
     any("a point task", &|m| matches!(m.task, TaskSpec::Point(_)));
     any("a force sensor", &|m| !m.sensors.is_empty());
     any("rendering settings", &|m| m.rendering.is_some());
+    any("a frame (orientation output)", &|m| !m.frames.is_empty());
+    any("a frame turned by rpy", &|m| m.frames.iter().any(|f| f.rotation[0][0] < 0.5));
 
     // The variants of the planar arm do what they say.
     let arm = |variant: &str| {
@@ -346,6 +348,22 @@ fn every_complete_model_in_the_guide_loads() {
             blocks.iter().any(|(_, t)| t.lines().next().is_some_and(|l| l.contains(relative.as_str())));
         assert!(shown, "docs/model-format.md does not show {relative}");
     }
+}
+
+/// The guide's `frames:` example is an excerpt of the PHANToM-like model (which the guide
+/// shows complete, and which is loaded above).
+#[test]
+fn frames_example_in_the_guide_is_part_of_the_phantom_model() {
+    let guide = read(&repo_root().join("docs/model-format.md"));
+    let phantom = read(&repo_root().join("models/phantom_3dof.yaml"));
+    let excerpts: Vec<String> =
+        yaml_blocks(&guide).into_iter().map(|(_, t)| t).filter(|t| t.starts_with("frames:")).collect();
+    assert_eq!(excerpts.len(), 1, "the guide's frames section shows one example");
+    assert!(
+        phantom.contains(&excerpts[0]),
+        "the example differs from models/phantom_3dof.yaml:\n{}",
+        excerpts[0]
+    );
 }
 
 #[test]

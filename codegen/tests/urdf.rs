@@ -27,6 +27,11 @@ fn numbers(model: &Model, mech: &Mechanics, q: &[f64], qd: &[f64]) -> Vec<f64> {
     let mut out = without_rotors(model, &e);
     out.extend(e.coriolis_times_qdot.iter().zip(&e.g).map(|(c, g)| c + g));
     out.extend(&e.g);
+    for f in &mech.frames {
+        let e = hapticgen_codegen::eval::evaluate_frame(mech, &state, f);
+        out.extend(e.rotation.iter().flatten());
+        out.extend(e.angular_jacobian.iter().flatten());
+    }
     for p in &mech.points {
         let pe = evaluate(mech, &state, Some(p));
         out.extend(&pe.p);
@@ -48,6 +53,7 @@ fn spatial_models_round_trip_through_urdf() {
             .unwrap_or_else(|d| panic!("{file}: the imported model does not load:\n{d}\n{yaml}"));
         assert_eq!(imported.joints.len(), original.joints.len());
         assert_eq!(imported.points.len(), original.points.len(), "{file}: points become links and back");
+        assert_eq!(imported.frames.len(), original.frames.len(), "{file}: frames become links and back");
         let (a, b) = (mechanics::derive(&original), mechanics::derive(&imported));
         for k in 0..20 {
             let t = f64::from(k);

@@ -5,13 +5,14 @@
 //! `hapticgen_codegen::urdf::export`) and `NAME.json`: the gravity vector, the rotor inertia
 //! `N²·J_m` each joint adds to `D`'s diagonal, and at 50 random states within the joint limits
 //! hapticgen's `D`, `C q̇ + g`, `g` and, for every named point, its position and Jacobian
-//! (3 rows; planar models padded with a zero z row). Models with direct poses are skipped
+//! (3 rows; planar models padded with a zero z row), and for every named frame its rotation
+//! matrix and angular-velocity Jacobian. Models with direct poses are skipped
 //! (listed on standard error): they are closed chains.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use hapticgen_codegen::eval::{evaluate, State};
+use hapticgen_codegen::eval::{evaluate, evaluate_frame, State};
 use hapticgen_codegen::{mechanics, model, urdf};
 use hapticgen_tests::check::random_state;
 use hapticgen_tests::workspace_root;
@@ -115,16 +116,30 @@ fn main() {
                             json_matrix(&jacobian)
                         ));
                     }
+                    let frames: Vec<String> = mech
+                        .frames
+                        .iter()
+                        .map(|f| {
+                            let fe = evaluate_frame(&mech, &state, f);
+                            format!(
+                                "\"{}\": {{\"R\": {}, \"Jw\": {}}}",
+                                urdf::frame_link_name(&f.name),
+                                json_matrix(&fe.rotation),
+                                json_matrix(&fe.angular_jacobian)
+                            )
+                        })
+                        .collect();
                     let _ = write!(
                         json,
-                        "{}{{\"q\": {}, \"qd\": {}, \"D\": {}, \"nle\": {}, \"g\": {}, \"points\": {{{}}}}}",
+                        "{}{{\"q\": {}, \"qd\": {}, \"D\": {}, \"nle\": {}, \"g\": {}, \"points\": {{{}}}, \"frames\": {{{}}}}}",
                         if s == 0 { "" } else { ", " },
                         json_vector(&q),
                         json_vector(&qd),
                         json_matrix(&e.inertia_matrix),
                         json_vector(&nle),
                         json_vector(&e.g),
-                        points.join(", ")
+                        points.join(", "),
+                        frames.join(", ")
                     );
                 }
                 json.push_str("]}\n");

@@ -20,8 +20,8 @@ use crate::sym::poly::Poly;
 use positions::{display_path, KeyPath, PositionIndex, Segment};
 pub use schema::{Branch, Drive, JointKind, ModelFile, Rendering, Sensor};
 pub use validate::{
-    FixedTransform, Model, Motion, PassiveJoint, ResolvedBody, ResolvedJoint, ResolvedParameter,
-    ResolvedPoint, TaskSpec,
+    FixedTransform, Model, Motion, PassiveJoint, ResolvedBody, ResolvedFrame, ResolvedJoint,
+    ResolvedParameter, ResolvedPoint, TaskSpec,
 };
 
 /// The text of a model file and how to name it in diagnostics.

@@ -57,6 +57,10 @@ pub struct ModelFile {
     /// Named points fixed on bodies (operational points, sensor locations, plot points).
     #[serde(default)]
     pub points: Vec<Point>,
+    /// Named frames fixed on bodies whose orientation the generated code reports (spatial
+    /// models): the rotation matrix in the base frame and the angular-velocity Jacobian.
+    #[serde(default)]
+    pub frames: Vec<Frame>,
     /// Loop-closure constraints of a closed chain: each one eliminates two passive joints.
     #[serde(default)]
     pub closures: Vec<Closure>,
@@ -402,6 +406,24 @@ pub struct Point {
     pub body: String,
     /// Its coordinates in the body frame, m.
     pub position: Vec<Value>,
+}
+
+/// A named frame fixed on a body, whose orientation is an output of the generated code
+/// (`<name>_orientation` and `<name>_angular_jacobian`); spatial models only.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Frame {
+    /// Name (e.g. `flange`); names the generated methods.
+    pub name: String,
+    /// What the frame is.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// The body it is fixed on (its frame, after any Denavit–Hartenberg tail), or `base`.
+    pub body: String,
+    /// Fixed rotation from the body frame, roll–pitch–yaw in rad (URDF convention, fixed
+    /// axes x, y, z); default none.
+    #[serde(default)]
+    pub rpy: Option<Vec<f64>>,
 }
 
 /// The task coordinates of the impedance controllers.

@@ -118,6 +118,19 @@ pub struct ResolvedPoint {
     pub position: [Poly; 3],
 }
 
+/// A named frame after resolution: its orientation is an output of the generated code.
+#[derive(Clone, Debug)]
+pub struct ResolvedFrame {
+    /// Name.
+    pub name: String,
+    /// Documentation.
+    pub description: Option<String>,
+    /// Body index, `None` for the base.
+    pub body: Option<usize>,
+    /// Fixed rotation from the body frame (roll–pitch–yaw, right angles exact).
+    pub rotation: [[f64; 3]; 3],
+}
+
 /// The task coordinates.
 #[derive(Clone, Debug)]
 pub enum TaskSpec {
@@ -152,6 +165,8 @@ pub struct Model {
     pub bodies: Vec<ResolvedBody>,
     /// Named points.
     pub points: Vec<ResolvedPoint>,
+    /// Named frames whose orientation is emitted (spatial models).
+    pub frames: Vec<ResolvedFrame>,
     /// Task coordinates.
     pub task: TaskSpec,
     /// Force sensors and others.
@@ -1021,6 +1036,61 @@ pub(crate) fn resolve(
         });
     }
 
+    // Frames (orientation outputs).
+    let mut frames = Vec::new();
+    let mut frame_names = HashSet::new();
+    for (i, f) in file.frames.iter().enumerate() {
+        let base = vec![key("frames"), Segment::Index(i)];
+        let at = |k: &str| {
+            let mut q = base.clone();
+            q.push(key(k));
+            q
+        };
+        if planar {
+            r.error_hint(
+                &base,
+                "frames (orientation outputs) need a spatial model",
+                "a planar body's orientation is its angle about z; name a point for its position",
+            );
+            continue;
+        }
+        if !is_identifier(&f.name) {
+            r.error(&at("name"), format!("`{}` is not a valid frame name", f.name));
+        }
+        if !frame_names.insert(f.name.clone()) {
+            r.error(&at("name"), format!("frame `{}` is defined twice", f.name));
+        }
+        // `<frame>_angular_jacobian` must not be a point's `<point>_jacobian`.
+        let clash = format!("{}_angular", f.name);
+        if point_index.contains_key(&clash) {
+            r.error_hint(
+                &at("name"),
+                format!(
+                    "frame `{}` clashes with point `{clash}`: both would emit `{clash}_jacobian`",
+                    f.name
+                ),
+                "rename the frame or the point",
+            );
+        }
+        let Ok(body) = lookup_body(&mut r, &f.body, &at("body"), &format!("frame `{}`", f.name)) else {
+            continue;
+        };
+        let rotation = match f.rpy.as_deref() {
+            None => rotation_rpy([0.0; 3]),
+            Some(&[roll, pitch, yaw]) => rotation_rpy([roll, pitch, yaw]),
+            Some(v) => {
+                r.error(&at("rpy"), format!("expected 3 entries (roll, pitch, yaw), got {}", v.len()));
+                rotation_rpy([0.0; 3])
+            }
+        };
+        frames.push(ResolvedFrame {
+            name: f.name.clone(),
+            description: f.description.clone(),
+            body,
+            rotation,
+        });
+    }
+
     // Task.
     let task = match (&file.task.point, &file.task.joints) {
         (Some(name), None) => match points.iter().position(|p| &p.name == name) {
@@ -1321,6 +1391,9 @@ pub(crate) fn resolve(
     for p in &mut points {
         p.body = remap(p.body);
     }
+    for f in &mut frames {
+        f.body = remap(f.body);
+    }
     // Joint references become coordinate indices (actuated first, then passive).
     for body in &mut ordered {
         match &mut body.motion {
@@ -1344,6 +1417,7 @@ pub(crate) fn resolve(
         joints,
         bodies: ordered,
         points,
+        frames,
         task,
         sensors: file.sensors,
         rates: file.rates,

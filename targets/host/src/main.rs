@@ -74,6 +74,10 @@ enum Command {
         /// Use this named point instead of the task coordinates for p, J, J̇.
         #[arg(long)]
         point: Option<String>,
+        /// Print this named frame's rotation matrix `R` and angular-velocity Jacobian
+        /// `J_omega` instead.
+        #[arg(long, conflicts_with = "point")]
+        frame: Option<String>,
         /// Print JSON (the only format).
         #[arg(long)]
         json: bool,
@@ -292,7 +296,7 @@ fn run(cli: Cli) -> Result<(), String> {
             let text = hapticgen_codegen::generate_model(m, scalar).file_text();
             write_or_print(output.as_deref(), &text)
         }
-        Command::Eval { model, variant, q, qd, point, json: _ } => {
+        Command::Eval { model, variant, q, qd, point, frame, json: _ } => {
             let m = load(&model, variant.as_deref())?;
             let n = m.joints.len();
             if q.len() != n {
@@ -315,6 +319,19 @@ fn run(cli: Cli) -> Result<(), String> {
             };
             let parameters = m.nominal_parameters();
             let state = eval::State { q: &q, qd: &qd, parameters: &parameters };
+            if let Some(name) = &frame {
+                let kin = mech.frames.iter().find(|f| &f.name == name).ok_or_else(|| {
+                    let names: Vec<&str> = mech.frames.iter().map(|f| f.name.as_str()).collect();
+                    if names.is_empty() {
+                        format!("error: unknown frame `{name}`; the model defines no frames")
+                    } else {
+                        format!("error: unknown frame `{name}`; the model defines: {}", names.join(", "))
+                    }
+                })?;
+                let values = eval::evaluate_frame(&mech, &state, kin);
+                println!("{}", serde_json::to_string(&values).map_err(|e| e.to_string())?);
+                return Ok(());
+            }
             let values = eval::evaluate(&mech, &state, selected);
             println!("{}", serde_json::to_string(&values).map_err(|e| e.to_string())?);
             Ok(())
