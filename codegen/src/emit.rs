@@ -206,10 +206,7 @@ fn cheapest_choice(model: &Model, mech: &Mechanics, outputs: &[Output<'_>]) -> C
     let cost = |choice: Choice| {
         let mut dag = Dag::new();
         let roots = output_roots_with(&mut dag, model, mech, outputs, choice);
-        let counts = match dag.optimised(&roots) {
-            Some((optimised, optimised_roots, _)) => optimised.count(&optimised_roots),
-            None => dag.count(&roots),
-        };
+        let counts = dag.optimised_count(&roots);
         counts.arithmetic() + counts.trigonometric
     };
     // The default first, so that a tie keeps it.
@@ -907,10 +904,7 @@ fn tick_outputs(mech: &Mechanics, include_position: bool) -> Vec<Output<'_>> {
 pub fn tick_counts(model: &Model, mech: &Mechanics, include_position: bool) -> OpCounts {
     let mut body = BodyEmitter::new(model, Scalar::F64);
     let roots = output_roots(&mut body.dag, model, mech, &tick_outputs(mech, include_position));
-    match body.dag.optimised(&roots) {
-        Some((dag, new_roots, _)) => dag.count(&new_roots),
-        None => body.dag.count(&roots),
-    }
+    body.dag.optimised_count(&roots)
 }
 
 fn terms_function(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, OpCounts) {

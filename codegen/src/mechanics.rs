@@ -415,10 +415,7 @@ fn choose_derivations(model: &Model, mechanics: &mut Mechanics) {
             roots.extend(mechanics.build(&mut dag, model, Quantity::Gravity));
             roots.extend(mechanics.build_task(&mut dag, model, PointQuantity::Jacobian));
             roots.extend(mechanics.build_task(&mut dag, model, PointQuantity::JacobianDotTimesQdot));
-            let counts = match dag.optimised(&roots) {
-                Some((optimised, optimised_roots, _)) => optimised.count(&optimised_roots),
-                None => dag.count(&roots),
-            };
+            let counts = dag.optimised_count(&roots);
             let cost = counts.arithmetic() + counts.trigonometric;
             // Strictly cheaper wins; ties keep the polynomial form (listed first).
             if best.is_none_or(|(b, _, _, _)| cost < b) {

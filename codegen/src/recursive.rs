@@ -24,6 +24,7 @@
 
 use std::collections::HashMap;
 
+use crate::model::validate::{mat3_mul, snap_entry};
 use crate::model::{JointKind, Model, Motion};
 use crate::sym::dag::{Dag, Node, NodeId};
 use crate::sym::poly::{Atom, Poly};
@@ -91,10 +92,6 @@ struct Link {
     tail: ([[f64; 3]; 3], [Poly; 3]),
 }
 
-fn mat3_mul(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
-    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
-}
-
 fn const_mat_poly_vec(a: &[[f64; 3]; 3], v: &[Poly; 3]) -> [Poly; 3] {
     std::array::from_fn(|i| Poly::sum(&(0..3).map(|k| v[k].scale(a[i][k])).collect::<Vec<_>>()))
 }
@@ -124,7 +121,7 @@ fn links(model: &Model) -> Vec<Link> {
                 Some(p) => tails[*p].clone(),
                 None => (IDENTITY, zero()),
             };
-            let offset_rotation = mat3_mul(&parent_rotation, rotation);
+            let offset_rotation = mat3_mul(parent_rotation, *rotation);
             let rotated = const_mat_poly_vec(&parent_rotation, xyz);
             let offset = std::array::from_fn(|i| parent_offset[i].add(&rotated[i]));
             let joint = joint.map(|j| (j, model.joints[j].kind, model.joints[j].axis));
@@ -306,7 +303,7 @@ impl Builder<'_> {
         let j = joint as u16;
         let (s, c) = (self.dag.input(Atom::Sin(j)), self.dag.input(Atom::Cos(j)));
         let k = [[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]];
-        let k2: [[f64; 3]; 3] = mat3_mul(&k, &k);
+        let k2: [[f64; 3]; 3] = mat3_mul(k, k);
         // Entry (i, j) of R₀ · Rot = Σ_l R₀[i][l] (δ_lj + K²_lj + K_lj s − K²_lj c).
         std::array::from_fn(|i| {
             std::array::from_fn(|col| {
@@ -318,7 +315,7 @@ impl Builder<'_> {
                     sine += r * k[l][col];
                     cosine -= r * k2[l][col];
                 }
-                let (constant, sine, cosine) = (snap(constant), snap(sine), snap(cosine));
+                let (constant, sine, cosine) = (snap_entry(constant), snap_entry(sine), snap_entry(cosine));
                 let constant = self.dag.constant(constant);
                 let sine_k = self.dag.constant(sine);
                 let cosine_k = self.dag.constant(cosine);
@@ -328,17 +325,6 @@ impl Builder<'_> {
                 self.dag.add(partial, cosine_term)
             })
         })
-    }
-}
-
-/// Rounding noise of products of right-angle rotations becomes exact zeros and ones.
-fn snap(x: f64) -> f64 {
-    if x.abs() < 1e-14 {
-        0.0
-    } else if (x.abs() - 1.0).abs() < 1e-14 {
-        x.signum()
-    } else {
-        x
     }
 }
 

@@ -8,7 +8,7 @@
 
 pub mod positions;
 pub mod schema;
-mod validate;
+pub(crate) mod validate;
 
 use std::collections::HashMap;
 use std::path::Path;

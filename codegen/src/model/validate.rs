@@ -349,7 +349,7 @@ const RESERVED: &[&str] = &[
 
 /// Right angles are exact: cos(π/2) evaluates to 6e-17, which would otherwise leave spurious
 /// terms in every expression downstream.
-fn snap_entry(x: f64) -> f64 {
+pub(crate) fn snap_entry(x: f64) -> f64 {
     if x.abs() < 1e-14 {
         0.0
     } else if (x.abs() - 1.0).abs() < 1e-14 {
@@ -381,7 +381,7 @@ fn rotation_z(angle: f64) -> [[f64; 3]; 3] {
     [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
 }
 
-fn mat3_mul(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
+pub(crate) fn mat3_mul(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
     std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
 }
 

@@ -526,16 +526,11 @@ impl Linear {
 }
 
 impl Dag {
-    /// Rebuilds the nodes needed for `roots` with every chain of additions, subtractions,
-    /// negations and constant multiples that is used once flattened into one linear
-    /// combination: equal terms merge (`c₁ x + c₂ x = (c₁ + c₂) x`, and exact cancellations
-    /// vanish), and terms with the same coefficient magnitude share one multiplication
-    /// (`c x − c y = c (x − y)`). Nodes used more than once stay shared. Returns the new DAG, the
-    /// new roots and, for every node that still exists, its new id.
-    pub fn merged_sums(&self, roots: &[NodeId]) -> (Dag, Vec<NodeId>, HashMap<NodeId, NodeId>) {
-        let order = self.reachable(roots);
+    /// How often each node of `order` (the nodes reachable from `roots`) is used; a root counts
+    /// as used more than once, so that no rewrite folds it into a parent.
+    fn use_counts(&self, order: &[NodeId], roots: &[NodeId]) -> Vec<usize> {
         let mut uses = vec![0usize; self.nodes.len()];
-        for &id in &order {
+        for &id in order {
             match self.nodes[id] {
                 Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => {
                     uses[a] += 1;
@@ -548,6 +543,26 @@ impl Dag {
         for &r in roots {
             uses[r] += 2;
         }
+        uses
+    }
+
+    /// Operation counts of `roots` in the cheapest form [`Dag::optimised`] finds.
+    pub fn optimised_count(&self, roots: &[NodeId]) -> OpCounts {
+        match self.optimised(roots) {
+            Some((dag, new_roots, _)) => dag.count(&new_roots),
+            None => self.count(roots),
+        }
+    }
+
+    /// Rebuilds the nodes needed for `roots` with every chain of additions, subtractions,
+    /// negations and constant multiples that is used once flattened into one linear
+    /// combination: equal terms merge (`c₁ x + c₂ x = (c₁ + c₂) x`, and exact cancellations
+    /// vanish), and terms with the same coefficient magnitude share one multiplication
+    /// (`c x − c y = c (x − y)`). Nodes used more than once stay shared. Returns the new DAG, the
+    /// new roots and, for every node that still exists, its new id.
+    pub fn merged_sums(&self, roots: &[NodeId]) -> (Dag, Vec<NodeId>, HashMap<NodeId, NodeId>) {
+        let order = self.reachable(roots);
+        let uses = self.use_counts(&order, roots);
         let mut out = Dag::new();
         let mut linear: HashMap<NodeId, Linear> = HashMap::new();
         let mut built: HashMap<NodeId, NodeId> = HashMap::new();
@@ -705,20 +720,7 @@ impl Dag {
     /// DAG, the new roots and, for every node that still exists, its new id.
     pub fn pushed_negations(&self, roots: &[NodeId]) -> (Dag, Vec<NodeId>, HashMap<NodeId, NodeId>) {
         let order = self.reachable(roots);
-        let mut uses = vec![0usize; self.nodes.len()];
-        for &id in &order {
-            match self.nodes[id] {
-                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => {
-                    uses[a] += 1;
-                    uses[b] += 1;
-                }
-                Node::Neg(a) | Node::Sqrt(a) => uses[a] += 1,
-                _ => {}
-            }
-        }
-        for &r in roots {
-            uses[r] += 2;
-        }
+        let uses = self.use_counts(&order, roots);
         let mut out = Dag::new();
         let mut map: HashMap<NodeId, NodeId> = HashMap::with_capacity(order.len());
         for &id in &order {
