@@ -92,6 +92,118 @@ struct Link {
     tail: ([[f64; 3]; 3], [Poly; 3]),
 }
 
+/// How the Newton–Euler equations and the composite inertias are written; the cheapest is
+/// chosen per model (see [`formulation`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Formulation {
+    /// About each joint-frame origin with the first moment `h = m c`.
+    AboutOrigin,
+    /// About each centre of mass.
+    AboutCom,
+    /// About each joint-frame origin, with the inertial parameters regrouped first
+    /// ([`regroup`]).
+    Regrouped,
+}
+
+/// Moves to each body's parent the part of its inertial parameters that joint motion cannot
+/// reveal (the regrouping of Khalil and Kleinfinger's base inertial parameters, 1987, done
+/// numerically in the joint frames), so that the recursions carry fewer non-zero parameters.
+///
+/// Every body is taken from the tip to the base, in the linear parametrisation (mass `m`, first
+/// moment `h`, inertia `J` about the joint-frame origin) in which kinetic energy
+/// `½ m v² + v · (ω × h) + ½ ωᵀ J ω` and potential energy are linear:
+/// * behind a revolute joint with unit axis `a` (the frame origin lies on it), the mass, the
+///   first moment along the axis `(h·a) a` and, for a coordinate axis `a = e_k`, the inertia
+///   `λ (1 − a aᵀ)` with `λ = J_ii` of the axis `i` after `k` in the cycle z → x → y (Khalil's
+///   `YY`) contribute the same energy whether carried by the body or by its parent, because
+///   the origin's velocity and `ω × a` and `|ω × a|²` are the same for both;
+/// * behind a prismatic joint the body turns with its parent, so the whole `J` moves;
+/// * a welded body moves whole.
+///
+/// What a body hands to the fixed base contributes no energy that changes and is dropped.
+/// The equations of motion are unchanged; only the parameters that enter them are fewer.
+fn regroup(links: &mut [Link]) {
+    let zero3 = || [Poly::zero(), Poly::zero(), Poly::zero()];
+    for i in (0..links.len()).rev() {
+        let link = &mut links[i];
+        let (mass, first_moment, inertia) = match link.joint {
+            None => (
+                std::mem::replace(&mut link.mass, Poly::zero()),
+                std::mem::replace(&mut link.first_moment, zero3()),
+                std::mem::replace(&mut link.inertia, std::array::from_fn(|_| zero3())),
+            ),
+            Some((_, JointKind::Prismatic, _)) => (
+                Poly::zero(),
+                zero3(),
+                std::mem::replace(&mut link.inertia, std::array::from_fn(|_| zero3())),
+            ),
+            Some((_, JointKind::Revolute, axis)) => {
+                let along =
+                    Poly::sum(&(0..3).map(|k| link.first_moment[k].scale(axis[k])).collect::<Vec<_>>());
+                let moved_moment: [Poly; 3] = std::array::from_fn(|k| along.scale(axis[k]));
+                for (h, moved) in link.first_moment.iter_mut().zip(&moved_moment) {
+                    *h = h.sub(moved);
+                }
+                let lambda = match (0..3).find(|&k| axis[k].abs() == 1.0) {
+                    Some(k) => {
+                        let i = (k + 2) % 3;
+                        link.inertia[i][i].clone()
+                    }
+                    None => Poly::zero(),
+                };
+                let moved_inertia: [[Poly; 3]; 3] = std::array::from_fn(|r| {
+                    std::array::from_fn(|c| {
+                        let delta = if r == c { 1.0 } else { 0.0 };
+                        lambda.scale(delta - axis[r] * axis[c])
+                    })
+                });
+                for (row, moved_row) in link.inertia.iter_mut().zip(&moved_inertia) {
+                    for (entry, moved) in row.iter_mut().zip(moved_row) {
+                        *entry = entry.sub(moved);
+                    }
+                }
+                (std::mem::replace(&mut link.mass, Poly::zero()), moved_moment, moved_inertia)
+            }
+        };
+        let Some(parent) = links[i].parent else { continue };
+        let rotation = links[i].offset_rotation;
+        let offset = links[i].offset.clone();
+        // The moved part in the parent's joint frame, about its origin: h' = E h + m p and
+        // J' = E J Eᵀ + (2 h·p + m|p|²) 1 − h pᵀ − p hᵀ − m p pᵀ with h = E h (see
+        // `Recursion::inertia_matrix`).
+        let h = const_mat_poly_vec(&rotation, &first_moment);
+        let h_dot_p = Poly::sum(&(0..3).map(|k| h[k].mul(&offset[k])).collect::<Vec<_>>());
+        let p_sq = Poly::sum(&(0..3).map(|k| offset[k].mul(&offset[k])).collect::<Vec<_>>());
+        let diagonal = h_dot_p.scale(2.0).add(&mass.mul(&p_sq));
+        let target = &mut links[parent];
+        target.mass = target.mass.add(&mass);
+        for k in 0..3 {
+            target.first_moment[k] = target.first_moment[k].add(&h[k]).add(&mass.mul(&offset[k]));
+        }
+        for r in 0..3 {
+            for c in 0..3 {
+                let mut rotated = Vec::new();
+                for k in 0..3 {
+                    for l in 0..3 {
+                        let w = rotation[r][k] * rotation[c][l];
+                        if w != 0.0 {
+                            rotated.push(inertia[k][l].scale(w));
+                        }
+                    }
+                }
+                let mut value = Poly::sum(&rotated)
+                    .sub(&h[r].mul(&offset[c]))
+                    .sub(&offset[r].mul(&h[c]))
+                    .sub(&mass.mul(&offset[r].mul(&offset[c])));
+                if r == c {
+                    value = value.add(&diagonal);
+                }
+                target.inertia[r][c] = target.inertia[r][c].add(&value);
+            }
+        }
+    }
+}
+
 fn const_mat_poly_vec(a: &[[f64; 3]; 3], v: &[Poly; 3]) -> [Poly; 3] {
     std::array::from_fn(|i| Poly::sum(&(0..3).map(|k| v[k].scale(a[i][k])).collect::<Vec<_>>()))
 }
@@ -354,8 +466,12 @@ struct Recursion<'d> {
 }
 
 impl<'d> Recursion<'d> {
-    fn new(dag: &'d mut Dag, model: &Model, about_com: bool) -> Self {
-        let links = links(model);
+    fn new(dag: &'d mut Dag, model: &Model, formulation: Formulation) -> Self {
+        let mut links = links(model);
+        if formulation == Formulation::Regrouped {
+            regroup(&mut links);
+        }
+        let about_com = formulation == Formulation::AboutCom;
         let mut b = Builder { dag };
         let mut rotations = Vec::with_capacity(links.len());
         let mut offsets = Vec::with_capacity(links.len());
@@ -759,11 +875,13 @@ pub fn derivative(dag: &mut Dag, roots: &[NodeId], joint: u16) -> Vec<NodeId> {
 
 /// Builds a quantity of the model with the recursive algorithms; its nodes join `dag`.
 pub fn build(dag: &mut Dag, model: &Model, quantity: Quantity) -> Vec<NodeId> {
-    build_with(dag, model, quantity, newton_euler_about_com(model))
+    build_with(dag, model, quantity, formulation(model))
 }
 
-fn build_with(dag: &mut Dag, model: &Model, quantity: Quantity, about_com: bool) -> Vec<NodeId> {
-    let mut recursion = Recursion::new(dag, model, about_com);
+/// Builds a quantity with the given formulation (all give the same values; [`build`] picks the
+/// cheapest).
+pub fn build_with(dag: &mut Dag, model: &Model, quantity: Quantity, formulation: Formulation) -> Vec<NodeId> {
+    let mut recursion = Recursion::new(dag, model, formulation);
     match quantity {
         Quantity::InertiaMatrix => recursion.inertia_matrix(),
         Quantity::CoriolisTimesQdot => recursion.newton_euler(true, false, false),
@@ -779,17 +897,23 @@ fn build_with(dag: &mut Dag, model: &Model, quantity: Quantity, about_com: bool)
     }
 }
 
-/// Whether the Newton–Euler equations about the centres of mass give a smaller inverse
-/// dynamics than about the frame origins, for this model (both are built and counted; a tie
-/// keeps the frame origins).
-fn newton_euler_about_com(model: &Model) -> bool {
-    let cost = |about_com: bool| {
+/// The formulation that gives this model the smallest inverse dynamics (each is built and
+/// counted; a tie keeps the earlier of frame origins, centres of mass, regrouped parameters).
+pub fn formulation(model: &Model) -> Formulation {
+    let cost = |formulation: Formulation| {
         let mut dag = Dag::new();
-        let roots = build_with(&mut dag, model, Quantity::InverseDynamics, about_com);
+        let roots = build_with(&mut dag, model, Quantity::InverseDynamics, formulation);
         let counts = dag.count(&roots);
         counts.arithmetic() + counts.trigonometric
     };
-    cost(true) < cost(false)
+    let mut best = (Formulation::AboutOrigin, cost(Formulation::AboutOrigin));
+    for candidate in [Formulation::AboutCom, Formulation::Regrouped] {
+        let c = cost(candidate);
+        if c < best.1 {
+            best = (candidate, c);
+        }
+    }
+    best.0
 }
 
 /// `C_kj = Σ_i ½ (∂D_kj/∂q_i + ∂D_ki/∂q_j − ∂D_ij/∂q_k) q̇_i`, row-major.

@@ -2,14 +2,15 @@
 //! the DAG) against the polynomial path, which derives the same quantities independently from
 //! the kinetic and potential energy: every shipped serial model and the good-model fixtures,
 //! at pseudo-random states, including prismatic joints, DH tails, welded bodies and tunable
-//! parameters.
+//! parameters, in each formulation of the recursions (about frame origins, about centres of
+//! mass, with regrouped inertial parameters).
 
 use std::path::{Path, PathBuf};
 
 use hapticgen_codegen::eval::{evaluate, State};
 use hapticgen_codegen::mechanics;
 use hapticgen_codegen::model::load_file;
-use hapticgen_codegen::recursive::{self, PointQuantity, Quantity};
+use hapticgen_codegen::recursive::{self, Formulation, PointQuantity, Quantity};
 use hapticgen_codegen::sym::dag::Dag;
 use hapticgen_codegen::sym::poly::Atom;
 
@@ -52,11 +53,23 @@ fn recursive_algorithms_equal_the_lagrangian_polynomials() {
             let n = model.joints.len();
             let mech = mechanics::derive(&model);
             let mut dag = Dag::new();
-            let d = recursive::build(&mut dag, &model, Quantity::InertiaMatrix);
-            let cqd = recursive::build(&mut dag, &model, Quantity::CoriolisTimesQdot);
-            let g = recursive::build(&mut dag, &model, Quantity::Gravity);
-            let c = recursive::build(&mut dag, &model, Quantity::CoriolisMatrix);
-            let tau = recursive::build(&mut dag, &model, Quantity::InverseDynamics);
+            // Every formulation of the recursions (they differ in the parameters they carry,
+            // not in the values), the one `build` picks among them.
+            let dynamics: Vec<(Formulation, [Vec<_>; 5])> =
+                [Formulation::AboutOrigin, Formulation::AboutCom, Formulation::Regrouped]
+                    .into_iter()
+                    .map(|formulation| {
+                        let quantities = [
+                            Quantity::InertiaMatrix,
+                            Quantity::CoriolisTimesQdot,
+                            Quantity::Gravity,
+                            Quantity::CoriolisMatrix,
+                            Quantity::InverseDynamics,
+                        ]
+                        .map(|quantity| recursive::build_with(&mut dag, &model, quantity, formulation));
+                        (formulation, quantities)
+                    })
+                    .collect();
             let points: Vec<[Vec<_>; 3]> = (0..model.points.len())
                 .map(|i| {
                     [PointQuantity::Position, PointQuantity::Jacobian, PointQuantity::JacobianDotTimesQdot]
@@ -90,17 +103,24 @@ fn recursive_algorithms_equal_the_lagrangian_polynomials() {
                         "{text} {variant:?} {what}: recursive {got}, polynomial {expected} at q = {q:?}, q̇ = {qd:?}"
                     );
                 };
-                for r in 0..n {
-                    for k in 0..n {
-                        close(&format!("D[{r}][{k}]"), value(d[r * n + k]), want.inertia_matrix[r][k]);
-                        close(&format!("C[{r}][{k}]"), value(c[r * n + k]), want.coriolis_matrix[r][k]);
+                for (formulation, [d, cqd, g, c, tau]) in &dynamics {
+                    for r in 0..n {
+                        for k in 0..n {
+                            let at = format!("[{r}][{k}] ({formulation:?})");
+                            close(&format!("D{at}"), value(d[r * n + k]), want.inertia_matrix[r][k]);
+                            close(&format!("C{at}"), value(c[r * n + k]), want.coriolis_matrix[r][k]);
+                        }
+                        close(
+                            &format!("C q̇[{r}] ({formulation:?})"),
+                            value(cqd[r]),
+                            want.coriolis_times_qdot[r],
+                        );
+                        close(&format!("g[{r}] ({formulation:?})"), value(g[r]), want.g[r]);
+                        let expected: f64 = (0..n).map(|k| want.inertia_matrix[r][k] * qdd[k]).sum::<f64>()
+                            + want.coriolis_times_qdot[r]
+                            + want.g[r];
+                        close(&format!("τ[{r}] ({formulation:?})"), value(tau[r]), expected);
                     }
-                    close(&format!("C q̇[{r}]"), value(cqd[r]), want.coriolis_times_qdot[r]);
-                    close(&format!("g[{r}]"), value(g[r]), want.g[r]);
-                    let expected: f64 = (0..n).map(|k| want.inertia_matrix[r][k] * qdd[k]).sum::<f64>()
-                        + want.coriolis_times_qdot[r]
-                        + want.g[r];
-                    close(&format!("τ[{r}]"), value(tau[r]), expected);
                 }
                 for (i, [p, jac, jdot]) in points.iter().enumerate() {
                     let want = evaluate(
