@@ -178,9 +178,13 @@ fn derivation_note(outputs: &[Output<'_>], choice: Choice) -> &'static str {
         return "";
     };
     match (quantity, choice.dynamics, choice.kinematics) {
-        (Quantity::Point(..), _, Derivation::Recursive) => {
-            " Built by composing the joint frames (`J̇ q̇`: the Newton–Euler forward pass at `q̈ = 0`)."
+        (Quantity::Point(_, PointQuantity::JacobianDotTimesQdot), _, Derivation::Recursive) => {
+            " Built by the Newton–Euler forward pass at `q̈ = 0`."
         }
+        (Quantity::Point(_, PointQuantity::Jacobian), _, Derivation::Recursive) => {
+            " Built by composing the joint frames (columns `z_k × (p − o_k)`)."
+        }
+        (Quantity::Point(..), _, Derivation::Recursive) => " Built by composing the joint frames.",
         (Quantity::Point(..), _, Derivation::Polynomial) => "",
         (Quantity::InertiaMatrix, Derivation::Recursive, _) => {
             " Built by the composite-rigid-body algorithm."

@@ -92,6 +92,18 @@ struct Link {
     tail: ([[f64; 3]; 3], [Poly; 3]),
 }
 
+/// How a point's Jacobian is built: in the base frame or in its chain's root joint frame (then
+/// turned once per column), with the columns `z_k × (p − o_k)` from the frames' origins or
+/// each in its own joint frame ([`Recursion::local_jacobian_columns`]). The cheapest is chosen
+/// per point.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct JacobianForm {
+    /// Build in the root body's joint frame, then turn into the base frame.
+    pub in_root_frame: bool,
+    /// Build each column in its own joint frame.
+    pub local_columns: bool,
+}
+
 /// How the Newton–Euler equations and the composite inertias are written; the cheapest is
 /// chosen per model (see [`formulation`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -672,7 +684,10 @@ impl<'d> Recursion<'d> {
     }
 
     /// Position, Jacobian (row-major) or `J̇ q̇` of a point, first `dim` coordinates.
-    fn point(&mut self, model: &Model, index: usize, what: PointQuantity) -> Vec<NodeId> {
+    /// `in_root_frame`: build the Jacobian in the joint frame of the chain's root body, then
+    /// turn it into the base frame (see [`jacobian_in_root_frame`]).
+    fn point(&mut self, model: &Model, index: usize, what: PointQuantity, form: JacobianForm) -> Vec<NodeId> {
+        let JacobianForm { in_root_frame, local_columns } = form;
         let n_joints = self.rotor.len();
         let dim = model.dim();
         let point = &model.points[index];
@@ -697,14 +712,81 @@ impl<'d> Recursion<'d> {
             let world = self.b.mat_vec(&frames[body].0, &a);
             return world[..dim].to_vec();
         }
-        let frames = self.world_frames();
-        let (rotation, origin) = frames[body];
-        let arm = self.b.mat_vec(&rotation, &local);
-        let position = self.b.add3(&origin, &arm);
         if what == PointQuantity::Position {
+            let frames = self.world_frames();
+            let (rotation, origin) = frames[body];
+            let arm = self.b.mat_vec(&rotation, &local);
+            let position = self.b.add3(&origin, &arm);
             return position[..dim].to_vec();
         }
+        let root = self.root_of(body);
+        let root_frame = (self.rotations[root], self.offsets[root]);
+        if in_root_frame {
+            // Frames relative to the root body's joint frame: the columns come out in that
+            // frame, free of the root joint's sine and cosine, and are turned once at the end.
+            let identity = self.b.const3([1.0, 0.0, 0.0]);
+            let identity = [identity, self.b.const3([0.0, 1.0, 0.0]), self.b.const3([0.0, 0.0, 1.0])];
+            self.rotations[root] = identity;
+            self.offsets[root] = self.b.zero3();
+        }
+        let columns = if local_columns {
+            self.local_jacobian_columns(body, &local)
+        } else {
+            self.jacobian_columns(body, &local)
+        };
+        (self.rotations[root], self.offsets[root]) = root_frame;
         let mut jacobian = vec![self.b.zero(); dim * n_joints];
+        for (j, column) in columns {
+            let column = if in_root_frame { self.b.mat_vec(&root_frame.0, &column) } else { column };
+            for (r, &value) in column.iter().take(dim).enumerate() {
+                jacobian[r * n_joints + j] = value;
+            }
+        }
+        jacobian
+    }
+
+    /// As [`Self::jacobian_columns`], with each column built in its own joint frame, where the
+    /// axis is a constant (`a × r_k`, with the lever `r_k = p − o_k` carried from the tip
+    /// inwards, `r_parent = p_k + E_k r_k`), then turned by that frame's rotation.
+    fn local_jacobian_columns(&mut self, body: usize, local: &V3) -> Vec<(usize, V3)> {
+        let frames = self.world_frames();
+        let mut lever = *local;
+        let mut columns = Vec::new();
+        let mut link = body;
+        loop {
+            if let Some((j, kind, axis)) = self.links[link].joint {
+                let axis = self.b.const3(axis);
+                let column = match kind {
+                    JointKind::Revolute => self.b.cross(&axis, &lever),
+                    JointKind::Prismatic => axis,
+                };
+                columns.push((j, self.b.mat_vec(&frames[link].0, &column)));
+            }
+            let Some(parent) = self.links[link].parent else { break };
+            let turned = self.b.mat_vec(&self.rotations[link], &lever);
+            lever = self.b.add3(&self.offsets[link], &turned);
+            link = parent;
+        }
+        columns
+    }
+
+    /// The body at the top of `body`'s chain (hanging from the base).
+    fn root_of(&self, body: usize) -> usize {
+        let mut root = body;
+        while let Some(parent) = self.links[root].parent {
+            root = parent;
+        }
+        root
+    }
+
+    /// The Jacobian columns (joint index, column) of the point `local` of `body`, in the frame
+    /// of [`Self::world_frames`]: `z_k × (p − o_k)` for revolute and `z_k` for prismatic joints.
+    fn jacobian_columns(&mut self, body: usize, local: &V3) -> Vec<(usize, V3)> {
+        let frames = self.world_frames();
+        let (rotation, origin) = frames[body];
+        let arm = self.b.mat_vec(&rotation, local);
+        let position = self.b.add3(&origin, &arm);
+        let mut columns = Vec::new();
         let mut k = Some(body);
         while let Some(link) = k {
             if let Some((j, kind, axis)) = self.links[link].joint {
@@ -718,13 +800,11 @@ impl<'d> Recursion<'d> {
                     }
                     JointKind::Prismatic => z,
                 };
-                for (r, &value) in column.iter().take(dim).enumerate() {
-                    jacobian[r * n_joints + j] = value;
-                }
+                columns.push((j, column));
             }
             k = self.links[link].parent;
         }
-        jacobian
+        columns
     }
 
     /// The composite-rigid-body algorithm: `D(q)`, row-major.
@@ -887,7 +967,12 @@ pub fn build_with(dag: &mut Dag, model: &Model, quantity: Quantity, formulation:
         Quantity::CoriolisTimesQdot => recursion.newton_euler(true, false, false),
         Quantity::Gravity => recursion.newton_euler(false, false, true),
         Quantity::InverseDynamics => recursion.newton_euler(true, true, true),
-        Quantity::Point(index, what) => recursion.point(model, index, what),
+        Quantity::Point(index, PointQuantity::Jacobian) => {
+            drop(recursion);
+            let form = jacobian_form(model, index);
+            point_jacobian_with(dag, model, index, form)
+        }
+        Quantity::Point(index, what) => recursion.point(model, index, what, JacobianForm::default()),
         Quantity::CoriolisMatrix => {
             let d = recursion.inertia_matrix();
             let n = model.joints.len();
@@ -895,6 +980,35 @@ pub fn build_with(dag: &mut Dag, model: &Model, quantity: Quantity, formulation:
             christoffel(dag, &d, n)
         }
     }
+}
+
+/// Builds point `index`'s Jacobian (row-major) in the given form (all give the same values;
+/// [`build`] picks the cheapest).
+pub fn point_jacobian_with(dag: &mut Dag, model: &Model, index: usize, form: JacobianForm) -> Vec<NodeId> {
+    // The kinematics do not depend on how the inertial parameters are written.
+    Recursion::new(dag, model, Formulation::AboutOrigin).point(model, index, PointQuantity::Jacobian, form)
+}
+
+/// The form of point `index`'s Jacobian that is smallest after optimisation (each is built and
+/// counted; a tie keeps the earlier, the base frame with global columns first).
+fn jacobian_form(model: &Model, index: usize) -> JacobianForm {
+    let cost = |form: JacobianForm| {
+        let mut dag = Dag::new();
+        let roots = point_jacobian_with(&mut dag, model, index, form);
+        let counts = dag.optimised_count(&roots);
+        counts.arithmetic() + counts.trigonometric
+    };
+    let mut best = (JacobianForm { in_root_frame: false, local_columns: false }, usize::MAX);
+    for in_root_frame in [false, true] {
+        for local_columns in [false, true] {
+            let form = JacobianForm { in_root_frame, local_columns };
+            let c = cost(form);
+            if c < best.1 {
+                best = (form, c);
+            }
+        }
+    }
+    best.0
 }
 
 /// The formulation that gives this model the smallest inverse dynamics (each is built and

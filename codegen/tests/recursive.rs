@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use hapticgen_codegen::eval::{evaluate, State};
 use hapticgen_codegen::mechanics;
 use hapticgen_codegen::model::load_file;
-use hapticgen_codegen::recursive::{self, Formulation, PointQuantity, Quantity};
+use hapticgen_codegen::recursive::{self, Formulation, JacobianForm, PointQuantity, Quantity};
 use hapticgen_codegen::sym::dag::Dag;
 use hapticgen_codegen::sym::poly::Atom;
 
@@ -75,6 +75,15 @@ fn recursive_algorithms_equal_the_lagrangian_polynomials() {
                     [PointQuantity::Position, PointQuantity::Jacobian, PointQuantity::JacobianDotTimesQdot]
                         .map(|what| recursive::build(&mut dag, &model, Quantity::Point(i, what)))
                 })
+                .collect();
+            // Every form of the point Jacobians, the one `build` picks among them.
+            let jacobian_forms: Vec<(usize, JacobianForm, Vec<_>)> = (0..model.points.len())
+                .flat_map(|i| {
+                    [(false, false), (false, true), (true, false), (true, true)].map(
+                        |(in_root_frame, local_columns)| (i, JacobianForm { in_root_frame, local_columns }),
+                    )
+                })
+                .map(|(i, form)| (i, form, recursive::point_jacobian_with(&mut dag, &model, i, form)))
                 .collect();
             let parameters = model.nominal_parameters();
             let mut rng = Lcg(0x5eed ^ n as u64);
@@ -141,6 +150,14 @@ fn recursive_algorithms_equal_the_lagrangian_polynomials() {
                                 value(jac[r * n + k]),
                                 want.jacobian[r][k],
                             );
+                            for (_, form, jacobian) in jacobian_forms.iter().filter(|(point, ..)| *point == i)
+                            {
+                                close(
+                                    &format!("point {i} J[{r}][{k}] ({form:?})"),
+                                    value(jacobian[r * n + k]),
+                                    want.jacobian[r][k],
+                                );
+                            }
                         }
                     }
                 }
