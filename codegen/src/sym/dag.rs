@@ -131,7 +131,7 @@ impl Dag {
         &self.nodes
     }
 
-    fn intern(&mut self, node: Node) -> NodeId {
+    pub(crate) fn intern(&mut self, node: Node) -> NodeId {
         if let Some(&id) = self.index.get(&node) {
             return id;
         }
@@ -797,7 +797,15 @@ impl Dag {
         let (pushed, pushed_roots, pushed_map) = merged.pushed_negations(&merged_roots);
         let composed: HashMap<NodeId, NodeId> =
             merged_map.iter().filter_map(|(old, mid)| Some((*old, *pushed_map.get(mid)?))).collect();
-        let candidates = [(merged_roots.clone(), merged, merged_map), (pushed_roots, pushed, composed)];
+        let mut candidates =
+            vec![(merged_roots.clone(), merged, merged_map), (pushed_roots, pushed, composed)];
+        // Signs chosen on top of either (see `crate::sym::signs`).
+        for k in 0..2 {
+            let (roots, dag, map) = &candidates[k];
+            let (signed, signed_roots, signed_map) = dag.negations_after_signs(roots);
+            let composed = map.iter().filter_map(|(old, mid)| Some((*old, *signed_map.get(mid)?))).collect();
+            candidates.push((signed_roots, signed, composed));
+        }
         let best = candidates.into_iter().map(|(r, d, m)| (cost(&d, &r), d, r, m)).min_by_key(|c| c.0)?;
         (best.0 < original).then_some((best.1, best.2, best.3))
     }

@@ -2,3 +2,4 @@
 //! a hash-consed expression DAG ([`dag`]) for optimisation and emission.
 pub mod dag;
 pub mod poly;
+pub mod signs;
