@@ -13,7 +13,7 @@ use quote::{format_ident, quote};
 
 use crate::mechanics::{Choice, Derivation, Mechanics};
 use crate::model::{JointKind, Model};
-use crate::recursive::{PointQuantity, Quantity};
+use crate::recursive::{FrameQuantity, PointQuantity, Quantity};
 use crate::sym::dag::{Dag, Node, NodeId, OpCounts};
 use crate::sym::poly::{Atom, Poly};
 
@@ -184,8 +184,10 @@ fn derivation_note(outputs: &[Output<'_>], choice: Choice) -> &'static str {
         (Quantity::Point(_, PointQuantity::Jacobian), _, Derivation::Recursive) => {
             " Built by composing the joint frames (columns `z_k × (p − o_k)`)."
         }
-        (Quantity::Point(..), _, Derivation::Recursive) => " Built by composing the joint frames.",
-        (Quantity::Point(..), _, Derivation::Polynomial) => "",
+        (Quantity::Point(..) | Quantity::Frame(..), _, Derivation::Recursive) => {
+            " Built by composing the joint frames."
+        }
+        (Quantity::Point(..) | Quantity::Frame(..), _, Derivation::Polynomial) => "",
         (Quantity::InertiaMatrix, Derivation::Recursive, _) => {
             " Built by the composite-rigid-body algorithm."
         }
@@ -867,13 +869,13 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             takes_qdd: false,
         });
     }
-    for (frame, kin) in model.frames.iter().zip(&mech.frames) {
+    for (index, frame) in model.frames.iter().enumerate() {
         let what = frame.description.clone().unwrap_or_else(|| format!("frame `{}`", frame.name));
         specs.push(FunctionSpec {
             name: format!("{}_orientation", frame.name),
             doc: format!(" Orientation of {what}: the rotation matrix `R(q)` from the frame to the base frame (columns: its axes in base coordinates)."),
             shape: Shape::Matrix(3, 3),
-            outputs: row_major(&kin.rotation),
+            outputs: quantity(Quantity::Frame(index, FrameQuantity::Orientation), 9),
             takes_qd: false,
             takes_qdd: false,
         });
@@ -881,7 +883,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             name: format!("{}_angular_jacobian", frame.name),
             doc: format!(" Angular-velocity Jacobian of {what}: `ω = J_ω(q) q̇` in base-frame coordinates (`Ṙ Rᵀ = [ω]×`)."),
             shape: Shape::Matrix(3, n),
-            outputs: row_major(&kin.angular_jacobian),
+            outputs: quantity(Quantity::Frame(index, FrameQuantity::AngularJacobian), 3 * n),
             takes_qd: false,
             takes_qdd: false,
         });

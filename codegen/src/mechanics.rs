@@ -14,7 +14,7 @@
 use std::collections::HashMap;
 
 use crate::model::{JointKind, Model, Motion, TaskSpec};
-use crate::recursive::{self, PointQuantity, Quantity};
+use crate::recursive::{self, FrameQuantity, PointQuantity, Quantity};
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::{Atom, Poly};
 
@@ -602,7 +602,7 @@ impl Mechanics {
         choice: Choice,
     ) -> Vec<NodeId> {
         let recursive = match quantity {
-            Quantity::Point(..) => choice.kinematics == Derivation::Recursive,
+            Quantity::Point(..) | Quantity::Frame(..) => choice.kinematics == Derivation::Recursive,
             _ => choice.dynamics == Derivation::Recursive,
         };
         if recursive {
@@ -623,6 +623,14 @@ impl Mechanics {
             Quantity::Gravity => polys(dag, &self.gravity),
             Quantity::Point(i, what) => {
                 point_polys(&self.points[i], what).iter().map(|p| dag.polynomial(p)).collect()
+            }
+            Quantity::Frame(i, what) => {
+                let frame = &self.frames[i];
+                let matrix = match what {
+                    FrameQuantity::Orientation => &frame.rotation,
+                    FrameQuantity::AngularJacobian => &frame.angular_jacobian,
+                };
+                matrix.iter().flatten().map(|p| dag.polynomial(p)).collect()
             }
             Quantity::InverseDynamics => {
                 // D q̈ + C q̇ + g, row by row.

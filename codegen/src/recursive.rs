@@ -44,6 +44,19 @@ pub enum Quantity {
     InverseDynamics,
     /// Kinematics of the named point with this index.
     Point(usize, PointQuantity),
+    /// Orientation or angular-velocity Jacobian of the named frame with this index.
+    Frame(usize, FrameQuantity),
+}
+
+/// Orientation or angular-velocity Jacobian of a named frame (`Model::frames`), in the base
+/// frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FrameQuantity {
+    /// `R(q)`, from the frame to the base frame, row-major.
+    Orientation,
+    /// `J_ω(q)` with `ω = J_ω q̇`, row-major: the joint axes `z_k` of the revolute joints
+    /// between the frame and the base, zero columns for prismatic joints.
+    AngularJacobian,
 }
 
 /// Position, Jacobian or `J̇ q̇` of the named point with this index (`Model::points`), in the
@@ -770,6 +783,67 @@ impl<'d> Recursion<'d> {
         columns
     }
 
+    /// Orientation or angular Jacobian (row-major) of named frame `index`; `in_root_frame` as
+    /// for points: built relative to the chain's root joint frame, turned into the base frame
+    /// at the end.
+    pub(crate) fn frame(
+        &mut self,
+        model: &Model,
+        index: usize,
+        what: FrameQuantity,
+        in_root_frame: bool,
+    ) -> Vec<NodeId> {
+        let n_joints = self.rotor.len();
+        let frame = &model.frames[index];
+        let Some(body) = frame.body else {
+            return match what {
+                FrameQuantity::Orientation => {
+                    frame.rotation.iter().flatten().map(|&x| self.b.dag.constant(x)).collect()
+                }
+                FrameQuantity::AngularJacobian => vec![self.b.zero(); 3 * n_joints],
+            };
+        };
+        let root = self.root_of(body);
+        let root_frame = (self.rotations[root], self.offsets[root]);
+        if in_root_frame {
+            self.rotations[root] =
+                [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]].map(|row| self.b.const3(row));
+            self.offsets[root] = self.b.zero3();
+        }
+        let frames = self.world_frames();
+        (self.rotations[root], self.offsets[root]) = root_frame;
+        let to_base =
+            |b: &mut Builder<'_>, v: V3| if in_root_frame { b.mat_vec(&root_frame.0, &v) } else { v };
+        match what {
+            FrameQuantity::Orientation => {
+                // Joint frame · DH tail · the frame's fixed rotation, column by column.
+                let fixed = mat3_mul(self.links[body].tail.0, frame.rotation);
+                let columns: [V3; 3] = std::array::from_fn(|c| {
+                    let column = self.b.const3([fixed[0][c], fixed[1][c], fixed[2][c]]);
+                    let column = self.b.mat_vec(&frames[body].0, &column);
+                    to_base(&mut self.b, column)
+                });
+                (0..9).map(|k| columns[k % 3][k / 3]).collect()
+            }
+            FrameQuantity::AngularJacobian => {
+                let mut jacobian = vec![self.b.zero(); 3 * n_joints];
+                let mut k = Some(body);
+                while let Some(link) = k {
+                    if let Some((j, JointKind::Revolute, axis)) = self.links[link].joint {
+                        let axis = self.b.const3(axis);
+                        let z = self.b.mat_vec(&frames[link].0, &axis);
+                        let z = to_base(&mut self.b, z);
+                        for (r, &value) in z.iter().enumerate() {
+                            jacobian[r * n_joints + j] = value;
+                        }
+                    }
+                    k = self.links[link].parent;
+                }
+                jacobian
+            }
+        }
+    }
+
     /// The body at the top of `body`'s chain (hanging from the base).
     fn root_of(&self, body: usize) -> usize {
         let mut root = body;
@@ -973,6 +1047,22 @@ pub fn build_with(dag: &mut Dag, model: &Model, quantity: Quantity, formulation:
             point_jacobian_with(dag, model, index, form)
         }
         Quantity::Point(index, what) => recursion.point(model, index, what, JacobianForm::default()),
+        Quantity::Frame(index, what) => {
+            drop(recursion);
+            let cost = |in_root_frame: bool| {
+                let mut scratch = Dag::new();
+                let roots = Recursion::new(&mut scratch, model, Formulation::AboutOrigin).frame(
+                    model,
+                    index,
+                    what,
+                    in_root_frame,
+                );
+                let counts = scratch.optimised_count(&roots);
+                counts.arithmetic() + counts.trigonometric
+            };
+            let in_root_frame = cost(true) < cost(false);
+            Recursion::new(dag, model, Formulation::AboutOrigin).frame(model, index, what, in_root_frame)
+        }
         Quantity::CoriolisMatrix => {
             let d = recursion.inertia_matrix();
             let n = model.joints.len();

@@ -1,16 +1,17 @@
 //! The recursive derivation path (Newton–Euler, composite rigid body, Christoffel symbols on
 //! the DAG) against the polynomial path, which derives the same quantities independently from
-//! the kinetic and potential energy: every shipped serial model and the good-model fixtures,
+//! the kinetic and potential energy (and named frames against the polynomial rotations): every
+//! shipped serial model and the good-model fixtures,
 //! at pseudo-random states, including prismatic joints, DH tails, welded bodies and tunable
 //! parameters, in each formulation of the recursions (about frame origins, about centres of
 //! mass, with regrouped inertial parameters).
 
 use std::path::{Path, PathBuf};
 
-use hapticgen_codegen::eval::{evaluate, State};
+use hapticgen_codegen::eval::{evaluate, evaluate_frame, State};
 use hapticgen_codegen::mechanics;
 use hapticgen_codegen::model::load_file;
-use hapticgen_codegen::recursive::{self, Formulation, JacobianForm, PointQuantity, Quantity};
+use hapticgen_codegen::recursive::{self, Formulation, FrameQuantity, JacobianForm, PointQuantity, Quantity};
 use hapticgen_codegen::sym::dag::Dag;
 use hapticgen_codegen::sym::poly::Atom;
 
@@ -85,6 +86,12 @@ fn recursive_algorithms_equal_the_lagrangian_polynomials() {
                 })
                 .map(|(i, form)| (i, form, recursive::point_jacobian_with(&mut dag, &model, i, form)))
                 .collect();
+            let frames: Vec<[Vec<_>; 2]> = (0..model.frames.len())
+                .map(|i| {
+                    [FrameQuantity::Orientation, FrameQuantity::AngularJacobian]
+                        .map(|what| recursive::build(&mut dag, &model, Quantity::Frame(i, what)))
+                })
+                .collect();
             let parameters = model.nominal_parameters();
             let mut rng = Lcg(0x5eed ^ n as u64);
             for _ in 0..20 {
@@ -129,6 +136,29 @@ fn recursive_algorithms_equal_the_lagrangian_polynomials() {
                             + want.coriolis_times_qdot[r]
                             + want.g[r];
                         close(&format!("τ[{r}] ({formulation:?})"), value(tau[r]), expected);
+                    }
+                }
+                for (i, [rotation, angular]) in frames.iter().enumerate() {
+                    let want = evaluate_frame(
+                        &mech,
+                        &State { q: &q, qd: &qd, parameters: &parameters },
+                        &mech.frames[i],
+                    );
+                    for r in 0..3 {
+                        for c in 0..3 {
+                            close(
+                                &format!("frame {i} R[{r}][{c}]"),
+                                value(rotation[r * 3 + c]),
+                                want.rotation[r][c],
+                            );
+                        }
+                        for k in 0..n {
+                            close(
+                                &format!("frame {i} J_ω[{r}][{k}]"),
+                                value(angular[r * n + k]),
+                                want.angular_jacobian[r][k],
+                            );
+                        }
                     }
                 }
                 for (i, [p, jac, jdot]) in points.iter().enumerate() {
