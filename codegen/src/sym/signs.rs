@@ -19,6 +19,9 @@ use std::collections::HashMap;
 
 use super::dag::{Dag, Node, NodeId};
 
+/// The most nodes one move flips together.
+const MAX_GROUP: usize = 8;
+
 /// `+1` or `−1`: the sign a node is computed with.
 type Sign = i8;
 
@@ -219,7 +222,9 @@ impl Search {
             .map(|i| {
                 let mut group = vec![i];
                 let mut k = 0;
-                while k < group.len() {
+                // Small groups only: a sign that would travel through a long chain of products
+                // is better left to the walk, step by step (and keeps each move cheap).
+                while k < group.len() && group.len() < MAX_GROUP {
                     for &p in &parents[group[k]] {
                         if is_product(p) && !group.contains(&p) {
                             group.push(p);
@@ -296,7 +301,7 @@ impl Search {
         let mut total: isize = (0..n).map(|k| self.cost(&sign, k) as isize).sum();
         let (mut best, mut best_total) = (sign.clone(), total);
         let mut state: u64 = 0x9e37_79b9_7f4a_7c15;
-        let steps = if best_total == 0 { 0 } else { (100 * candidates.len()).min(50_000) };
+        let steps = if best_total == 0 { 0 } else { (40 * candidates.len()).min(20_000) };
         for _ in 0..steps {
             state ^= state << 13;
             state ^= state >> 7;
