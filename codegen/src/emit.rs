@@ -115,8 +115,8 @@ pub struct EmitOptions {
     /// Fuse each multiplication used only by one addition or subtraction into it, emitted as a
     /// call of `::hapticgen_runtime::Real::mul_add` (`a·b + c`), `mul_sub` (`a·b − c`),
     /// `neg_mul_add` (`c − a·b`) or `neg_mul_sub` (`−a·b − c`): one correctly rounded
-    /// operation each (`vfma`/`vfms`/`vfnms`/`vfnma` on ARM VFPv4, `vfmadd`/`vfmsub`/`vfnmadd`/
-    /// `vfnmsub` on x86 FMA3), counted in [`OpCounts::fused`] (one operation, two flops). A
+    /// operation each (`vfma`/`vfnms`/`vfms`/`vfnma` on ARM VFPv4, `vfmadd`/`vfmsub`/`vfnmadd`/
+    /// `vfnmsub` on x86 FMA3, in that order), counted in [`OpCounts::fused`] (one operation, two flops). A
     /// negated product used once, `−(a·b)`, counts as one multiplication (`vnmul` on ARM). The
     /// optimiser then minimises that count. Results differ from unfused code by the rounding
     /// the fusion saves, and are the same on every target (the runtime's `mul_add` is exact).
@@ -385,8 +385,9 @@ impl<'m> BodyEmitter<'m> {
         }
     }
 
-    /// Emits `let` statements for shared nodes and the expressions of `roots`, after merging
-    /// sums ([`Dag::merged_sums`]) where that saves operations.
+    /// Emits `let` statements for shared nodes and the expressions of `roots`, in the cheapest
+    /// form [`Dag::optimised`] finds, with fused multiply-adds ([`Dag::fusions`]) if the options
+    /// ask for them.
     fn emit(&self, roots: &[NodeId], context: &str) -> (TokenStream, Vec<TokenStream>, OpCounts) {
         let fma = self.options.fused_multiply_add;
         let (dag, roots, hints) = match self.dag.optimised(roots, fma) {
