@@ -7,6 +7,7 @@
 #   scripts/firmware.sh --limits=warn    limit violations reported but not fatal
 #   scripts/firmware.sh --only NAME      one image
 #   HAPTICGEN_FW_OPT_LEVEL=s scripts/firmware.sh   another opt-level (the measurement in the docs)
+#   HAPTICGEN_FW_FMA=1 scripts/firmware.sh         generated code with fused multiply-adds (vfma.f32)
 #
 # Installs what it needs on a fresh machine: the pinned toolchain's thumbv7em-none-eabihf
 # target (rustup) and qemu-system-arm (apt-get).

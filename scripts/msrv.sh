@@ -3,8 +3,9 @@
 # the firmware fallback path uses: Debian bookworm's rustc). Installs Debian's rustc 1.63 and
 # its libm if missing, then compiles, with that rustc and no cargo:
 #   1. libm (Debian's librust-libm-dev source),
-#   2. runtime/ as a library,
-#   3. a crate that includes the generated code of every shipped model, variant and scalar.
+#   2. runtime/ as a library (also with `-C target-feature=+fma`: `Real::mul_add`'s x86 path),
+#   3. a crate that includes the generated code of every shipped model, variant and scalar,
+#      unfused and with fused multiply-adds.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
@@ -33,6 +34,10 @@ echo "msrv: libm from $LIBM_SRC"
 echo "msrv: runtime"
 "$RUSTC" --edition 2021 --crate-type lib --crate-name hapticgen_runtime -D warnings \
     "$ROOT/runtime/src/lib.rs" --extern libm="$OUT/liblibm.rlib" -L "$OUT" --out-dir "$OUT"
+echo "msrv: runtime with the x86 FMA instructions"
+mkdir -p "$OUT/fma"
+"$RUSTC" --edition 2021 --crate-type lib --crate-name hapticgen_runtime -D warnings -C target-feature=+fma \
+    "$ROOT/runtime/src/lib.rs" --extern libm="$OUT/liblibm.rlib" -L "$OUT" --out-dir "$OUT/fma"
 echo "msrv: generated code"
 # The tests crate's build script generates every shipped model, variant and scalar.
 cargo build -q -p hapticgen-tests

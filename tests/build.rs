@@ -1,10 +1,11 @@
-//! Generates every shipped model (all variants, f32 and f64) with the build-script helper, and
-//! a registry that lets tests visit each generated rig generically.
+//! Generates every shipped model (all variants, f32 and f64, unfused and with fused
+//! multiply-adds) with the build-script helper, and a registry that lets tests visit each
+//! generated rig generically.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use hapticgen_codegen::{build, model, Scalar};
+use hapticgen_codegen::{build, model, EmitOptions, Scalar};
 
 fn main() {
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
@@ -17,24 +18,29 @@ fn main() {
         let loaded = model::load_file(path, display, None).unwrap_or_else(|e| panic!("{e}"));
         let variants = entry.variants;
         for variant in variants {
-            for scalar in [Scalar::F64, Scalar::F32] {
+            for (scalar, fused_multiply_add) in
+                [(Scalar::F64, false), (Scalar::F32, false), (Scalar::F64, true), (Scalar::F32, true)]
+            {
                 let module = format!(
-                    "{}_{}{}",
+                    "{}_{}{}{}",
                     loaded.name,
                     variant.as_ref().map(|v| format!("{v}_")).unwrap_or_default(),
-                    scalar.name()
+                    scalar.name(),
+                    if fused_multiply_add { "_fma" } else { "" }
                 );
                 let file = out.join(format!("{module}.rs"));
                 let model =
                     model::load_file(path, display, variant.as_deref()).unwrap_or_else(|e| panic!("{e}"));
-                let text = hapticgen_codegen::generate_model(model, scalar).file_text();
+                let options = EmitOptions { fused_multiply_add };
+                let text = hapticgen_codegen::generate_model_with(model, scalar, options).file_text();
                 std::fs::write(&file, text).expect("OUT_DIR is writable");
                 let type_name = hapticgen_codegen::emit::rig_type_name(&loaded);
                 writeln!(
                     registry,
-                    "/// `{display}`{}, {}.\npub mod {module} {{ include!(concat!(env!(\"OUT_DIR\"), \"/{module}.rs\")); }}",
+                    "/// `{display}`{}, {}{}.\npub mod {module} {{ include!(concat!(env!(\"OUT_DIR\"), \"/{module}.rs\")); }}",
                     variant.as_ref().map(|v| format!(" variant `{v}`")).unwrap_or_default(),
-                    scalar.name()
+                    scalar.name(),
+                    if fused_multiply_add { ", fused multiply-adds" } else { "" }
                 )
                 .unwrap();
                 writeln!(

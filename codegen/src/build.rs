@@ -15,7 +15,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::{Diagnostics, Scalar};
+use crate::{Diagnostics, EmitOptions, Scalar};
 
 /// Generates the code of `model` (path relative to the current directory, which is the
 /// package root in a build script) into `out_file`, printing `cargo:rerun-if-changed` for the
@@ -26,9 +26,20 @@ pub fn generate(
     scalar: Scalar,
     out_file: &Path,
 ) -> Result<(), Diagnostics> {
+    generate_with(model, variant, scalar, EmitOptions::default(), out_file)
+}
+
+/// [`generate`] with emission options (e.g. fused multiply-adds).
+pub fn generate_with(
+    model: impl AsRef<Path>,
+    variant: Option<&str>,
+    scalar: Scalar,
+    options: EmitOptions,
+    out_file: &Path,
+) -> Result<(), Diagnostics> {
     let model = model.as_ref();
     println!("cargo:rerun-if-changed={}", model.display());
-    let text = generate_text(model, variant, scalar)?;
+    let text = generate_text_with(model, variant, scalar, options)?;
     let unchanged = std::fs::read_to_string(out_file).map(|old| old == text).unwrap_or(false);
     if !unchanged {
         std::fs::write(out_file, text).map_err(|e| Diagnostic {
@@ -45,9 +56,19 @@ pub fn generate(
 
 /// The text `generate` writes: header plus formatted items.
 pub fn generate_text(model: &Path, variant: Option<&str>, scalar: Scalar) -> Result<String, Diagnostics> {
+    generate_text_with(model, variant, scalar, EmitOptions::default())
+}
+
+/// The text `generate_with` writes.
+pub fn generate_text_with(
+    model: &Path,
+    variant: Option<&str>,
+    scalar: Scalar,
+    options: EmitOptions,
+) -> Result<String, Diagnostics> {
     let display = model.display().to_string();
     let loaded = crate::model::load_file(model, &display, variant)?;
-    Ok(crate::generate_model(loaded, scalar).file_text())
+    Ok(crate::generate_model_with(loaded, scalar, options).file_text())
 }
 
 use crate::Diagnostic;

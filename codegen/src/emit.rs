@@ -14,7 +14,7 @@ use quote::{format_ident, quote};
 use crate::mechanics::{Choice, Derivation, Mechanics};
 use crate::model::{JointKind, Model};
 use crate::recursive::{FrameQuantity, PointQuantity, Quantity};
-use crate::sym::dag::{Dag, Node, NodeId, OpCounts};
+use crate::sym::dag::{Dag, Fused, Node, NodeId, OpCounts};
 use crate::sym::poly::{Atom, Poly};
 
 /// The floating-point type of the generated code.
@@ -106,6 +106,21 @@ fn named_constant(x: f64) -> Option<&'static str> {
         (c::LOG10_E, "LOG10_E"),
     ];
     NAMES.iter().find(|(v, _)| *v == x).map(|(_, name)| *name)
+}
+
+/// Options of the emitted code besides its scalar type. The default is what every front end
+/// emits unless asked otherwise.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct EmitOptions {
+    /// Fuse each multiplication used only by one addition or subtraction into it, emitted as a
+    /// call of `::hapticgen_runtime::Real::mul_add` (`a·b + c`), `mul_sub` (`a·b − c`),
+    /// `neg_mul_add` (`c − a·b`) or `neg_mul_sub` (`−a·b − c`): one correctly rounded
+    /// operation each (`vfma`/`vfnms`/`vfms`/`vfnma` on ARM VFPv4, `vfmadd`/`vfmsub`/`vfnmadd`/
+    /// `vfnmsub` on x86 FMA3, in that order), counted in [`OpCounts::fused`] (one operation, two flops). A
+    /// negated product used once, `−(a·b)`, counts as one multiplication (`vnmul` on ARM). The
+    /// optimiser then minimises that count. Results differ from unfused code by the rounding
+    /// the fusion saves, and are the same on every target (the runtime's `mul_add` is exact).
+    pub fused_multiply_add: bool,
 }
 
 /// The shape of a function's result.
@@ -205,14 +220,14 @@ fn derivation_note(outputs: &[Output<'_>], choice: Choice) -> &'static str {
 }
 
 /// The derivation choice under which `outputs` take the fewest operations on their own.
-fn cheapest_choice(model: &Model, mech: &Mechanics, outputs: &[Output<'_>]) -> Choice {
+fn cheapest_choice(model: &Model, mech: &Mechanics, outputs: &[Output<'_>], options: EmitOptions) -> Choice {
     if !outputs.iter().any(|o| matches!(o, Output::Quantity(..))) {
         return mech.choice();
     }
     let cost = |choice: Choice| {
         let mut dag = Dag::new();
         let roots = output_roots_with(&mut dag, model, mech, outputs, choice);
-        let counts = dag.optimised_count(&roots);
+        let counts = dag.optimised_count_with(&roots, options.fused_multiply_add);
         counts.arithmetic() + counts.trigonometric
     };
     // The default first, so that a tie keeps it.
@@ -269,6 +284,11 @@ struct BodyEmitter<'m> {
     scalar: Scalar,
     /// Names for nodes with a known role (e.g. `jacobian_determinant`).
     hints: HashMap<NodeId, String>,
+    /// Emission options.
+    options: EmitOptions,
+    /// Nodes emitted as fused multiply-adds (with [`EmitOptions::fused_multiply_add`]), set by
+    /// [`BodyEmitter::emit`].
+    fusions: HashMap<NodeId, Fused>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -280,12 +300,19 @@ enum Precedence {
 }
 
 impl<'m> BodyEmitter<'m> {
-    fn new(model: &'m Model, scalar: Scalar) -> Self {
+    fn new(model: &'m Model, scalar: Scalar, options: EmitOptions) -> Self {
         // A closed chain's passive coordinates enter every polynomial as nodes computed from
         // the actuated ones (`crate::closure`), named after their role.
         let mut dag = Dag::new();
         let hints = crate::closure::install(&mut dag, model.closures.as_ref()).hints.into_iter().collect();
-        Self { dag, naming: Naming { model, externals: Vec::new() }, scalar, hints }
+        Self {
+            dag,
+            naming: Naming { model, externals: Vec::new() },
+            scalar,
+            hints,
+            options,
+            fusions: HashMap::new(),
+        }
     }
 
     /// A descriptive name for a node, if a short one exists.
@@ -296,6 +323,8 @@ impl<'m> BodyEmitter<'m> {
             }
             match self.dag.nodes()[x] {
                 Node::Input(a) => Some(self.naming.atom_name(a)),
+                // A square inside a product (`0.15 q̇1²` after regrouping): `scaled_q1_dot_sq`.
+                Node::Mul(a, b) if a == b => self.describe(x, names),
                 other => {
                     self.angle_identity(other, &|j| self.naming.model.joints[usize::from(j)].name.clone())
                 }
@@ -362,16 +391,29 @@ impl<'m> BodyEmitter<'m> {
         }
     }
 
-    /// Emits `let` statements for shared nodes and the expressions of `roots`, after merging
-    /// sums ([`Dag::merged_sums`]) where that saves operations.
+    /// Emits `let` statements for shared nodes and the expressions of `roots`, in the cheapest
+    /// form [`Dag::optimised`] finds, with fused multiply-adds ([`Dag::fusions`]) if the options
+    /// ask for them.
     fn emit(&self, roots: &[NodeId], context: &str) -> (TokenStream, Vec<TokenStream>, OpCounts) {
-        if let Some((dag, new_roots, map)) = self.dag.optimised(roots) {
-            let hints =
-                self.hints.iter().filter_map(|(id, name)| Some((*map.get(id)?, name.clone()))).collect();
-            let merged = BodyEmitter { dag, naming: self.naming.clone(), scalar: self.scalar, hints };
-            return merged.emit_dag(&new_roots, context);
-        }
-        self.emit_dag(roots, context)
+        let fma = self.options.fused_multiply_add;
+        let (dag, roots, hints) = match self.dag.optimised(roots, fma) {
+            Some((dag, new_roots, map)) => {
+                let hints =
+                    self.hints.iter().filter_map(|(id, name)| Some((*map.get(id)?, name.clone()))).collect();
+                (dag, new_roots, hints)
+            }
+            None => (self.dag.clone(), roots.to_vec(), self.hints.clone()),
+        };
+        let fusions = if fma { dag.fusions(&roots) } else { HashMap::new() };
+        let optimised = BodyEmitter {
+            dag,
+            naming: self.naming.clone(),
+            scalar: self.scalar,
+            hints,
+            options: self.options,
+            fusions,
+        };
+        optimised.emit_dag(&roots, context)
     }
 
     fn emit_dag(&self, roots: &[NodeId], context: &str) -> (TokenStream, Vec<TokenStream>, OpCounts) {
@@ -506,7 +548,9 @@ impl<'m> BodyEmitter<'m> {
             names.insert(id, name);
         }
         let outputs = roots.iter().map(|&r| self.expression(r, &names, false).0).collect();
-        (statements, outputs, self.dag.count(roots))
+        let counts =
+            if self.options.fused_multiply_add { self.dag.count_fused(roots) } else { self.dag.count(roots) };
+        (statements, outputs, counts)
     }
 
     /// For an unnamed `(−c)·y` with a constant `c > 0`, the tokens of `c·y`.
@@ -558,6 +602,22 @@ impl<'m> BodyEmitter<'m> {
                 t
             }
         };
+        if let Some(&Fused::MulAdd { a, b, c, negate_product, negate_addend }) = self.fusions.get(&id) {
+            // Constants first, as in products.
+            let (a, b) = if self.dag.constant_value(b).is_some() { (b, a) } else { (a, b) };
+            let (x, y, z) = (
+                self.expression(a, names, false).0,
+                self.expression(b, names, false).0,
+                self.expression(c, names, false).0,
+            );
+            let function = match (negate_product, negate_addend) {
+                (false, false) => quote!(mul_add),
+                (false, true) => quote!(mul_sub),
+                (true, false) => quote!(neg_mul_add),
+                (true, true) => quote!(neg_mul_sub),
+            };
+            return (quote!(::hapticgen_runtime::Real::#function(#x, #y, #z)), Precedence::Atomic);
+        }
         match self.dag.nodes()[id] {
             Node::Const(bits) => {
                 let v = f64::from_bits(bits);
@@ -662,10 +722,11 @@ pub fn function(
     model: &Model,
     mech: &Mechanics,
     scalar: Scalar,
+    options: EmitOptions,
     spec: &FunctionSpec<'_>,
 ) -> (TokenStream, OpCounts) {
-    let mut body = BodyEmitter::new(model, scalar);
-    let choice = cheapest_choice(model, mech, &spec.outputs);
+    let mut body = BodyEmitter::new(model, scalar, options);
+    let choice = cheapest_choice(model, mech, &spec.outputs, options);
     let roots = output_roots_with(&mut body.dag, model, mech, &spec.outputs, choice);
     let doc = format!("{}{}", spec.doc, derivation_note(&spec.outputs, choice));
     let (statements, outputs, counts) = body.emit(&roots, &spec.name);
@@ -908,13 +969,29 @@ fn tick_outputs(mech: &Mechanics, include_position: bool) -> Vec<Output<'_>> {
 /// Operation counts of the quantities one control tick needs (D, C q̇, g, p, J, J̇ q̇),
 /// computed together with shared subexpressions.
 pub fn tick_counts(model: &Model, mech: &Mechanics, include_position: bool) -> OpCounts {
-    let mut body = BodyEmitter::new(model, Scalar::F64);
-    let roots = output_roots(&mut body.dag, model, mech, &tick_outputs(mech, include_position));
-    body.dag.optimised_count(&roots)
+    tick_counts_with(model, mech, include_position, EmitOptions::default())
 }
 
-fn terms_function(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, OpCounts) {
-    let mut body = BodyEmitter::new(model, scalar);
+/// [`tick_counts`] for code emitted with `options` (with fused multiply-adds, they count once
+/// in [`OpCounts::fused`]).
+pub fn tick_counts_with(
+    model: &Model,
+    mech: &Mechanics,
+    include_position: bool,
+    options: EmitOptions,
+) -> OpCounts {
+    let mut body = BodyEmitter::new(model, Scalar::F64, options);
+    let roots = output_roots(&mut body.dag, model, mech, &tick_outputs(mech, include_position));
+    body.dag.optimised_count_with(&roots, options.fused_multiply_add)
+}
+
+fn terms_function(
+    model: &Model,
+    mech: &Mechanics,
+    scalar: Scalar,
+    options: EmitOptions,
+) -> (TokenStream, OpCounts) {
+    let mut body = BodyEmitter::new(model, scalar, options);
     let roots = output_roots(&mut body.dag, model, mech, &tick_outputs(mech, true));
     let (statements, values, counts) = body.emit(&roots, "terms");
     let n = mech.joints;
@@ -958,9 +1035,13 @@ fn terms_function(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStre
 }
 
 /// A closed chain's `closure_margin` method (see `crate::closure::Installed::margins`).
-fn closure_margin_function(model: &Model, scalar: Scalar) -> Option<(TokenStream, OpCounts)> {
+fn closure_margin_function(
+    model: &Model,
+    scalar: Scalar,
+    options: EmitOptions,
+) -> Option<(TokenStream, OpCounts)> {
     let closures = model.closures.as_ref()?;
-    let mut body = BodyEmitter::new(model, scalar);
+    let mut body = BodyEmitter::new(model, scalar, options);
     // Installing again into the same DAG re-interns the same nodes: it only reports them.
     let roots = crate::closure::install(&mut body.dag, Some(closures)).margins;
     let (statements, values, counts) = body.emit(&roots, "closure_margin");
@@ -984,7 +1065,7 @@ fn closure_margin_function(model: &Model, scalar: Scalar) -> Option<(TokenStream
 }
 
 /// Emits every item of a rig: the struct, its methods and the `RigModel` implementation.
-pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, Stats) {
+pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar, options: EmitOptions) -> (TokenStream, Stats) {
     let s = scalar.tokens();
     let n = unsuffixed(mech.joints);
     let m = unsuffixed(mech.task_dim);
@@ -994,21 +1075,21 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
 
     let mut methods = TokenStream::new();
     for spec in function_specs(model, mech) {
-        let (tokens, counts) = function(model, mech, scalar, &spec);
+        let (tokens, counts) = function(model, mech, scalar, options, &spec);
         methods.extend(tokens);
         stats.functions.push((spec.name.clone(), counts));
     }
-    let (terms, tick) = terms_function(model, mech, scalar);
+    let (terms, tick) = terms_function(model, mech, scalar, options);
     stats.functions.push(("terms".into(), tick));
     methods.extend(terms);
-    if let Some((margin, counts)) = closure_margin_function(model, scalar) {
+    if let Some((margin, counts)) = closure_margin_function(model, scalar, options) {
         stats.functions.push(("closure_margin".into(), counts));
         methods.extend(margin);
     }
-    let fused = fused_impl(model, mech, scalar, &mut stats);
+    let fused = fused_impl(model, mech, scalar, options, &mut stats);
 
     // Damping depends on tunable parameters at most.
-    let mut damping_body = BodyEmitter::new(model, scalar);
+    let mut damping_body = BodyEmitter::new(model, scalar, options);
     let damping_roots: Vec<NodeId> = mech.damping.iter().map(|p| damping_body.dag.polynomial(p)).collect();
     let (damping_statements, damping_values, _) = damping_body.emit(&damping_roots, "damping");
 
@@ -1256,7 +1337,13 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar) -> (TokenStream, S
 }
 
 /// Emits the `FusedImpedance` implementation: one straight-line function per law.
-fn fused_impl(model: &Model, mech: &Mechanics, scalar: Scalar, stats: &mut Stats) -> TokenStream {
+fn fused_impl(
+    model: &Model,
+    mech: &Mechanics,
+    scalar: Scalar,
+    options: EmitOptions,
+    stats: &mut Stats,
+) -> TokenStream {
     use crate::fused::{build, External, Law};
     let s = scalar.tokens();
     let (n_usize, m_usize) = (mech.joints, mech.task_dim);
@@ -1274,7 +1361,7 @@ fn fused_impl(model: &Model, mech: &Mechanics, scalar: Scalar, stats: &mut Stats
     ];
     let mut methods = TokenStream::new();
     for (law, name, sensed) in laws {
-        let mut body = BodyEmitter::new(model, scalar);
+        let mut body = BodyEmitter::new(model, scalar, options);
         for kind in External::ALL {
             for k in 0..m_usize {
                 let kk = unsuffixed(k);

@@ -33,6 +33,8 @@ pub struct Input {
     pub variant: Option<String>,
     /// Scalar type of the emitted code.
     pub scalar: Scalar,
+    /// Emit fused multiply-adds (`hapticgen generate --fma`).
+    pub fused_multiply_add: bool,
 }
 
 /// How an input ended when the invariant held.
@@ -48,7 +50,8 @@ pub enum Outcome {
 /// which the [`Runner`] watches). Panics propagate to the caller.
 pub fn check(input: &Input) -> Result<Outcome, String> {
     let source = Source { name: INPUT_NAME, text: &input.text };
-    match hapticgen_codegen::generate(&source, input.variant.as_deref(), input.scalar) {
+    let options = hapticgen_codegen::EmitOptions { fused_multiply_add: input.fused_multiply_add };
+    match hapticgen_codegen::generate_with(&source, input.variant.as_deref(), input.scalar, options) {
         Ok(generated) => {
             let text = generated.formatted_items();
             if text.trim().is_empty() {
@@ -295,12 +298,15 @@ mod tests {
         let good =
             std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/joystick_1dof.yaml"))
                 .unwrap();
-        let verdict = runner.run(Input { text: good, variant: None, scalar: Scalar::F64 });
+        let verdict =
+            runner.run(Input { text: good, variant: None, scalar: Scalar::F64, fused_multiply_add: false });
         assert!(matches!(verdict, Verdict::Ok(Outcome::Generated, _)), "{verdict:?}");
-        let bad = Input { text: "name: [\n".into(), variant: None, scalar: Scalar::F32 };
+        let bad =
+            Input { text: "name: [\n".into(), variant: None, scalar: Scalar::F32, fused_multiply_add: true };
         assert!(matches!(runner.run(bad), Verdict::Ok(Outcome::Rejected, _)));
         // Without the final newline the parsers point past the last line; the loader clamps.
-        let unterminated = Input { text: "name: [".into(), variant: None, scalar: Scalar::F32 };
+        let unterminated =
+            Input { text: "name: [".into(), variant: None, scalar: Scalar::F32, fused_multiply_add: false };
         assert!(matches!(runner.run(unterminated), Verdict::Ok(Outcome::Rejected, _)));
     }
 
@@ -315,7 +321,7 @@ mod tests {
             ("slow-4-joint-spatial.yaml", Scalar::F64),
         ] {
             let text = std::fs::read_to_string(format!("{dir}/{file}")).unwrap();
-            let verdict = runner.run(Input { text, variant: None, scalar });
+            let verdict = runner.run(Input { text, variant: None, scalar, fused_multiply_add: true });
             assert!(matches!(verdict, Verdict::Ok(..)), "{file}: {verdict:?}");
         }
     }

@@ -187,7 +187,12 @@ fn fuzz(options: &Options) -> ExitCode {
             let mut u = Unstructured::new(&bytes);
             let Ok(doc) = structured::document(&mut u) else { continue };
             structured_count += 1;
-            Input { text: doc.text, variant: doc.variant, scalar: scalar_of(&mut rng) }
+            Input {
+                text: doc.text,
+                variant: doc.variant,
+                scalar: scalar_of(&mut rng),
+                fused_multiply_add: rng.gen_bool(0.5),
+            }
         } else {
             let seed = &corpus[rng.gen_range(0..corpus.len())].1;
             let other = &corpus[rng.gen_range(0..corpus.len())].1;
@@ -197,7 +202,12 @@ fn fuzz(options: &Options) -> ExitCode {
                 1 => Some("vertical".to_string()),
                 _ => None,
             };
-            Input { text: String::from_utf8_lossy(&data).into_owned(), variant, scalar: scalar_of(&mut rng) }
+            Input {
+                text: String::from_utf8_lossy(&data).into_owned(),
+                variant,
+                scalar: scalar_of(&mut rng),
+                fused_multiply_add: rng.gen_bool(0.5),
+            }
         };
         let _ = current.set_len(0).and_then(|_| current.rewind()).and_then(|_| {
             current.write_all(input.text.as_bytes())?;
@@ -342,6 +352,7 @@ fn read_input(path: &Path, options: &Options) -> Result<Input, String> {
         text: String::from_utf8_lossy(&bytes).into_owned(),
         variant: options.variant.clone(),
         scalar: Scalar::F64,
+        fused_multiply_add: false,
     })
 }
 

@@ -238,6 +238,11 @@ pub mod check {
                 let qa: [f32; N] = std::array::from_fn(|i| q[i] as f32);
                 let qda: [f32; N] = std::array::from_fn(|i| qd[i] as f32);
                 let tol = 1e-5;
+                // `C q̇` cancels: the parallel link's is `k sin(q1 − q2) (q̇2², −q̇1²)` with
+                // sin(q1 − q2) = s1 c2 − s2 c1. Fused (`s1 c2` exact, `s2 c1` rounded) its error
+                // measured up to 2.1 × 1e-5 of the output's scale at these states (unfused 0.9 ×,
+                // the pantograph's), the same order, so fused rigs (module `…_fma`) get 3e-5 there.
+                let coriolis_tol = if info.module.ends_with("_fma") { 3e-5 } else { tol };
                 let v = |x: &[f32]| x.iter().map(|&y| f64::from(y)).collect::<Vec<_>>();
                 assert_close(
                     "D",
@@ -252,7 +257,7 @@ pub mod check {
                     info,
                     &v(&rig.coriolis_times_qdot(&qa, &qda)),
                     &e.coriolis_times_qdot,
-                    tol,
+                    coriolis_tol,
                     true,
                 );
                 assert_close("g", info, &v(&rig.gravity(&qa)), &e.g, tol, true);

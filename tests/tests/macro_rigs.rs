@@ -19,6 +19,7 @@ hapticgen_macros::rig!(mod horizontal_f32 = "../models/parallel_link_2dof.yaml",
 hapticgen_macros::rig!(mod pantograph_f64 = "../models/pantograph_5bar.yaml", variant = "vertical");
 hapticgen_macros::rig!(mod pantograph_f32 = "../models/pantograph_5bar.yaml", scalar = f32);
 hapticgen_macros::rig!(mod five_bar_f64 = "../codegen/tests/good-models/five_bar_2dof.yaml");
+hapticgen_macros::rig!(mod vertical_f32_fma = "../models/parallel_link_2dof.yaml", variant = "vertical", scalar = f32, fma = true);
 
 #[test]
 fn macro_generated_rigs_equal_the_evaluator() {
@@ -41,7 +42,13 @@ fn macro_generated_rigs_equal_the_evaluator() {
         module: "five_bar_f64",
     };
     check.visit_f64(&info, &five_bar_f64::FiveBar2dof::NOMINAL);
-    assert_eq!(check.rigs, 9);
+    let info = RigInfo {
+        file: "models/parallel_link_2dof.yaml",
+        variant: Some("vertical"),
+        module: "vertical_f32_fma",
+    };
+    check.visit_f32(&info, &vertical_f32_fma::ParallelLink2dof::NOMINAL);
+    assert_eq!(check.rigs, 10);
 }
 
 #[test]
@@ -68,6 +75,15 @@ fn macro_expansion_equals_the_build_helper_output() {
         assert_eq!(expanded, built, "{file} {variant:?}");
         assert!(expanded.contains("impl ::hapticgen_runtime::RigModel<"));
     }
+    // `fma = true` is the build helper's fused multiply-add emission.
+    let input = quote!(pub mod rig = "../models/parallel_link_2dof.yaml", variant = "vertical", fma = true);
+    let expanded = expansion_items(input, manifest_dir).expect("the expansion is a module with items");
+    let file = "../models/parallel_link_2dof.yaml";
+    let loaded = model::load_file(&manifest_dir.join(file), file, Some("vertical")).expect("valid model");
+    let options = hapticgen_codegen::EmitOptions { fused_multiply_add: true };
+    let built = hapticgen_codegen::generate_model_with(loaded, Scalar::F64, options).formatted_items();
+    assert_eq!(expanded, built);
+    assert!(expanded.contains("::hapticgen_runtime::Real::mul_add("));
 }
 
 #[test]

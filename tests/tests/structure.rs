@@ -1,13 +1,14 @@
 //! Structural properties of the parallel link's generated dynamics that the paper's
 //! derivation predicts (section 5, Spong's five-bar): constant diagonal inertia, an
 //! off-diagonal entry proportional to cos(q1 − q2), and only the sines and cosines of q1 and
-//! q2 evaluated (two sin/cos pairs) for D, C q̇, g, J and J̇ q̇ together.
+//! q2 evaluated (two sin/cos pairs) for D, C q̇, g, J and J̇ q̇ together; and the operation
+//! counts of those quantities against issue 7's targets.
 
 use hapticgen_codegen::emit;
 use hapticgen_codegen::mechanics;
 use hapticgen_codegen::model;
 use hapticgen_codegen::sym::poly::Atom;
-use hapticgen_codegen::Scalar;
+use hapticgen_codegen::{EmitOptions, Scalar};
 use hapticgen_tests::workspace_root;
 
 fn parallel_link(variant: &str) -> (model::Model, mechanics::Mechanics) {
@@ -50,5 +51,49 @@ fn tick_quantities_need_two_sine_cosine_pairs() {
         let terms = &terms[..terms.find("\n    }\n").unwrap()];
         assert_eq!(terms.matches("Real::sin_cos(").count(), 2, "{terms}");
         assert_eq!(terms.matches("Real::sin(").count() + terms.matches("Real::cos(").count(), 0, "{terms}");
+    }
+}
+
+/// Issue 7: D, C q̇, g, J and J̇ q̇ of the parallel link (vertical) together in at most 25
+/// arithmetic operations with 4 trigonometric evaluations, and, with fused multiply-adds (each
+/// one operation), fewer than 25 operations with the trigonometric ones counted (SymPy with
+/// `simplify` + `cse`: 19 + 6 = 25). The counts are deterministic.
+#[test]
+fn parallel_link_tick_meets_the_operation_count_targets() {
+    let (m, mech) = parallel_link("vertical");
+    let plain = emit::tick_counts(&m, &mech, false);
+    assert!(plain.arithmetic() <= 25 && plain.trigonometric == 4, "{plain:?}");
+    assert_eq!(plain.fused, 0, "{plain:?}");
+    let fma = EmitOptions { fused_multiply_add: true };
+    let fused = emit::tick_counts_with(&m, &mech, false, fma);
+    assert!(fused.arithmetic() + fused.trigonometric < 25, "{fused:?}");
+    assert!(fused.fused > 0 && fused.trigonometric == 4, "{fused:?}");
+    // The horizontal variant has no gravity terms: two multiplications fewer.
+    let (m, mech) = parallel_link("horizontal");
+    let plain_h = emit::tick_counts(&m, &mech, false);
+    let fused_h = emit::tick_counts_with(&m, &mech, false, fma);
+    assert_eq!(plain_h.arithmetic() + 2, plain.arithmetic(), "{plain_h:?}");
+    assert_eq!(fused_h.arithmetic() + 2, fused.arithmetic(), "{fused_h:?}");
+}
+
+/// The counts `tick_counts` reports are those of the emitted `terms` function (with p), and the
+/// fused code calls the runtime's fused multiply-adds exactly `fused` times.
+#[test]
+fn emitted_fused_terms_match_their_counts() {
+    for variant in ["vertical", "horizontal"] {
+        let (m, mech) = parallel_link(variant);
+        let fma = EmitOptions { fused_multiply_add: true };
+        let counts = emit::tick_counts_with(&m, &mech, true, fma);
+        let generated = hapticgen_codegen::generate_model_with(m, Scalar::F32, fma);
+        let terms = generated.stats.functions.iter().find(|(name, _)| name == "terms").unwrap().1;
+        assert_eq!(terms, counts, "{variant}");
+        let text = generated.file_text();
+        let body = &text[text.find("pub fn terms").unwrap()..];
+        let body = &body[..body.find("\n    }\n").unwrap()];
+        let calls = ["Real::mul_add(", "Real::mul_sub(", "Real::neg_mul_add(", "Real::neg_mul_sub("]
+            .iter()
+            .map(|f| body.matches(f).count())
+            .sum::<usize>();
+        assert_eq!(calls, counts.fused, "{variant}: {body}");
     }
 }

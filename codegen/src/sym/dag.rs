@@ -90,13 +90,51 @@ pub struct OpCounts {
     pub trigonometric: usize,
     /// Negations.
     pub negations: usize,
+    /// Fused multiply-adds `±a·b ± c` (only with fused multiply-add emission, see
+    /// [`Dag::fusions`]): one operation and one rounding each, but two floating-point
+    /// operations (flops).
+    pub fused: usize,
 }
 
 impl OpCounts {
-    /// Arithmetic operations (additions, multiplications, divisions, square roots, negations).
+    /// Arithmetic operations (additions, multiplications, divisions, square roots, negations,
+    /// fused multiply-adds each counted once).
     pub fn arithmetic(&self) -> usize {
-        self.additions + self.multiplications + self.divisions + self.square_roots + self.negations
+        self.additions
+            + self.multiplications
+            + self.divisions
+            + self.square_roots
+            + self.negations
+            + self.fused
     }
+}
+
+/// How a node is emitted when multiplications are fused into the additions that consume them
+/// (see [`Dag::fusions`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fused {
+    /// `(±a·b) ± c`, rounded once: an `Add` or `Sub` with its single-use product operand, or a
+    /// `Neg` of such a sum.
+    MulAdd {
+        /// First factor.
+        a: NodeId,
+        /// Second factor.
+        b: NodeId,
+        /// Addend.
+        c: NodeId,
+        /// The product enters negated: `−a·b ± c`.
+        negate_product: bool,
+        /// The addend enters negated: `±a·b − c`.
+        negate_addend: bool,
+    },
+    /// `−(a·b)` of a single-use product: one instruction on ARM (`vnmul.f32`), so counted as
+    /// one multiplication.
+    NegMul {
+        /// First factor.
+        a: NodeId,
+        /// Second factor.
+        b: NodeId,
+    },
 }
 
 /// A hash-consed expression DAG.
@@ -546,14 +584,6 @@ impl Dag {
         uses
     }
 
-    /// Operation counts of `roots` in the cheapest form [`Dag::optimised`] finds.
-    pub fn optimised_count(&self, roots: &[NodeId]) -> OpCounts {
-        match self.optimised(roots) {
-            Some((dag, new_roots, _)) => dag.count(&new_roots),
-            None => self.count(roots),
-        }
-    }
-
     /// Rebuilds the nodes needed for `roots` with every chain of additions, subtractions,
     /// negations and constant multiples that is used once flattened into one linear
     /// combination: equal terms merge (`c₁ x + c₂ x = (c₁ + c₂) x`, and exact cancellations
@@ -784,29 +814,598 @@ impl Dag {
         }
     }
 
-    /// The cheapest of the DAG as built, after [`Dag::merged_sums`], and after that and
-    /// [`Dag::pushed_negations`] (arithmetic plus trigonometric operations), with the map from
-    /// old node ids to new ones (`None`: unchanged).
-    pub fn optimised(&self, roots: &[NodeId]) -> Option<(Dag, Vec<NodeId>, HashMap<NodeId, NodeId>)> {
+    /// The cheapest of the DAG as built, after [`Dag::merged_sums`], after that and
+    /// [`Dag::pushed_negations`], and after those and [`Dag::regrouped_products`] (with and
+    /// without sinking negations), by arithmetic plus trigonometric operations — counted with
+    /// fused multiply-adds ([`Dag::count_fused`]) when `fused_multiply_add` is set — with the
+    /// map from old node ids to new ones (`None`: the DAG as built is the cheapest).
+    pub fn optimised(
+        &self,
+        roots: &[NodeId],
+        fused_multiply_add: bool,
+    ) -> Option<(Dag, Vec<NodeId>, HashMap<NodeId, NodeId>)> {
         let cost = |dag: &Dag, roots: &[NodeId]| {
-            let c = dag.count(roots);
+            let c = if fused_multiply_add { dag.count_fused(roots) } else { dag.count(roots) };
             c.arithmetic() + c.trigonometric
         };
+        let compose =
+            |first: &HashMap<NodeId, NodeId>, second: &HashMap<NodeId, NodeId>| -> HashMap<NodeId, NodeId> {
+                first.iter().filter_map(|(old, mid)| Some((*old, *second.get(mid)?))).collect()
+            };
         let original = cost(self, roots);
         let (merged, merged_roots, merged_map) = self.merged_sums(roots);
         let (pushed, pushed_roots, pushed_map) = merged.pushed_negations(&merged_roots);
-        let composed: HashMap<NodeId, NodeId> =
-            merged_map.iter().filter_map(|(old, mid)| Some((*old, *pushed_map.get(mid)?))).collect();
-        let mut candidates =
-            vec![(merged_roots.clone(), merged, merged_map), (pushed_roots, pushed, composed)];
-        // Signs chosen on top of either (see `crate::sym::signs`).
-        for k in 0..2 {
-            let (roots, dag, map) = &candidates[k];
-            let (signed, signed_roots, signed_map) = dag.negations_after_signs(roots);
-            let composed = map.iter().filter_map(|(old, mid)| Some((*old, *signed_map.get(mid)?))).collect();
-            candidates.push((signed_roots, signed, composed));
+        let pushed_composed = compose(&merged_map, &pushed_map);
+        let mut candidates = vec![(merged_roots, merged, merged_map)];
+        let mut regrouped = Vec::new();
+        for sink in [false, true] {
+            let (dag, new_roots, map) = pushed.regrouped_products(&pushed_roots, sink);
+            regrouped.push((new_roots, dag, compose(&pushed_composed, &map)));
         }
-        let best = candidates.into_iter().map(|(r, d, m)| (cost(&d, &r), d, r, m)).min_by_key(|c| c.0)?;
-        (best.0 < original).then_some((best.1, best.2, best.3))
+        candidates.push((pushed_roots, pushed, pushed_composed));
+        candidates.extend(regrouped);
+        // Signs chosen on top of each (see `crate::sym::signs`).
+        let signed: Vec<_> = candidates
+            .iter()
+            .map(|(roots, dag, map)| {
+                let (signed, signed_roots, signed_map) = dag.negations_after_signs(roots);
+                (signed_roots, signed, compose(map, &signed_map))
+            })
+            .collect();
+        candidates.extend(signed);
+        // The first of equally cheap candidates wins, so that a pass is only taken when it saves.
+        let mut best = original;
+        let mut chosen = None;
+        for (r, d, m) in candidates {
+            let c = cost(&d, &r);
+            if c < best {
+                best = c;
+                chosen = Some((d, r, m));
+            }
+        }
+        chosen
+    }
+
+    /// Operation counts of `roots` in the cheapest form [`Dag::optimised`] finds.
+    pub fn optimised_count(&self, roots: &[NodeId]) -> OpCounts {
+        self.optimised_count_with(roots, false)
+    }
+
+    /// Operation counts of `roots` in the cheapest form [`Dag::optimised`] finds, counted with
+    /// fused multiply-adds if `fused_multiply_add` is set.
+    pub fn optimised_count_with(&self, roots: &[NodeId], fused_multiply_add: bool) -> OpCounts {
+        let (dag, roots) = match self.optimised(roots, fused_multiply_add) {
+            Some((dag, new_roots, _)) => (dag, new_roots),
+            None => (self.clone(), roots.to_vec()),
+        };
+        if fused_multiply_add {
+            dag.count_fused(&roots)
+        } else {
+            dag.count(&roots)
+        }
+    }
+}
+
+/// A factor of a flattened product in [`Dag::regrouped_products`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+enum Factor {
+    /// A constant magnitude other than 1 (its bits).
+    Constant(u64),
+    /// A node of the DAG being rebuilt.
+    Node(NodeId),
+    /// A product of two factors shared by several products.
+    Pair(usize),
+}
+
+/// A flattened product: a sign and its factors, sorted.
+#[derive(Clone, Debug)]
+struct Product {
+    negative: bool,
+    factors: Vec<Factor>,
+}
+
+impl Product {
+    /// Replaces one occurrence of `x` and of `y` by `pair`; false if `x` or `y` is missing.
+    fn replace(&mut self, x: Factor, y: Factor, pair: Factor) -> bool {
+        let Some(i) = self.factors.iter().position(|f| *f == x) else { return false };
+        let Some(j) = self.factors.iter().enumerate().position(|(k, f)| *f == y && k != i) else {
+            return false;
+        };
+        let (hi, lo) = if i > j { (i, j) } else { (j, i) };
+        self.factors.remove(hi);
+        self.factors.remove(lo);
+        self.factors.push(pair);
+        self.factors.sort();
+        true
+    }
+}
+
+impl Dag {
+    /// A `Mul` interned as is, without moving negations out of it.
+    fn raw_mul(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        match (self.constant_value(a), self.constant_value(b)) {
+            (Some(_), _) | (_, Some(_)) => self.mul(a, b),
+            _ => {
+                let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+                self.intern(Node::Mul(lo, hi))
+            }
+        }
+    }
+
+    /// Rebuilds the nodes needed for `roots` with products regrouped and signs shared:
+    ///
+    /// * every product whose factors are used once is flattened into a sign, a constant
+    ///   magnitude and its factors, so that `c·y` and `(−c)·y` are one product up to sign;
+    /// * pairs of factors common to several products become one shared product (greedily, the
+    ///   most frequent pair first: `k·s·a` and `−k·s·b` share `k·s`), a pair with a constant
+    ///   taking the sign with which it is an output by itself;
+    /// * signs travel with the values and are absorbed by the sums and products that consume
+    ///   them; only an output that is negative needs a negation, and with `sink_negations` a
+    ///   factor common to several negative outputs is negated once for all of them
+    ///   (`−(k·x)` and `−(a·x + b·y)` become `k·(−x)` and `(−x)·a − b·y`).
+    ///
+    /// Returns the new DAG, the new roots and, for every node that still exists with the same
+    /// sign, its new id.
+    pub fn regrouped_products(
+        &self,
+        roots: &[NodeId],
+        sink_negations: bool,
+    ) -> (Dag, Vec<NodeId>, HashMap<NodeId, NodeId>) {
+        let order = self.reachable(roots);
+        let uses = self.use_counts(&order, roots);
+        let is_product = |id: NodeId| matches!(self.nodes[id], Node::Mul(..) | Node::Neg(..));
+        let mut product_parent = vec![false; self.nodes.len()];
+        for &id in &order {
+            match self.nodes[id] {
+                Node::Mul(a, b) => {
+                    product_parent[a] = true;
+                    product_parent[b] = true;
+                }
+                Node::Neg(a) => product_parent[a] = true,
+                _ => {}
+            }
+        }
+        // A product used once, by a product: flattened into its parent.
+        let internal = |id: NodeId| is_product(id) && uses[id] == 1 && product_parent[id];
+        let mut products: Vec<Product> = Vec::new();
+        let mut product_of: HashMap<NodeId, usize> = HashMap::new();
+        for &id in &order {
+            if !is_product(id) || internal(id) {
+                continue;
+            }
+            let mut coefficient = 1.0;
+            let mut factors = Vec::new();
+            let mut stack = vec![id];
+            while let Some(x) = stack.pop() {
+                match self.nodes[x] {
+                    Node::Const(bits) => coefficient *= f64::from_bits(bits),
+                    Node::Mul(a, b) if x == id || internal(x) => {
+                        stack.push(a);
+                        stack.push(b);
+                    }
+                    Node::Neg(a) if x == id || internal(x) => {
+                        coefficient = -coefficient;
+                        stack.push(a);
+                    }
+                    _ => factors.push(Factor::Node(x)),
+                }
+            }
+            let magnitude = coefficient.abs();
+            if magnitude != 1.0 {
+                factors.push(Factor::Constant(magnitude.to_bits()));
+            }
+            factors.sort();
+            product_of.insert(id, products.len());
+            products.push(Product { negative: coefficient < 0.0, factors });
+        }
+        // Greedy sharing of the most frequent pair of factors.
+        let mut pairs: Vec<(Factor, Factor)> = Vec::new();
+        loop {
+            let mut counts: HashMap<(Factor, Factor), usize, BuildHasherDefault<NodeHasher>> =
+                HashMap::default();
+            for p in &products {
+                let mut seen: Vec<(Factor, Factor)> = Vec::new();
+                for i in 0..p.factors.len() {
+                    for j in i + 1..p.factors.len() {
+                        let key = (p.factors[i], p.factors[j]);
+                        if !seen.contains(&key) {
+                            seen.push(key);
+                            *counts.entry(key).or_default() += 1;
+                        }
+                    }
+                }
+            }
+            let best = counts
+                .into_iter()
+                .filter(|(_, n)| *n >= 2)
+                .max_by(|(k1, n1), (k2, n2)| n1.cmp(n2).then(k2.cmp(k1)))
+                .map(|(k, _)| k);
+            let Some((x, y)) = best else { break };
+            let pair = Factor::Pair(pairs.len());
+            pairs.push((x, y));
+            for p in &mut products {
+                while p.replace(x, y, pair) {}
+            }
+        }
+        // A pair with a constant takes the sign with which it is an output by itself.
+        let mut flip = vec![false; pairs.len()];
+        for (k, &(x, y)) in pairs.iter().enumerate() {
+            if !matches!(x, Factor::Constant(_)) && !matches!(y, Factor::Constant(_)) {
+                continue;
+            }
+            let vote: i64 = products
+                .iter()
+                .filter(|p| p.factors == [Factor::Pair(k)])
+                .map(|p| if p.negative { -1 } else { 1 })
+                .sum();
+            flip[k] = vote < 0;
+        }
+        let mut out = Dag::new();
+        let mut built: HashMap<NodeId, Signed> = HashMap::with_capacity(order.len());
+        let mut pair_built: Vec<Option<Signed>> = vec![None; pairs.len()];
+        fn factor_value(
+            f: Factor,
+            pairs: &[(Factor, Factor)],
+            flip: &[bool],
+            built: &HashMap<NodeId, Signed>,
+            pair_built: &mut Vec<Option<Signed>>,
+            out: &mut Dag,
+        ) -> Signed {
+            match f {
+                Factor::Constant(bits) => Signed { id: out.constant(f64::from_bits(bits)), negative: false },
+                Factor::Node(x) => built[&x],
+                Factor::Pair(k) => {
+                    if let Some(s) = pair_built[k] {
+                        return s;
+                    }
+                    let (x, y) = pairs[k];
+                    let a = factor_value(x, pairs, flip, built, pair_built, out);
+                    let b = factor_value(y, pairs, flip, built, pair_built, out);
+                    let negative = a.negative != b.negative;
+                    // A pair holds at most one constant, and it sorts first.
+                    let s = match out.constant_value(a.id) {
+                        Some(v) if flip[k] => {
+                            let c = out.constant(-v);
+                            Signed { id: out.raw_mul(c, b.id), negative: !negative }
+                        }
+                        _ => Signed { id: out.raw_mul(a.id, b.id), negative },
+                    };
+                    pair_built[k] = Some(s);
+                    s
+                }
+            }
+        }
+        for &id in &order {
+            let value = match self.nodes[id] {
+                Node::Const(bits) => Signed { id: out.constant(f64::from_bits(bits)), negative: false },
+                Node::Input(atom) => Signed { id: out.input(atom), negative: false },
+                Node::Mul(..) | Node::Neg(..) => {
+                    let Some(&k) = product_of.get(&id) else { continue };
+                    let p = products[k].clone();
+                    let mut negative = p.negative;
+                    let mut acc: Option<NodeId> = None;
+                    for f in &p.factors {
+                        let v = factor_value(*f, &pairs, &flip, &built, &mut pair_built, &mut out);
+                        negative ^= v.negative;
+                        acc = Some(match acc {
+                            None => v.id,
+                            Some(a) => out.raw_mul(a, v.id),
+                        });
+                    }
+                    match acc {
+                        Some(id) => Signed { id, negative },
+                        // Every factor was a constant of magnitude 1 (or there was none).
+                        None => Signed { id: out.constant(1.0), negative },
+                    }
+                }
+                Node::Add(a, b) | Node::Sub(a, b) => {
+                    let (x, mut y) = (built[&a], built[&b]);
+                    if matches!(self.nodes[id], Node::Sub(..)) {
+                        y.negative = !y.negative;
+                    }
+                    match (x.negative, y.negative) {
+                        (false, false) => Signed { id: out.add(x.id, y.id), negative: false },
+                        (false, true) => Signed { id: out.sub(x.id, y.id), negative: false },
+                        (true, false) => Signed { id: out.sub(y.id, x.id), negative: false },
+                        (true, true) => Signed { id: out.add(x.id, y.id), negative: true },
+                    }
+                }
+                Node::Div(a, b) => {
+                    let (x, y) = (built[&a], built[&b]);
+                    Signed { id: out.div(x.id, y.id), negative: x.negative != y.negative }
+                }
+                Node::Sqrt(a) => {
+                    let x = built[&a];
+                    let x = out.resolve(x);
+                    Signed { id: out.sqrt(x), negative: false }
+                }
+            };
+            built.insert(id, value);
+        }
+        let mut new_roots: Vec<Option<NodeId>> = Vec::with_capacity(roots.len());
+        let mut pending: Vec<(usize, NodeId)> = Vec::new();
+        for (i, r) in roots.iter().enumerate() {
+            let s = built[r];
+            if !s.negative {
+                new_roots.push(Some(s.id));
+            } else if sink_negations && !out.free_to_negate(s.id) {
+                new_roots.push(None);
+                pending.push((i, s.id));
+            } else {
+                new_roots.push(Some(out.neg(s.id)));
+            }
+        }
+        // Negated outputs: a factor common to several of them is negated once.
+        loop {
+            let mut counts: BTreeMap<NodeId, usize> = BTreeMap::new();
+            for &(_, id) in &pending {
+                let mut leaves = out.sinkable_factors(id);
+                leaves.sort_unstable();
+                leaves.dedup();
+                for l in leaves {
+                    *counts.entry(l).or_default() += 1;
+                }
+            }
+            let Some((leaf, _)) =
+                counts.into_iter().filter(|(_, n)| *n >= 2).max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0)))
+            else {
+                break;
+            };
+            let negated = out.neg(leaf);
+            let mut rest = Vec::new();
+            for (i, id) in pending {
+                match out.with_negated_factor(id, leaf, negated) {
+                    Some(new) => new_roots[i] = Some(new),
+                    None => rest.push((i, id)),
+                }
+            }
+            pending = rest;
+        }
+        for (i, id) in pending {
+            new_roots[i] = Some(out.neg(id));
+        }
+        let new_roots: Vec<NodeId> = new_roots.into_iter().map(|r| r.unwrap_or_default()).collect();
+        let map = built.into_iter().filter(|(_, s)| !s.negative).map(|(old, s)| (old, s.id)).collect();
+        (out, new_roots, map)
+    }
+
+    /// Whether `−x` costs no operation: a constant, a negation, a difference, a constant multiple.
+    fn free_to_negate(&self, id: NodeId) -> bool {
+        match self.nodes[id] {
+            Node::Const(_) | Node::Neg(_) | Node::Sub(..) => true,
+            Node::Mul(a, b) => self.constant_value(a).is_some() || self.constant_value(b).is_some(),
+            _ => false,
+        }
+    }
+
+    /// The factors of `id` (a product) or of its terms (a sum of products) that can carry its
+    /// negation: `−(x·y) = (−x)·y`, `−(x·y + z) = (−x)·y − z`.
+    fn sinkable_factors(&self, id: NodeId) -> Vec<NodeId> {
+        let factors = |p: NodeId| -> Vec<NodeId> {
+            match self.nodes[p] {
+                Node::Mul(a, b) => [a, b].into_iter().filter(|&x| self.constant_value(x).is_none()).collect(),
+                _ => Vec::new(),
+            }
+        };
+        match self.nodes[id] {
+            Node::Mul(..) => factors(id),
+            Node::Add(a, b) => {
+                let mut all = factors(a);
+                all.extend(factors(b));
+                all
+            }
+            _ => Vec::new(),
+        }
+    }
+
+    /// `−id` built with `negated` (the node of `−leaf`) in place of the factor `leaf`, if `leaf`
+    /// is one of [`Dag::sinkable_factors`].
+    fn with_negated_factor(&mut self, id: NodeId, leaf: NodeId, negated: NodeId) -> Option<NodeId> {
+        let replaced = |dag: &mut Dag, p: NodeId| -> Option<NodeId> {
+            match dag.nodes[p] {
+                Node::Mul(a, b) if a == leaf => Some(dag.raw_mul(negated, b)),
+                Node::Mul(a, b) if b == leaf => Some(dag.raw_mul(a, negated)),
+                _ => None,
+            }
+        };
+        match self.nodes[id] {
+            Node::Mul(..) => replaced(self, id),
+            Node::Add(a, b) => {
+                for (x, y) in [(a, b), (b, a)] {
+                    if let Some(negated_x) = replaced(self, x) {
+                        return Some(self.intern(Node::Sub(negated_x, y)));
+                    }
+                }
+                None
+            }
+            _ => None,
+        }
+    }
+}
+
+impl Dag {
+    /// Which nodes fuse with the multiplication they consume, for fused multiply-add emission:
+    /// an addition or subtraction with an operand that is a product used nowhere else becomes
+    /// one `(±a·b) ± c` (the first such operand; a negation of such a sum, used nowhere else,
+    /// folds its sign in), and a negation of a product used nowhere else becomes `−(a·b)` (one
+    /// `vnmul` on ARM). Keys are the fused nodes; the products (and sums) they absorb are
+    /// emitted as part of them.
+    pub fn fusions(&self, roots: &[NodeId]) -> HashMap<NodeId, Fused> {
+        let order = self.reachable(roots);
+        let uses = self.use_counts(&order, roots);
+        let single_product = |m: NodeId| match self.nodes[m] {
+            Node::Mul(a, b) if uses[m] == 1 => Some((a, b)),
+            _ => None,
+        };
+        let mut fused: HashMap<NodeId, Fused> = HashMap::new();
+        for &id in &order {
+            match self.nodes[id] {
+                Node::Add(x, y) | Node::Sub(x, y) => {
+                    let subtract = matches!(self.nodes[id], Node::Sub(..));
+                    // (product, addend, product negated, addend negated)
+                    let options = [(x, y, false, subtract), (y, x, subtract, false)];
+                    for (m, c, negate_product, negate_addend) in options {
+                        if let Some((a, b)) = single_product(m) {
+                            fused.insert(id, Fused::MulAdd { a, b, c, negate_product, negate_addend });
+                            break;
+                        }
+                    }
+                }
+                Node::Neg(s) if uses[s] == 1 => match (fused.get(&s).copied(), self.nodes[s]) {
+                    (Some(Fused::MulAdd { a, b, c, negate_product, negate_addend }), _) => {
+                        fused.remove(&s);
+                        fused.insert(
+                            id,
+                            Fused::MulAdd {
+                                a,
+                                b,
+                                c,
+                                negate_product: !negate_product,
+                                negate_addend: !negate_addend,
+                            },
+                        );
+                    }
+                    (None, Node::Mul(a, b)) => {
+                        fused.insert(id, Fused::NegMul { a, b });
+                    }
+                    _ => {}
+                },
+                _ => {}
+            }
+        }
+        fused
+    }
+
+    /// Operation counts of `roots` with the fusions of [`Dag::fusions`]: a fused multiply-add
+    /// counts once (in [`OpCounts::fused`]) instead of a multiplication and an addition (and a
+    /// negation), a negated product once as a multiplication.
+    pub fn count_fused(&self, roots: &[NodeId]) -> OpCounts {
+        let mut counts = self.count(roots);
+        for (id, f) in self.fusions(roots) {
+            match f {
+                Fused::MulAdd { .. } => {
+                    counts.additions -= 1;
+                    counts.multiplications -= 1;
+                    counts.fused += 1;
+                    if matches!(self.nodes[id], Node::Neg(_)) {
+                        counts.negations -= 1;
+                    }
+                }
+                Fused::NegMul { .. } => counts.negations -= 1,
+            }
+        }
+        counts
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Values of `roots` at inputs `q_j = 0.3 + 0.7 j`.
+    fn values(dag: &Dag, roots: &[NodeId]) -> Vec<f64> {
+        let all = dag.eval_all(&|a| match a {
+            Atom::Q(j) => 0.3 + 0.7 * f64::from(j),
+            _ => 1.0,
+        });
+        roots.iter().map(|&r| all[r]).collect()
+    }
+
+    fn cost(c: OpCounts) -> usize {
+        c.arithmetic() + c.trigonometric
+    }
+
+    #[test]
+    fn products_share_a_pair_and_negated_outputs_share_a_negated_factor() {
+        // k·s·a, −k·s·x, −(a·x + b·y) with every product built on its own.
+        let mut dag = Dag::new();
+        let [s, a, b, x, y] = [0, 1, 2, 3, 4].map(|j| dag.input(Atom::Q(j)));
+        let k = dag.constant(0.25);
+        let minus_k = dag.constant(-0.25);
+        let sa = dag.mul(s, a);
+        let first = dag.mul(k, sa);
+        let sx = dag.mul(s, x);
+        let second = dag.mul(minus_k, sx);
+        let ax = dag.mul(a, x);
+        let by = dag.mul(b, y);
+        let sum = dag.add(ax, by);
+        let third = dag.neg(sum);
+        let roots = [first, second, third];
+        // 2 + 2 + 3 + 1 (the negation).
+        assert_eq!(cost(dag.count(&roots)), 8);
+        let (plain, plain_roots, _) = dag.regrouped_products(&roots, false);
+        let (sunk, sunk_roots, _) = dag.regrouped_products(&roots, true);
+        // k·s once (1), k·s·a (1), k·s·x (1) now negated (1), the sum (3) and its negation (1).
+        assert_eq!(cost(plain.count(&plain_roots)), 8);
+        // `−(k s)·x` and `−(a x + b y)` share `−x`: 1 + 1 + 1 + 1 (−x) + 3.
+        assert_eq!(cost(sunk.count(&sunk_roots)), 7);
+        assert_eq!(sunk.count(&sunk_roots).negations, 1);
+        let expected = values(&dag, &roots);
+        for got in [values(&plain, &plain_roots), values(&sunk, &sunk_roots)] {
+            for (g, e) in got.iter().zip(&expected) {
+                assert!((g - e).abs() <= 1e-15 * e.abs().max(1.0), "{got:?} vs {expected:?}");
+            }
+        }
+        // The optimiser keeps the cheapest.
+        assert_eq!(cost(dag.optimised_count(&roots)), 7);
+    }
+
+    #[test]
+    fn a_scaled_node_and_its_negation_are_one_product() {
+        // J = −0.15·s (an output) and J̇q̇ = v·(0.15·s) + w: the product with 0.15 is J's, negated.
+        let mut dag = Dag::new();
+        let [s, v, w] = [0, 1, 2].map(|j| dag.input(Atom::Q(j)));
+        let minus = dag.constant(-0.15);
+        let plus = dag.constant(0.15);
+        let j = dag.mul(minus, s);
+        let scaled = dag.mul(plus, s);
+        let product = dag.mul(v, scaled);
+        let jdot = dag.add(product, w);
+        let roots = [j, jdot];
+        assert_eq!(cost(dag.count(&roots)), 4);
+        let (out, out_roots, _) = dag.regrouped_products(&roots, false);
+        // −0.15·s once; J̇q̇ = w − v·J.
+        assert_eq!(cost(out.count(&out_roots)), 3);
+        assert!(matches!(out.nodes()[out_roots[1]], Node::Sub(..)));
+        let (got, expected) = (values(&out, &out_roots), values(&dag, &roots));
+        for (g, e) in got.iter().zip(&expected) {
+            assert!((g - e).abs() <= 1e-15 * e.abs().max(1.0));
+        }
+    }
+
+    #[test]
+    fn single_use_products_fuse_into_their_sums() {
+        let mut dag = Dag::new();
+        let [a, b, c, d] = [0, 1, 2, 3].map(|j| dag.input(Atom::Q(j)));
+        let ab = dag.mul(a, b);
+        let cd = dag.mul(c, d);
+        // a·b − c·d: one multiplication and one fused multiply-subtract.
+        let difference = dag.sub(ab, cd);
+        // −(a·c + d), used once: a fused −a·c − d.
+        let ac = dag.mul(a, c);
+        let sum = dag.add(ac, d);
+        let negated = dag.neg(sum);
+        // −(b·d): one negated multiplication; c·c, used twice: not fused.
+        let bd = dag.mul(b, d);
+        let negated_product = dag.neg(bd);
+        let cc = dag.mul(c, c);
+        let shared = dag.add(cc, a);
+        let shared_too = dag.sub(cc, b);
+        let roots = [difference, negated, negated_product, shared, shared_too];
+        let fusions = dag.fusions(&roots);
+        assert_eq!(
+            fusions[&difference],
+            Fused::MulAdd { a, b, c: cd, negate_product: false, negate_addend: true }
+        );
+        assert_eq!(
+            fusions[&negated],
+            Fused::MulAdd { a, b: c, c: d, negate_product: true, negate_addend: true }
+        );
+        assert_eq!(fusions[&negated_product], Fused::NegMul { a: b, b: d });
+        assert!(!fusions.contains_key(&shared) && !fusions.contains_key(&shared_too));
+        let plain = dag.count(&roots);
+        let fused = dag.count_fused(&roots);
+        assert_eq!((plain.additions, plain.multiplications, plain.negations), (4, 5, 2));
+        assert_eq!((fused.additions, fused.multiplications, fused.negations, fused.fused), (2, 3, 0, 2));
     }
 }

@@ -54,6 +54,11 @@ enum Command {
         /// Scalar type of the generated code.
         #[arg(long, value_enum, default_value = "f64")]
         scalar: ScalarArg,
+        /// Fuse each multiplication used once into the addition or subtraction consuming it,
+        /// emitted as `hapticgen_runtime::Real::mul_add` and its sign variants (one correctly
+        /// rounded operation).
+        #[arg(long)]
+        fma: bool,
         /// Write to this file instead of standard output.
         #[arg(short, long)]
         output: Option<PathBuf>,
@@ -92,6 +97,10 @@ enum Command {
         /// Print JSON.
         #[arg(long)]
         json: bool,
+        /// Count the code emitted with `generate --fma`: a fused multiply-add is one operation
+        /// (two flops) in the `fused` column.
+        #[arg(long)]
+        fma: bool,
     },
     /// Print the JSON Schema of the model format.
     Schema,
@@ -287,13 +296,14 @@ fn run(cli: Cli) -> Result<(), String> {
             );
             Ok(())
         }
-        Command::Generate { model, variant, scalar, output } => {
+        Command::Generate { model, variant, scalar, fma, output } => {
             let m = load(&model, variant.as_deref())?;
             let scalar = match scalar {
                 ScalarArg::F32 => Scalar::F32,
                 ScalarArg::F64 => Scalar::F64,
             };
-            let text = hapticgen_codegen::generate_model(m, scalar).file_text();
+            let options = hapticgen_codegen::EmitOptions { fused_multiply_add: fma };
+            let text = hapticgen_codegen::generate_model_with(m, scalar, options).file_text();
             write_or_print(output.as_deref(), &text)
         }
         Command::Eval { model, variant, q, qd, point, frame, json: _ } => {
@@ -336,9 +346,10 @@ fn run(cli: Cli) -> Result<(), String> {
             println!("{}", serde_json::to_string(&values).map_err(|e| e.to_string())?);
             Ok(())
         }
-        Command::Stats { model, variant, json } => {
+        Command::Stats { model, variant, json, fma } => {
             let m = load(&model, variant.as_deref())?;
-            let generated = hapticgen_codegen::generate_model(m, Scalar::F64);
+            let options = hapticgen_codegen::EmitOptions { fused_multiply_add: fma };
+            let generated = hapticgen_codegen::generate_model_with(m, Scalar::F64, options);
             if json {
                 let map: serde_json::Map<String, serde_json::Value> = generated
                     .stats
@@ -349,19 +360,20 @@ fn run(cli: Cli) -> Result<(), String> {
                 println!("{}", serde_json::Value::Object(map));
             } else {
                 println!(
-                    "{:<40} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
-                    "function", "add", "mul", "div", "sqrt", "trig", "neg"
+                    "{:<40} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
+                    "function", "add", "mul", "div", "sqrt", "trig", "neg", "fused"
                 );
                 for (name, c) in &generated.stats.functions {
                     println!(
-                        "{:<40} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
+                        "{:<40} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
                         name,
                         c.additions,
                         c.multiplications,
                         c.divisions,
                         c.square_roots,
                         c.trigonometric,
-                        c.negations
+                        c.negations,
+                        c.fused
                     );
                 }
             }

@@ -13,7 +13,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use hapticgen_codegen::{emit, model, Scalar};
+use hapticgen_codegen::{emit, model, EmitOptions, Scalar};
 
 /// One line of `variants.txt`:
 /// `name model variant scenario pose impedance current flash ram`.
@@ -112,6 +112,20 @@ fn literal(value: f64) -> String {
     format!("{value:?}")
 }
 
+/// The emission options of every image and of the host reference, which must agree so that the
+/// reference runs the same arithmetic as the target: unfused by default; with
+/// `HAPTICGEN_FW_FMA=1`, fused multiply-adds (`hapticgen generate --fma`; `vfma.f32` on the
+/// target through the runtime's `fpu-fma` feature, libm's exact `fmaf` on the host, bit for bit
+/// the same). Not the default because on the Cortex-M4F it costs instructions: stable Rust
+/// reaches `vfma.f32` only by inline assembly through core registers (about nine instructions
+/// for a fused operation against two for `vmul` + `vadd`; see docs/firmware.md for the
+/// measurement). Tells cargo to rerun the calling build script when the variable changes.
+pub fn emit_options() -> EmitOptions {
+    println!("cargo:rerun-if-env-changed=HAPTICGEN_FW_FMA");
+    let on = std::env::var("HAPTICGEN_FW_FMA").map(|v| v == "1").unwrap_or(false);
+    EmitOptions { fused_multiply_add: on }
+}
+
 /// Generates the rig of `v` in `scalar` into `out_dir/<module>_rig.rs` and returns the text of
 /// the glue module `<module>` (to be written into a file the crate `include!`s).
 pub fn generate(
@@ -124,7 +138,7 @@ pub fn generate(
     let repo_root = firmware_dir.join("../..");
     let model_path = repo_root.join(&v.model);
     let rig_file = out_dir.join(format!("{module}_rig.rs"));
-    hapticgen_codegen::build::generate(&model_path, v.variant.as_deref(), scalar, &rig_file)
+    hapticgen_codegen::build::generate_with(&model_path, v.variant.as_deref(), scalar, emit_options(), &rig_file)
         .map_err(|e| e.to_string())?;
     let loaded = model::load_file(&model_path, &v.model, v.variant.as_deref()).map_err(|e| e.to_string())?;
     let (n, m) = (loaded.joints.len(), loaded.task_dim());
