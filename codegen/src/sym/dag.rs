@@ -844,9 +844,11 @@ impl Dag {
         }
         candidates.push((pushed_roots, pushed, pushed_composed));
         candidates.extend(regrouped);
-        // Signs chosen on top of each (see `crate::sym::signs`).
+        // Signs chosen on top of the two cheapest (see `crate::sym::signs`).
+        candidates.sort_by_key(|(r, d, _)| cost(d, r));
         let signed: Vec<_> = candidates
             .iter()
+            .take(2)
             .map(|(roots, dag, map)| {
                 let (signed, signed_roots, signed_map) = dag.negations_after_signs(roots);
                 (signed_roots, signed, compose(map, &signed_map))
