@@ -494,4 +494,21 @@ impl SerialBaseline {
             jacobian_dot_times_qdot: self.jacobian_dot_times_qdot_at(&poses, &motions),
         }
     }
+
+    /// Controller 3 on nalgebra: `u = C q̇ + B q̇ + g − Jᵀ(B_d ẋ̃ + K_d x̃)` (eq. (12) in
+    /// eq. (3)), for a reference at rest.
+    pub fn controller3(
+        &self,
+        terms: &BaselineTerms,
+        qd: &DVector<f64>,
+        reference: &DVector<f64>,
+        stiffness: &DVector<f64>,
+        damping: &DVector<f64>,
+    ) -> DVector<f64> {
+        let velocity = &terms.jacobian * qd;
+        let restoring =
+            damping.component_mul(&velocity) + stiffness.component_mul(&(&terms.position - reference));
+        &terms.coriolis_times_qdot + self.damping.component_mul(qd) + &terms.gravity
+            - terms.jacobian.transpose() * restoring
+    }
 }
