@@ -6,7 +6,8 @@
 //! - serial rigs against the recursive Newton–Euler and composite-rigid-body algorithms and
 //!   geometric Jacobians evaluated at run time (`hapticgen_tests::baseline_serial`): D, C q̇,
 //!   g, p, J, J̇ q̇ (each function and the fused `terms`) and the inverse dynamics agree to
-//!   1e-12 of each quantity's largest entry (at least 1).
+//!   1e-12 of each quantity's largest entry (at least 1), with and without fused
+//!   multiply-adds.
 
 use hapticgen_runtime::fused::FusedImpedance;
 use hapticgen_tests::baseline::{BaselineTerms, PlanarBaseline};
@@ -185,14 +186,17 @@ impl RigVisitor for AgainstSerialBaseline {
 fn generated_serial_rigs_equal_the_newton_euler_baseline() {
     let mut v = AgainstSerialBaseline::default();
     visit_all(&mut v);
-    for module in [
+    // Each serial model, plain and with fused multiply-adds.
+    for model in [
         "joystick_1dof_f64",
         "planar_arm_2dof_horizontal_f64",
         "planar_arm_2dof_vertical_f64",
         "phantom_3dof_f64",
         "puma560_f64",
     ] {
-        assert!(v.modules.contains(&module), "{module} not compared; compared: {:?}", v.modules);
+        for module in [model.to_string(), format!("{model}_fma")] {
+            assert!(v.modules.contains(&module.as_str()), "{module} not compared; compared: {:?}", v.modules);
+        }
     }
 }
 
