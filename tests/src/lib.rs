@@ -3,6 +3,7 @@
 #![allow(missing_docs)]
 
 pub mod baseline;
+pub mod baseline_serial;
 
 use hapticgen_runtime::fused::FusedImpedance;
 
