@@ -14,7 +14,7 @@ count() {
 TICKS=10000
 echo "| rig | law | instructions per tick |"
 echo "| --- | --- | --- |"
-for rig in joystick parallel_link; do
+for rig in joystick parallel_link planar_arm phantom puma560 pantograph; do
     for mode in fused generic; do
         zero=$(count "$rig" "$mode" 0)
         many=$(count "$rig" "$mode" "$TICKS")
