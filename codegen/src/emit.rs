@@ -397,10 +397,16 @@ impl<'m> BodyEmitter<'m> {
     fn emit(&self, roots: &[NodeId], context: &str) -> (TokenStream, Vec<TokenStream>, OpCounts) {
         let fma = self.options.fused_multiply_add;
         let (dag, roots, hints) = match self.dag.optimised(roots, fma) {
-            Some((dag, new_roots, map)) => {
-                let hints =
-                    self.hints.iter().filter_map(|(id, name)| Some((*map.get(id)?, name.clone()))).collect();
-                (dag, new_roots, hints)
+            Some(optimised) => {
+                // A named value computed negated keeps its name, as `minus_…`.
+                let kept =
+                    self.hints.iter().filter_map(|(id, name)| Some((*optimised.kept.get(id)?, name.clone())));
+                let negated = self
+                    .hints
+                    .iter()
+                    .filter_map(|(id, name)| Some((*optimised.negated.get(id)?, format!("minus_{name}"))));
+                let hints = kept.chain(negated).collect();
+                (optimised.dag, optimised.roots, hints)
             }
             None => (self.dag.clone(), roots.to_vec(), self.hints.clone()),
         };

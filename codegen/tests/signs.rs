@@ -39,7 +39,8 @@ fn chosen_signs_keep_every_value_and_never_add_a_negation() {
             // Also the Lagrangian polynomials of the same model, a differently shaped DAG.
             let poly_roots: Vec<_> = mech.gravity.iter().map(|p| dag.polynomial(p)).collect();
             let roots: Vec<_> = roots.into_iter().chain(poly_roots).collect();
-            let (signed, signed_roots, _) = dag.negations_after_signs(&roots);
+            let result = dag.negations_after_signs(&roots);
+            let (signed, signed_roots) = (result.dag, result.roots);
             let (before, after) = (dag.count(&roots), signed.count(&signed_roots));
             assert!(after.negations <= before.negations, "{text} {quantity:?}: {before:?} → {after:?}");
             assert_eq!(

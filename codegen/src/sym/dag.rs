@@ -816,14 +816,11 @@ impl Dag {
 
     /// The cheapest of the DAG as built, after [`Dag::merged_sums`], after that and
     /// [`Dag::pushed_negations`], and after those and [`Dag::regrouped_products`] (with and
-    /// without sinking negations), by arithmetic plus trigonometric operations — counted with
-    /// fused multiply-adds ([`Dag::count_fused`]) when `fused_multiply_add` is set — with the
-    /// map from old node ids to new ones (`None`: the DAG as built is the cheapest).
-    pub fn optimised(
-        &self,
-        roots: &[NodeId],
-        fused_multiply_add: bool,
-    ) -> Option<(Dag, Vec<NodeId>, HashMap<NodeId, NodeId>)> {
+    /// without sinking negations), each of the two cheapest also with signs chosen
+    /// ([`Dag::negations_after_signs`]), by arithmetic plus trigonometric operations — counted
+    /// with fused multiply-adds ([`Dag::count_fused`]) when `fused_multiply_add` is set — with
+    /// the maps from old node ids to new ones (`None`: the DAG as built is the cheapest).
+    pub fn optimised(&self, roots: &[NodeId], fused_multiply_add: bool) -> Option<Optimised> {
         let cost = |dag: &Dag, roots: &[NodeId]| {
             let c = if fused_multiply_add { dag.count_fused(roots) } else { dag.count(roots) };
             c.arithmetic() + c.trigonometric
@@ -836,33 +833,34 @@ impl Dag {
         let (merged, merged_roots, merged_map) = self.merged_sums(roots);
         let (pushed, pushed_roots, pushed_map) = merged.pushed_negations(&merged_roots);
         let pushed_composed = compose(&merged_map, &pushed_map);
-        let mut candidates = vec![(merged_roots, merged, merged_map)];
+        let none = HashMap::new;
+        let mut candidates = vec![(merged_roots, merged, merged_map, none())];
         let mut regrouped = Vec::new();
         for sink in [false, true] {
             let (dag, new_roots, map) = pushed.regrouped_products(&pushed_roots, sink);
-            regrouped.push((new_roots, dag, compose(&pushed_composed, &map)));
+            regrouped.push((new_roots, dag, compose(&pushed_composed, &map), none()));
         }
-        candidates.push((pushed_roots, pushed, pushed_composed));
+        candidates.push((pushed_roots, pushed, pushed_composed, none()));
         candidates.extend(regrouped);
         // Signs chosen on top of the two cheapest (see `crate::sym::signs`).
-        candidates.sort_by_key(|(r, d, _)| cost(d, r));
+        candidates.sort_by_key(|(r, d, ..)| cost(d, r));
         let signed: Vec<_> = candidates
             .iter()
             .take(2)
-            .map(|(roots, dag, map)| {
-                let (signed, signed_roots, signed_map) = dag.negations_after_signs(roots);
-                (signed_roots, signed, compose(map, &signed_map))
+            .map(|(roots, dag, map, _)| {
+                let signed = dag.negations_after_signs(roots);
+                (signed.roots, signed.dag, compose(map, &signed.kept), compose(map, &signed.negated))
             })
             .collect();
         candidates.extend(signed);
         // The first of equally cheap candidates wins, so that a pass is only taken when it saves.
         let mut best = original;
         let mut chosen = None;
-        for (r, d, m) in candidates {
+        for (r, d, kept, negated) in candidates {
             let c = cost(&d, &r);
             if c < best {
                 best = c;
-                chosen = Some((d, r, m));
+                chosen = Some(Optimised { dag: d, roots: r, kept, negated });
             }
         }
         chosen
@@ -877,7 +875,7 @@ impl Dag {
     /// fused multiply-adds if `fused_multiply_add` is set.
     pub fn optimised_count_with(&self, roots: &[NodeId], fused_multiply_add: bool) -> OpCounts {
         let (dag, roots) = match self.optimised(roots, fused_multiply_add) {
-            Some((dag, new_roots, _)) => (dag, new_roots),
+            Some(optimised) => (optimised.dag, optimised.roots),
             None => (self.clone(), roots.to_vec()),
         };
         if fused_multiply_add {
@@ -886,6 +884,18 @@ impl Dag {
             dag.count(&roots)
         }
     }
+}
+
+/// The result of [`Dag::optimised`].
+pub struct Optimised {
+    /// The optimised DAG.
+    pub dag: Dag,
+    /// The new roots (the same values as the old).
+    pub roots: Vec<NodeId>,
+    /// Old node → new node with the same value (for the nodes that survive).
+    pub kept: HashMap<NodeId, NodeId>,
+    /// Old node → new node holding its negation (the sign choice computes some values negated).
+    pub negated: HashMap<NodeId, NodeId>,
 }
 
 /// A factor of a flattened product in [`Dag::regrouped_products`].

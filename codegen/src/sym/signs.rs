@@ -19,6 +19,18 @@ use std::collections::HashMap;
 
 use super::dag::{Dag, Node, NodeId};
 
+/// The result of [`Dag::negations_after_signs`].
+pub struct Signed {
+    /// The rebuilt DAG.
+    pub dag: Dag,
+    /// The new roots (the same values as the old).
+    pub roots: Vec<NodeId>,
+    /// Old node → new node with the same value.
+    pub kept: HashMap<NodeId, NodeId>,
+    /// Old node → new node holding its negation.
+    pub negated: HashMap<NodeId, NodeId>,
+}
+
 /// The most nodes one move flips together.
 const MAX_GROUP: usize = 8;
 
@@ -27,9 +39,9 @@ type Sign = i8;
 
 impl Dag {
     /// Rebuilds the nodes needed for `roots` with signs chosen to minimise negations (see the
-    /// module documentation). Returns the new DAG, the new roots and, for every node kept with
-    /// its sign, its new id.
-    pub fn negations_after_signs(&self, roots: &[NodeId]) -> (Dag, Vec<NodeId>, HashMap<NodeId, NodeId>) {
+    /// module documentation). Returns the new DAG, the new roots, for every node kept with its
+    /// sign its new id, and for every node now held negated the new id of its negation.
+    pub fn negations_after_signs(&self, roots: &[NodeId]) -> Signed {
         let order = self.reachable(roots);
         let search = Search::new(self, &order, roots);
         let chosen = search.run();
@@ -57,12 +69,7 @@ impl Dag {
         }
     }
 
-    fn rebuilt_with_signs(
-        &self,
-        order: &[NodeId],
-        roots: &[NodeId],
-        sign: &HashMap<NodeId, Sign>,
-    ) -> (Dag, Vec<NodeId>, HashMap<NodeId, NodeId>) {
+    fn rebuilt_with_signs(&self, order: &[NodeId], roots: &[NodeId], sign: &HashMap<NodeId, Sign>) -> Signed {
         let nodes = self.nodes();
         let mut out = Dag::new();
         // The new id holding `sign[id] · value(id)`.
@@ -132,8 +139,8 @@ impl Dag {
         }
         let new_roots =
             roots.iter().map(|r| if sign[r] < 0 { out.negated(held[r]) } else { held[r] }).collect();
-        let map = held.into_iter().filter(|(old, _)| sign[old] > 0).collect();
-        (out, new_roots, map)
+        let (kept, negated) = held.into_iter().partition(|(old, _)| sign[old] > 0);
+        Signed { dag: out, roots: new_roots, kept, negated }
     }
 }
 
