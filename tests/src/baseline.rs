@@ -66,6 +66,14 @@ pub struct BaselineTerms {
     pub jacobian_dot_times_qdot: DVector<f64>,
 }
 
+/// Each joint's reflected rotor inertia `N² J_m` (the diagonal both baselines add to `D`).
+pub fn rotor_inertias(model: &Model) -> DVector<f64> {
+    DVector::from_iterator(
+        model.joints.len(),
+        model.joints.iter().map(|j| j.drive.gear_ratio.powi(2) * j.drive.motor.rotor_inertia),
+    )
+}
+
 fn constant(p: &Poly) -> Option<f64> {
     p.as_constant()
 }
@@ -173,10 +181,7 @@ impl PlanarBaseline {
                 n,
                 model.joints.iter().map(|j| constant(&j.damping).unwrap_or(0.0)),
             ),
-            rotor: DVector::from_iterator(
-                n,
-                model.joints.iter().map(|j| j.drive.gear_ratio.powi(2) * j.drive.motor.rotor_inertia),
-            ),
+            rotor: rotor_inertias(model),
         })
     }
 

@@ -188,10 +188,7 @@ impl SerialBaseline {
             task,
             gravity: vector(&model.gravity, &at),
             damping: DVector::from_iterator(n, model.joints.iter().map(|j| j.damping.eval(&at))),
-            rotor: DVector::from_iterator(
-                n,
-                model.joints.iter().map(|j| j.drive.gear_ratio.powi(2) * j.drive.motor.rotor_inertia),
-            ),
+            rotor: crate::baseline::rotor_inertias(model),
         })
     }
 
