@@ -107,7 +107,7 @@ struct Link {
 
 /// How a point's Jacobian is built: in the base frame or in its chain's root joint frame (then
 /// turned once per column), with the columns `z_k × (p − o_k)` from the frames' origins or
-/// each in its own joint frame ([`Recursion::local_jacobian_columns`]). The cheapest is chosen
+/// each in its own joint frame (`Recursion::local_jacobian_columns`). The cheapest is chosen
 /// per point.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct JacobianForm {
@@ -126,7 +126,7 @@ pub enum Formulation {
     /// About each centre of mass.
     AboutCom,
     /// About each joint-frame origin, with the inertial parameters regrouped first
-    /// ([`regroup`]).
+    /// (`regroup`, Khalil and Kleinfinger's base inertial parameters).
     Regrouped,
 }
 
