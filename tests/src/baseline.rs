@@ -275,10 +275,24 @@ impl PlanarBaseline {
         stiffness: &DVector<f64>,
         damping: &DVector<f64>,
     ) -> DVector<f64> {
-        let velocity = &terms.jacobian * qd;
-        let restoring =
-            damping.component_mul(&velocity) + stiffness.component_mul(&(&terms.position - reference));
-        &terms.coriolis_times_qdot + self.damping.component_mul(qd) + &terms.gravity
-            - terms.jacobian.transpose() * restoring
+        controller3(terms, &self.damping, qd, reference, stiffness, damping)
     }
+}
+
+/// Controller 3 on nalgebra from one tick's terms and the joints' viscous damping `B`:
+/// `u = C q̇ + B q̇ + g − Jᵀ(B_d ẋ̃ + K_d x̃)` (eq. (12) in eq. (3)), for a reference at rest.
+/// Both baselines' laws are this one.
+pub fn controller3(
+    terms: &BaselineTerms,
+    joint_damping: &DVector<f64>,
+    qd: &DVector<f64>,
+    reference: &DVector<f64>,
+    stiffness: &DVector<f64>,
+    damping: &DVector<f64>,
+) -> DVector<f64> {
+    let velocity = &terms.jacobian * qd;
+    let restoring =
+        damping.component_mul(&velocity) + stiffness.component_mul(&(&terms.position - reference));
+    &terms.coriolis_times_qdot + joint_damping.component_mul(qd) + &terms.gravity
+        - terms.jacobian.transpose() * restoring
 }

@@ -502,10 +502,6 @@ impl SerialBaseline {
         stiffness: &DVector<f64>,
         damping: &DVector<f64>,
     ) -> DVector<f64> {
-        let velocity = &terms.jacobian * qd;
-        let restoring =
-            damping.component_mul(&velocity) + stiffness.component_mul(&(&terms.position - reference));
-        &terms.coriolis_times_qdot + self.damping.component_mul(qd) + &terms.gravity
-            - terms.jacobian.transpose() * restoring
+        crate::baseline::controller3(terms, &self.damping, qd, reference, stiffness, damping)
     }
 }
