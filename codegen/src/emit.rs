@@ -6,7 +6,7 @@
 //! computed once per function. The items implement `::hapticgen_runtime::RigModel`; everything
 //! that is the same for every rig stays in the runtime.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::{format_ident, quote};
@@ -173,7 +173,7 @@ fn output_roots_with(
     outputs: &[Output<'_>],
     choice: Choice,
 ) -> Vec<NodeId> {
-    let mut built: HashMap<Quantity, Vec<NodeId>> = HashMap::new();
+    let mut built: HashMap<Quantity, Vec<NodeId>> = HashMap::default();
     outputs
         .iter()
         .map(|output| match *output {
@@ -311,7 +311,7 @@ impl<'m> BodyEmitter<'m> {
             scalar,
             hints,
             options,
-            fusions: HashMap::new(),
+            fusions: HashMap::default(),
         }
     }
 
@@ -410,7 +410,7 @@ impl<'m> BodyEmitter<'m> {
             }
             None => (self.dag.clone(), roots.to_vec(), self.hints.clone()),
         };
-        let fusions = if fma { dag.fusions(&roots) } else { HashMap::new() };
+        let fusions = if fma { dag.fusions(&roots) } else { HashMap::default() };
         let optimised = BodyEmitter {
             dag,
             naming: self.naming.clone(),
@@ -424,7 +424,7 @@ impl<'m> BodyEmitter<'m> {
 
     fn emit_dag(&self, roots: &[NodeId], context: &str) -> (TokenStream, Vec<TokenStream>, OpCounts) {
         let order = self.dag.reachable(roots);
-        let mut uses: HashMap<NodeId, usize> = HashMap::new();
+        let mut uses: HashMap<NodeId, usize> = HashMap::default();
         for &id in &order {
             match self.dag.nodes()[id] {
                 Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => {
@@ -438,8 +438,8 @@ impl<'m> BodyEmitter<'m> {
         for &r in roots {
             *uses.entry(r).or_default() += 1;
         }
-        let mut names: HashMap<NodeId, String> = HashMap::new();
-        let mut taken: HashMap<String, usize> = HashMap::new();
+        let mut names: HashMap<NodeId, String> = HashMap::default();
+        let mut taken: HashMap<String, usize> = HashMap::default();
         let mut statements = TokenStream::new();
         let mut part = 0usize;
         // Inputs first (coordinates, sines and cosines, velocities), then intermediates.

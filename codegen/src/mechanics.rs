@@ -11,7 +11,7 @@
 //! `V = −Σ_b m_b gᵀ r_b`, the task position `p(q)`, `J = ∂p/∂q` and `J̇ = Σ_i ∂J/∂q_i q̇_i`.
 //! Nothing is derived by hand: every formula above is applied to whatever the model says.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use crate::model::{JointKind, Model, Motion, TaskSpec};
 use crate::recursive::{self, FrameQuantity, PointQuantity, Quantity};
@@ -504,7 +504,7 @@ impl Mechanics {
     /// `(2 ∂_i D_ki − ∂_k D_ii) · ½ q̇_i²`).
     fn christoffel_form(&self, dag: &mut Dag) -> Vec<NodeId> {
         let n = self.joints;
-        let mut partial: HashMap<(usize, usize, usize), NodeId> = HashMap::new();
+        let mut partial: HashMap<(usize, usize, usize), NodeId> = HashMap::default();
         let mut d = |dag: &mut Dag, i: usize, r: usize, c: usize| -> NodeId {
             let (r, c) = (r.min(c), r.max(c));
             *partial

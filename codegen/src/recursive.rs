@@ -22,7 +22,7 @@
 //! its children's fixed offsets at generation time. The rotor inertia `N² J_m` of each drive
 //! enters `D`'s diagonal and the inverse dynamics as in the polynomial path.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use crate::model::validate::{mat3_mul, snap_entry};
 use crate::model::{JointKind, Model, Motion};
@@ -988,7 +988,7 @@ fn mat_vec_f64(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
 /// The partial derivative of each of `roots` with respect to `q_joint`, built in the DAG.
 pub fn derivative(dag: &mut Dag, roots: &[NodeId], joint: u16) -> Vec<NodeId> {
     let order = dag.reachable(roots);
-    let mut d: HashMap<NodeId, NodeId> = HashMap::with_capacity(order.len());
+    let mut d: HashMap<NodeId, NodeId> = HashMap::with_capacity_and_hasher(order.len(), Default::default());
     let zero = dag.constant(0.0);
     for id in order {
         let value = match dag.nodes()[id] {

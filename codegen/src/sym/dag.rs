@@ -6,50 +6,11 @@
 //! scheme ([`Dag::polynomial`]) that factors out the atom shared by most terms, and a common
 //! coefficient where all terms have the same magnitude; constants are folded on the way.
 
-use std::collections::{BTreeMap, HashMap};
-use std::hash::{BuildHasherDefault, Hasher};
+use std::collections::BTreeMap;
+
+use rustc_hash::FxHashMap as HashMap;
 
 use super::poly::{Atom, Monomial, Poly};
-
-/// A fast, non-cryptographic hasher for the hash-consing table (multiply–rotate over the
-/// node's words, as rustc's FxHasher): nodes are small integers and float bits, and the table's
-/// lookups dominate building large expressions, where SipHash cost a tenth of the time.
-#[derive(Default)]
-pub struct NodeHasher(u64);
-
-impl Hasher for NodeHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-
-    fn write(&mut self, bytes: &[u8]) {
-        for chunk in bytes.chunks(8) {
-            let mut word = [0u8; 8];
-            word[..chunk.len()].copy_from_slice(chunk);
-            self.write_u64(u64::from_le_bytes(word));
-        }
-    }
-
-    fn write_u64(&mut self, value: u64) {
-        self.0 = (self.0.rotate_left(5) ^ value).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-
-    fn write_usize(&mut self, value: usize) {
-        self.write_u64(value as u64);
-    }
-
-    fn write_u32(&mut self, value: u32) {
-        self.write_u64(u64::from(value));
-    }
-
-    fn write_u16(&mut self, value: u16) {
-        self.write_u64(u64::from(value));
-    }
-
-    fn write_u8(&mut self, value: u8) {
-        self.write_u64(u64::from(value));
-    }
-}
 
 /// Index of a node.
 pub type NodeId = usize;
@@ -141,7 +102,7 @@ pub enum Fused {
 #[derive(Clone, Debug, Default)]
 pub struct Dag {
     nodes: Vec<Node>,
-    index: HashMap<Node, NodeId, BuildHasherDefault<NodeHasher>>,
+    index: HashMap<Node, NodeId>,
     /// Linear combinations built by [`Dag::merged_sums`], keyed by their terms with the
     /// coefficients divided by the first one: a later combination proportional to an earlier
     /// one is one multiplication of it.
@@ -594,8 +555,8 @@ impl Dag {
         let order = self.reachable(roots);
         let uses = self.use_counts(&order, roots);
         let mut out = Dag::new();
-        let mut linear: HashMap<NodeId, Linear> = HashMap::new();
-        let mut built: HashMap<NodeId, NodeId> = HashMap::new();
+        let mut linear: HashMap<NodeId, Linear> = HashMap::default();
+        let mut built: HashMap<NodeId, NodeId> = HashMap::default();
         // The linear form of a child: its own (if used once and linear) or the child as a term.
         fn form(
             id: NodeId,
@@ -752,7 +713,8 @@ impl Dag {
         let order = self.reachable(roots);
         let uses = self.use_counts(&order, roots);
         let mut out = Dag::new();
-        let mut map: HashMap<NodeId, NodeId> = HashMap::with_capacity(order.len());
+        let mut map: HashMap<NodeId, NodeId> =
+            HashMap::with_capacity_and_hasher(order.len(), Default::default());
         for &id in &order {
             let new = match self.nodes[id] {
                 Node::Const(bits) => out.constant(f64::from_bits(bits)),
@@ -833,7 +795,7 @@ impl Dag {
         let (merged, merged_roots, merged_map) = self.merged_sums(roots);
         let (pushed, pushed_roots, pushed_map) = merged.pushed_negations(&merged_roots);
         let pushed_composed = compose(&merged_map, &pushed_map);
-        let none = HashMap::new;
+        let none = HashMap::default;
         let mut candidates = vec![(merged_roots, merged, merged_map, none())];
         let mut regrouped = Vec::new();
         for sink in [false, true] {
@@ -980,7 +942,7 @@ impl Dag {
         // A product used once, by a product: flattened into its parent.
         let internal = |id: NodeId| is_product(id) && uses[id] == 1 && product_parent[id];
         let mut products: Vec<Product> = Vec::new();
-        let mut product_of: HashMap<NodeId, usize> = HashMap::new();
+        let mut product_of: HashMap<NodeId, usize> = HashMap::default();
         for &id in &order {
             if !is_product(id) || internal(id) {
                 continue;
@@ -1013,8 +975,7 @@ impl Dag {
         // Greedy sharing of the most frequent pair of factors.
         let mut pairs: Vec<(Factor, Factor)> = Vec::new();
         loop {
-            let mut counts: HashMap<(Factor, Factor), usize, BuildHasherDefault<NodeHasher>> =
-                HashMap::default();
+            let mut counts: HashMap<(Factor, Factor), usize> = HashMap::default();
             for p in &products {
                 let mut seen: Vec<(Factor, Factor)> = Vec::new();
                 for i in 0..p.factors.len() {
@@ -1053,7 +1014,8 @@ impl Dag {
             flip[k] = vote < 0;
         }
         let mut out = Dag::new();
-        let mut built: HashMap<NodeId, Signed> = HashMap::with_capacity(order.len());
+        let mut built: HashMap<NodeId, Signed> =
+            HashMap::with_capacity_and_hasher(order.len(), Default::default());
         let mut pair_built: Vec<Option<Signed>> = vec![None; pairs.len()];
         fn factor_value(
             f: Factor,
@@ -1249,7 +1211,7 @@ impl Dag {
             Node::Mul(a, b) if uses[m] == 1 => Some((a, b)),
             _ => None,
         };
-        let mut fused: HashMap<NodeId, Fused> = HashMap::new();
+        let mut fused: HashMap<NodeId, Fused> = HashMap::default();
         for &id in &order {
             match self.nodes[id] {
                 Node::Add(x, y) | Node::Sub(x, y) => {

@@ -15,7 +15,7 @@
 //! through shared values: e.g. in the parallel link's `C q̇` and `J̇ q̇`, both of which need
 //! `−q̇₁²`, or in a Jacobian whose entries come out as `−(cos q₁ · x)` and `−(sin q₁ · x)`.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use super::dag::{Dag, Node, NodeId};
 
@@ -73,7 +73,8 @@ impl Dag {
         let nodes = self.nodes();
         let mut out = Dag::new();
         // The new id holding `sign[id] · value(id)`.
-        let mut held: HashMap<NodeId, NodeId> = HashMap::with_capacity(order.len());
+        let mut held: HashMap<NodeId, NodeId> =
+            HashMap::with_capacity_and_hasher(order.len(), Default::default());
         for &id in order {
             let s = sign[&id];
             // An operand as held, with its sign; a constant comes with the sign `want`.
@@ -167,15 +168,29 @@ struct Search {
     rules: Vec<Rule>,
     is_root: Vec<bool>,
     flippable: Vec<bool>,
-    /// Each node's move groups (itself; itself and the products it feeds, transitively) with
-    /// the nodes whose cost a move can change.
-    moves: Vec<[(Vec<usize>, Vec<usize>); 2]>,
+    /// Each node's two moves (flip itself; flip itself and the products it feeds,
+    /// transitively), as ranges of `arena`: the group flipped and the nodes whose cost the
+    /// move can change. One arena instead of four vectors a node: building the moves was the
+    /// search's largest cost.
+    moves: Vec<[Move; 2]>,
+    arena: Vec<usize>,
+}
+
+/// One move of [`Search`]: where its group and the nodes around it lie in the arena.
+#[derive(Clone, Copy)]
+struct Move {
+    group: (usize, usize),
+    around: (usize, usize),
 }
 
 impl Search {
     fn new(dag: &Dag, order: &[NodeId], roots: &[NodeId]) -> Self {
         let nodes = dag.nodes();
-        let index: HashMap<NodeId, usize> = order.iter().enumerate().map(|(i, &id)| (id, i)).collect();
+        // Dense index of each reachable node (node ids index the DAG's node list).
+        let mut index = vec![usize::MAX; nodes.len()];
+        for (i, &id) in order.iter().enumerate() {
+            index[id] = i;
+        }
         let is_const = |x: NodeId| matches!(nodes[x], Node::Const(_));
         let rules: Vec<Rule> = order
             .iter()
@@ -183,51 +198,65 @@ impl Search {
                 Node::Const(_) => Rule::Free,
                 Node::Input(_) => Rule::Input,
                 Node::Neg(a) if is_const(a) => Rule::Free,
-                Node::Neg(a) => Rule::Neg(index[&a]),
+                Node::Neg(a) => Rule::Neg(index[a]),
                 Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b)
                     if is_const(a) || is_const(b) =>
                 {
                     Rule::Free
                 }
-                Node::Add(a, b) => Rule::Sum(index[&a], index[&b], false),
-                Node::Sub(a, b) => Rule::Sum(index[&a], index[&b], true),
-                Node::Mul(a, b) | Node::Div(a, b) => Rule::Product(index[&a], index[&b]),
-                Node::Sqrt(a) => Rule::Sqrt(index[&a]),
+                Node::Add(a, b) => Rule::Sum(index[a], index[b], false),
+                Node::Sub(a, b) => Rule::Sum(index[a], index[b], true),
+                Node::Mul(a, b) | Node::Div(a, b) => Rule::Product(index[a], index[b]),
+                Node::Sqrt(a) => Rule::Sqrt(index[a]),
             })
             .collect();
         let mut parents: Vec<Vec<usize>> = vec![Vec::new(); order.len()];
         for (i, &id) in order.iter().enumerate() {
-            let children: Vec<NodeId> = match nodes[id] {
-                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => vec![a, b],
-                Node::Neg(a) | Node::Sqrt(a) => vec![a],
-                Node::Const(_) | Node::Input(_) => vec![],
+            let (children, count) = match nodes[id] {
+                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) => ([a, b], 2),
+                Node::Neg(a) | Node::Sqrt(a) => ([a, a], 1),
+                Node::Const(_) | Node::Input(_) => ([0, 0], 0),
             };
-            for c in children {
-                let c = index[&c];
+            for &c in &children[..count] {
+                let c = index[c];
                 if !parents[c].contains(&i) {
                     parents[c].push(i);
                 }
             }
         }
         let mut is_root = vec![false; order.len()];
-        for r in roots {
+        for &r in roots {
             is_root[index[r]] = true;
         }
         let flippable: Vec<bool> =
             order.iter().map(|&id| !matches!(nodes[id], Node::Const(_) | Node::Sqrt(_))).collect();
         let is_product = |i: usize| matches!(nodes[order[i]], Node::Mul(..) | Node::Div(..));
-        let around = |group: &[usize]| {
-            let mut affected: Vec<usize> = group.to_vec();
+        let mut arena: Vec<usize> = Vec::with_capacity(8 * order.len());
+        // Appends a group and the nodes around it (the group and its parents, sorted, once).
+        let push_move = |arena: &mut Vec<usize>, group: &[usize]| {
+            let group_start = arena.len();
+            arena.extend_from_slice(group);
+            let around_start = arena.len();
+            arena.extend_from_slice(group);
             for &g in group {
-                affected.extend(&parents[g]);
+                arena.extend_from_slice(&parents[g]);
             }
-            affected.sort_unstable();
-            affected.dedup();
-            affected
+            arena[around_start..].sort_unstable();
+            let mut kept = around_start;
+            for k in around_start..arena.len() {
+                if k == around_start || arena[k] != arena[kept - 1] {
+                    arena[kept] = arena[k];
+                    kept += 1;
+                }
+            }
+            arena.truncate(kept);
+            Move { group: (group_start, around_start), around: (around_start, kept) }
         };
+        let mut group: Vec<usize> = Vec::with_capacity(MAX_GROUP);
         let moves = (0..order.len())
             .map(|i| {
-                let mut group = vec![i];
+                group.clear();
+                group.push(i);
                 let mut k = 0;
                 // Small groups only: a sign that would travel through a long chain of products
                 // is better left to the walk, step by step (and keeps each move cheap).
@@ -239,13 +268,17 @@ impl Search {
                     }
                     k += 1;
                 }
-                let single = vec![i];
-                let single_around = around(&single);
-                let group_around = around(&group);
-                [(single, single_around), (group, group_around)]
+                let single = push_move(&mut arena, &[i]);
+                let grouped = push_move(&mut arena, &group);
+                [single, grouped]
             })
             .collect();
-        Self { rules, is_root, flippable, moves }
+        Self { rules, is_root, flippable, moves, arena }
+    }
+
+    /// A move's group and the nodes around it.
+    fn parts(&self, m: Move) -> (&[usize], &[usize]) {
+        (&self.arena[m.group.0..m.group.1], &self.arena[m.around.0..m.around.1])
     }
 
     /// Negations node `i` needs with the signs `sign` (its own and, at an output held
@@ -290,7 +323,8 @@ impl Search {
         loop {
             let mut improved = false;
             for &i in &candidates {
-                for (group, around) in &self.moves[i] {
+                for &m in &self.moves[i] {
+                    let (group, around) = self.parts(m);
                     if apply(&mut sign, group, around) < 0 {
                         improved = true;
                         break;
@@ -314,7 +348,7 @@ impl Search {
             state ^= state >> 7;
             state ^= state << 17;
             let i = candidates[(state % candidates.len() as u64) as usize];
-            let (group, around) = &self.moves[i][usize::from(state & (1 << 40) != 0)];
+            let (group, around) = self.parts(self.moves[i][usize::from(state & (1 << 40) != 0)]);
             let delta = apply(&mut sign, group, around);
             if delta <= 0 || (delta == 1 && (state >> 48) & 15 == 0) {
                 total += delta;
