@@ -240,7 +240,7 @@ class Urdf:
             mass, com, tensor = inertial
             r, p, jw = frame(name)
             com_world = [sum_terms([p[i], sum_terms([times(com[k], r[i][k]) for k in range(3)])]) for i in range(3)]
-            inertia_world = mat_mul(mat_mul(r, [[times(x, 1) for x in row] for row in tensor]), transpose(r))
+            inertia_world = mat_mul(mat_mul(r, tensor), transpose(r))
             bodies.append(Body(mass, com_world, jw, inertia_world))
         return bodies, frame(self.point)[1]
 

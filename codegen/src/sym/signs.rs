@@ -232,25 +232,21 @@ impl Search {
             order.iter().map(|&id| !matches!(nodes[id], Node::Const(_) | Node::Sqrt(_))).collect();
         let is_product = |i: usize| matches!(nodes[order[i]], Node::Mul(..) | Node::Div(..));
         let mut arena: Vec<usize> = Vec::with_capacity(8 * order.len());
-        // Appends a group and the nodes around it (the group and its parents, sorted, once).
-        let push_move = |arena: &mut Vec<usize>, group: &[usize]| {
+        let mut around: Vec<usize> = Vec::new();
+        // Appends a group and the nodes around it (the group and its parents, each once).
+        let mut push_move = |arena: &mut Vec<usize>, group: &[usize]| {
+            around.clear();
+            around.extend_from_slice(group);
+            for &g in group {
+                around.extend_from_slice(&parents[g]);
+            }
+            around.sort_unstable();
+            around.dedup();
             let group_start = arena.len();
             arena.extend_from_slice(group);
             let around_start = arena.len();
-            arena.extend_from_slice(group);
-            for &g in group {
-                arena.extend_from_slice(&parents[g]);
-            }
-            arena[around_start..].sort_unstable();
-            let mut kept = around_start;
-            for k in around_start..arena.len() {
-                if k == around_start || arena[k] != arena[kept - 1] {
-                    arena[kept] = arena[k];
-                    kept += 1;
-                }
-            }
-            arena.truncate(kept);
-            Move { group: (group_start, around_start), around: (around_start, kept) }
+            arena.extend_from_slice(&around);
+            Move { group: (group_start, around_start), around: (around_start, arena.len()) }
         };
         let mut group: Vec<usize> = Vec::with_capacity(MAX_GROUP);
         let moves = (0..order.len())
