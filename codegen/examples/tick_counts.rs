@@ -21,7 +21,7 @@ fn main() {
             std::process::exit(1);
         }
     };
-    let mech = hapticgen_codegen::mechanics::derive(&model);
+    let mech = hapticgen_codegen::dynamics::mechanics::derive(&model);
     let options = hapticgen_codegen::EmitOptions { fused_multiply_add };
     for include_position in [false, true] {
         let c = hapticgen_codegen::emit::tick_counts_with(&model, &mech, include_position, options);

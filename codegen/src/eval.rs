@@ -1,10 +1,10 @@
 //! Numeric evaluator of the derived expressions, without compiling anything.
 //!
-//! It evaluates the canonical polynomials of [`crate::mechanics`] directly, term by term, so
+//! It evaluates the canonical polynomials of [`crate::dynamics::mechanics`] directly, term by term, so
 //! it is independent of the optimiser and emitter: tests compare the compiled, emitted code
 //! against it, and the CLI's `eval` command uses it.
 
-use crate::mechanics::{FrameKinematics, Mechanics, PointKinematics};
+use crate::dynamics::mechanics::{FrameKinematics, Mechanics, PointKinematics};
 use crate::sym::poly::{Atom, AtomValues, Poly};
 
 /// Atom values at a state `(q, q̇)` with given tunable parameters.

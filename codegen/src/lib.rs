@@ -9,20 +9,15 @@
 #![deny(missing_docs)]
 
 pub mod build;
-pub mod closure;
-pub mod current_loop;
+pub mod check;
 pub mod diag;
+pub mod dynamics;
 pub mod emit;
 pub mod eval;
-pub mod fused;
-pub mod mechanics;
 pub mod model;
-pub mod recursive;
 pub mod rig_macro;
-pub mod stability;
 pub mod sym;
 pub mod urdf;
-pub mod urdf_import;
 
 use proc_macro2::TokenStream;
 
@@ -38,7 +33,7 @@ pub struct Generated {
     /// The validated model.
     pub model: Model,
     /// The derived mechanics.
-    pub mechanics: mechanics::Mechanics,
+    pub mechanics: dynamics::mechanics::Mechanics,
     /// The scalar type of the emitted code.
     pub scalar: Scalar,
     /// The emission options.
@@ -76,7 +71,7 @@ pub fn generate_model(model: Model, scalar: Scalar) -> Generated {
 
 /// Emits the code of an already loaded model with emission options.
 pub fn generate_model_with(model: Model, scalar: Scalar, options: EmitOptions) -> Generated {
-    let mechanics = mechanics::derive_for_emission(&model);
+    let mechanics = dynamics::mechanics::derive_for_emission(&model);
     let (tokens, stats) = emit::items(&model, &mechanics, scalar, options);
     Generated { model, mechanics, scalar, options, tokens, stats }
 }

@@ -18,9 +18,9 @@
 
 use std::path::{Path, PathBuf};
 
-use hapticgen_codegen::closure::Loop;
+use hapticgen_codegen::dynamics::closure::Loop;
+use hapticgen_codegen::dynamics::mechanics::{self, Mechanics};
 use hapticgen_codegen::eval::{evaluate, Evaluated, Full, State};
-use hapticgen_codegen::mechanics::{self, Mechanics};
 use hapticgen_codegen::model::{self, Model};
 use hapticgen_codegen::sym::poly::{Atom, AtomValues, Poly};
 

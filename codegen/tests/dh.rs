@@ -9,8 +9,8 @@
 
 use std::path::Path;
 
+use hapticgen_codegen::dynamics::mechanics::{self, Mechanics};
 use hapticgen_codegen::eval::{evaluate, Evaluated, State};
-use hapticgen_codegen::mechanics::{self, Mechanics};
 use hapticgen_codegen::model::{load, load_file, Model, Source};
 
 fn puma() -> (Model, Mechanics) {

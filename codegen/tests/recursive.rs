@@ -8,10 +8,12 @@
 
 use std::path::{Path, PathBuf};
 
+use hapticgen_codegen::dynamics::mechanics;
+use hapticgen_codegen::dynamics::recursive::{
+    self, Formulation, FrameQuantity, JacobianForm, PointQuantity, Quantity,
+};
 use hapticgen_codegen::eval::{evaluate, evaluate_frame, State};
-use hapticgen_codegen::mechanics;
 use hapticgen_codegen::model::load_file;
-use hapticgen_codegen::recursive::{self, Formulation, FrameQuantity, JacobianForm, PointQuantity, Quantity};
 use hapticgen_codegen::sym::dag::Dag;
 use hapticgen_codegen::sym::poly::Atom;
 

@@ -4,9 +4,9 @@
 
 use std::path::Path;
 
-use hapticgen_codegen::mechanics;
+use hapticgen_codegen::dynamics::mechanics;
+use hapticgen_codegen::dynamics::recursive::{self, PointQuantity, Quantity};
 use hapticgen_codegen::model::load_file;
-use hapticgen_codegen::recursive::{self, PointQuantity, Quantity};
 use hapticgen_codegen::sym::dag::Dag;
 use hapticgen_codegen::sym::poly::Atom;
 

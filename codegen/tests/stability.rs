@@ -1,9 +1,9 @@
-//! Build-time virtual-wall checks (`hapticgen_codegen::stability`) on the shipped models and
+//! Build-time virtual-wall checks (`hapticgen_codegen::check::stability`) on the shipped models and
 //! on edited copies: bounds, verdicts and the diagnostic's position.
 
-use hapticgen_codegen::mechanics;
+use hapticgen_codegen::check::stability::{check_wall, WallCheck, WallVerdict};
+use hapticgen_codegen::dynamics::mechanics;
 use hapticgen_codegen::model::{self, Model};
-use hapticgen_codegen::stability::{check_wall, WallCheck, WallVerdict};
 use hapticgen_codegen::Source;
 
 const PARALLEL: &str = include_str!("../../models/parallel_link_2dof.yaml");

@@ -3,10 +3,10 @@
 
 use std::path::Path;
 
+use hapticgen_codegen::dynamics::mechanics::{self, Mechanics};
 use hapticgen_codegen::eval::{evaluate, Evaluated, State};
-use hapticgen_codegen::mechanics::{self, Mechanics};
 use hapticgen_codegen::model::{load, load_file, Model, Source};
-use hapticgen_codegen::{urdf, urdf_import};
+use hapticgen_codegen::urdf;
 
 fn root() -> &'static Path {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
@@ -47,7 +47,7 @@ fn spatial_models_round_trip_through_urdf() {
     {
         let original = load_file(&root().join(file), file, None).unwrap_or_else(|d| panic!("{d}"));
         let text = urdf::export(&original).unwrap_or_else(|e| panic!("{file}: {e}"));
-        let yaml = urdf_import::import(&text, "exported.urdf", urdf_import::DEFAULT_DRIVE)
+        let yaml = urdf::import(&text, "exported.urdf", urdf::DEFAULT_DRIVE)
             .unwrap_or_else(|d| panic!("{file}: {d}"));
         let imported = load(&Source { name: "imported.yaml", text: &yaml }, None)
             .unwrap_or_else(|d| panic!("{file}: the imported model does not load:\n{d}\n{yaml}"));
@@ -77,7 +77,7 @@ fn spatial_models_round_trip_through_urdf() {
 }
 
 fn reject(urdf_text: &str) -> hapticgen_codegen::Diagnostic {
-    match urdf_import::import(urdf_text, "robot.urdf", urdf_import::DEFAULT_DRIVE) {
+    match urdf::import(urdf_text, "robot.urdf", urdf::DEFAULT_DRIVE) {
         Ok(yaml) => panic!("accepted:\n{yaml}"),
         Err(d) => d.0[0].clone(),
     }
@@ -137,8 +137,7 @@ fn a_small_urdf_imports_and_loads() {
     let text = robot(&format!(
         "{REVOLUTE_A}\n<joint name=\"j2\" type=\"continuous\"><parent link=\"a\"/><child link=\"b\"/><origin xyz=\"0.2 0 0\" rpy=\"1.5707963267948966 0 0\"/><axis xyz=\"0 1 0\"/><dynamics damping=\"0.01\"/></joint>"
     ));
-    let yaml = urdf_import::import(&text, "robot.urdf", urdf_import::DEFAULT_DRIVE)
-        .unwrap_or_else(|d| panic!("{d}"));
+    let yaml = urdf::import(&text, "robot.urdf", urdf::DEFAULT_DRIVE).unwrap_or_else(|d| panic!("{d}"));
     let m =
         load(&Source { name: "imported.yaml", text: &yaml }, None).unwrap_or_else(|d| panic!("{d}\n{yaml}"));
     assert_eq!(m.joints.len(), 2);

@@ -1,6 +1,6 @@
 //! The inner current loop (paper, section 2): a discrete PI controller with integral action on
 //! the motor's electrical model `V(s) = I(s)(sL + R)`, run at `CURRENT_LOOP_HZ` (7.5 kHz).
-//! The gains come from `hapticgen_codegen::current_loop::design_current_loop` (discrete pole
+//! The gains come from `hapticgen_codegen::check::current_loop::design_current_loop` (discrete pole
 //! placement); this module only executes them.
 //!
 //! One step, with reference `r`, measured (filtered) current `y`, error `e = r − y`, integral

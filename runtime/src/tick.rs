@@ -94,7 +94,7 @@ pub struct HapticLoopSettings<S, const N: usize, const M: usize> {
     pub initial_counts: [i32; N],
     /// Force-sensor calibration.
     pub force_calibration: ForceSensorCalibration<S, M>,
-    /// Current-loop gains (from `hapticgen_codegen::current_loop::design_current_loop`).
+    /// Current-loop gains (from `hapticgen_codegen::check::current_loop::design_current_loop`).
     pub current_gains: CurrentLoopGains<S>,
     /// Impedance periods allowed between ticks before the watchdog trips.
     pub max_tick_gap: u32,

@@ -12,8 +12,9 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use hapticgen_codegen::dynamics::mechanics;
 use hapticgen_codegen::eval::{evaluate, evaluate_frame, State};
-use hapticgen_codegen::{mechanics, model, urdf};
+use hapticgen_codegen::{model, urdf};
 use hapticgen_tests::check::random_state;
 use hapticgen_tests::workspace_root;
 use rand::rngs::SmallRng;

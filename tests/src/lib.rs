@@ -43,8 +43,8 @@ pub fn workspace_root() -> std::path::PathBuf {
 
 /// Shared checks of generated rigs against the numeric evaluator.
 pub mod check {
+    use hapticgen_codegen::dynamics::mechanics::{self, Mechanics};
     use hapticgen_codegen::eval::{evaluate, Evaluated, State};
-    use hapticgen_codegen::mechanics::{self, Mechanics};
     use hapticgen_codegen::model::{self, Model};
     use hapticgen_runtime::fused::FusedImpedance;
     use rand::rngs::SmallRng;

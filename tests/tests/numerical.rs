@@ -9,8 +9,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use hapticgen_codegen::build;
+use hapticgen_codegen::dynamics::mechanics::{self, Mechanics};
 use hapticgen_codegen::eval::{Full, State};
-use hapticgen_codegen::mechanics::{self, Mechanics};
 use hapticgen_codegen::model::{self, Model};
 use hapticgen_runtime::fused::FusedImpedance;
 use hapticgen_tests::check::{eval_at, load, random_state, EvaluatorCheck, STATES};

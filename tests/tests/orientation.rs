@@ -10,8 +10,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use hapticgen_codegen::build;
+use hapticgen_codegen::dynamics::mechanics::{self, Mechanics};
 use hapticgen_codegen::eval::{evaluate_frame, EvaluatedFrame, State};
-use hapticgen_codegen::mechanics::{self, Mechanics};
 use hapticgen_codegen::model::{self, Model};
 use hapticgen_tests::check::{random_state, STATES};
 use hapticgen_tests::workspace_root;

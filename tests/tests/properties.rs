@@ -17,8 +17,8 @@
 // Matrix checks read best with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
+use hapticgen_codegen::dynamics::mechanics::{self, Mechanics};
 use hapticgen_codegen::eval::State;
-use hapticgen_codegen::mechanics::{self, Mechanics};
 use hapticgen_codegen::model::{self, Model};
 use hapticgen_codegen::sym::dag::{Dag, Node, NodeId};
 use hapticgen_codegen::sym::poly::{Atom, AtomValues, Poly};

@@ -4,8 +4,8 @@
 //! q2 evaluated (two sin/cos pairs) for D, C q̇, g, J and J̇ q̇ together; and the operation
 //! counts of those quantities against issue 7's targets.
 
+use hapticgen_codegen::dynamics::mechanics;
 use hapticgen_codegen::emit;
-use hapticgen_codegen::mechanics;
 use hapticgen_codegen::model;
 use hapticgen_codegen::sym::poly::Atom;
 use hapticgen_codegen::{EmitOptions, Scalar};

@@ -178,12 +178,12 @@ pub struct Model {
     /// Rendering settings.
     pub rendering: Option<Rendering>,
     /// The current-loop design of each joint's drive, in the order of `q`.
-    pub current_loop_designs: Vec<crate::current_loop::CurrentLoopDesign>,
+    pub current_loop_designs: Vec<crate::check::current_loop::CurrentLoopDesign>,
     /// Passive joints of closed chains: coordinates `joints.len() + k` of the mechanics'
     /// open tree, eliminated by `closures`, not coordinates of the generated code.
     pub passive: Vec<PassiveJoint>,
     /// The loop closures and their elimination, if the model is a closed chain.
-    pub closures: Option<crate::closure::Closures>,
+    pub closures: Option<crate::dynamics::closure::Closures>,
 }
 
 /// A passive (unactuated) revolute joint of a closed chain.
@@ -1333,7 +1333,7 @@ pub(crate) fn resolve(
         );
     } else if r.errors.is_empty() {
         for j in &joints {
-            let input = crate::current_loop::CurrentLoopDesignInput {
+            let input = crate::check::current_loop::CurrentLoopDesignInput {
                 resistance: j.drive.motor.resistance,
                 inductance: j.drive.motor.inductance,
                 sample_rate_hz: f64::from(file.rates.current_loop_hz),
@@ -1348,7 +1348,7 @@ pub(crate) fn resolve(
                 current_loop_designs.push(design);
                 continue;
             }
-            match crate::current_loop::design_current_loop(&input) {
+            match crate::check::current_loop::design_current_loop(&input) {
                 Ok(design) => current_loop_designs.push(design),
                 Err(why) => {
                     r.error(
@@ -1428,16 +1428,16 @@ pub(crate) fn resolve(
         closures: None,
     };
     if !declared.is_empty() {
-        let declarations: Vec<crate::closure::Declaration> = declared
+        let declarations: Vec<crate::dynamics::closure::Declaration> = declared
             .iter()
-            .map(|&(i, j1, j2, p1, p2, branch)| crate::closure::Declaration {
+            .map(|&(i, j1, j2, p1, p2, branch)| crate::dynamics::closure::Declaration {
                 name: file.closures[i].name.clone(),
                 joints: [coordinate_of[j1], coordinate_of[j2]],
                 points: [p1, p2],
                 branch,
             })
             .collect();
-        match crate::closure::analyse(&model, &declarations) {
+        match crate::dynamics::closure::analyse(&model, &declarations) {
             Ok(closures) => model.closures = Some(closures),
             Err(problems) => {
                 let errors = problems

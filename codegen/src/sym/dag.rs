@@ -108,7 +108,7 @@ pub struct Dag {
     /// one is one multiplication of it.
     linear_index: HashMap<Vec<(NodeId, i64)>, (NodeId, f64)>,
     /// Atoms that stand for nodes built from other inputs (a closed chain's passive
-    /// coordinates, see `crate::closure`): [`Dag::input`] returns the node instead.
+    /// coordinates, see `crate::dynamics::closure`): [`Dag::input`] returns the node instead.
     substitutions: HashMap<Atom, NodeId>,
 }
 

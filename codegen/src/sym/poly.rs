@@ -35,7 +35,7 @@ pub enum Atom {
     External(u16),
     /// A quantity of a closed chain's elimination (an entry of `∂q_p/∂q_a` or of its time
     /// derivative), computed in closed form from the actuated coordinates and velocities
-    /// before the outputs (see `crate::closure`); never an input of the generated code.
+    /// before the outputs (see `crate::dynamics::closure`); never an input of the generated code.
     Closure(u16),
 }
 

@@ -11,7 +11,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use hapticgen_codegen::{eval, model, stability, Scalar};
+use hapticgen_codegen::check::stability;
+use hapticgen_codegen::{eval, model, Scalar};
 use hapticgen_host::paper;
 use hapticgen_host::plant::Effects;
 use hapticgen_host::simulate::{Scenario, ScenarioSettings, Simulation};
@@ -265,8 +266,9 @@ fn run(cli: Cli) -> Result<(), String> {
                 }
             }
             // Virtual walls: passivity (warning) and stability (error) bounds, see
-            // `hapticgen_codegen::stability`.
-            if let Some(wall) = stability::check_wall(&m, &hapticgen_codegen::mechanics::derive(&m)) {
+            // `hapticgen_codegen::check::stability`.
+            if let Some(wall) = stability::check_wall(&m, &hapticgen_codegen::dynamics::mechanics::derive(&m))
+            {
                 let text = std::fs::read_to_string(&model).unwrap_or_default();
                 if let Some((error, d)) = wall.diagnostic(&model.display().to_string(), &text, &m) {
                     if error {
@@ -319,7 +321,7 @@ fn run(cli: Cli) -> Result<(), String> {
             if let Some(bad) = q.iter().chain(&qd).find(|v| !v.is_finite()) {
                 return Err(format!("error: state values must be finite, got {bad}"));
             }
-            let mech = hapticgen_codegen::mechanics::derive(&m);
+            let mech = hapticgen_codegen::dynamics::mechanics::derive(&m);
             let selected = match &point {
                 None => None,
                 Some(name) => Some(mech.points.iter().find(|p| &p.name == name).ok_or_else(|| {
@@ -386,11 +388,10 @@ fn run(cli: Cli) -> Result<(), String> {
             let text = read(&urdf)?;
             let drive = match &drive {
                 Some(p) => read(p)?,
-                None => hapticgen_codegen::urdf_import::DEFAULT_DRIVE.to_string(),
+                None => hapticgen_codegen::urdf::DEFAULT_DRIVE.to_string(),
             };
             let display = urdf.display().to_string();
-            let yaml =
-                hapticgen_codegen::urdf_import::import(&text, &display, &drive).map_err(|d| d.to_string())?;
+            let yaml = hapticgen_codegen::urdf::import(&text, &display, &drive).map_err(|d| d.to_string())?;
             // What was written must load: a bad drive template is reported against it.
             model::load(&model::Source { name: "<imported model>", text: &yaml }, None)
                 .map_err(|d| d.to_string())?;

@@ -9,7 +9,9 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use hapticgen_codegen::current_loop::{design_current_loop, CurrentLoopDesign, CurrentLoopDesignInput};
+use hapticgen_codegen::check::current_loop::{
+    design_current_loop, CurrentLoopDesign, CurrentLoopDesignInput,
+};
 use hapticgen_codegen::model::{self, Model};
 use hapticgen_runtime::current_loop::CurrentLoopGains;
 use hapticgen_runtime::render::{ObjectKind, Shape, VirtualObject};

@@ -3,7 +3,7 @@
 //! The simulator needs the rigid-body terms of the paper's eq. (1)–(2) (`D(q)`, `C(q, q̇) q̇`,
 //! `g(q)`, `p(q)`, `J(q)`, `J̇ q̇`) for model files that were not compiled into the binary, and
 //! for perturbed copies of the shipped ones (a plant whose masses differ from the
-//! controller's model). The polynomials of `hapticgen_codegen::mechanics::derive` are lowered
+//! controller's model). The polynomials of `hapticgen_codegen::dynamics::mechanics::derive` are lowered
 //! once, at load time, into the same hash-consed expression DAG the code generator uses
 //! (`hapticgen_codegen::sym::dag::Dag`, with its Horner factoring and common-subexpression
 //! elimination), and the nodes reachable from the requested outputs are flattened into a
@@ -11,7 +11,7 @@
 //! is one `Add`/`Sub`/`Mul`/`Div`/`Neg`/`Sqrt` instruction writing its own register. Evaluating a tape is a
 //! single pass over a `Vec<f64>`, with one `sin`/`cos` per joint.
 
-use hapticgen_codegen::closure::Closures;
+use hapticgen_codegen::dynamics::closure::Closures;
 use hapticgen_codegen::sym::dag::{Dag, Node, NodeId};
 use hapticgen_codegen::sym::poly::{Atom, Poly};
 
@@ -60,7 +60,7 @@ impl Tape {
     /// elimination's nodes are computed on the tape in front of the outputs).
     pub fn compile_closed(outputs: &[&Poly], joints: usize, closures: Option<&Closures>) -> Tape {
         let mut dag = Dag::new();
-        hapticgen_codegen::closure::install(&mut dag, closures);
+        hapticgen_codegen::dynamics::closure::install(&mut dag, closures);
         let roots: Vec<NodeId> = outputs.iter().map(|p| dag.polynomial(p)).collect();
         let reachable = dag.reachable(&roots);
         let mut register_of = vec![u32::MAX; dag.nodes().len()];
@@ -208,7 +208,7 @@ mod tests {
         ] {
             let model = hapticgen_codegen::model::load_file(&root.join(file), file, variant)
                 .unwrap_or_else(|e| panic!("{e}"));
-            let mech = hapticgen_codegen::mechanics::derive(&model);
+            let mech = hapticgen_codegen::dynamics::mechanics::derive(&model);
             let mut outputs: Vec<&Poly> = mech.inertia_matrix.iter().flatten().collect();
             outputs.extend(&mech.coriolis_times_qdot);
             outputs.extend(&mech.gravity);

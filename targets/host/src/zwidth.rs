@@ -1,5 +1,5 @@
 //! Z-width of a rig's virtual wall (Colgate & Brown): the stable `(K, B)` region mapped by
-//! simulation and drawn against the analytic bounds of `hapticgen_codegen::stability`.
+//! simulation and drawn against the analytic bounds of `hapticgen_codegen::check::stability`.
 //!
 //! For each wall damping `B` of a sweep, the largest stable wall stiffness `K` is found by
 //! bisection (on a log scale) over closed-loop simulations, run in parallel with rayon: the
@@ -15,7 +15,7 @@
 
 use std::path::Path;
 
-use hapticgen_codegen::stability;
+use hapticgen_codegen::check::stability;
 use hapticgen_runtime::control::ImpedanceLaw;
 use hapticgen_runtime::render::{ObjectKind, Shape, VirtualObject};
 use rayon::prelude::*;

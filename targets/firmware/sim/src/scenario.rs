@@ -26,7 +26,7 @@ use crate::plant::SimBoard;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Setup<S, const N: usize> {
     /// Each joint's current-loop gains, designed from its motor by the model loader
-    /// (`hapticgen_codegen::current_loop::design_current_loop`; the generated `CURRENT_LOOP_GAINS`).
+    /// (`hapticgen_codegen::check::current_loop::design_current_loop`; the generated `CURRENT_LOOP_GAINS`).
     pub current_gains: [CurrentLoopGains<S>; N],
     /// Time constant standing for the anti-aliasing filter on the current sense, s.
     pub sense_time_constant: S,

@@ -29,8 +29,8 @@
 //! poses for information.
 
 use crate::diag::Diagnostic;
+use crate::dynamics::mechanics::Mechanics;
 use crate::eval::State;
-use crate::mechanics::Mechanics;
 use crate::model::positions::{PositionIndex, Segment};
 use crate::model::Model;
 

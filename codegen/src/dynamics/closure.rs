@@ -5,7 +5,7 @@
 //! generated code) and the passive joints `q_p` (`N …`) — and each [closure](Loop) says that
 //! two points, one turned by each of two passive revolute joints, coincide:
 //! `Φ(q) = p₁(q) − p₂(q) = 0`. The mechanics of the tree are derived as usual
-//! ([`crate::mechanics`]); this module eliminates the passive joints.
+//! ([`crate::dynamics::mechanics`]); this module eliminates the passive joints.
 //!
 //! **Position level, in closed form.** Each point is `p_k = c_k(q_a) + M_k(q_a) [cos q_pk,
 //! sin q_pk]ᵀ`: a circle of radius `r_k = √|det M_k|` about the axis `c_k` of its joint. The
@@ -34,7 +34,7 @@
 //! which the runtime's checks treat as a fault (safe state). The model's joint limits
 //! should keep the actuated angles where the loop closes away from that boundary.
 
-use crate::mechanics::{Derivation, Mechanics, PointKinematics};
+use crate::dynamics::mechanics::{Derivation, Mechanics, PointKinematics};
 use crate::model::{Branch, Model};
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::{Atom, AtomValues, Poly};
@@ -195,7 +195,7 @@ impl AtomValues for Nominal<'_> {
 pub fn analyse(model: &Model, declarations: &[Declaration]) -> Result<Closures, Vec<Problem>> {
     let n = model.joints.len();
     let total = model.tree_coordinates();
-    let positions = crate::mechanics::point_positions(model);
+    let positions = crate::dynamics::mechanics::point_positions(model);
     let parameters = model.nominal_parameters();
     let nominal = Nominal {
         q: model.joints.iter().map(|j| 0.5 * (j.lower + j.upper)).collect(),

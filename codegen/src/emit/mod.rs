@@ -6,14 +6,16 @@
 //! computed once per function. The items implement `::hapticgen_runtime::RigModel`; everything
 //! that is the same for every rig stays in the runtime.
 
+pub mod laws;
+
 use rustc_hash::FxHashMap as HashMap;
 
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::{format_ident, quote};
 
-use crate::mechanics::{Choice, Derivation, Mechanics};
+use crate::dynamics::mechanics::{Choice, Derivation, Mechanics};
+use crate::dynamics::recursive::{FrameQuantity, PointQuantity, Quantity};
 use crate::model::{JointKind, Model};
-use crate::recursive::{FrameQuantity, PointQuantity, Quantity};
 use crate::sym::dag::{Dag, Fused, Node, NodeId, OpCounts};
 use crate::sym::poly::{Atom, Poly};
 
@@ -302,9 +304,10 @@ enum Precedence {
 impl<'m> BodyEmitter<'m> {
     fn new(model: &'m Model, scalar: Scalar, options: EmitOptions) -> Self {
         // A closed chain's passive coordinates enter every polynomial as nodes computed from
-        // the actuated ones (`crate::closure`), named after their role.
+        // the actuated ones (`crate::dynamics::closure`), named after their role.
         let mut dag = Dag::new();
-        let hints = crate::closure::install(&mut dag, model.closures.as_ref()).hints.into_iter().collect();
+        let hints =
+            crate::dynamics::closure::install(&mut dag, model.closures.as_ref()).hints.into_iter().collect();
         Self {
             dag,
             naming: Naming { model, externals: Vec::new() },
@@ -1040,7 +1043,7 @@ fn terms_function(
     (tokens, counts)
 }
 
-/// A closed chain's `closure_margin` method (see `crate::closure::Installed::margins`).
+/// A closed chain's `closure_margin` method (see `crate::dynamics::closure::Installed::margins`).
 fn closure_margin_function(
     model: &Model,
     scalar: Scalar,
@@ -1049,7 +1052,7 @@ fn closure_margin_function(
     let closures = model.closures.as_ref()?;
     let mut body = BodyEmitter::new(model, scalar, options);
     // Installing again into the same DAG re-interns the same nodes: it only reports them.
-    let roots = crate::closure::install(&mut body.dag, Some(closures)).margins;
+    let roots = crate::dynamics::closure::install(&mut body.dag, Some(closures)).margins;
     let (statements, values, counts) = body.emit(&roots, "closure_margin");
     let (n, k) = (unsuffixed(model.joints.len()), unsuffixed(roots.len()));
     let s = scalar.tokens();
@@ -1350,7 +1353,7 @@ fn fused_impl(
     options: EmitOptions,
     stats: &mut Stats,
 ) -> TokenStream {
-    use crate::fused::{build, External, Law};
+    use laws::{build, External, Law};
     let s = scalar.tokens();
     let (n_usize, m_usize) = (mech.joints, mech.task_dim);
     let n = unsuffixed(n_usize);

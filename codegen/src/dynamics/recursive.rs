@@ -1,7 +1,7 @@
 //! Recursive rigid-body algorithms run symbolically on the expression DAG: the second
 //! derivation path of eq. (1), for models whose bodies form a tree of joints.
 //!
-//! The polynomial path ([`crate::mechanics`]) expands every quantity into a canonical polynomial
+//! The polynomial path ([`crate::dynamics::mechanics`]) expands every quantity into a canonical polynomial
 //! in the sines and cosines of the joint angles. That gives the smallest code for short chains
 //! (the sin² + cos² = 1 and angle-sum simplifications are complete), but for long spatial chains
 //! the expanded `D` and, above all, the Christoffel form of `C q̇` grow exponentially. The
@@ -75,7 +75,7 @@ pub enum PointQuantity {
 
 /// Whether the recursive algorithms apply: every body hangs from its parent (or the base) by
 /// one joint or a weld, and no loop closes. Direct poses (closed chains written as absolute
-/// angles) and closures (reduced as polynomials, see `crate::closure`) do not.
+/// angles) and closures (reduced as polynomials, see `crate::dynamics::closure`) do not.
 pub fn applies(model: &Model) -> bool {
     model.closures.is_none() && model.bodies.iter().all(|b| matches!(b.motion, Motion::Serial { .. }))
 }

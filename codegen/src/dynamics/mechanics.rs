@@ -13,8 +13,8 @@
 
 use rustc_hash::FxHashMap as HashMap;
 
+use crate::dynamics::recursive::{self, FrameQuantity, PointQuantity, Quantity};
 use crate::model::{JointKind, Model, Motion, TaskSpec};
-use crate::recursive::{self, FrameQuantity, PointQuantity, Quantity};
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::{Atom, Poly};
 
@@ -38,7 +38,7 @@ pub struct Choice {
 pub enum Derivation {
     /// From the canonical polynomials of this module (Lagrangian, Christoffel symbols).
     Polynomial,
-    /// With the recursive algorithms of [`crate::recursive`] on the expression DAG.
+    /// With the recursive algorithms of [`crate::dynamics::recursive`] on the expression DAG.
     Recursive,
 }
 
@@ -104,8 +104,8 @@ pub struct Mechanics {
     /// Every named frame of the model (spatial models; none for planar ones).
     pub frames: Vec<FrameKinematics>,
     /// A closed chain's elimination: its polynomials also contain the passive joints' atoms
-    /// and [`Atom::Closure`] atoms, which [`crate::closure::install`] defines.
-    pub closures: Option<crate::closure::Closures>,
+    /// and [`Atom::Closure`] atoms, which [`crate::dynamics::closure::install`] defines.
+    pub closures: Option<crate::dynamics::closure::Closures>,
     /// A closed chain's open-tree mechanics, in all coordinates (actuated, then passive),
     /// before the reduction to the actuated coordinates.
     pub tree: Option<Box<Mechanics>>,
@@ -286,8 +286,8 @@ fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
     let mut mechanics = derive_tree(model, all_polynomials);
     if let Some(closures) = &model.closures {
         // A closed chain: reduced to the actuated coordinates as polynomials (see
-        // `crate::closure`); the emitted code uses those polynomials as they are.
-        return crate::closure::reduce(mechanics, closures);
+        // `crate::dynamics::closure`); the emitted code uses those polynomials as they are.
+        return crate::dynamics::closure::reduce(mechanics, closures);
     }
     choose_derivations(model, &mut mechanics);
     mechanics

@@ -6,9 +6,9 @@
 //! The emitted functions implement `hapticgen_runtime::fused::FusedImpedance`; the runtime
 //! adds the rig-independent checks (finite inputs, singularity fallback, `B q̇`).
 
-use crate::mechanics::Mechanics;
+use crate::dynamics::mechanics::Mechanics;
+use crate::dynamics::recursive::{PointQuantity, Quantity};
 use crate::model::Model;
-use crate::recursive::{PointQuantity, Quantity};
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::Atom;
 
