@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use hapticgen_codegen::{build, model, EmitOptions, Scalar};
+use hapticgen_codegen::{build, EmitOptions, Scalar};
 
 fn main() {
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
@@ -15,7 +15,7 @@ fn main() {
     let mut visits = String::new();
     for entry in build::models_in(models_dir, "models").unwrap_or_else(|e| panic!("{e}")) {
         let (path, display) = (&entry.path, &entry.display);
-        let loaded = model::load_file(path, display, None).unwrap_or_else(|e| panic!("{e}"));
+        let loaded = hapticgen_codegen::load_file(path, display, None).unwrap_or_else(|e| panic!("{e}"));
         let variants = entry.variants;
         for variant in variants {
             for (scalar, fused_multiply_add) in
@@ -29,8 +29,8 @@ fn main() {
                     if fused_multiply_add { "_fma" } else { "" }
                 );
                 let file = out.join(format!("{module}.rs"));
-                let model =
-                    model::load_file(path, display, variant.as_deref()).unwrap_or_else(|e| panic!("{e}"));
+                let model = hapticgen_codegen::load_file(path, display, variant.as_deref())
+                    .unwrap_or_else(|e| panic!("{e}"));
                 let options = EmitOptions { fused_multiply_add };
                 let text = hapticgen_codegen::generate_model_with(model, scalar, options).file_text();
                 std::fs::write(&file, text).expect("OUT_DIR is writable");

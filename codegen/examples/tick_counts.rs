@@ -10,7 +10,7 @@ fn main() {
         eprintln!("usage: tick_counts MODEL [VARIANT] [--fma]");
         std::process::exit(2);
     };
-    let model = match hapticgen_codegen::model::load_file(
+    let model = match hapticgen_codegen::load_file(
         std::path::Path::new(path.as_str()),
         path,
         positional.get(1).map(|v| v.as_str()),
@@ -21,7 +21,7 @@ fn main() {
             std::process::exit(1);
         }
     };
-    let mech = hapticgen_codegen::dynamics::mechanics::derive(&model);
+    let mech = hapticgen_codegen::derive(&model);
     let options = hapticgen_codegen::EmitOptions { fused_multiply_add };
     for include_position in [false, true] {
         let c = hapticgen_codegen::emit::tick_counts_with(&model, &mech, include_position, options);

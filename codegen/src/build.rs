@@ -67,7 +67,7 @@ pub fn generate_text_with(
     options: EmitOptions,
 ) -> Result<String, Diagnostics> {
     let display = model.display().to_string();
-    let loaded = crate::model::load_file(model, &display, variant)?;
+    let loaded = crate::load_file(model, &display, variant)?;
     Ok(crate::generate_model_with(loaded, scalar, options).file_text())
 }
 
@@ -106,7 +106,7 @@ pub fn models_in(dir: &Path, prefix: &str) -> Result<Vec<ModelEntry>, Diagnostic
         .map(|path| {
             let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
             let display = format!("{prefix}/{name}");
-            let model = crate::model::load_file(&path, &display, None)?;
+            let model = crate::load_file(&path, &display, None)?;
             let variants = if model.variants.is_empty() {
                 vec![None]
             } else {

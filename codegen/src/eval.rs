@@ -4,7 +4,8 @@
 //! it is independent of the optimiser and emitter: tests compare the compiled, emitted code
 //! against it, and the CLI's `eval` command uses it.
 
-use crate::dynamics::mechanics::{FrameKinematics, Mechanics, PointKinematics};
+use crate::dynamics::kinematics::{FrameKinematics, PointKinematics};
+use crate::dynamics::mechanics::Mechanics;
 use crate::sym::poly::{Atom, AtomValues, Poly};
 
 /// Atom values at a state `(q, q̇)` with given tunable parameters.

@@ -14,6 +14,7 @@ pub mod diag;
 pub mod dynamics;
 pub mod emit;
 pub mod eval;
+pub mod math;
 pub mod model;
 pub mod rig_macro;
 pub mod sym;
@@ -21,6 +22,7 @@ pub mod urdf;
 
 use proc_macro2::TokenStream;
 
+pub use check::{Analyses, CheckedModel};
 pub use diag::{Diagnostic, Diagnostics};
 pub use emit::{EmitOptions, Scalar};
 pub use model::{Model, Source};
@@ -30,8 +32,8 @@ pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
 /// The result of generating one rig.
 pub struct Generated {
-    /// The validated model.
-    pub model: Model,
+    /// The validated model and its analyses.
+    pub model: CheckedModel,
     /// The derived mechanics.
     pub mechanics: dynamics::mechanics::Mechanics,
     /// The scalar type of the emitted code.
@@ -60,18 +62,40 @@ pub fn generate_with(
     scalar: Scalar,
     options: EmitOptions,
 ) -> Result<Generated, Diagnostics> {
-    let model = model::load(source, variant)?;
+    let model = load(source, variant)?;
     Ok(generate_model_with(model, scalar, options))
 }
 
+/// Parses a model (the named variant, else the model's default), validates it and runs the
+/// model-level analyses: what every front end loads a model with.
+pub fn load(source: &Source<'_>, variant: Option<&str>) -> Result<CheckedModel, Diagnostics> {
+    model::load_then(source, variant, check::analyse)
+}
+
+/// [`load`] of a file on disk; `display` names it in diagnostics.
+pub fn load_file(
+    path: &std::path::Path,
+    display: &str,
+    variant: Option<&str>,
+) -> Result<CheckedModel, Diagnostics> {
+    let text = model::read_file(path, display)?;
+    load(&Source { name: display, text: &text }, variant)
+}
+
+/// Every quantity of a checked model as polynomials (what the evaluator, the simulator and the
+/// numerical checks use), a closed chain reduced to its actuated coordinates.
+pub fn derive(model: &CheckedModel) -> dynamics::mechanics::Mechanics {
+    dynamics::derive(model, model.analyses.closures.as_ref())
+}
+
 /// Emits the code of an already loaded model.
-pub fn generate_model(model: Model, scalar: Scalar) -> Generated {
+pub fn generate_model(model: CheckedModel, scalar: Scalar) -> Generated {
     generate_model_with(model, scalar, EmitOptions::default())
 }
 
 /// Emits the code of an already loaded model with emission options.
-pub fn generate_model_with(model: Model, scalar: Scalar, options: EmitOptions) -> Generated {
-    let mechanics = dynamics::mechanics::derive_for_emission(&model);
+pub fn generate_model_with(model: CheckedModel, scalar: Scalar, options: EmitOptions) -> Generated {
+    let mechanics = dynamics::derive_for_emission(&model, model.analyses.closures.as_ref());
     let (tokens, stats) = emit::items(&model, &mechanics, scalar, options);
     Generated { model, mechanics, scalar, options, tokens, stats }
 }

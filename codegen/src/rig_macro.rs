@@ -108,7 +108,7 @@ pub fn expand(input: TokenStream, manifest_dir: &Path) -> TokenStream {
     let full = manifest_dir.join(&file);
     let variant_name = variant.as_ref().map(LitStr::value);
     let span = path.span();
-    match crate::model::load_file(&full, &file, variant_name.as_deref()) {
+    match crate::load_file(&full, &file, variant_name.as_deref()) {
         Ok(model) => {
             let generated = crate::generate_model_with(model, *scalar, *options);
             let items = &generated.tokens;

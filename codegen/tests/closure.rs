@@ -19,25 +19,26 @@
 use std::path::{Path, PathBuf};
 
 use hapticgen_codegen::dynamics::closure::Loop;
-use hapticgen_codegen::dynamics::mechanics::{self, Mechanics};
+use hapticgen_codegen::dynamics::mechanics::Mechanics;
 use hapticgen_codegen::eval::{evaluate, Evaluated, Full, State};
-use hapticgen_codegen::model::{self, Model};
 use hapticgen_codegen::sym::poly::{Atom, AtomValues, Poly};
+use hapticgen_codegen::CheckedModel;
 
 fn repo_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-fn closed_chains() -> Vec<(String, Model, Mechanics)> {
+fn closed_chains() -> Vec<(String, CheckedModel, Mechanics)> {
     let mut out = Vec::new();
     for (file, variant) in [
         ("models/pantograph_5bar.yaml", Some("horizontal")),
         ("models/pantograph_5bar.yaml", Some("vertical")),
         ("codegen/tests/good-models/five_bar_2dof.yaml", None),
     ] {
-        let m = model::load_file(&repo_root().join(file), file, variant).unwrap_or_else(|e| panic!("{e}"));
-        assert!(m.closures.is_some(), "{file} is a closed chain");
-        let mech = mechanics::derive(&m);
+        let m = hapticgen_codegen::load_file(&repo_root().join(file), file, variant)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(m.analyses.closures.is_some(), "{file} is a closed chain");
+        let mech = hapticgen_codegen::derive(&m);
         out.push((format!("{file} {variant:?}"), m, mech));
     }
     out
@@ -54,7 +55,7 @@ impl Rng {
         (self.0 >> 11) as f64 / (1u64 << 53) as f64
     }
 
-    fn actuated(&mut self, model: &Model) -> Vec<f64> {
+    fn actuated(&mut self, model: &CheckedModel) -> Vec<f64> {
         model.joints.iter().map(|j| j.lower + (j.upper - j.lower) * self.next()).collect()
     }
 }
@@ -131,8 +132,8 @@ fn side(l: &Loop, point: &[Poly], q: &[f64], parameters: &[f64]) -> f64 {
 
 /// The passive angles on the model's branch at `qa`, by continuation from the middle of the
 /// actuated ranges, where the branch is picked from a grid of starting guesses.
-fn passive_by_continuation(model: &Model, mech: &Mechanics, qa: &[f64]) -> Vec<f64> {
-    let closures = model.closures.as_ref().expect("a closed chain");
+fn passive_by_continuation(model: &CheckedModel, mech: &Mechanics, qa: &[f64]) -> Vec<f64> {
+    let closures = model.analyses.closures.as_ref().expect("a closed chain");
     let tree = mech.tree.as_ref().expect("the tree is kept");
     let parameters = model.nominal_parameters();
     let total = model.tree_coordinates();
@@ -179,7 +180,7 @@ fn passive_by_continuation(model: &Model, mech: &Mechanics, qa: &[f64]) -> Vec<f
 #[test]
 fn eliminated_passive_joints_close_the_loop() {
     for (name, model, mech) in closed_chains() {
-        let closures = model.closures.as_ref().unwrap();
+        let closures = model.analyses.closures.as_ref().unwrap();
         let parameters = model.nominal_parameters();
         let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
         let mut worst = 0.0f64;
@@ -268,7 +269,7 @@ fn reduced_dynamics_equal_the_tree_projected_numerically() {
             }
             // S = ∂q/∂q_a and γ by finite differences of the passive angles.
             let passive_at = |qa: &[f64], guess: &[f64]| -> Vec<f64> {
-                let closures = model.closures.as_ref().unwrap();
+                let closures = model.analyses.closures.as_ref().unwrap();
                 let mut out = qa.to_vec();
                 out.resize(total, 0.0);
                 for l in &closures.loops {
@@ -465,14 +466,14 @@ fn the_paper_parallelogram_as_a_closed_chain_equals_its_direct_poses() {
     // elimination must reproduce the direct model (checked against Pinocchio) exactly.
     for variant in ["vertical", "horizontal"] {
         let load = |file: &str| {
-            let m = model::load_file(&repo_root().join(file), file, Some(variant))
+            let m = hapticgen_codegen::load_file(&repo_root().join(file), file, Some(variant))
                 .unwrap_or_else(|e| panic!("{e}"));
-            let mech = mechanics::derive(&m);
+            let mech = hapticgen_codegen::derive(&m);
             (m, mech)
         };
         let (direct, direct_mech) = load("models/parallel_link_2dof.yaml");
         let (closed, closed_mech) = load("codegen/tests/closed-chains/parallel_link_closed.yaml");
-        assert!(direct.closures.is_none() && closed.closures.is_some());
+        assert!(direct.analyses.closures.is_none() && closed.analyses.closures.is_some());
         let parameters = direct.nominal_parameters();
         let mut rng = Rng(0x1234_5678_9abc_def1);
         let mut compared = 0;

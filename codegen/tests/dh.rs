@@ -9,15 +9,16 @@
 
 use std::path::Path;
 
-use hapticgen_codegen::dynamics::mechanics::{self, Mechanics};
+use hapticgen_codegen::dynamics::mechanics::Mechanics;
 use hapticgen_codegen::eval::{evaluate, Evaluated, State};
-use hapticgen_codegen::model::{load, load_file, Model, Source};
+use hapticgen_codegen::model::{Model, Source};
+use hapticgen_codegen::{load, load_file};
 
 fn puma() -> (Model, Mechanics) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/puma560.yaml");
     let model = load_file(&path, "models/puma560.yaml", None).unwrap_or_else(|d| panic!("{d}"));
-    let mech = mechanics::derive(&model);
-    (model, mech)
+    let mech = hapticgen_codegen::derive(&model);
+    (model.model, mech)
 }
 
 fn at(mech: &Mechanics, q: &[f64], point: Option<&str>) -> Evaluated {
@@ -131,7 +132,7 @@ fn standard_and_modified_dh_describe_the_same_chain() {
     let derive = |bodies: &str| {
         let text = chain(bodies);
         let model = load(&Source { name: "chain.yaml", text: &text }, None).unwrap_or_else(|d| panic!("{d}"));
-        mechanics::derive(&model)
+        hapticgen_codegen::derive(&model)
     };
     let (standard, modified) = (derive(STANDARD), derive(MODIFIED));
     let flat = |m: &[Vec<f64>]| m.iter().flatten().copied().collect::<Vec<f64>>();

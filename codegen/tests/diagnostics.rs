@@ -7,7 +7,8 @@
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 
-use hapticgen_codegen::model::{load, Source};
+use hapticgen_codegen::load;
+use hapticgen_codegen::model::Source;
 use hapticgen_codegen::{Diagnostic, Diagnostics};
 
 /// Every fixture of `tests/bad-models/` and the variant it is loaded with.

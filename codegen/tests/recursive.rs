@@ -8,12 +8,11 @@
 
 use std::path::{Path, PathBuf};
 
-use hapticgen_codegen::dynamics::mechanics;
 use hapticgen_codegen::dynamics::recursive::{
     self, Formulation, FrameQuantity, JacobianForm, PointQuantity, Quantity,
 };
 use hapticgen_codegen::eval::{evaluate, evaluate_frame, State};
-use hapticgen_codegen::model::load_file;
+use hapticgen_codegen::load_file;
 use hapticgen_codegen::sym::dag::Dag;
 use hapticgen_codegen::sym::poly::Atom;
 
@@ -54,7 +53,7 @@ fn recursive_algorithms_equal_the_lagrangian_polynomials() {
                 continue;
             }
             let n = model.joints.len();
-            let mech = mechanics::derive(&model);
+            let mech = hapticgen_codegen::derive(&model);
             let mut dag = Dag::new();
             // Every formulation of the recursions (they differ in the parameters they carry,
             // not in the values), the one `build` picks among them.

@@ -10,8 +10,9 @@
 
 use std::path::{Path, PathBuf};
 
-use hapticgen_codegen::model::{json_schema, load, JointKind, Model, Motion, Source, TaskSpec};
+use hapticgen_codegen::model::{json_schema, JointKind, Model, Motion, Source, TaskSpec};
 use hapticgen_codegen::Scalar;
+use hapticgen_codegen::{load, CheckedModel};
 use serde_json::Value as Json;
 
 const UPDATE_COMMAND: &str = "cargo run -p hapticgen -- schema > schema/model.schema.json";
@@ -43,7 +44,7 @@ fn shipped_models() -> Vec<PathBuf> {
 }
 
 /// Loads a model with its default variant and then with each of its variants.
-fn load_every_variant(name: &str, text: &str) -> Vec<Model> {
+fn load_every_variant(name: &str, text: &str) -> Vec<CheckedModel> {
     let source = Source { name, text };
     let first = load(&source, None).unwrap_or_else(|d| panic!("{name} does not load:\n{d}"));
     let mut models = vec![first.clone()];
@@ -260,7 +261,9 @@ fn good_models_load_with_every_variant_and_cover_every_feature() {
         let generated = hapticgen_codegen::generate_model(m.clone(), Scalar::F64);
         assert!(generated.file_text().contains(&format!("from {}", m.file)), "{}", m.file);
     }
-    let any = |what: &str, f: &dyn Fn(&Model) -> bool| assert!(all.iter().any(f), "no good model has {what}");
+    let any = |what: &str, f: &dyn Fn(&Model) -> bool| {
+        assert!(all.iter().any(|m| f(m)), "no good model has {what}")
+    };
     any("a spatial model", &|m| !m.planar);
     any("a tunable parameter", &|m| !m.tunable.is_empty());
     any("a prismatic joint", &|m| m.joints.iter().any(|j| j.kind == JointKind::Prismatic));
@@ -403,7 +406,7 @@ fn diagnostic_transcripts_in_the_guide_are_real() {
             [file, flag, v] if flag == "--variant" => (file, Some(v.as_str())),
             other => panic!("unsupported transcript command {other:?}"),
         };
-        let result = hapticgen_codegen::model::load_file(&repo_root().join(file), file, variant);
+        let result = hapticgen_codegen::load_file(&repo_root().join(file), file, variant);
         let shown = match result {
             Ok(_) => String::new(),
             Err(d) => format!("{d}\n"),

@@ -4,9 +4,8 @@
 
 use std::path::Path;
 
-use hapticgen_codegen::dynamics::mechanics;
 use hapticgen_codegen::dynamics::recursive::{self, PointQuantity, Quantity};
-use hapticgen_codegen::model::load_file;
+use hapticgen_codegen::load_file;
 use hapticgen_codegen::sym::dag::Dag;
 use hapticgen_codegen::sym::poly::Atom;
 
@@ -22,7 +21,7 @@ fn chosen_signs_keep_every_value_and_never_add_a_negation() {
         if !recursive::applies(&model) {
             continue;
         }
-        let mech = mechanics::derive(&model);
+        let mech = hapticgen_codegen::derive(&model);
         let mut quantities = vec![
             Quantity::InertiaMatrix,
             Quantity::CoriolisTimesQdot,

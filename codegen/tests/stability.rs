@@ -2,16 +2,15 @@
 //! on edited copies: bounds, verdicts and the diagnostic's position.
 
 use hapticgen_codegen::check::stability::{check_wall, WallCheck, WallVerdict};
-use hapticgen_codegen::dynamics::mechanics;
-use hapticgen_codegen::model::{self, Model};
+use hapticgen_codegen::model::Model;
 use hapticgen_codegen::Source;
 
 const PARALLEL: &str = include_str!("../../models/parallel_link_2dof.yaml");
 
 fn load(text: &str, variant: Option<&str>) -> (Model, WallCheck) {
-    let m = model::load(&Source { name: "rig.yaml", text }, variant).unwrap();
-    let wall = check_wall(&m, &mechanics::derive(&m)).expect("the model renders walls");
-    (m, wall)
+    let m = hapticgen_codegen::load(&Source { name: "rig.yaml", text }, variant).unwrap();
+    let wall = check_wall(&m, &hapticgen_codegen::derive(&m)).expect("the model renders walls");
+    (m.model, wall)
 }
 
 #[test]

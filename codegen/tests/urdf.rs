@@ -3,10 +3,11 @@
 
 use std::path::Path;
 
-use hapticgen_codegen::dynamics::mechanics::{self, Mechanics};
+use hapticgen_codegen::dynamics::mechanics::Mechanics;
 use hapticgen_codegen::eval::{evaluate, Evaluated, State};
-use hapticgen_codegen::model::{load, load_file, Model, Source};
+use hapticgen_codegen::model::{Model, Source};
 use hapticgen_codegen::urdf;
+use hapticgen_codegen::{load, load_file};
 
 fn root() -> &'static Path {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
@@ -54,7 +55,7 @@ fn spatial_models_round_trip_through_urdf() {
         assert_eq!(imported.joints.len(), original.joints.len());
         assert_eq!(imported.points.len(), original.points.len(), "{file}: points become links and back");
         assert_eq!(imported.frames.len(), original.frames.len(), "{file}: frames become links and back");
-        let (a, b) = (mechanics::derive(&original), mechanics::derive(&imported));
+        let (a, b) = (hapticgen_codegen::derive(&original), hapticgen_codegen::derive(&imported));
         for k in 0..20 {
             let t = f64::from(k);
             let q: Vec<f64> = original

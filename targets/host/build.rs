@@ -7,7 +7,7 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use hapticgen_codegen::{model, Scalar};
+use hapticgen_codegen::Scalar;
 
 /// FNV-1a, 64 bits (also implemented in `src/generated.rs`; both must agree).
 fn fingerprint(text: &str) -> u64 {
@@ -40,7 +40,7 @@ fn main() {
         println!("cargo:rerun-if-changed={}", path.display());
         let file_name = path.file_name().expect("a file").to_string_lossy().to_string();
         let display = format!("models/{file_name}");
-        let loaded = model::load_file(&path, &display, None).unwrap_or_else(|e| panic!("{e}"));
+        let loaded = hapticgen_codegen::load_file(&path, &display, None).unwrap_or_else(|e| panic!("{e}"));
         let variants: Vec<Option<String>> = if loaded.variants.is_empty() {
             vec![None]
         } else {
@@ -49,12 +49,12 @@ fn main() {
         for variant in variants {
             let module =
                 format!("{}{}", loaded.name, variant.as_ref().map(|v| format!("_{v}")).unwrap_or_default());
-            let model =
-                model::load_file(&path, &display, variant.as_deref()).unwrap_or_else(|e| panic!("{e}"));
+            let model = hapticgen_codegen::load_file(&path, &display, variant.as_deref())
+                .unwrap_or_else(|e| panic!("{e}"));
             let (n, m) = (model.joints.len(), model.task_dim());
             let type_name = hapticgen_codegen::emit::rig_type_name(&model);
             let mut anonymous = model.clone();
-            anonymous.file = String::new();
+            anonymous.model.file = String::new();
             let print =
                 fingerprint(&hapticgen_codegen::generate_model(anonymous, Scalar::F64).tokens.to_string());
             let text = hapticgen_codegen::generate_model(model, Scalar::F64).file_text();

@@ -120,7 +120,7 @@ impl Baseline for SerialBaseline {
 
 /// A shipped model file, loaded with one variant.
 fn load(file: &str, variant: Option<&str>) -> model::Model {
-    model::load_file(&workspace_root().join(file), file, variant).expect("shipped model")
+    hapticgen_codegen::load_file(&workspace_root().join(file), file, variant).expect("shipped model").model
 }
 
 /// Times every quantity of one rig against `baseline` (of the model `loaded`), printing one
@@ -211,8 +211,8 @@ fn full_tick() {
     // The baseline tick: the same estimator, renderer, safety rules and current loop, with the
     // rig terms and the law on nalgebra.
     let file = "models/parallel_link_2dof.yaml";
-    let loaded =
-        model::load_file(&workspace_root().join(file), file, Some("vertical")).expect("shipped model");
+    let loaded = hapticgen_codegen::load_file(&workspace_root().join(file), file, Some("vertical"))
+        .expect("shipped model");
     let baseline = PlanarBaseline::new(&loaded).expect("planar");
     let s = parallel_link_settings(ImpedanceLaw::Controller3);
     let drives = ParallelLink::DRIVES;

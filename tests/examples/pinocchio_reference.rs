@@ -12,9 +12,8 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use hapticgen_codegen::dynamics::mechanics;
 use hapticgen_codegen::eval::{evaluate, evaluate_frame, State};
-use hapticgen_codegen::{model, urdf};
+use hapticgen_codegen::urdf;
 use hapticgen_tests::check::random_state;
 use hapticgen_tests::workspace_root;
 use rand::rngs::SmallRng;
@@ -51,15 +50,15 @@ fn main() {
     for dir in ["models", "codegen/tests/good-models"] {
         for path in yaml_files(&root.join(dir)) {
             let display = format!("{dir}/{}", path.file_name().expect("a file").to_string_lossy());
-            let base = model::load_file(&path, &display, None).unwrap_or_else(|e| panic!("{e}"));
+            let base = hapticgen_codegen::load_file(&path, &display, None).unwrap_or_else(|e| panic!("{e}"));
             let variants: Vec<Option<String>> = if base.variants.is_empty() {
                 vec![None]
             } else {
                 base.variants.iter().cloned().map(Some).collect()
             };
             for variant in variants {
-                let m =
-                    model::load_file(&path, &display, variant.as_deref()).unwrap_or_else(|e| panic!("{e}"));
+                let m = hapticgen_codegen::load_file(&path, &display, variant.as_deref())
+                    .unwrap_or_else(|e| panic!("{e}"));
                 let text = match urdf::export(&m) {
                     Ok(text) => text,
                     Err(why) => {
@@ -74,7 +73,7 @@ fn main() {
                     variant.as_ref().map(|v| format!("_{v}")).unwrap_or_default()
                 );
                 std::fs::write(out.join(format!("{name}.urdf")), text).expect("writable");
-                let mech = mechanics::derive(&m);
+                let mech = hapticgen_codegen::derive(&m);
                 let params = m.nominal_parameters();
                 let gravity: Vec<f64> = m
                     .gravity

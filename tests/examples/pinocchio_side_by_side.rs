@@ -28,7 +28,7 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use hapticgen_codegen::model::{self, Model, TaskSpec};
+use hapticgen_codegen::model::{Model, TaskSpec};
 use hapticgen_codegen::urdf;
 use hapticgen_runtime::fused::FusedImpedance;
 use hapticgen_tests::check::random_state;
@@ -58,7 +58,9 @@ fn nanoseconds(states: usize, mut call: impl FnMut(usize)) -> f64 {
 }
 
 fn load(file: &str, variant: Option<&str>) -> Result<Model, String> {
-    model::load_file(&workspace_root().join(file), file, variant).map_err(|e| e.to_string())
+    hapticgen_codegen::load_file(&workspace_root().join(file), file, variant)
+        .map(|m| m.model)
+        .map_err(|e| e.to_string())
 }
 
 fn write_states(m: &Model, out: &Path) -> Result<(), String> {

@@ -139,7 +139,7 @@ impl SerialBaseline {
     /// Builds the baseline of a model whose bodies all move serially (every body hangs off
     /// its parent through at most one joint); `None` for direct poses and closed chains.
     pub fn new(model: &Model) -> Option<Self> {
-        if !model.passive.is_empty() || model.closures.is_some() {
+        if !model.passive.is_empty() || !model.closures.is_empty() {
             return None;
         }
         let parameters = model.nominal_parameters();

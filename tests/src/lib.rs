@@ -43,9 +43,9 @@ pub fn workspace_root() -> std::path::PathBuf {
 
 /// Shared checks of generated rigs against the numeric evaluator.
 pub mod check {
-    use hapticgen_codegen::dynamics::mechanics::{self, Mechanics};
+    use hapticgen_codegen::dynamics::mechanics::Mechanics;
     use hapticgen_codegen::eval::{evaluate, Evaluated, State};
-    use hapticgen_codegen::model::{self, Model};
+    use hapticgen_codegen::model::Model;
     use hapticgen_runtime::fused::FusedImpedance;
     use rand::rngs::SmallRng;
     use rand::{Rng, SeedableRng};
@@ -58,9 +58,10 @@ pub mod check {
     /// Loads the model a generated rig came from.
     pub fn load(info: &RigInfo) -> (Model, Mechanics) {
         let path = workspace_root().join(info.file);
-        let model = model::load_file(&path, info.file, info.variant).unwrap_or_else(|e| panic!("{e}"));
-        let mech = mechanics::derive(&model);
-        (model, mech)
+        let model =
+            hapticgen_codegen::load_file(&path, info.file, info.variant).unwrap_or_else(|e| panic!("{e}"));
+        let mech = hapticgen_codegen::derive(&model);
+        (model.model, mech)
     }
 
     /// A random state within the joint limits, velocities in ±2.

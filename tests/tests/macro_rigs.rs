@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use hapticgen_codegen::rig_macro::expansion_items;
-use hapticgen_codegen::{model, Scalar};
+use hapticgen_codegen::Scalar;
 use hapticgen_tests::check::EvaluatorCheck;
 use hapticgen_tests::{RigInfo, RigVisitor};
 use quote::quote;
@@ -70,7 +70,8 @@ fn macro_expansion_equals_the_build_helper_output() {
     ];
     for (input, file, variant, scalar) in cases {
         let expanded = expansion_items(input, manifest_dir).expect("the expansion is a module with items");
-        let loaded = model::load_file(&manifest_dir.join(file), file, variant).expect("valid model");
+        let loaded =
+            hapticgen_codegen::load_file(&manifest_dir.join(file), file, variant).expect("valid model");
         let built = hapticgen_codegen::generate_model(loaded, scalar).formatted_items();
         assert_eq!(expanded, built, "{file} {variant:?}");
         assert!(expanded.contains("impl ::hapticgen_runtime::RigModel<"));
@@ -79,7 +80,8 @@ fn macro_expansion_equals_the_build_helper_output() {
     let input = quote!(pub mod rig = "../models/parallel_link_2dof.yaml", variant = "vertical", fma = true);
     let expanded = expansion_items(input, manifest_dir).expect("the expansion is a module with items");
     let file = "../models/parallel_link_2dof.yaml";
-    let loaded = model::load_file(&manifest_dir.join(file), file, Some("vertical")).expect("valid model");
+    let loaded =
+        hapticgen_codegen::load_file(&manifest_dir.join(file), file, Some("vertical")).expect("valid model");
     let options = hapticgen_codegen::EmitOptions { fused_multiply_add: true };
     let built = hapticgen_codegen::generate_model_with(loaded, Scalar::F64, options).formatted_items();
     assert_eq!(expanded, built);

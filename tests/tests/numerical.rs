@@ -9,9 +9,9 @@
 #![allow(clippy::needless_range_loop)]
 
 use hapticgen_codegen::build;
-use hapticgen_codegen::dynamics::mechanics::{self, Mechanics};
+use hapticgen_codegen::dynamics::mechanics::Mechanics;
 use hapticgen_codegen::eval::{Full, State};
-use hapticgen_codegen::model::{self, Model};
+use hapticgen_codegen::model::Model;
 use hapticgen_runtime::fused::FusedImpedance;
 use hapticgen_tests::check::{eval_at, load, random_state, EvaluatorCheck, STATES};
 use hapticgen_tests::dense::{is_positive_definite, solve};
@@ -32,9 +32,9 @@ fn shipped() -> Vec<(String, Option<String>, Model, Mechanics)> {
     let mut out = Vec::new();
     for entry in build::models_in(&workspace_root().join("models"), "models").unwrap() {
         for v in entry.variants {
-            let m = model::load_file(&entry.path, &entry.display, v.as_deref()).unwrap();
-            let mech = mechanics::derive(&m);
-            out.push((entry.display.clone(), v, m, mech));
+            let m = hapticgen_codegen::load_file(&entry.path, &entry.display, v.as_deref()).unwrap();
+            let mech = hapticgen_codegen::derive(&m);
+            out.push((entry.display.clone(), v, m.model, mech));
         }
     }
     assert!(out.len() >= 3);
@@ -177,7 +177,7 @@ impl RigVisitor for EnergyConservation {
             let scale = e0.abs().max((0..N).map(|i| qd[i].abs()).fold(0.0, f64::max).powi(2) * 1e-3);
             // A closed chain's reduced dynamics hold where the loop closes: its run ends when
             // it leaves the box of joint limits (chosen inside the workspace).
-            let closed = model.closures.is_some();
+            let closed = !model.closures.is_empty();
             let inside =
                 |q: &[f64; N]| model.joints.iter().zip(q).all(|(j, x)| *x >= j.lower && *x <= j.upper);
             let mut steps = 0;

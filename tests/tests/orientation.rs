@@ -10,9 +10,9 @@
 #![allow(clippy::needless_range_loop)]
 
 use hapticgen_codegen::build;
-use hapticgen_codegen::dynamics::mechanics::{self, Mechanics};
+use hapticgen_codegen::dynamics::mechanics::Mechanics;
 use hapticgen_codegen::eval::{evaluate_frame, EvaluatedFrame, State};
-use hapticgen_codegen::model::{self, Model};
+use hapticgen_codegen::model::Model;
 use hapticgen_tests::check::{random_state, STATES};
 use hapticgen_tests::workspace_root;
 use rand::rngs::SmallRng;
@@ -23,13 +23,13 @@ fn with_frames() -> Vec<(String, Option<String>, Model, Mechanics)> {
     let mut out = Vec::new();
     for entry in build::models_in(&workspace_root().join("models"), "models").unwrap() {
         for v in entry.variants {
-            let m = model::load_file(&entry.path, &entry.display, v.as_deref()).unwrap();
+            let m = hapticgen_codegen::load_file(&entry.path, &entry.display, v.as_deref()).unwrap();
             if m.frames.is_empty() {
                 continue;
             }
-            let mech = mechanics::derive(&m);
+            let mech = hapticgen_codegen::derive(&m);
             assert_eq!(mech.frames.len(), m.frames.len());
-            out.push((entry.display.clone(), v, m, mech));
+            out.push((entry.display.clone(), v, m.model, mech));
         }
     }
     out
@@ -134,8 +134,8 @@ fn compare<const N: usize, S: Copy + Into<f64>>(
     angular_jacobian: impl Fn(&[S; N]) -> [[S; N]; 3],
 ) {
     let path = workspace_root().join(file);
-    let m = model::load_file(&path, file, None).unwrap();
-    let mech = mechanics::derive(&m);
+    let m = hapticgen_codegen::load_file(&path, file, None).unwrap();
+    let mech = hapticgen_codegen::derive(&m);
     let index = m.frames.iter().position(|f| f.name == frame).expect("the frame is declared");
     let params = m.nominal_parameters();
     let mut rng = SmallRng::seed_from_u64(29);

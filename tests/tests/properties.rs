@@ -17,9 +17,9 @@
 // Matrix checks read best with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
-use hapticgen_codegen::dynamics::mechanics::{self, Mechanics};
+use hapticgen_codegen::dynamics::mechanics::Mechanics;
 use hapticgen_codegen::eval::State;
-use hapticgen_codegen::model::{self, Model};
+use hapticgen_codegen::model::Model;
 use hapticgen_codegen::sym::dag::{Dag, Node, NodeId};
 use hapticgen_codegen::sym::poly::{Atom, AtomValues, Poly};
 use hapticgen_codegen::Source;
@@ -169,10 +169,10 @@ fn model_text(c: &Chain) -> String {
 
 fn load(c: &Chain) -> Result<(Model, Mechanics), TestCaseError> {
     let text = model_text(c);
-    let m = model::load(&Source { name: "random_chain.yaml", text: &text }, None)
+    let m = hapticgen_codegen::load(&Source { name: "random_chain.yaml", text: &text }, None)
         .map_err(|d| TestCaseError::fail(format!("a valid random model was rejected: {d}\n{text}")))?;
-    let mech = mechanics::derive(&m);
-    Ok((m, mech))
+    let mech = hapticgen_codegen::derive(&m);
+    Ok((m.model, mech))
 }
 
 fn eval(p: &Poly, q: &[f64], qd: &[f64]) -> f64 {

@@ -3,7 +3,7 @@
 //! A change to the generator or to a model shows up here as a diff to review
 //! (`cargo insta review`); CI runs with `INSTA_UPDATE=no`, so an unreviewed change fails.
 
-use hapticgen_codegen::{build, model, EmitOptions, Scalar};
+use hapticgen_codegen::{build, EmitOptions, Scalar};
 use hapticgen_tests::workspace_root;
 
 #[test]
@@ -13,7 +13,7 @@ fn generated_code_of_every_shipped_model() {
         let (path, display) = (&entry.path, &entry.display);
         for variant in entry.variants {
             for scalar in [Scalar::F64, Scalar::F32] {
-                let m = model::load_file(path, display, variant.as_deref()).unwrap();
+                let m = hapticgen_codegen::load_file(path, display, variant.as_deref()).unwrap();
                 let name = format!(
                     "{}{}_{}",
                     m.name,
@@ -35,7 +35,7 @@ fn generated_code_of_every_shipped_model() {
 fn generated_code_with_fused_multiply_adds() {
     for variant in ["vertical", "horizontal"] {
         let path = workspace_root().join("models/parallel_link_2dof.yaml");
-        let m = model::load_file(&path, "models/parallel_link_2dof.yaml", Some(variant)).unwrap();
+        let m = hapticgen_codegen::load_file(&path, "models/parallel_link_2dof.yaml", Some(variant)).unwrap();
         let options = EmitOptions { fused_multiply_add: true };
         let text = hapticgen_codegen::generate_model_with(m, Scalar::F32, options).file_text();
         insta::assert_snapshot!(format!("parallel_link_2dof_{variant}_f32_fma"), text);

@@ -6,15 +6,14 @@
 
 use hapticgen_codegen::dynamics::mechanics;
 use hapticgen_codegen::emit;
-use hapticgen_codegen::model;
 use hapticgen_codegen::sym::poly::Atom;
 use hapticgen_codegen::{EmitOptions, Scalar};
 use hapticgen_tests::workspace_root;
 
-fn parallel_link(variant: &str) -> (model::Model, mechanics::Mechanics) {
+fn parallel_link(variant: &str) -> (hapticgen_codegen::CheckedModel, mechanics::Mechanics) {
     let path = workspace_root().join("models/parallel_link_2dof.yaml");
-    let m = model::load_file(&path, "models/parallel_link_2dof.yaml", Some(variant)).unwrap();
-    let mech = mechanics::derive(&m);
+    let m = hapticgen_codegen::load_file(&path, "models/parallel_link_2dof.yaml", Some(variant)).unwrap();
+    let mech = hapticgen_codegen::derive(&m);
     (m, mech)
 }
 

@@ -31,6 +31,7 @@
 use crate::diag::Diagnostic;
 use crate::dynamics::mechanics::Mechanics;
 use crate::eval::State;
+use crate::math::eigen::symmetric_eigenvalues;
 use crate::model::positions::{PositionIndex, Segment};
 use crate::model::Model;
 
@@ -80,44 +81,6 @@ pub fn passive_stiffness(physical_damping: f64, virtual_damping: f64, period: f6
 /// operator (Gil et al.).
 pub fn stable_stiffness(physical_damping: f64, virtual_damping: f64, period: f64) -> f64 {
     2.0 * (physical_damping + virtual_damping) / period
-}
-
-/// Eigenvalues of a small symmetric matrix (cyclic Jacobi rotations).
-fn symmetric_eigenvalues(mut a: Vec<Vec<f64>>) -> Vec<f64> {
-    let n = a.len();
-    for _ in 0..100 {
-        let off: f64 = (0..n)
-            .flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j)))
-            .map(|(i, j)| a[i][j] * a[i][j])
-            .sum();
-        let diag: f64 = (0..n).map(|i| a[i][i] * a[i][i]).sum();
-        if off <= 1e-30 * diag.max(1e-300) {
-            break;
-        }
-        for p in 0..n {
-            for q in p + 1..n {
-                if a[p][q] == 0.0 {
-                    continue;
-                }
-                let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-                let t = if theta == 0.0 { 1.0 } else { t };
-                let c = 1.0 / (t * t + 1.0).sqrt();
-                let s = t * c;
-                for row in a.iter_mut() {
-                    let (akp, akq) = (row[p], row[q]);
-                    row[p] = c * akp - s * akq;
-                    row[q] = s * akp + c * akq;
-                }
-                let (row_p, row_q) = (a[p].clone(), a[q].clone());
-                for (k, (apk, aqk)) in row_p.into_iter().zip(row_q).enumerate() {
-                    a[p][k] = c * apk - s * aqk;
-                    a[q][k] = s * apk + c * aqk;
-                }
-            }
-        }
-    }
-    (0..n).map(|i| a[i][i]).collect()
 }
 
 /// The smallest eigenvalue of the task-space damping `(J B_q⁻¹ Jᵀ)⁻¹` at `q`: the physical

@@ -34,23 +34,10 @@
 //! which the runtime's checks treat as a fault (safe state). The model's joint limits
 //! should keep the actuated angles where the loop closes away from that boundary.
 
-use crate::dynamics::mechanics::{Derivation, Mechanics, PointKinematics};
-use crate::model::{Branch, Model};
+use super::kinematics::point_positions;
+use crate::model::{Branch, LoopClosure, Model};
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::{Atom, AtomValues, Poly};
-
-/// A closure as declared in the model file, with resolved indices.
-#[derive(Clone, Debug)]
-pub struct Declaration {
-    /// The closure's name.
-    pub name: String,
-    /// The two passive joints, as coordinates of the open tree.
-    pub joints: [usize; 2],
-    /// The two points (indices into the model's points).
-    pub points: [usize; 2],
-    /// Which assembly.
-    pub branch: Branch,
-}
 
 /// A problem with a declared closure, reported at `closures[closure].key`.
 #[derive(Clone, Debug)]
@@ -123,7 +110,7 @@ impl Closures {
     }
 
     /// Loop and row of a passive coordinate.
-    fn passive_slot(&self, coordinate: usize) -> Option<(usize, usize)> {
+    pub(crate) fn passive_slot(&self, coordinate: usize) -> Option<(usize, usize)> {
         self.loops
             .iter()
             .enumerate()
@@ -192,10 +179,10 @@ impl AtomValues for Nominal<'_> {
 
 /// Analyses declared closures: splits each point into centre and arm, checks that the
 /// elimination applies and that the loop closes at the middle of the actuated ranges.
-pub fn analyse(model: &Model, declarations: &[Declaration]) -> Result<Closures, Vec<Problem>> {
+pub fn analyse(model: &Model, declarations: &[LoopClosure]) -> Result<Closures, Vec<Problem>> {
     let n = model.joints.len();
     let total = model.tree_coordinates();
-    let positions = crate::dynamics::mechanics::point_positions(model);
+    let positions = point_positions(model);
     let parameters = model.nominal_parameters();
     let nominal = Nominal {
         q: model.joints.iter().map(|j| 0.5 * (j.lower + j.upper)).collect(),
@@ -503,106 +490,4 @@ pub fn install(dag: &mut Dag, closures: Option<&Closures>) -> Installed {
         }
     }
     out
-}
-
-type Matrix = Vec<Vec<Poly>>;
-
-fn mat_mul(a: &[Vec<Poly>], b: &[Vec<Poly>]) -> Matrix {
-    let cols = b.first().map_or(0, Vec::len);
-    a.iter()
-        .map(|row| {
-            (0..cols)
-                .map(|j| Poly::sum(&row.iter().zip(b).map(|(x, brow)| x.mul(&brow[j])).collect::<Vec<_>>()))
-                .collect()
-        })
-        .collect()
-}
-
-fn mat_vec(a: &[Vec<Poly>], v: &[Poly]) -> Vec<Poly> {
-    a.iter().map(|row| Poly::sum(&row.iter().zip(v).map(|(x, y)| x.mul(y)).collect::<Vec<_>>())).collect()
-}
-
-fn mat_add(a: &[Vec<Poly>], b: &[Vec<Poly>]) -> Matrix {
-    a.iter().zip(b).map(|(x, y)| x.iter().zip(y).map(|(p, q)| p.add(q)).collect()).collect()
-}
-
-fn transpose(a: &[Vec<Poly>]) -> Matrix {
-    let cols = a.first().map_or(0, Vec::len);
-    (0..cols).map(|j| a.iter().map(|row| row[j].clone()).collect()).collect()
-}
-
-/// Reduces the open tree's mechanics to the actuated coordinates (see the module docs).
-pub fn reduce(tree: Mechanics, closures: &Closures) -> Mechanics {
-    let n = closures.actuated;
-    let total = tree.joints;
-    // S = ∂q/∂q_a and Ṡ, as polynomials in the `Closure` atoms.
-    let entry = |i: usize, j: usize, rate: bool| -> Poly {
-        match closures.passive_slot(i) {
-            Some((c, r)) => Poly::atom(if rate {
-                closures.sensitivity_rate(c, r, j)
-            } else {
-                closures.sensitivity(c, r, j)
-            }),
-            None if !rate && i == j => Poly::constant(1.0),
-            None => Poly::zero(),
-        }
-    };
-    let s: Matrix = (0..total).map(|i| (0..n).map(|j| entry(i, j, false)).collect()).collect();
-    let s_dot: Matrix = (0..total).map(|i| (0..n).map(|j| entry(i, j, true)).collect()).collect();
-    let qd: Vec<Poly> = (0..n).map(|j| Poly::atom(Atom::Qd(j as u16))).collect();
-    let s_dot_qd = mat_vec(&s_dot, &qd);
-    let st = transpose(&s);
-    let d_s = mat_mul(&tree.inertia_matrix, &s);
-    let product = mat_mul(&st, &d_s);
-    // Symmetric by construction; mirrored so that rounding cannot make it otherwise.
-    let inertia_matrix: Matrix =
-        (0..n).map(|i| (0..n).map(|j| product[i.min(j)][i.max(j)].clone()).collect()).collect();
-    let coriolis_matrix =
-        mat_mul(&st, &mat_add(&mat_mul(&tree.coriolis_matrix, &s), &mat_mul(&tree.inertia_matrix, &s_dot)));
-    let tree_cqd: Vec<Poly> = tree
-        .coriolis_times_qdot
-        .iter()
-        .zip(mat_vec(&tree.inertia_matrix, &s_dot_qd))
-        .map(|(a, b)| a.add(&b))
-        .collect();
-    let coriolis_times_qdot = mat_vec(&st, &tree_cqd);
-    let gravity = mat_vec(&st, &tree.gravity);
-    let reduce_kinematics = |k: &PointKinematics| -> PointKinematics {
-        let jacobian = mat_mul(&k.jacobian, &s);
-        let jacobian_dot = mat_add(&mat_mul(&k.jacobian_dot, &s), &mat_mul(&k.jacobian, &s_dot));
-        let jacobian_dot_times_qdot = k
-            .jacobian_dot_times_qdot
-            .iter()
-            .zip(mat_vec(&k.jacobian, &s_dot_qd))
-            .map(|(a, b)| a.add(&b))
-            .collect();
-        PointKinematics {
-            name: k.name.clone(),
-            position: k.position.clone(),
-            jacobian,
-            jacobian_dot,
-            jacobian_dot_times_qdot,
-        }
-    };
-    Mechanics {
-        // The reduced polynomials contain the closure atoms: emitted as they are.
-        derivation: Derivation::Polynomial,
-        kinematics: Derivation::Polynomial,
-        task_point: None,
-        structured_coriolis: false,
-        joints: n,
-        task_dim: tree.task_dim,
-        inertia_matrix,
-        coriolis_matrix,
-        coriolis_times_qdot,
-        gravity,
-        damping: tree.damping[..n].to_vec(),
-        potential_energy: tree.potential_energy.clone(),
-        task: reduce_kinematics(&tree.task),
-        points: tree.points.iter().map(reduce_kinematics).collect(),
-        // Closed chains are planar, and frames are declared on spatial models only.
-        frames: Vec::new(),
-        closures: Some(closures.clone()),
-        tree: Some(Box::new(tree)),
-    }
 }

@@ -13,8 +13,12 @@
 
 use rustc_hash::FxHashMap as HashMap;
 
+use super::kinematics::{
+    body_frames, frame_kinematics, mat_vec, point_world, vec_add, FrameKinematics, PointKinematics,
+};
+use super::lagrangian::{christoffel, lagrangian_inertia_matrix};
 use crate::dynamics::recursive::{self, FrameQuantity, PointQuantity, Quantity};
-use crate::model::{JointKind, Model, Motion, TaskSpec};
+use crate::model::{Model, TaskSpec};
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::{Atom, Poly};
 
@@ -40,33 +44,6 @@ pub enum Derivation {
     Polynomial,
     /// With the recursive algorithms of [`crate::dynamics::recursive`] on the expression DAG.
     Recursive,
-}
-
-/// Kinematics of one point: position and its derivatives.
-#[derive(Clone, Debug)]
-pub struct PointKinematics {
-    /// Point name (`task` for the task coordinates).
-    pub name: String,
-    /// Position, one polynomial per coordinate.
-    pub position: Vec<Poly>,
-    /// Jacobian, rows × joints.
-    pub jacobian: Vec<Vec<Poly>>,
-    /// Time derivative of the Jacobian.
-    pub jacobian_dot: Vec<Vec<Poly>>,
-    /// `J̇ q̇`.
-    pub jacobian_dot_times_qdot: Vec<Poly>,
-}
-
-/// Orientation of one named frame (spatial models).
-#[derive(Clone, Debug)]
-pub struct FrameKinematics {
-    /// Frame name.
-    pub name: String,
-    /// Rotation matrix of the frame in the base frame, 3 × 3.
-    pub rotation: Vec<Vec<Poly>>,
-    /// Angular-velocity Jacobian in base-frame coordinates, 3 × joints: `ω = J_ω q̇`, column
-    /// `k` being `vee(∂R/∂q_k · Rᵀ)`.
-    pub angular_jacobian: Vec<Vec<Poly>>,
 }
 
 /// All derived quantities of a model.
@@ -111,190 +88,8 @@ pub struct Mechanics {
     pub tree: Option<Box<Mechanics>>,
 }
 
-type Vec3 = [Poly; 3];
-type Mat3 = [[Poly; 3]; 3];
-
-fn constant_matrix(m: [[f64; 3]; 3]) -> Mat3 {
-    m.map(|row| row.map(Poly::constant))
-}
-
-fn identity() -> Mat3 {
-    constant_matrix([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
-}
-
-fn mat_mul(a: &Mat3, b: &Mat3) -> Mat3 {
-    std::array::from_fn(|i| {
-        std::array::from_fn(|j| Poly::sum(&(0..3).map(|k| a[i][k].mul(&b[k][j])).collect::<Vec<_>>()))
-    })
-}
-
-fn mat_vec(a: &Mat3, v: &Vec3) -> Vec3 {
-    std::array::from_fn(|i| Poly::sum(&(0..3).map(|k| a[i][k].mul(&v[k])).collect::<Vec<_>>()))
-}
-
-fn transpose(a: &Mat3) -> Mat3 {
-    std::array::from_fn(|i| std::array::from_fn(|j| a[j][i].clone()))
-}
-
-fn vec_add(a: &Vec3, b: &Vec3) -> Vec3 {
-    std::array::from_fn(|i| a[i].add(&b[i]))
-}
-
-/// Rotation by `q_j` about the unit axis `u`: `I + sin q [u]× + (1 − cos q) [u]×²`.
-fn axis_rotation(u: [f64; 3], joint: u16) -> Mat3 {
-    let s = Poly::atom(Atom::Sin(joint));
-    let c = Poly::atom(Atom::Cos(joint));
-    let one_minus_c = Poly::constant(1.0).sub(&c);
-    let k = [[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]];
-    let mut k2 = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            k2[i][j] = (0..3).map(|l| k[i][l] * k[l][j]).sum();
-        }
-    }
-    std::array::from_fn(|i| {
-        std::array::from_fn(|j| {
-            let id = if i == j { 1.0 } else { 0.0 };
-            Poly::constant(id).add(&s.scale(k[i][j])).add(&one_minus_c.scale(k2[i][j]))
-        })
-    })
-}
-
-struct Frame {
-    origin: Vec3,
-    rotation: Mat3,
-}
-
-/// Body frames, in dependency order, over all coordinates of the open tree.
-fn body_frames(model: &Model) -> Vec<Frame> {
-    let dof = |j: usize| j as u16;
-    let mut frames: Vec<Frame> = Vec::with_capacity(model.bodies.len());
-    let base = || Frame { origin: [Poly::zero(), Poly::zero(), Poly::zero()], rotation: identity() };
-    for body in &model.bodies {
-        let frame = match &body.motion {
-            Motion::Serial { parent, xyz, rotation, joint, tail } => {
-                let parent_frame = match parent {
-                    Some(p) => &frames[*p],
-                    None => &base(),
-                };
-                let offset_rotation = mat_mul(&parent_frame.rotation, &constant_matrix(*rotation));
-                let mut origin = vec_add(&parent_frame.origin, &mat_vec(&parent_frame.rotation, xyz));
-                let rotation = match joint {
-                    None => offset_rotation,
-                    Some(j) => {
-                        let (kind, axis) = model.coordinate_axis(*j);
-                        match kind {
-                            JointKind::Revolute => mat_mul(&offset_rotation, &axis_rotation(axis, dof(*j))),
-                            JointKind::Prismatic => {
-                                let q = Poly::atom(Atom::Q(dof(*j)));
-                                let slide: Vec3 = axis.map(|a| q.scale(a));
-                                origin = vec_add(&origin, &mat_vec(&offset_rotation, &slide));
-                                offset_rotation
-                            }
-                        }
-                    }
-                };
-                match tail {
-                    None => Frame { origin, rotation },
-                    Some(t) => Frame {
-                        origin: vec_add(&origin, &mat_vec(&rotation, &t.xyz)),
-                        rotation: mat_mul(&rotation, &constant_matrix(t.rotation)),
-                    },
-                }
-            }
-            Motion::Direct { origin_body, point, angle_joint } => {
-                let carrier = match origin_body {
-                    Some(b) => &frames[*b],
-                    None => &base(),
-                };
-                Frame {
-                    origin: vec_add(&carrier.origin, &mat_vec(&carrier.rotation, point)),
-                    rotation: axis_rotation([0.0, 0.0, 1.0], dof(*angle_joint)),
-                }
-            }
-        };
-        frames.push(frame);
-    }
-    frames
-}
-
-/// Angular-velocity Jacobian columns of a frame with rotation `rotation` over `n`
-/// coordinates: `vee(∂R/∂q_k · Rᵀ)` (the skew-symmetric `Ṙ Rᵀ = [ω]×`).
-fn angular_jacobian_columns(rotation: &Mat3, n: usize) -> Vec<Vec3> {
-    let rotation_t = transpose(rotation);
-    (0..n)
-        .map(|k| {
-            let d_rotation: Mat3 = rotation.clone().map(|row| row.map(|p| p.diff_q(k as u16)));
-            let w = mat_mul(&d_rotation, &rotation_t);
-            [w[2][1].clone(), w[0][2].clone(), w[1][0].clone()]
-        })
-        .collect()
-}
-
-/// Rotation and angular-velocity Jacobian of named frame `index`, over all tree coordinates.
-fn frame_kinematics(model: &Model, frames: &[Frame], index: usize) -> FrameKinematics {
-    let frame = &model.frames[index];
-    let n = model.tree_coordinates();
-    let offset = constant_matrix(frame.rotation);
-    let rotation = match frame.body {
-        Some(b) => mat_mul(&frames[b].rotation, &offset),
-        None => offset,
-    };
-    // The fixed offset does not change ω: ∂(R_b R_o)/∂q (R_b R_o)ᵀ = ∂R_b/∂q R_bᵀ.
-    let columns = match frame.body {
-        Some(b) => angular_jacobian_columns(&frames[b].rotation, n),
-        None => vec![[Poly::zero(), Poly::zero(), Poly::zero()]; n],
-    };
-    FrameKinematics {
-        name: frame.name.clone(),
-        rotation: rotation.iter().map(|row| row.to_vec()).collect(),
-        angular_jacobian: (0..3).map(|i| columns.iter().map(|c| c[i].clone()).collect()).collect(),
-    }
-}
-
-/// The world position of named point `index` (2 or 3 entries) over all tree coordinates.
-fn point_world(model: &Model, frames: &[Frame], index: usize) -> Vec<Poly> {
-    let point = &model.points[index];
-    let world = match point.body {
-        Some(b) => vec_add(&frames[b].origin, &mat_vec(&frames[b].rotation, &point.position)),
-        None => point.position.clone(),
-    };
-    world[..model.dim()].to_vec()
-}
-
-/// The world positions of every named point, polynomials over all coordinates of the open
-/// tree (a closed chain's passive joints included).
-pub fn point_positions(model: &Model) -> Vec<Vec<Poly>> {
-    let frames = body_frames(model);
-    (0..model.points.len()).map(|i| point_world(model, &frames, i)).collect()
-}
-
-/// Derives every quantity of the model as polynomials (what the evaluator, the simulator and
-/// the checks use), and chooses the derivation of the emitted code.
-pub fn derive(model: &Model) -> Mechanics {
-    derive_with(model, true)
-}
-
-/// Derives what emission needs: on the recursive path the polynomials of `D`, `C`, `C q̇` and
-/// `g` are not expanded at all (the emitter builds them recursively), which is what keeps
-/// generation of long chains fast.
-pub fn derive_for_emission(model: &Model) -> Mechanics {
-    derive_with(model, false)
-}
-
-fn derive_with(model: &Model, all_polynomials: bool) -> Mechanics {
-    let mut mechanics = derive_tree(model, all_polynomials);
-    if let Some(closures) = &model.closures {
-        // A closed chain: reduced to the actuated coordinates as polynomials (see
-        // `crate::dynamics::closure`); the emitted code uses those polynomials as they are.
-        return crate::dynamics::closure::reduce(mechanics, closures);
-    }
-    choose_derivations(model, &mut mechanics);
-    mechanics
-}
-
 /// The mechanics of the open tree, in all coordinates.
-fn derive_tree(model: &Model, all_polynomials: bool) -> Mechanics {
+pub(crate) fn derive_tree(model: &Model, all_polynomials: bool) -> Mechanics {
     let n = model.tree_coordinates();
     let dof = |j: usize| j as u16;
     let frames = body_frames(model);
@@ -386,7 +181,7 @@ fn derive_tree(model: &Model, all_polynomials: bool) -> Mechanics {
 /// control-tick quantities (`D`, `C q̇`, `g`, `J`, `J̇ q̇` with shared subexpressions, after
 /// merging sums as the emitter does) take the fewest operations. Long chains take the
 /// recursive dynamics without comparison: their polynomials are not even expanded.
-fn choose_derivations(model: &Model, mechanics: &mut Mechanics) {
+pub(crate) fn choose_derivations(model: &Model, mechanics: &mut Mechanics) {
     let both = [Derivation::Polynomial, Derivation::Recursive];
     let serial = recursive::applies(model);
     let dynamics: &[Derivation] = if !serial {
@@ -428,73 +223,6 @@ fn choose_derivations(model: &Model, mechanics: &mut Mechanics) {
         mechanics.kinematics = k;
         mechanics.structured_coriolis = structured;
     }
-}
-
-/// `D` from the kinetic energy of every body plus the reflected rotor inertias.
-fn lagrangian_inertia_matrix(model: &Model, frames: &[Frame]) -> Vec<Vec<Poly>> {
-    let n = model.tree_coordinates();
-    let dof = |j: usize| j as u16;
-    let mut inertia_terms: Vec<Vec<Vec<Poly>>> = vec![vec![Vec::new(); n]; n];
-    for (body, frame) in model.bodies.iter().zip(frames) {
-        let com_world = vec_add(&frame.origin, &mat_vec(&frame.rotation, &body.com));
-        let linear: Vec<Vec3> =
-            (0..n).map(|k| std::array::from_fn(|i| com_world[i].diff_q(dof(k)))).collect();
-        // Angular-velocity Jacobian columns: vee(∂R/∂q_k · Rᵀ).
-        let rotation_t = transpose(&frame.rotation);
-        let angular = angular_jacobian_columns(&frame.rotation, n);
-        let inertia_world = mat_mul(&mat_mul(&frame.rotation, &body.inertia), &rotation_t);
-        for a in 0..n {
-            for b in a..n {
-                let dot: Vec<Poly> = (0..3).map(|i| linear[a][i].mul(&linear[b][i])).collect();
-                inertia_terms[a][b].push(body.mass.mul(&Poly::sum(&dot)));
-                let iw_b = mat_vec(&inertia_world, &angular[b]);
-                let rot: Vec<Poly> = (0..3).map(|i| angular[a][i].mul(&iw_b[i])).collect();
-                inertia_terms[a][b].push(Poly::sum(&rot));
-            }
-        }
-    }
-    let mut inertia_matrix = vec![vec![Poly::zero(); n]; n];
-    for a in 0..n {
-        for b in a..n {
-            let mut entry = Poly::sum(&inertia_terms[a][b]);
-            if let (true, Some(joint)) = (a == b, model.joints.get(a)) {
-                let drive = &joint.drive;
-                entry = entry
-                    .add(&Poly::constant(drive.gear_ratio * drive.gear_ratio * drive.motor.rotor_inertia));
-            }
-            inertia_matrix[a][b] = entry.clone();
-            inertia_matrix[b][a] = entry;
-        }
-    }
-    inertia_matrix
-}
-
-/// `C` from the Christoffel symbols of `D`, and `C q̇`.
-fn christoffel(inertia_matrix: &[Vec<Poly>]) -> (Vec<Vec<Poly>>, Vec<Poly>) {
-    let n = inertia_matrix.len();
-    let dof = |j: usize| j as u16;
-    let d_inertia: Vec<Vec<Vec<Poly>>> = (0..n)
-        .map(|i| inertia_matrix.iter().map(|row| row.iter().map(|p| p.diff_q(dof(i))).collect()).collect())
-        .collect();
-    let qd = |i: usize| Poly::atom(Atom::Qd(dof(i)));
-    let mut coriolis_matrix = vec![vec![Poly::zero(); n]; n];
-    for k in 0..n {
-        for j in 0..n {
-            let terms: Vec<Poly> = (0..n)
-                .map(|i| {
-                    let christoffel =
-                        d_inertia[i][k][j].add(&d_inertia[j][k][i]).sub(&d_inertia[k][i][j]).scale(0.5);
-                    christoffel.mul(&qd(i))
-                })
-                .collect();
-            coriolis_matrix[k][j] = Poly::sum(&terms);
-        }
-    }
-    let coriolis_times_qdot: Vec<Poly> = coriolis_matrix
-        .iter()
-        .map(|row| Poly::sum(&row.iter().enumerate().map(|(j, c)| c.mul(&qd(j))).collect::<Vec<_>>()))
-        .collect();
-    (coriolis_matrix, coriolis_times_qdot)
 }
 
 impl Mechanics {

@@ -1,10 +1,44 @@
 //! The mechanics of a model, derived symbolically: the terms of the paper's eq. (1)–(2),
 //! `D(q) q̈ + C(q, q̇) q̇ + g(q) + B q̇ = τ`, and the task kinematics `p(q)`, `J(q)`, `J̇ q̇`.
 //!
-//! [`mechanics`] holds the derived quantities and the polynomial derivation (Lagrangian,
-//! Christoffel symbols); [`recursive`] runs Newton–Euler and composite-rigid-body on the
-//! expression DAG; [`closure`] eliminates the passive joints of closed chains.
+//! [`kinematics`] composes the body frames; [`lagrangian`] and [`recursive`] are the two
+//! derivations of the dynamics (expanded polynomials; Newton–Euler and composite rigid body on
+//! the expression DAG); [`mechanics`] holds the derived quantities and builds them into a DAG
+//! by either derivation; [`closure`] analyses a closed chain's loops and [`reduction`] reduces
+//! the open tree's mechanics to the actuated coordinates.
 
 pub mod closure;
+pub mod kinematics;
+mod lagrangian;
 pub mod mechanics;
 pub mod recursive;
+mod reduction;
+
+use crate::model::Model;
+use closure::Closures;
+use mechanics::{choose_derivations, derive_tree, Mechanics};
+use reduction::reduce;
+
+/// Derives every quantity of the model as polynomials (what the evaluator, the simulator and
+/// the checks use), and chooses the derivation of the emitted code.
+pub fn derive(model: &Model, closures: Option<&Closures>) -> Mechanics {
+    derive_with(model, closures, true)
+}
+
+/// Derives what emission needs: on the recursive path the polynomials of `D`, `C`, `C q̇` and
+/// `g` are not expanded at all (the emitter builds them recursively), which is what keeps
+/// generation of long chains fast.
+pub fn derive_for_emission(model: &Model, closures: Option<&Closures>) -> Mechanics {
+    derive_with(model, closures, false)
+}
+
+fn derive_with(model: &Model, closures: Option<&Closures>, all_polynomials: bool) -> Mechanics {
+    let mut mechanics = derive_tree(model, all_polynomials);
+    if let Some(closures) = closures {
+        // A closed chain: reduced to the actuated coordinates as polynomials (see
+        // `crate::dynamics::closure`); the emitted code uses those polynomials as they are.
+        return reduce(mechanics, closures);
+    }
+    choose_derivations(model, &mut mechanics);
+    mechanics
+}

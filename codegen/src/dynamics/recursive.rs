@@ -24,7 +24,8 @@
 
 use rustc_hash::FxHashMap as HashMap;
 
-use crate::model::validate::{mat3_mul, snap_entry};
+use crate::math::matrix::{mat3_mul, mat3_vec, Numbers, IDENTITY};
+use crate::math::rotation::snap_entry;
 use crate::model::{JointKind, Model, Motion};
 use crate::sym::dag::{Dag, Node, NodeId};
 use crate::sym::poly::{Atom, Poly};
@@ -77,7 +78,7 @@ pub enum PointQuantity {
 /// one joint or a weld, and no loop closes. Direct poses (closed chains written as absolute
 /// angles) and closures (reduced as polynomials, see `crate::dynamics::closure`) do not.
 pub fn applies(model: &Model) -> bool {
-    model.closures.is_none() && model.bodies.iter().all(|b| matches!(b.motion, Motion::Serial { .. }))
+    model.closures.is_empty() && model.bodies.iter().all(|b| matches!(b.motion, Motion::Serial { .. }))
 }
 
 type V3 = [NodeId; 3];
@@ -234,7 +235,6 @@ fn const_mat_poly_vec(a: &[[f64; 3]; 3], v: &[Poly; 3]) -> [Poly; 3] {
 }
 
 fn links(model: &Model) -> Vec<Link> {
-    const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     let zero = || [Poly::zero(), Poly::zero(), Poly::zero()];
     // Each body's tail (the fixed transform after its joint), to be folded into its children.
     let tails: Vec<([[f64; 3]; 3], [Poly; 3])> = model
@@ -258,7 +258,7 @@ fn links(model: &Model) -> Vec<Link> {
                 Some(p) => tails[*p].clone(),
                 None => (IDENTITY, zero()),
             };
-            let offset_rotation = mat3_mul(parent_rotation, *rotation);
+            let offset_rotation = mat3_mul(&mut Numbers, &parent_rotation, rotation);
             let rotated = const_mat_poly_vec(&parent_rotation, xyz);
             let offset = std::array::from_fn(|i| parent_offset[i].add(&rotated[i]));
             let joint = joint.map(|j| (j, model.joints[j].kind, model.joints[j].axis));
@@ -440,7 +440,7 @@ impl Builder<'_> {
         let j = joint as u16;
         let (s, c) = (self.dag.input(Atom::Sin(j)), self.dag.input(Atom::Cos(j)));
         let k = [[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]];
-        let k2: [[f64; 3]; 3] = mat3_mul(k, k);
+        let k2: [[f64; 3]; 3] = mat3_mul(&mut Numbers, &k, &k);
         // Entry (i, j) of R₀ · Rot = Σ_l R₀[i][l] (δ_lj + K²_lj + K_lj s − K²_lj c).
         std::array::from_fn(|i| {
             std::array::from_fn(|col| {
@@ -506,7 +506,7 @@ impl<'d> Recursion<'d> {
                 Some((j, JointKind::Revolute, axis)) => b.joint_rotation(&link.offset_rotation, axis, j),
                 Some((j, JointKind::Prismatic, axis)) => {
                     let q = b.dag.input(Atom::Q(j as u16));
-                    let direction = b.const3(mat_vec_f64(&link.offset_rotation, axis));
+                    let direction = b.const3(mat3_vec(&mut Numbers, &link.offset_rotation, &axis));
                     let slide = b.scale3(q, &direction);
                     offset = b.add3(&offset, &slide);
                     link.offset_rotation.map(|row| row.map(|x| b.dag.constant(x)))
@@ -817,7 +817,7 @@ impl<'d> Recursion<'d> {
         match what {
             FrameQuantity::Orientation => {
                 // Joint frame · DH tail · the frame's fixed rotation, column by column.
-                let fixed = mat3_mul(self.links[body].tail.0, frame.rotation);
+                let fixed = mat3_mul(&mut Numbers, &self.links[body].tail.0, &frame.rotation);
                 let columns: [V3; 3] = std::array::from_fn(|c| {
                     let column = self.b.const3([fixed[0][c], fixed[1][c], fixed[2][c]]);
                     let column = self.b.mat_vec(&frames[body].0, &column);
@@ -979,10 +979,6 @@ impl<'d> Recursion<'d> {
         }
         d
     }
-}
-
-fn mat_vec_f64(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
-    std::array::from_fn(|i| (0..3).map(|k| m[i][k] * v[k]).sum())
 }
 
 /// The partial derivative of each of `roots` with respect to `q_joint`, built in the DAG.

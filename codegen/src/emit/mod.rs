@@ -302,12 +302,12 @@ enum Precedence {
 }
 
 impl<'m> BodyEmitter<'m> {
-    fn new(model: &'m Model, scalar: Scalar, options: EmitOptions) -> Self {
+    fn new(model: &'m Model, mech: &Mechanics, scalar: Scalar, options: EmitOptions) -> Self {
         // A closed chain's passive coordinates enter every polynomial as nodes computed from
         // the actuated ones (`crate::dynamics::closure`), named after their role.
         let mut dag = Dag::new();
         let hints =
-            crate::dynamics::closure::install(&mut dag, model.closures.as_ref()).hints.into_iter().collect();
+            crate::dynamics::closure::install(&mut dag, mech.closures.as_ref()).hints.into_iter().collect();
         Self {
             dag,
             naming: Naming { model, externals: Vec::new() },
@@ -734,7 +734,7 @@ pub fn function(
     options: EmitOptions,
     spec: &FunctionSpec<'_>,
 ) -> (TokenStream, OpCounts) {
-    let mut body = BodyEmitter::new(model, scalar, options);
+    let mut body = BodyEmitter::new(model, mech, scalar, options);
     let choice = cheapest_choice(model, mech, &spec.outputs, options);
     let roots = output_roots_with(&mut body.dag, model, mech, &spec.outputs, choice);
     let doc = format!("{}{}", spec.doc, derivation_note(&spec.outputs, choice));
@@ -989,7 +989,7 @@ pub fn tick_counts_with(
     include_position: bool,
     options: EmitOptions,
 ) -> OpCounts {
-    let mut body = BodyEmitter::new(model, Scalar::F64, options);
+    let mut body = BodyEmitter::new(model, mech, Scalar::F64, options);
     let roots = output_roots(&mut body.dag, model, mech, &tick_outputs(mech, include_position));
     body.dag.optimised_count_with(&roots, options.fused_multiply_add)
 }
@@ -1000,7 +1000,7 @@ fn terms_function(
     scalar: Scalar,
     options: EmitOptions,
 ) -> (TokenStream, OpCounts) {
-    let mut body = BodyEmitter::new(model, scalar, options);
+    let mut body = BodyEmitter::new(model, mech, scalar, options);
     let roots = output_roots(&mut body.dag, model, mech, &tick_outputs(mech, true));
     let (statements, values, counts) = body.emit(&roots, "terms");
     let n = mech.joints;
@@ -1046,11 +1046,12 @@ fn terms_function(
 /// A closed chain's `closure_margin` method (see `crate::dynamics::closure::Installed::margins`).
 fn closure_margin_function(
     model: &Model,
+    mech: &Mechanics,
     scalar: Scalar,
     options: EmitOptions,
 ) -> Option<(TokenStream, OpCounts)> {
-    let closures = model.closures.as_ref()?;
-    let mut body = BodyEmitter::new(model, scalar, options);
+    let closures = mech.closures.as_ref()?;
+    let mut body = BodyEmitter::new(model, mech, scalar, options);
     // Installing again into the same DAG re-interns the same nodes: it only reports them.
     let roots = crate::dynamics::closure::install(&mut body.dag, Some(closures)).margins;
     let (statements, values, counts) = body.emit(&roots, "closure_margin");
@@ -1074,7 +1075,12 @@ fn closure_margin_function(
 }
 
 /// Emits every item of a rig: the struct, its methods and the `RigModel` implementation.
-pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar, options: EmitOptions) -> (TokenStream, Stats) {
+pub fn items(
+    model: &crate::CheckedModel,
+    mech: &Mechanics,
+    scalar: Scalar,
+    options: EmitOptions,
+) -> (TokenStream, Stats) {
     let s = scalar.tokens();
     let n = unsuffixed(mech.joints);
     let m = unsuffixed(mech.task_dim);
@@ -1091,14 +1097,14 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar, options: EmitOptio
     let (terms, tick) = terms_function(model, mech, scalar, options);
     stats.functions.push(("terms".into(), tick));
     methods.extend(terms);
-    if let Some((margin, counts)) = closure_margin_function(model, scalar, options) {
+    if let Some((margin, counts)) = closure_margin_function(model, mech, scalar, options) {
         stats.functions.push(("closure_margin".into(), counts));
         methods.extend(margin);
     }
     let fused = fused_impl(model, mech, scalar, options, &mut stats);
 
     // Damping depends on tunable parameters at most.
-    let mut damping_body = BodyEmitter::new(model, scalar, options);
+    let mut damping_body = BodyEmitter::new(model, mech, scalar, options);
     let damping_roots: Vec<NodeId> = mech.damping.iter().map(|p| damping_body.dag.polynomial(p)).collect();
     let (damping_statements, damping_values, _) = damping_body.emit(&damping_roots, "damping");
 
@@ -1161,7 +1167,7 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar, options: EmitOptio
             }
         }
     });
-    let gains = model.current_loop_designs.iter().map(|d| {
+    let gains = model.analyses.current_loop_designs.iter().map(|d| {
         let (kp, ki, t, beta) = (
             scalar.literal(d.kp),
             scalar.literal(d.ki),
@@ -1191,7 +1197,7 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar, options: EmitOptio
                 cl.anti_alias_filter_order, cl.anti_alias_cutoff_hz
             ),
         ];
-        for (j, d) in model.joints.iter().zip(&model.current_loop_designs) {
+        for (j, d) in model.joints.iter().zip(&model.analyses.current_loop_designs) {
             lines.push(String::new());
             lines.push(format!(
                 " Joint `{}`: R = {} Ω, L = {:e} H; achieved bandwidth {:.1} Hz, dominant damping ratio {:.3}.",
@@ -1217,7 +1223,7 @@ pub fn items(model: &Model, mech: &Mechanics, scalar: Scalar, options: EmitOptio
             .map(|d| format!(": {}", d.trim().trim_end_matches('.')))
             .unwrap_or_default()
     );
-    let closure_doc: Vec<String> = match &model.closures {
+    let closure_doc: Vec<String> = match &mech.closures {
         None => Vec::new(),
         Some(c) => {
             let loops: Vec<String> = c
@@ -1370,7 +1376,7 @@ fn fused_impl(
     ];
     let mut methods = TokenStream::new();
     for (law, name, sensed) in laws {
-        let mut body = BodyEmitter::new(model, scalar, options);
+        let mut body = BodyEmitter::new(model, mech, scalar, options);
         for kind in External::ALL {
             for k in 0..m_usize {
                 let kk = unsuffixed(k);

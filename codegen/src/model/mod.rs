@@ -7,8 +7,9 @@
 //! the file, line, column and key path of the offending value.
 
 pub mod positions;
+mod resolve;
 pub mod schema;
-pub(crate) mod validate;
+mod types;
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -19,8 +20,8 @@ use crate::diag::{Diagnostic, Diagnostics};
 use crate::sym::poly::Poly;
 use positions::{display_path, KeyPath, PositionIndex, Segment};
 pub use schema::{Branch, Drive, JointKind, ModelFile, Rendering, Sensor};
-pub use validate::{
-    FixedTransform, Model, Motion, PassiveJoint, ResolvedBody, ResolvedFrame, ResolvedJoint,
+pub use types::{
+    FixedTransform, LoopClosure, Model, Motion, PassiveJoint, ResolvedBody, ResolvedFrame, ResolvedJoint,
     ResolvedParameter, ResolvedPoint, TaskSpec,
 };
 
@@ -82,19 +83,40 @@ impl Locator<'_> {
 
 /// Reads and resolves a model file from disk. `display` names it in diagnostics.
 pub fn load_file(path: &Path, display: &str, variant: Option<&str>) -> Result<Model, Diagnostics> {
-    let text = std::fs::read_to_string(path).map_err(|e| Diagnostic {
-        file: display.to_string(),
-        line: 1,
-        column: 1,
-        path: String::new(),
-        message: format!("cannot read the model file: {e}"),
-        hint: None,
-    })?;
+    let text = read_file(path, display)?;
     load(&Source { name: display, text: &text }, variant)
 }
 
+/// The text of a model file; an unreadable file is a diagnostic naming it.
+pub(crate) fn read_file(path: &Path, display: &str) -> Result<String, Diagnostics> {
+    std::fs::read_to_string(path).map_err(|e| {
+        Diagnostic {
+            file: display.to_string(),
+            line: 1,
+            column: 1,
+            path: String::new(),
+            message: format!("cannot read the model file: {e}"),
+            hint: None,
+        }
+        .into()
+    })
+}
+
 /// Parses, applies the variant (the named one, else the model's default) and validates.
+///
+/// This is the model alone; the front ends load through [`crate::load`], which also runs the
+/// model-level analyses ([`crate::check`]).
 pub fn load(source: &Source<'_>, variant: Option<&str>) -> Result<Model, Diagnostics> {
+    load_then(source, variant, |model, _| Ok(model))
+}
+
+/// [`load`], then `then` on the model and the locator of its file (the analyses that report
+/// at the file's lines); diagnostics of both are kept inside the file.
+pub(crate) fn load_then<T>(
+    source: &Source<'_>,
+    variant: Option<&str>,
+    then: impl FnOnce(Model, &Locator<'_>) -> Result<T, Diagnostics>,
+) -> Result<T, Diagnostics> {
     if source.text.len() > MAX_MODEL_BYTES {
         return Err(Diagnostic {
             file: source.name.to_string(),
@@ -110,7 +132,7 @@ pub fn load(source: &Source<'_>, variant: Option<&str>) -> Result<Model, Diagnos
         }
         .into());
     }
-    load_unclamped(source, variant).map_err(|mut diagnostics| {
+    load_unclamped(source, variant, then).map_err(|mut diagnostics| {
         let lines = line_lengths(source.text);
         for d in &mut diagnostics.0 {
             (d.line, d.column) = clamp_position(&lines, d.line, d.column);
@@ -161,7 +183,11 @@ fn clamp_position(lines: &[usize], line: usize, column: usize) -> (usize, usize)
     (line, column.clamp(1, width))
 }
 
-fn load_unclamped(source: &Source<'_>, variant: Option<&str>) -> Result<Model, Diagnostics> {
+fn load_unclamped<T>(
+    source: &Source<'_>,
+    variant: Option<&str>,
+    then: impl FnOnce(Model, &Locator<'_>) -> Result<T, Diagnostics>,
+) -> Result<T, Diagnostics> {
     let index = PositionIndex::build(source.text);
     let document: serde_yaml::Value = serde_yaml::from_str(source.text).map_err(|e| {
         let message = strip_location(&e.to_string());
@@ -267,7 +293,8 @@ fn load_unclamped(source: &Source<'_>, variant: Option<&str>) -> Result<Model, D
         v.sort();
         v
     };
-    validate::resolve(file, &locator, chosen, variants)
+    let model = resolve::resolve(file, &locator, chosen, variants)?;
+    then(model, &locator)
 }
 
 /// serde_yaml appends " at line L column C" to messages; the diagnostic carries it already.

@@ -354,3 +354,19 @@ mod tests {
         }
     }
 }
+
+/// Polynomial arithmetic for the matrix helpers of [`crate::math::matrix`]: `Σ a_k b_k` is one
+/// canonical [`Poly::sum`] of the products.
+pub struct Polynomials;
+
+impl crate::math::matrix::Arithmetic for Polynomials {
+    type Value = Poly;
+
+    fn add(&mut self, a: &Poly, b: &Poly) -> Poly {
+        a.add(b)
+    }
+
+    fn dot<'v>(&mut self, pairs: impl Iterator<Item = (&'v Poly, &'v Poly)>) -> Poly {
+        Poly::sum(&pairs.map(|(a, b)| a.mul(b)).collect::<Vec<_>>())
+    }
+}

@@ -3,7 +3,7 @@
 //! registry to find the generated rig of a model file.
 #![allow(missing_docs, clippy::all)]
 
-use hapticgen_codegen::model::Model;
+use hapticgen_codegen::CheckedModel;
 use hapticgen_codegen::Scalar;
 use hapticgen_runtime::RigModel;
 
@@ -46,18 +46,18 @@ pub fn fingerprint(text: &str) -> u64 {
 
 /// Loads the shipped model `name` (variant `variant`, or its default) from the text
 /// embedded at build time.
-pub fn load_shipped(name: &str, variant: Option<&str>) -> Result<Model, String> {
+pub fn load_shipped(name: &str, variant: Option<&str>) -> Result<CheckedModel, String> {
     let rig = SHIPPED
         .iter()
         .find(|rig| rig.name == name)
         .ok_or_else(|| format!("error: no shipped model named `{name}`"))?;
-    hapticgen_codegen::model::load(&hapticgen_codegen::Source { name: rig.file, text: rig.source }, variant)
+    hapticgen_codegen::load(&hapticgen_codegen::Source { name: rig.file, text: rig.source }, variant)
         .map_err(|d| d.to_string())
 }
 
 /// The index in [`SHIPPED`] of the rig generated from exactly this model (same name,
 /// variant and generated code), if any.
-pub fn find(model: &Model) -> Option<usize> {
+pub fn find(model: &CheckedModel) -> Option<usize> {
     let candidates: Vec<usize> = SHIPPED
         .iter()
         .enumerate()
@@ -68,7 +68,7 @@ pub fn find(model: &Model) -> Option<usize> {
         return None;
     }
     let mut anonymous = model.clone();
-    anonymous.file = String::new();
+    anonymous.model.file = String::new();
     let print = fingerprint(&hapticgen_codegen::generate_model(anonymous, Scalar::F64).tokens.to_string());
     candidates.into_iter().find(|&i| SHIPPED[i].fingerprint == print)
 }

@@ -251,8 +251,12 @@ struct SimulateArgs {
     seed: u64,
 }
 
-fn load(model_path: &std::path::Path, variant: Option<&str>) -> Result<model::Model, String> {
-    model::load_file(model_path, &model_path.display().to_string(), variant).map_err(|d| d.to_string())
+fn load(
+    model_path: &std::path::Path,
+    variant: Option<&str>,
+) -> Result<hapticgen_codegen::CheckedModel, String> {
+    hapticgen_codegen::load_file(model_path, &model_path.display().to_string(), variant)
+        .map_err(|d| d.to_string())
 }
 
 fn run(cli: Cli) -> Result<(), String> {
@@ -267,8 +271,7 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             // Virtual walls: passivity (warning) and stability (error) bounds, see
             // `hapticgen_codegen::check::stability`.
-            if let Some(wall) = stability::check_wall(&m, &hapticgen_codegen::dynamics::mechanics::derive(&m))
-            {
+            if let Some(wall) = stability::check_wall(&m, &hapticgen_codegen::derive(&m)) {
                 let text = std::fs::read_to_string(&model).unwrap_or_default();
                 if let Some((error, d)) = wall.diagnostic(&model.display().to_string(), &text, &m) {
                     if error {
@@ -278,7 +281,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 }
             }
             // A closed chain also names its eliminated passive joints.
-            let passive = match &m.closures {
+            let passive = match &m.analyses.closures {
                 Some(c) => format!(
                     " (+{} passive, eliminated by {} closure{})",
                     m.passive.len(),
@@ -321,7 +324,7 @@ fn run(cli: Cli) -> Result<(), String> {
             if let Some(bad) = q.iter().chain(&qd).find(|v| !v.is_finite()) {
                 return Err(format!("error: state values must be finite, got {bad}"));
             }
-            let mech = hapticgen_codegen::dynamics::mechanics::derive(&m);
+            let mech = hapticgen_codegen::derive(&m);
             let selected = match &point {
                 None => None,
                 Some(name) => Some(mech.points.iter().find(|p| &p.name == name).ok_or_else(|| {
@@ -393,7 +396,7 @@ fn run(cli: Cli) -> Result<(), String> {
             let display = urdf.display().to_string();
             let yaml = hapticgen_codegen::urdf::import(&text, &display, &drive).map_err(|d| d.to_string())?;
             // What was written must load: a bad drive template is reported against it.
-            model::load(&model::Source { name: "<imported model>", text: &yaml }, None)
+            hapticgen_codegen::load(&model::Source { name: "<imported model>", text: &yaml }, None)
                 .map_err(|d| d.to_string())?;
             write_or_print(output.as_deref(), &yaml)
         }

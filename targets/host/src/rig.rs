@@ -13,9 +13,8 @@
 use std::cell::RefCell;
 use std::sync::Arc;
 
-use hapticgen_codegen::dynamics::mechanics;
-use hapticgen_codegen::model::Model;
 use hapticgen_codegen::sym::poly::Poly;
+use hapticgen_codegen::CheckedModel;
 use hapticgen_runtime::{DriveTrain, RigModel, RigTerms};
 
 use crate::tape::Tape;
@@ -62,9 +61,9 @@ pub struct DriveExtras {
 
 /// A copy of `model` whose bodies' masses and inertia tensors are multiplied by `factor`
 /// (same geometry, denser material). Rotor inertias are not changed.
-pub fn scale_masses(model: &Model, factor: f64) -> Model {
+pub fn scale_masses(model: &CheckedModel, factor: f64) -> CheckedModel {
     let mut scaled = model.clone();
-    for body in &mut scaled.bodies {
+    for body in &mut scaled.model.bodies {
         body.mass = body.mass.scale(factor);
         body.inertia = body.inertia.clone().map(|row| row.map(|p| p.scale(factor)));
     }
@@ -72,7 +71,7 @@ pub fn scale_masses(model: &Model, factor: f64) -> Model {
 }
 
 /// The runtime's drive trains of a model's joints.
-pub fn drive_trains(model: &Model) -> Vec<DriveTrain<f64>> {
+pub fn drive_trains(model: &CheckedModel) -> Vec<DriveTrain<f64>> {
     model
         .joints
         .iter()
@@ -98,9 +97,9 @@ pub fn drive_trains(model: &Model) -> Vec<DriveTrain<f64>> {
 
 impl CompiledModel {
     /// Derives and compiles `model` with body masses scaled by `mass_scale` (1 = nominal).
-    pub fn new(model: &Model, mass_scale: f64) -> CompiledModel {
+    pub fn new(model: &CheckedModel, mass_scale: f64) -> CompiledModel {
         let scaled = scale_masses(model, mass_scale);
-        let mech = mechanics::derive(&scaled);
+        let mech = hapticgen_codegen::derive(&scaled);
         let n = mech.joints;
         let m = mech.task_dim;
         let flat = |rows: &[Vec<Poly>]| -> Vec<Poly> { rows.iter().flatten().cloned().collect() };

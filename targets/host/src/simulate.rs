@@ -12,7 +12,7 @@ use std::sync::Arc;
 use hapticgen_codegen::check::current_loop::{
     design_current_loop, CurrentLoopDesign, CurrentLoopDesignInput,
 };
-use hapticgen_codegen::model::{self, Model};
+use hapticgen_codegen::CheckedModel;
 use hapticgen_runtime::current_loop::CurrentLoopGains;
 use hapticgen_runtime::render::{ObjectKind, Shape, VirtualObject};
 use hapticgen_runtime::RigModel;
@@ -25,7 +25,7 @@ use crate::tape::Tape;
 /// A model ready to simulate.
 pub struct Simulation {
     /// The validated model (variant applied).
-    pub model: Model,
+    pub model: CheckedModel,
     /// Its mechanics, compiled.
     pub nominal: Arc<CompiledModel>,
     /// Index of the generated rig in [`generated::SHIPPED`] used as the controller's model.
@@ -131,13 +131,13 @@ impl RigVisitor for RunVisitor<'_> {
 impl Simulation {
     /// Loads a model file; errors are the code generator's diagnostics.
     pub fn load(path: &Path, variant: Option<&str>) -> Result<Simulation, String> {
-        let model =
-            model::load_file(path, &path.display().to_string(), variant).map_err(|d| d.to_string())?;
+        let model = hapticgen_codegen::load_file(path, &path.display().to_string(), variant)
+            .map_err(|d| d.to_string())?;
         Simulation::from_model(model)
     }
 
     /// Prepares a loaded model.
-    pub fn from_model(model: Model) -> Result<Simulation, String> {
+    pub fn from_model(model: CheckedModel) -> Result<Simulation, String> {
         let (n, m) = (model.joints.len(), model.task_dim());
         if !(1..=3).contains(&n) || !(1..=3).contains(&m) {
             return Err(format!(

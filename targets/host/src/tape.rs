@@ -206,9 +206,9 @@ mod tests {
             ("models/pantograph_5bar.yaml", Some("vertical")),
             ("codegen/tests/good-models/five_bar_2dof.yaml", None),
         ] {
-            let model = hapticgen_codegen::model::load_file(&root.join(file), file, variant)
+            let model = hapticgen_codegen::load_file(&root.join(file), file, variant)
                 .unwrap_or_else(|e| panic!("{e}"));
-            let mech = hapticgen_codegen::dynamics::mechanics::derive(&model);
+            let mech = hapticgen_codegen::derive(&model);
             let mut outputs: Vec<&Poly> = mech.inertia_matrix.iter().flatten().collect();
             outputs.extend(&mech.coriolis_times_qdot);
             outputs.extend(&mech.gravity);

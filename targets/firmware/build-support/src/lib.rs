@@ -140,7 +140,7 @@ pub fn generate(
     let rig_file = out_dir.join(format!("{module}_rig.rs"));
     hapticgen_codegen::build::generate_with(&model_path, v.variant.as_deref(), scalar, emit_options(), &rig_file)
         .map_err(|e| e.to_string())?;
-    let loaded = model::load_file(&model_path, &v.model, v.variant.as_deref()).map_err(|e| e.to_string())?;
+    let loaded = hapticgen_codegen::load_file(&model_path, &v.model, v.variant.as_deref()).map_err(|e| e.to_string())?;
     let (n, m) = (loaded.joints.len(), loaded.task_dim());
     if n == 0 {
         return Err(format!("{}: the model has no joints", v.model));
@@ -155,7 +155,7 @@ pub fn generate(
     }
     // The model's own per-joint designs (the generated `CURRENT_LOOP_GAINS`), in f64; the
     // glue converts them with `from_f64`, as the scenario converts everything else.
-    let designs = &loaded.current_loop_designs;
+    let designs = &loaded.analyses.current_loop_designs;
     if designs.len() != n {
         return Err(format!("{}: {} current-loop designs for {n} joints", v.model, designs.len()));
     }

@@ -1,0 +1,399 @@
+//! The `bodies` section: masses, centres of mass and inertia tensors (positive definite,
+//! triangle inequality), how each body moves (serial: parent, origin or Denavit–Hartenberg
+//! parameters, joint; direct: a point of another body and an absolute angle), the dependency
+//! order of the bodies (cycles are errors) and their reindexing in that order.
+
+use super::{dh_axis, is_identifier, key, lookup_body, lookup_joint, Resolver};
+use crate::math::eigen::symmetric_eigenvalues_3x3;
+use crate::math::matrix::{mat3_mul, Numbers};
+use crate::math::rotation::{exact_sin_cos, rotation_rpy, rotation_x, rotation_z, snap};
+use crate::model::positions::Segment;
+use crate::model::schema::{DhConvention, Inertia, JointKind, ModelFile, Value};
+use crate::model::types::{FixedTransform, Motion, ResolvedBody, ResolvedFrame, ResolvedPoint, TaskSpec};
+use crate::sym::poly::Poly;
+use std::collections::HashMap;
+
+/// Resolves the bodies (`None` where a body could not be resolved) and, for each, the body it
+/// is placed from (its parent or its pose's origin body).
+pub(super) fn bodies(
+    r: &mut Resolver<'_, '_>,
+    file: &ModelFile,
+) -> (Vec<Option<ResolvedBody>>, Vec<Option<usize>>) {
+    let (planar, dim) = (r.planar, r.dim);
+    // Bodies: names first, so that references can point forwards.
+    for (i, b) in file.bodies.iter().enumerate() {
+        let path = [key("bodies"), Segment::Index(i), key("name")];
+        if b.name == "base" {
+            r.error_hint(&path, "`base` is reserved for the fixed ground", "rename the body");
+        } else if !is_identifier(&b.name) {
+            r.error(&path, format!("`{}` is not a valid body name", b.name));
+        }
+        if r.body_index.insert(b.name.clone(), i).is_some() {
+            r.error(&path, format!("body `{}` is defined twice", b.name));
+        }
+    }
+    if file.bodies.is_empty() {
+        r.error(&[key("bodies")], "a model needs at least one body");
+    }
+    let mut bodies: Vec<Option<ResolvedBody>> = Vec::new();
+    let mut depends_on: Vec<Option<usize>> = Vec::new();
+    let mut serial_joint_users: HashMap<usize, usize> = HashMap::new();
+    let mut joint_used = vec![false; file.joints.len()];
+    for (i, b) in file.bodies.iter().enumerate() {
+        let base = vec![key("bodies"), Segment::Index(i)];
+        let at = |k: &[&str]| {
+            let mut p = base.clone();
+            p.extend(k.iter().map(|s| key(s)));
+            p
+        };
+        let what = format!("body `{}`", b.name);
+        let (mass, mass_nominal) = r.value(&b.mass, &at(&["mass"]));
+        r.positive(mass_nominal, &at(&["mass"]));
+        let (com, _) = r.vector(&b.com, dim, &at(&["com"]));
+        let zero = || Poly::zero();
+        let mut inertia = [[zero(), zero(), zero()], [zero(), zero(), zero()], [zero(), zero(), zero()]];
+        match (&b.inertia, planar) {
+            (Inertia::Scalar(v), true) => {
+                let (poly, x) = r.value(v, &at(&["inertia"]));
+                r.non_negative(x, &at(&["inertia"]));
+                inertia[2][2] = poly;
+            }
+            (Inertia::SlenderRod(rod), true) => {
+                let (length, x) = r.value(&rod.slender_rod, &at(&["inertia", "slender_rod"]));
+                r.positive(x, &at(&["inertia", "slender_rod"]));
+                inertia[2][2] = mass.mul(&length).mul(&length).scale(1.0 / 12.0);
+            }
+            (Inertia::Tensor(t), false) => {
+                let entries: [(&str, Option<&Value>); 6] = [
+                    ("ixx", Some(&t.ixx)),
+                    ("iyy", Some(&t.iyy)),
+                    ("izz", Some(&t.izz)),
+                    ("ixy", t.ixy.as_ref()),
+                    ("ixz", t.ixz.as_ref()),
+                    ("iyz", t.iyz.as_ref()),
+                ];
+                let mut nominal = [0.0; 6];
+                let mut polys: Vec<Poly> = Vec::new();
+                for (k, (name, v)) in entries.iter().enumerate() {
+                    match v {
+                        Some(v) => {
+                            let (poly, x) = r.value(v, &at(&["inertia", name]));
+                            polys.push(poly);
+                            nominal[k] = x;
+                        }
+                        None => polys.push(Poly::zero()),
+                    }
+                }
+                let m = [
+                    [nominal[0], nominal[3], nominal[4]],
+                    [nominal[3], nominal[1], nominal[5]],
+                    [nominal[4], nominal[5], nominal[2]],
+                ];
+                let e = symmetric_eigenvalues_3x3(m);
+                if e[0] < -1e-12 * e[2].abs().max(1e-30) {
+                    r.error_hint(
+                        &at(&["inertia"]),
+                        format!(
+                            "invalid inertia tensor: not positive semi-definite (principal moments {:.6e}, {:.6e}, {:.6e})",
+                            e[0], e[1], e[2]
+                        ),
+                        "an inertia tensor about the centre of mass is symmetric positive (semi-)definite",
+                    );
+                } else if e[0] + e[1] < e[2] * (1.0 - 1e-9) {
+                    r.error_hint(
+                        &at(&["inertia"]),
+                        format!(
+                            "invalid inertia tensor: principal moments {:.6e}, {:.6e}, {:.6e} violate the triangle inequality",
+                            e[0], e[1], e[2]
+                        ),
+                        "for a real body each principal moment is at most the sum of the other two",
+                    );
+                }
+                let [ixx, iyy, izz, ixy, ixz, iyz] = <[Poly; 6]>::try_from(polys).unwrap_or_default();
+                inertia = [[ixx, ixy.clone(), ixz.clone()], [ixy, iyy, iyz.clone()], [ixz, iyz, izz]];
+            }
+            (_, true) => r.error_hint(
+                &at(&["inertia"]),
+                "a planar model takes a scalar inertia about z",
+                "write a number, or `{slender_rod: LENGTH}`",
+            ),
+            (_, false) => r.error_hint(
+                &at(&["inertia"]),
+                "invalid inertia: a spatial model takes a full tensor",
+                "write `{ixx, iyy, izz, ixy, ixz, iyz}` about the centre of mass, in body axes",
+            ),
+        }
+
+        let motion = match (&b.parent, &b.pose) {
+            (Some(_), Some(_)) | (None, None) => {
+                r.error_hint(
+                    &base,
+                    format!("{what} must have exactly one of `parent` (serial chain) or `pose` (direct pose)"),
+                    "a serial body names `parent`, optional `origin` and `joint`; a directly posed body names `pose`",
+                );
+                depends_on.push(None);
+                bodies.push(None);
+                continue;
+            }
+            (Some(parent), None) => {
+                let Ok(parent_index) = lookup_body(r, parent, &at(&["parent"]), &what) else {
+                    depends_on.push(None);
+                    bodies.push(None);
+                    continue;
+                };
+                let mut tail = None;
+                let (xyz, rotation) = match (&b.origin, &b.dh) {
+                    (Some(_), Some(_)) => {
+                        r.error_hint(
+                            &at(&["dh"]),
+                            format!("{what} has both `origin` and `dh`"),
+                            "place a body with either `origin` (xyz, rpy) or `dh` (Denavit–Hartenberg parameters)",
+                        );
+                        ([zero(), zero(), zero()], snap(rotation_rpy([0.0; 3])))
+                    }
+                    (None, Some(dh)) => {
+                        if planar {
+                            r.error_hint(
+                                &at(&["dh"]),
+                                "Denavit–Hartenberg parameters need a spatial model",
+                                "use `origin: {xyz, rpy}` in a planar model, or `space: spatial`",
+                            );
+                        }
+                        let length = |r: &mut Resolver<'_, '_>, v: &Option<Value>, k: &str| match v {
+                            Some(v) => r.value(v, &at(&["dh", k])).0,
+                            None => zero(),
+                        };
+                        let a = length(r, &dh.a, "a");
+                        let d = length(r, &dh.d, "d");
+                        let (alpha, theta) = (dh.alpha.unwrap_or(0.0), dh.theta.unwrap_or(0.0));
+                        let (s_alpha, c_alpha) = exact_sin_cos(alpha);
+                        match dh.convention {
+                            DhConvention::Standard => {
+                                tail = Some(Box::new(FixedTransform {
+                                    xyz: [a, zero(), zero()],
+                                    rotation: rotation_x(alpha),
+                                }));
+                                ([zero(), zero(), d], rotation_z(theta))
+                            }
+                            DhConvention::Modified => {
+                                // Rx(α)·Tx(a)·Rz(θ)·Tz(d) = Trans(a, −d sin α, d cos α)·Rx(α)Rz(θ).
+                                let rotation =
+                                    snap(mat3_mul(&mut Numbers, &rotation_x(alpha), &rotation_z(theta)));
+                                ([a, d.scale(-s_alpha), d.scale(c_alpha)], rotation)
+                            }
+                        }
+                    }
+                    (None, None) => ([zero(), zero(), zero()], snap(rotation_rpy([0.0; 3]))),
+                    (Some(o), None) => {
+                        let xyz = match &o.xyz {
+                            Some(v) => r.vector(v, dim, &at(&["origin", "xyz"])).0,
+                            None => [zero(), zero(), zero()],
+                        };
+                        let rpy = match (&o.rpy, planar) {
+                            (None, _) => [0.0; 3],
+                            (Some(v), true) if v.len() == 1 => [0.0, 0.0, v[0]],
+                            (Some(v), false) if v.len() == 3 => [v[0], v[1], v[2]],
+                            (Some(v), _) => {
+                                r.error(
+                                    &at(&["origin", "rpy"]),
+                                    format!(
+                                        "expected {} entries, got {}",
+                                        if planar { "1 (the angle about z)" } else { "3 (roll, pitch, yaw)" },
+                                        v.len()
+                                    ),
+                                );
+                                [0.0; 3]
+                            }
+                        };
+                        (xyz, snap(rotation_rpy(rpy)))
+                    }
+                };
+                let joint = match &b.joint {
+                    None => None,
+                    Some(name) => {
+                        let j = lookup_joint(r, name, &at(&["joint"]), &what);
+                        if let Some(j) = j {
+                            joint_used[j] = true;
+                            if b.dh.is_some() && !dh_axis(&file.joints[j].axis) {
+                                r.error_hint(
+                                    &[key("joints"), Segment::Index(j), key("axis")],
+                                    format!(
+                                        "joint `{name}` moves body `{}`, placed with Denavit–Hartenberg parameters: its axis must be z",
+                                        b.name
+                                    ),
+                                    "a DH joint turns about (or slides along) z: remove `axis` or write [0.0, 0.0, 1.0]; orient the frame with `theta` and `alpha`",
+                                );
+                            }
+                            if let Some(other) = serial_joint_users.insert(j, i) {
+                                r.error(
+                                    &at(&["joint"]),
+                                    format!(
+                                        "joint `{name}` already moves body `{}`; a serial joint moves one body",
+                                        file.bodies[other].name
+                                    ),
+                                );
+                            }
+                        }
+                        j
+                    }
+                };
+                depends_on.push(parent_index);
+                Motion::Serial { parent: parent_index, xyz, rotation, joint, tail }
+            }
+            (None, Some(pose)) => {
+                if b.dh.is_some() {
+                    r.error_hint(
+                        &at(&["dh"]),
+                        format!("{what} is directly posed: `dh` applies to serial bodies only"),
+                        "a serial body names `parent`, then `dh` (or `origin`) and `joint`",
+                    );
+                }
+                if !planar {
+                    r.error_hint(
+                        &at(&["pose"]),
+                        "direct poses are supported for planar models only",
+                        "describe spatial bodies as a serial chain (`parent`, `origin`, `joint`)",
+                    );
+                }
+                let Ok(origin_body) =
+                    lookup_body(r, &pose.origin.body, &at(&["pose", "origin", "body"]), &what)
+                else {
+                    depends_on.push(None);
+                    bodies.push(None);
+                    continue;
+                };
+                let (point, _) = r.vector(&pose.origin.point, dim, &at(&["pose", "origin", "point"]));
+                let Some(angle_joint) = lookup_joint(r, &pose.angle, &at(&["pose", "angle"]), &what) else {
+                    depends_on.push(None);
+                    bodies.push(None);
+                    continue;
+                };
+                joint_used[angle_joint] = true;
+                if file.joints[angle_joint].kind != JointKind::Revolute {
+                    r.error(&at(&["pose", "angle"]), format!("joint `{}` is not revolute", pose.angle));
+                }
+                depends_on.push(origin_body);
+                Motion::Direct { origin_body, point, angle_joint }
+            }
+        };
+        bodies.push(Some(ResolvedBody {
+            name: b.name.clone(),
+            description: b.description.clone(),
+            mass,
+            com,
+            inertia,
+            motion,
+        }));
+    }
+    // A joint is reported as unused only when every body resolved: otherwise the unresolved
+    // reference is the one error to fix, and this would be its echo.
+    let bodies_resolved = bodies.iter().all(Option::is_some) && !r.unresolved_joint_reference;
+    for (j, used) in joint_used.iter().enumerate() {
+        if bodies_resolved && !used && j < file.joints.len() && !r.duplicate_joints.contains(&j) {
+            r.error_hint(
+                &[key("joints"), Segment::Index(j), key("name")],
+                format!("joint `{}` moves no body", file.joints[j].name),
+                "name it as a body's `joint` or a direct pose's `angle`",
+            );
+        }
+    }
+
+    (bodies, depends_on)
+}
+
+/// The bodies in dependency order (parents and pose origins first); a cycle is an error.
+pub(super) fn dependency_order(
+    r: &mut Resolver<'_, '_>,
+    file: &ModelFile,
+    depends_on: &[Option<usize>],
+) -> Vec<usize> {
+    let n = depends_on.len();
+    // Dependency order of bodies (parents and pose origins first); cycles are errors.
+    let mut order = Vec::with_capacity(n);
+    let mut state = vec![0u8; n]; // 0 new, 1 visiting, 2 done
+    for start in 0..n {
+        let mut chain = Vec::new();
+        let mut current = Some(start);
+        while let Some(c) = current {
+            if state[c] == 2 {
+                break;
+            }
+            if state[c] == 1 {
+                let cycle: Vec<&str> = chain
+                    .iter()
+                    .skip_while(|&&x| x != c)
+                    .map(|&x: &usize| file.bodies[x].name.as_str())
+                    .collect();
+                r.error_hint(
+                    &[key("bodies"), Segment::Index(c)],
+                    format!("bodies form a cycle: {} → {}", cycle.join(" → "), file.bodies[c].name),
+                    "each body must be placed relative to bodies closer to the base",
+                );
+                break;
+            }
+            state[c] = 1;
+            chain.push(c);
+            current = depends_on.get(c).copied().flatten();
+        }
+        for &c in chain.iter().rev() {
+            if state[c] == 1 {
+                state[c] = 2;
+                order.push(c);
+            }
+        }
+    }
+
+    order
+}
+
+/// Renumbers the bodies in dependency `order`, and every body reference with them; joint
+/// references become coordinate indices (actuated first, then passive).
+pub(super) fn into_dependency_order(
+    mut bodies: Vec<Option<ResolvedBody>>,
+    order: &[usize],
+    points: &mut [ResolvedPoint],
+    frames: &mut [ResolvedFrame],
+    coordinate_of: &[usize],
+    task: TaskSpec,
+) -> (Vec<ResolvedBody>, TaskSpec) {
+    let n = bodies.len();
+    // Reindex bodies in dependency order.
+    let mut new_index = vec![0usize; n];
+    for (new, &old) in order.iter().enumerate() {
+        new_index[old] = new;
+    }
+    let remap = |i: Option<usize>| i.map(|x| new_index[x]);
+    let mut ordered = Vec::with_capacity(n);
+    for &old in order {
+        let Some(mut body) = bodies[old].take() else {
+            continue;
+        };
+        body.motion = match body.motion {
+            Motion::Serial { parent, xyz, rotation, joint, tail } => {
+                Motion::Serial { parent: remap(parent), xyz, rotation, joint, tail }
+            }
+            Motion::Direct { origin_body, point, angle_joint } => {
+                Motion::Direct { origin_body: remap(origin_body), point, angle_joint }
+            }
+        };
+        ordered.push(body);
+    }
+    for p in points.iter_mut() {
+        p.body = remap(p.body);
+    }
+    for f in frames.iter_mut() {
+        f.body = remap(f.body);
+    }
+    // Joint references become coordinate indices (actuated first, then passive).
+    for body in &mut ordered {
+        match &mut body.motion {
+            Motion::Serial { joint, .. } => *joint = joint.map(|j| coordinate_of[j]),
+            Motion::Direct { angle_joint, .. } => *angle_joint = coordinate_of[*angle_joint],
+        }
+    }
+    let task = match task {
+        TaskSpec::Joints(list) => TaskSpec::Joints(list.into_iter().map(|j| coordinate_of[j]).collect()),
+        point => point,
+    };
+    (ordered, task)
+}

@@ -1,0 +1,196 @@
+//! The `joints` section: names, limits, axes and drives of the actuated joints, the passive
+//! joints of closed chains, and the coordinate of each joint (actuated first, then passive).
+
+use super::{is_identifier, key, Resolver};
+use crate::model::positions::Segment;
+use crate::model::schema::{JointKind, ModelFile};
+use crate::model::types::{PassiveJoint, ResolvedJoint};
+use crate::sym::poly::Poly;
+
+/// The resolved joints: actuated, passive, and each file joint's coordinate.
+pub(super) struct Joints {
+    /// The actuated joints, in file order.
+    pub(super) actuated: Vec<ResolvedJoint>,
+    /// The passive joints, in file order.
+    pub(super) passive: Vec<PassiveJoint>,
+    /// The coordinate of each joint of the file: actuated first, then passive.
+    pub(super) coordinate_of: Vec<usize>,
+}
+
+/// Resolves the joints; fills the resolver's joint index for later references.
+pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
+    let planar = r.planar;
+    // Joints.
+    let mut joints = Vec::new();
+    let mut passive = Vec::new();
+    if file.joints.is_empty() {
+        r.error(&[key("joints")], "a model needs at least one joint");
+    }
+    for (i, j) in file.joints.iter().enumerate() {
+        let base = vec![key("joints"), Segment::Index(i)];
+        let at = |k: &str| {
+            let mut p = base.clone();
+            p.push(key(k));
+            p
+        };
+        if !is_identifier(&j.name) {
+            r.error_hint(
+                &at("name"),
+                format!("`{}` is not a valid joint name", j.name),
+                "use snake_case letters, digits and underscores, starting with a letter ",
+            );
+        }
+        if let Some(first) = r.joint_index.get(&j.name) {
+            r.duplicate_joints.push(i);
+            r.error_hint(
+                &at("name"),
+                format!("joint `{}` is defined twice", j.name),
+                format!("the first definition is `joints[{first}]`"),
+            );
+        } else {
+            r.joint_index.insert(j.name.clone(), i);
+        }
+        let (lower, upper) = match &j.limits {
+            Some(l) => {
+                if l.lower >= l.upper || l.lower.is_nan() || l.upper.is_nan() {
+                    r.error(
+                        &at("limits"),
+                        format!("lower limit {} must be below upper limit {}", l.lower, l.upper),
+                    );
+                }
+                (l.lower, l.upper)
+            }
+            None if j.passive => (-std::f64::consts::PI, std::f64::consts::PI),
+            None => {
+                r.error(&base, "missing key `limits`");
+                (0.0, 0.0)
+            }
+        };
+        if j.passive {
+            if j.drive.is_some() {
+                r.error_hint(
+                    &at("drive"),
+                    format!("joint `{}` is passive: it has no drive", j.name),
+                    "remove `drive`, or `passive: true` if a motor turns the joint",
+                );
+            }
+            if j.damping.is_some() {
+                r.error_hint(
+                    &at("damping"),
+                    format!("joint `{}` is passive: damping of passive joints is not supported", j.name),
+                    "model the friction at the actuated joints",
+                );
+            }
+            if j.kind != JointKind::Revolute {
+                r.error_hint(
+                    &at("type"),
+                    format!("passive joint `{}` must be revolute", j.name),
+                    "closures eliminate the revolute distal joints of a planar dyad",
+                );
+            }
+        }
+        let damping = match &j.damping {
+            Some(v) => {
+                let (poly, x) = r.value(v, &at("damping"));
+                r.non_negative(x, &at("damping"));
+                poly
+            }
+            None => Poly::zero(),
+        };
+        let drive = match (&j.drive, j.passive) {
+            (_, true) => None,
+            (None, false) => {
+                r.error_hint(
+                    &base,
+                    "missing key `drive`",
+                    "an actuated joint names its entry of `drives`; a joint without a motor in a closed chain is `passive: true`",
+                );
+                continue;
+            }
+            (Some(name), false) => match file.drives.get(name) {
+                Some(d) => Some(d.clone()),
+                None => {
+                    let mut known: Vec<&String> = file.drives.keys().collect();
+                    known.sort();
+                    r.error_hint(
+                        &at("drive"),
+                        format!("joint `{}` references unknown drive `{}`", j.name, name),
+                        format!(
+                            "defined drives: {}",
+                            known.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+                        ),
+                    );
+                    continue;
+                }
+            },
+        };
+        let axis = match (&j.axis, planar, j.kind) {
+            (None, true, JointKind::Revolute) => [0.0, 0.0, 1.0],
+            (None, true, JointKind::Prismatic) => [1.0, 0.0, 0.0],
+            (None, false, _) => [0.0, 0.0, 1.0],
+            (Some(a), _, _) => {
+                let full: Option<[f64; 3]> = match (a.len(), planar, j.kind) {
+                    (3, _, _) => Some([a[0], a[1], a[2]]),
+                    (2, true, JointKind::Prismatic) => Some([a[0], a[1], 0.0]),
+                    _ => None,
+                };
+                match full {
+                    None => {
+                        r.error(&at("axis"), format!("expected 3 entries, got {}", a.len()));
+                        [0.0, 0.0, 1.0]
+                    }
+                    Some(v) => {
+                        let norm = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                        if norm < 1e-9 {
+                            r.error(&at("axis"), "must not be the zero vector");
+                            [0.0, 0.0, 1.0]
+                        } else {
+                            let u = [v[0] / norm, v[1] / norm, v[2] / norm];
+                            if planar && j.kind == JointKind::Revolute && (u[0] != 0.0 || u[1] != 0.0) {
+                                r.error_hint(
+                                    &at("axis"),
+                                    "a planar revolute joint turns about z",
+                                    "use [0, 0, 1] or [0, 0, -1]",
+                                );
+                            }
+                            if planar && j.kind == JointKind::Prismatic && u[2] != 0.0 {
+                                r.error(&at("axis"), "a planar prismatic joint slides in the x–y plane");
+                            }
+                            u
+                        }
+                    }
+                }
+            }
+        };
+        let Some(drive) = drive else {
+            passive.push(PassiveJoint { name: j.name.clone(), description: j.description.clone(), axis });
+            continue;
+        };
+        joints.push(ResolvedJoint {
+            name: j.name.clone(),
+            kind: j.kind,
+            description: j.description.clone(),
+            axis,
+            lower,
+            upper,
+            damping,
+            drive_name: j.drive.clone().unwrap_or_default(),
+            drive,
+        });
+    }
+    // Coordinates: the actuated joints in file order, then the passive ones.
+    let actuated_count = file.joints.iter().filter(|j| !j.passive).count();
+    let coordinate_of: Vec<usize> = {
+        let (mut a, mut p) = (0, actuated_count);
+        file.joints
+            .iter()
+            .map(|j| {
+                let slot = if j.passive { &mut p } else { &mut a };
+                *slot += 1;
+                *slot - 1
+            })
+            .collect()
+    };
+
+    Joints { actuated: joints, passive, coordinate_of }
+}

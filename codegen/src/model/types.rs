@@ -1,0 +1,249 @@
+//! The resolved model: pure data, as the file describes the rig, with every value a
+//! polynomial in the tunable parameters and every reference an index. Nothing here is
+//! computed from the model (closure eliminations and current-loop designs are analyses,
+//! [`crate::check::Analyses`], which travel beside it).
+
+use super::schema::{Branch, CurrentLoopSpec, Drive, JointKind, Rates, Rendering, Sensor};
+use crate::sym::poly::Poly;
+
+/// A model parameter after resolution.
+#[derive(Clone, Debug)]
+pub struct ResolvedParameter {
+    /// Name (a Rust identifier).
+    pub name: String,
+    /// Nominal value.
+    pub value: f64,
+    /// Documentation.
+    pub description: Option<String>,
+    /// Unit, for documentation.
+    pub unit: Option<String>,
+}
+
+/// A joint after resolution.
+#[derive(Clone, Debug)]
+pub struct ResolvedJoint {
+    /// Name of the coordinate.
+    pub name: String,
+    /// Revolute or prismatic.
+    pub kind: JointKind,
+    /// Documentation.
+    pub description: Option<String>,
+    /// Unit axis in the joint frame.
+    pub axis: [f64; 3],
+    /// Lower limit.
+    pub lower: f64,
+    /// Upper limit.
+    pub upper: f64,
+    /// Viscous damping coefficient.
+    pub damping: Poly,
+    /// Name of its drive.
+    pub drive_name: String,
+    /// Its drive train.
+    pub drive: Drive,
+}
+
+/// A fixed rigid transform: translation, then rotation (`Trans(xyz) · rotation`).
+#[derive(Clone, Debug)]
+pub struct FixedTransform {
+    /// Translation.
+    pub xyz: [Poly; 3],
+    /// Rotation.
+    pub rotation: [[f64; 3]; 3],
+}
+
+/// How a body's frame moves.
+#[derive(Clone, Debug)]
+pub enum Motion {
+    /// Parent frame (None = base), then a fixed transform, then the joint (None = welded),
+    /// then an optional fixed `tail` (standard Denavit–Hartenberg links).
+    Serial {
+        /// Parent body index, `None` for the base.
+        parent: Option<usize>,
+        /// Fixed translation in the parent frame.
+        xyz: [Poly; 3],
+        /// Fixed rotation from the parent frame (roll–pitch–yaw).
+        rotation: [[f64; 3]; 3],
+        /// The joint, if any.
+        joint: Option<usize>,
+        /// A fixed transform after the joint (standard DH: `Tx(a) · Rx(alpha)`), if any.
+        tail: Option<Box<FixedTransform>>,
+    },
+    /// Origin at a point of another body; orientation: rotation about z by a coordinate.
+    Direct {
+        /// Body carrying the origin point, `None` for the base.
+        origin_body: Option<usize>,
+        /// The origin point in that body's frame.
+        point: [Poly; 3],
+        /// The coordinate giving the absolute angle.
+        angle_joint: usize,
+    },
+}
+
+/// A rigid body after resolution.
+#[derive(Clone, Debug)]
+pub struct ResolvedBody {
+    /// Name.
+    pub name: String,
+    /// Documentation.
+    pub description: Option<String>,
+    /// Mass, kg.
+    pub mass: Poly,
+    /// Centre of mass in the body frame.
+    pub com: [Poly; 3],
+    /// Inertia tensor about the centre of mass, body axes.
+    pub inertia: [[Poly; 3]; 3],
+    /// How the frame moves.
+    pub motion: Motion,
+}
+
+/// A named point after resolution.
+#[derive(Clone, Debug)]
+pub struct ResolvedPoint {
+    /// Name.
+    pub name: String,
+    /// Documentation.
+    pub description: Option<String>,
+    /// Body index, `None` for the base.
+    pub body: Option<usize>,
+    /// Position in the body frame.
+    pub position: [Poly; 3],
+}
+
+/// A named frame after resolution: its orientation is an output of the generated code.
+#[derive(Clone, Debug)]
+pub struct ResolvedFrame {
+    /// Name.
+    pub name: String,
+    /// Documentation.
+    pub description: Option<String>,
+    /// Body index, `None` for the base.
+    pub body: Option<usize>,
+    /// Fixed rotation from the body frame (roll–pitch–yaw, right angles exact).
+    pub rotation: [[f64; 3]; 3],
+}
+
+/// The task coordinates.
+#[derive(Clone, Debug)]
+pub enum TaskSpec {
+    /// The Cartesian position of a named point.
+    Point(usize),
+    /// Joint coordinates.
+    Joints(Vec<usize>),
+}
+
+/// A validated model with one variant applied.
+#[derive(Clone, Debug)]
+pub struct Model {
+    /// The file, as named in diagnostics and generated headers.
+    pub file: String,
+    /// The variant applied, if any.
+    pub variant: Option<String>,
+    /// All variants the file defines.
+    pub variants: Vec<String>,
+    /// The rig's name.
+    pub name: String,
+    /// Its description.
+    pub description: Option<String>,
+    /// Planar (true) or spatial.
+    pub planar: bool,
+    /// Gravity vector (3-D; z = 0 for planar models).
+    pub gravity: [Poly; 3],
+    /// Tunable parameters, in the order of their `Atom::Param` indices.
+    pub tunable: Vec<ResolvedParameter>,
+    /// Joints in the order of `q`.
+    pub joints: Vec<ResolvedJoint>,
+    /// Bodies, each after the bodies it depends on.
+    pub bodies: Vec<ResolvedBody>,
+    /// Named points.
+    pub points: Vec<ResolvedPoint>,
+    /// Named frames whose orientation is emitted (spatial models).
+    pub frames: Vec<ResolvedFrame>,
+    /// Task coordinates.
+    pub task: TaskSpec,
+    /// Force sensors and others.
+    pub sensors: Vec<Sensor>,
+    /// Loop rates.
+    pub rates: Rates,
+    /// Current-loop design targets.
+    pub current_loop: CurrentLoopSpec,
+    /// Rendering settings.
+    pub rendering: Option<Rendering>,
+    /// Passive joints of closed chains: coordinates `joints.len() + k` of the mechanics'
+    /// open tree, eliminated by `closures`, not coordinates of the generated code.
+    pub passive: Vec<PassiveJoint>,
+    /// The loop closures of a closed chain, as declared (none for an open tree).
+    pub closures: Vec<LoopClosure>,
+}
+
+/// A passive (unactuated) revolute joint of a closed chain.
+#[derive(Clone, Debug)]
+pub struct PassiveJoint {
+    /// Name.
+    pub name: String,
+    /// Documentation.
+    pub description: Option<String>,
+    /// Unit axis in the joint frame (`[0, 0, ±1]`).
+    pub axis: [f64; 3],
+}
+
+/// A loop closure as declared in the model file: two points, each on a link turned by one of
+/// two passive joints, coincide.
+#[derive(Clone, Debug)]
+pub struct LoopClosure {
+    /// The closure's name.
+    pub name: String,
+    /// The two passive joints, as coordinates of the open tree.
+    pub joints: [usize; 2],
+    /// The two points (indices into the model's points).
+    pub points: [usize; 2],
+    /// Which assembly.
+    pub branch: Branch,
+}
+
+impl Model {
+    /// Spatial dimension of vectors in the model file (2 or 3).
+    pub fn dim(&self) -> usize {
+        if self.planar {
+            2
+        } else {
+            3
+        }
+    }
+
+    /// Number of task coordinates.
+    pub fn task_dim(&self) -> usize {
+        match &self.task {
+            TaskSpec::Point(_) => self.dim(),
+            TaskSpec::Joints(j) => j.len(),
+        }
+    }
+
+    /// Number of coordinates of the open tree: actuated plus passive joints.
+    pub fn tree_coordinates(&self) -> usize {
+        self.joints.len() + self.passive.len()
+    }
+
+    /// Kind and axis of coordinate `j` of the open tree (actuated, then passive joints).
+    pub fn coordinate_axis(&self, j: usize) -> (JointKind, [f64; 3]) {
+        match self.joints.get(j) {
+            Some(joint) => (joint.kind, joint.axis),
+            None => {
+                let axis = self.passive.get(j - self.joints.len()).map(|p| p.axis).unwrap_or([0.0, 0.0, 1.0]);
+                (JointKind::Revolute, axis)
+            }
+        }
+    }
+
+    /// Name of coordinate `j` of the open tree.
+    pub fn coordinate_name(&self, j: usize) -> &str {
+        match self.joints.get(j) {
+            Some(joint) => &joint.name,
+            None => self.passive.get(j - self.joints.len()).map(|p| p.name.as_str()).unwrap_or("passive"),
+        }
+    }
+
+    /// Nominal values of the tunable parameters.
+    pub fn nominal_parameters(&self) -> Vec<f64> {
+        self.tunable.iter().map(|p| p.value).collect()
+    }
+}
