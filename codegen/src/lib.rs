@@ -2,10 +2,13 @@
 //!
 //! One function, [`generate`], serves every front end: the `rig!` proc-macro, the
 //! build-script helper [`build::generate`] and the `hapticgen` CLI are thin shells over it.
-//! The stages are [`model`] (schema, variants, validation with line/column diagnostics),
-//! [`mechanics`] (the terms of the paper's eq. (1)–(2), derived symbolically), [`sym`] (the
-//! polynomial engine and the expression DAG with common-subexpression elimination) and
-//! [`emit`] (straight-line Rust implementing `hapticgen_runtime::RigModel`).
+//! The layers, each using only those before it (ARCHITECTURE.md): `math` (small linear
+//! algebra), `sym` (the polynomial engine and the expression DAG with common-subexpression
+//! elimination), [`model`] (schema, variants, resolution with line/column diagnostics),
+//! [`dynamics`] (the terms of the paper's eq. (1)–(2), derived symbolically), [`check`] (the
+//! model-level analyses), `plan` (which derivation each function uses) and [`emit`]
+//! (straight-line Rust implementing `hapticgen_runtime::RigModel`). A model is loaded with
+//! [`load`] or [`load_file`] into a [`CheckedModel`]; [`derive()`] gives its mechanics.
 #![deny(missing_docs)]
 
 pub mod build;
@@ -14,11 +17,13 @@ pub mod diag;
 pub mod dynamics;
 pub mod emit;
 pub mod eval;
-pub mod math;
+mod math;
 pub mod model;
 pub mod rig_macro;
+#[doc(hidden)]
 pub mod sym;
 pub mod urdf;
+mod version;
 
 use proc_macro2::TokenStream;
 
@@ -26,9 +31,7 @@ pub use check::{Analyses, CheckedModel};
 pub use diag::{Diagnostic, Diagnostics};
 pub use emit::{EmitOptions, Scalar};
 pub use model::{Model, Source};
-
-/// The generator's version, written into every generated header.
-pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+pub use version::VERSION;
 
 /// The result of generating one rig.
 pub struct Generated {

@@ -1,16 +1,18 @@
 //! The mechanics of a model, derived symbolically: the terms of the paper's eq. (1)–(2),
 //! `D(q) q̈ + C(q, q̇) q̇ + g(q) + B q̇ = τ`, and the task kinematics `p(q)`, `J(q)`, `J̇ q̇`.
 //!
-//! [`kinematics`] composes the body frames; [`lagrangian`] and [`recursive`] are the two
+//! [`kinematics`] composes the body frames; `lagrangian` and [`recursive`] are the two
 //! derivations of the dynamics (expanded polynomials; Newton–Euler and composite rigid body on
 //! the expression DAG); [`mechanics`] holds the derived quantities and builds them into a DAG
-//! by either derivation; [`closure`] analyses a closed chain's loops and [`reduction`] reduces
+//! by either derivation; [`closure`] analyses a closed chain's loops and `reduction` reduces
 //! the open tree's mechanics to the actuated coordinates.
 
+#[doc(hidden)]
 pub mod closure;
 pub mod kinematics;
 mod lagrangian;
 pub mod mechanics;
+#[doc(hidden)]
 pub mod recursive;
 mod reduction;
 

@@ -1076,7 +1076,7 @@ fn closure_margin_function(
 
 /// Emits every item of a rig: the struct, its methods and the `RigModel` implementation.
 pub fn items(
-    model: &crate::CheckedModel,
+    model: &crate::check::CheckedModel,
     mech: &Mechanics,
     scalar: Scalar,
     options: EmitOptions,

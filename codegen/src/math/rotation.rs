@@ -89,5 +89,13 @@ mod tests {
             }
         }
         assert_eq!(snap(rotation_rpy([0.0, 0.0, std::f64::consts::FRAC_PI_2]))[0], [0.0, -1.0, 0.0]);
+        // At gimbal lock the angles differ, the rotation does not.
+        let locked = rotation_rpy([0.4, std::f64::consts::FRAC_PI_2, -0.7]);
+        let back = rotation_rpy(rpy_of(&locked));
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!((locked[i][j] - back[i][j]).abs() < 1e-12, "entry {i}{j}");
+            }
+        }
     }
 }

@@ -1272,6 +1272,26 @@ impl Dag {
     }
 }
 
+/// DAG arithmetic for the matrix helpers of `crate::math::matrix`: `Σ a_k b_k` is a left fold
+/// from the constant 0, each product followed by its addition (the node order the emitted
+/// names follow).
+impl crate::math::matrix::Arithmetic for Dag {
+    type Value = NodeId;
+
+    fn add(&mut self, a: &NodeId, b: &NodeId) -> NodeId {
+        Dag::add(self, *a, *b)
+    }
+
+    fn dot<'v>(&mut self, pairs: impl Iterator<Item = (&'v NodeId, &'v NodeId)>) -> NodeId {
+        let mut sum = self.constant(0.0);
+        for (&a, &b) in pairs {
+            let product = self.mul(a, b);
+            sum = Dag::add(self, sum, product);
+        }
+        sum
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1381,25 +1401,5 @@ mod tests {
         let fused = dag.count_fused(&roots);
         assert_eq!((plain.additions, plain.multiplications, plain.negations), (4, 5, 2));
         assert_eq!((fused.additions, fused.multiplications, fused.negations, fused.fused), (2, 3, 0, 2));
-    }
-}
-
-/// DAG arithmetic for the matrix helpers of [`crate::math::matrix`]: `Σ a_k b_k` is a left fold
-/// from the constant 0, each product followed by its addition (the node order the emitted
-/// names follow).
-impl crate::math::matrix::Arithmetic for Dag {
-    type Value = NodeId;
-
-    fn add(&mut self, a: &NodeId, b: &NodeId) -> NodeId {
-        Dag::add(self, *a, *b)
-    }
-
-    fn dot<'v>(&mut self, pairs: impl Iterator<Item = (&'v NodeId, &'v NodeId)>) -> NodeId {
-        let mut sum = self.constant(0.0);
-        for (&a, &b) in pairs {
-            let product = self.mul(a, b);
-            sum = Dag::add(self, sum, product);
-        }
-        sum
     }
 }

@@ -311,6 +311,22 @@ impl fmt::Display for Poly {
     }
 }
 
+/// Polynomial arithmetic for the matrix helpers of `crate::math::matrix`: `Σ a_k b_k` is one
+/// canonical [`Poly::sum`] of the products.
+pub struct Polynomials;
+
+impl crate::math::matrix::Arithmetic for Polynomials {
+    type Value = Poly;
+
+    fn add(&mut self, a: &Poly, b: &Poly) -> Poly {
+        a.add(b)
+    }
+
+    fn dot<'v>(&mut self, pairs: impl Iterator<Item = (&'v Poly, &'v Poly)>) -> Poly {
+        Poly::sum(&pairs.map(|(a, b)| a.mul(b)).collect::<Vec<_>>())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -352,21 +368,5 @@ mod tests {
             let fd = (p.eval(&At(a + h, b)) - p.eval(&At(a - h, b))) / (2.0 * h);
             assert!((fd - d.eval(&At(a, b))).abs() < 1e-8);
         }
-    }
-}
-
-/// Polynomial arithmetic for the matrix helpers of [`crate::math::matrix`]: `Σ a_k b_k` is one
-/// canonical [`Poly::sum`] of the products.
-pub struct Polynomials;
-
-impl crate::math::matrix::Arithmetic for Polynomials {
-    type Value = Poly;
-
-    fn add(&mut self, a: &Poly, b: &Poly) -> Poly {
-        a.add(b)
-    }
-
-    fn dot<'v>(&mut self, pairs: impl Iterator<Item = (&'v Poly, &'v Poly)>) -> Poly {
-        Poly::sum(&pairs.map(|(a, b)| a.mul(b)).collect::<Vec<_>>())
     }
 }

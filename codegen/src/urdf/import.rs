@@ -20,6 +20,7 @@ use std::collections::HashMap;
 use std::fmt::Write as _;
 
 use crate::diag::{Diagnostic, Diagnostics};
+use crate::math::rotation::rotation_rpy;
 
 /// The drive every imported joint gets unless a template is given (the paper's RE40-class
 /// motor with a 12:1 gearhead), as the YAML of one entry of `drives`.
@@ -116,17 +117,6 @@ fn number(x: f64) -> String {
 
 fn list(v: &[f64]) -> String {
     format!("[{}]", v.iter().map(|x| number(*x)).collect::<Vec<_>>().join(", "))
-}
-
-fn rpy_matrix(rpy: [f64; 3]) -> [[f64; 3]; 3] {
-    let (sr, cr) = rpy[0].sin_cos();
-    let (sp, cp) = rpy[1].sin_cos();
-    let (sy, cy) = rpy[2].sin_cos();
-    [
-        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-        [-sp, cp * sr, cp * cr],
-    ]
 }
 
 struct Inertial {
@@ -329,7 +319,7 @@ pub fn import(text: &str, file: &str, drive: &str) -> Result<String, Diagnostics
                     None => [0.0; 6],
                 };
                 let m = [[t[0], t[3], t[4]], [t[3], t[1], t[5]], [t[4], t[5], t[2]]];
-                let rot = rpy_matrix(i_rpy);
+                let rot = rotation_rpy(i_rpy);
                 let turned: [[f64; 3]; 3] = std::array::from_fn(|a| {
                     std::array::from_fn(|b| {
                         (0..3).map(|c| (0..3).map(|d| rot[a][c] * m[c][d] * rot[b][d]).sum::<f64>()).sum()
@@ -462,8 +452,11 @@ pub fn import(text: &str, file: &str, drive: &str) -> Result<String, Diagnostics
     };
     let robot_name = identifier(robot.attribute("name").unwrap_or("robot"));
     let mut out = String::new();
-    let _ =
-        writeln!(out, "# Imported by hapticgen {} from {file} (`hapticgen import-urdf`).", crate::VERSION);
+    let _ = writeln!(
+        out,
+        "# Imported by hapticgen {} from {file} (`hapticgen import-urdf`).",
+        crate::version::VERSION
+    );
     let _ = writeln!(
         out,
         "# Not in the URDF, set to defaults here — review them: gravity [0, 0, -9.81]; one drive per"

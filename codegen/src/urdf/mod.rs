@@ -4,5 +4,6 @@
 mod export;
 mod import;
 
-pub use export::{export, frame_link_name, point_link_name, rpy_of};
+pub use crate::math::rotation::rpy_of;
+pub use export::{export, frame_link_name, point_link_name};
 pub use import::{import, DEFAULT_DRIVE};
