@@ -15,6 +15,7 @@ pub mod dynamics;
 pub mod emit;
 pub mod eval;
 pub mod model;
+pub mod plan;
 pub mod rig_macro;
 pub mod sym;
 pub mod urdf;
