@@ -8,6 +8,7 @@
 
 use crate::dynamics::mechanics::Mechanics;
 use crate::dynamics::recursive::{PointQuantity, Quantity};
+use crate::math::matrix::{matrix_transpose, matrix_vec};
 use crate::model::Model;
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::Atom;
@@ -113,23 +114,7 @@ fn determinant_and_adjugate(dag: &mut Dag, a: &[Vec<NodeId>]) -> Option<(NodeId,
 }
 
 fn mat_vec(dag: &mut Dag, a: &[Vec<NodeId>], v: &[NodeId]) -> Vec<NodeId> {
-    a.iter()
-        .map(|row| {
-            let mut acc = dag.constant(0.0);
-            for (&x, &y) in row.iter().zip(v) {
-                let t = dag.mul(x, y);
-                acc = dag.add(acc, t);
-            }
-            acc
-        })
-        .collect()
-}
-
-fn transpose(a: &[Vec<NodeId>]) -> Vec<Vec<NodeId>> {
-    if a.is_empty() {
-        return Vec::new();
-    }
-    (0..a[0].len()).map(|j| a.iter().map(|row| row[j]).collect()).collect()
+    matrix_vec(dag, a, v)
 }
 
 /// `A⁻¹ v = adj(A) v / det A`.
@@ -173,7 +158,7 @@ pub fn build(dag: &mut Dag, model: &Model, mech: &Mechanics, law: Law) -> Option
     let coriolis = mech.build(dag, model, Quantity::CoriolisTimesQdot);
     let gravity = mech.build(dag, model, Quantity::Gravity);
     let bias: Vec<NodeId> = coriolis.iter().zip(&gravity).map(|(&c, &g)| dag.add(c, g)).collect();
-    let jacobian_t = transpose(&jacobian);
+    let jacobian_t = matrix_transpose(&jacobian);
 
     if law == Law::Controller3 {
         let force = mat_vec(dag, &jacobian_t, &restoring);
@@ -224,7 +209,7 @@ pub fn build(dag: &mut Dag, model: &Model, mech: &Mechanics, law: Law) -> Option
             }
             let joint = solve(dag, &adj_j, det_j, &excess);
             let torque = mat_vec(dag, &inertia, &joint);
-            let adj_jt = transpose(&adj_j);
+            let adj_jt = matrix_transpose(&adj_j);
             let mobility_inverse_excess = solve(dag, &adj_jt, det_j, &torque);
             let mut forces = Vec::with_capacity(m);
             for (k, &r) in restoring.iter().enumerate() {

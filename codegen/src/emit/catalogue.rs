@@ -1,0 +1,247 @@
+//! The catalogue of emitted functions: one [`FunctionSpec`] per quantity of eq. (1)–(2)
+//! (`D`, `C`, `C q̇`, `g`, inverse dynamics, `V`, task `p`, `J`, `J̇`, `J̇ q̇`) and per named
+//! point and frame, the outputs of the fused per-tick `terms`, and their operation counts.
+
+use crate::dynamics::mechanics::Mechanics;
+use crate::dynamics::recursive::{FrameQuantity, PointQuantity, Quantity};
+use crate::model::Model;
+use crate::plan::{output_roots, Output};
+use crate::sym::dag::OpCounts;
+use crate::sym::poly::Poly;
+
+use super::literal::Scalar;
+use super::lower::{BodyEmitter, EmitOptions};
+
+/// The shape of a function's result.
+#[derive(Clone, Copy, Debug)]
+pub enum Shape {
+    /// `S`.
+    Scalar,
+    /// `[S; n]`.
+    Vector(usize),
+    /// `[[S; cols]; rows]`.
+    Matrix(usize, usize),
+}
+
+/// One emitted function: its name, documentation and output polynomials (row-major).
+pub struct FunctionSpec<'a> {
+    /// Rust name.
+    pub name: String,
+    /// Doc comment.
+    pub doc: String,
+    /// Result shape.
+    pub shape: Shape,
+    /// The outputs, row-major.
+    pub outputs: Vec<Output<'a>>,
+    /// Takes `qd` (the trait signature may require it even if unused).
+    pub takes_qd: bool,
+    /// Takes `qdd` (the inverse dynamics).
+    pub takes_qdd: bool,
+}
+
+/// Entries `0..len` of a quantity.
+fn quantity(q: Quantity, len: usize) -> Vec<Output<'static>> {
+    (0..len).map(|k| Output::Quantity(q, k)).collect()
+}
+
+/// A matrix of polynomials, row-major.
+fn row_major(m: &[Vec<Poly>]) -> Vec<Output<'_>> {
+    m.iter().flatten().map(Output::Poly).collect()
+}
+
+/// A list of polynomials.
+fn each(list: &[Poly]) -> Vec<Output<'_>> {
+    list.iter().map(Output::Poly).collect()
+}
+
+/// The task's position, Jacobian or `J̇ q̇`: a point's quantity, or joint-coordinate polynomials.
+fn task(mech: &Mechanics, what: PointQuantity) -> Vec<Output<'_>> {
+    let (m, n) = (mech.task_dim, mech.joints);
+    match (mech.task_point, what) {
+        (Some(i), PointQuantity::Jacobian) => quantity(Quantity::Point(i, what), m * n),
+        (Some(i), _) => quantity(Quantity::Point(i, what), m),
+        (None, PointQuantity::Position) => each(&mech.task.position),
+        (None, PointQuantity::Jacobian) => row_major(&mech.task.jacobian),
+        (None, PointQuantity::JacobianDotTimesQdot) => each(&mech.task.jacobian_dot_times_qdot),
+    }
+}
+
+/// The specs of every per-quantity function (shared by emission and statistics).
+pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpec<'a>> {
+    let n = mech.joints;
+    let m = mech.task_dim;
+    let task_doc = match &model.task {
+        crate::model::TaskSpec::Point(i) => format!("the point `{}`", model.points[*i].name),
+        crate::model::TaskSpec::Joints(j) => format!(
+            "the joint coordinates {}",
+            j.iter().map(|&k| format!("`{}`", model.joints[k].name)).collect::<Vec<_>>().join(", ")
+        ),
+    };
+    let mut specs = vec![
+        FunctionSpec {
+            name: "inertia_matrix".into(),
+            doc: " Inertia matrix `D(q)` of eq. (1), including the reflected rotor inertias `N² J_m`.".into(),
+            shape: Shape::Matrix(n, n),
+            outputs: quantity(Quantity::InertiaMatrix, n * n),
+            takes_qd: false,
+            takes_qdd: false,
+        },
+        FunctionSpec {
+            name: "coriolis_matrix".into(),
+            doc: " Coriolis/centrifugal matrix `C(q, q̇)` of eq. (1), from the Christoffel symbols of `D`."
+                .into(),
+            shape: Shape::Matrix(n, n),
+            outputs: quantity(Quantity::CoriolisMatrix, n * n),
+            takes_qd: true,
+            takes_qdd: false,
+        },
+        FunctionSpec {
+            name: "coriolis_times_qdot".into(),
+            doc: " Coriolis and centrifugal torques `C(q, q̇) q̇`.".into(),
+            shape: Shape::Vector(n),
+            outputs: quantity(Quantity::CoriolisTimesQdot, n),
+            takes_qd: true,
+            takes_qdd: false,
+        },
+        FunctionSpec {
+            name: "gravity".into(),
+            doc: " Gravity torques `g(q) = ∂V/∂q` of eq. (1).".into(),
+            shape: Shape::Vector(n),
+            outputs: quantity(Quantity::Gravity, n),
+            takes_qd: false,
+            takes_qdd: false,
+        },
+        FunctionSpec {
+            name: "inverse_dynamics".into(),
+            doc:
+                " Inverse dynamics of eq. (1) without damping and friction: `τ = D(q) q̈ + C(q, q̇) q̇ + g(q)`."
+                    .into(),
+            shape: Shape::Vector(n),
+            outputs: quantity(Quantity::InverseDynamics, n),
+            takes_qd: true,
+            takes_qdd: true,
+        },
+        FunctionSpec {
+            name: "potential_energy".into(),
+            doc: " Gravitational potential energy `V(q)`, J (zero at the origin of the base frame).".into(),
+            shape: Shape::Scalar,
+            outputs: vec![Output::Poly(&mech.potential_energy)],
+            takes_qd: false,
+            takes_qdd: false,
+        },
+        FunctionSpec {
+            name: "position".into(),
+            doc: format!(" Task position `p(q)`: {task_doc}."),
+            shape: Shape::Vector(m),
+            outputs: task(mech, PointQuantity::Position),
+            takes_qd: false,
+            takes_qdd: false,
+        },
+        FunctionSpec {
+            name: "jacobian".into(),
+            doc: " Task Jacobian `J(q) = ∂p/∂q` (eq. (2), eq. (15) for the parallel link).".into(),
+            shape: Shape::Matrix(m, n),
+            outputs: task(mech, PointQuantity::Jacobian),
+            takes_qd: false,
+            takes_qdd: false,
+        },
+        FunctionSpec {
+            name: "jacobian_dot".into(),
+            doc: " Time derivative of the task Jacobian `J̇(q, q̇)`.".into(),
+            shape: Shape::Matrix(m, n),
+            outputs: row_major(&mech.task.jacobian_dot),
+            takes_qd: true,
+            takes_qdd: false,
+        },
+        FunctionSpec {
+            name: "jacobian_dot_times_qdot".into(),
+            doc: " `J̇(q, q̇) q̇`, the velocity term of eq. (2) and (4).".into(),
+            shape: Shape::Vector(m),
+            outputs: task(mech, PointQuantity::JacobianDotTimesQdot),
+            takes_qd: true,
+            takes_qdd: false,
+        },
+    ];
+    for (index, (point, kin)) in model.points.iter().zip(&mech.points).enumerate() {
+        let d = kin.position.len();
+        let point_outputs = |what: PointQuantity, len: usize| quantity(Quantity::Point(index, what), len);
+        let what = point.description.clone().unwrap_or_else(|| format!("point `{}`", point.name));
+        specs.push(FunctionSpec {
+            name: format!("{}_position", point.name),
+            doc: format!(" Position of {what} in the base frame."),
+            shape: Shape::Vector(d),
+            outputs: point_outputs(PointQuantity::Position, d),
+            takes_qd: false,
+            takes_qdd: false,
+        });
+        specs.push(FunctionSpec {
+            name: format!("{}_jacobian", point.name),
+            doc: format!(" Jacobian of the position of {what}."),
+            shape: Shape::Matrix(d, n),
+            outputs: point_outputs(PointQuantity::Jacobian, d * n),
+            takes_qd: false,
+            takes_qdd: false,
+        });
+        specs.push(FunctionSpec {
+            name: format!("{}_jacobian_dot_times_qdot", point.name),
+            doc: format!(" `J̇ q̇` of {what}."),
+            shape: Shape::Vector(d),
+            outputs: point_outputs(PointQuantity::JacobianDotTimesQdot, d),
+            takes_qd: true,
+            takes_qdd: false,
+        });
+    }
+    for (index, frame) in model.frames.iter().enumerate() {
+        let what = frame.description.clone().unwrap_or_else(|| format!("frame `{}`", frame.name));
+        specs.push(FunctionSpec {
+            name: format!("{}_orientation", frame.name),
+            doc: format!(" Orientation of {what}: the rotation matrix `R(q)` from the frame to the base frame (columns: its axes in base coordinates)."),
+            shape: Shape::Matrix(3, 3),
+            outputs: quantity(Quantity::Frame(index, FrameQuantity::Orientation), 9),
+            takes_qd: false,
+            takes_qdd: false,
+        });
+        specs.push(FunctionSpec {
+            name: format!("{}_angular_jacobian", frame.name),
+            doc: format!(" Angular-velocity Jacobian of {what}: `ω = J_ω(q) q̇` in base-frame coordinates (`Ṙ Rᵀ = [ω]×`)."),
+            shape: Shape::Matrix(3, n),
+            outputs: quantity(Quantity::Frame(index, FrameQuantity::AngularJacobian), 3 * n),
+            takes_qd: false,
+            takes_qdd: false,
+        });
+    }
+    specs
+}
+
+/// The outputs of the fused per-tick function, in the order of `RigTerms`' fields.
+pub(crate) fn tick_outputs(mech: &Mechanics, include_position: bool) -> Vec<Output<'_>> {
+    let n = mech.joints;
+    let mut outputs = quantity(Quantity::InertiaMatrix, n * n);
+    outputs.extend(quantity(Quantity::CoriolisTimesQdot, n));
+    outputs.extend(quantity(Quantity::Gravity, n));
+    if include_position {
+        outputs.extend(task(mech, PointQuantity::Position));
+    }
+    outputs.extend(task(mech, PointQuantity::Jacobian));
+    outputs.extend(task(mech, PointQuantity::JacobianDotTimesQdot));
+    outputs
+}
+
+/// Operation counts of the quantities one control tick needs (D, C q̇, g, p, J, J̇ q̇),
+/// computed together with shared subexpressions.
+pub fn tick_counts(model: &Model, mech: &Mechanics, include_position: bool) -> OpCounts {
+    tick_counts_with(model, mech, include_position, EmitOptions::default())
+}
+
+/// [`tick_counts`] for code emitted with `options` (with fused multiply-adds, they count once
+/// in [`OpCounts::fused`]).
+pub fn tick_counts_with(
+    model: &Model,
+    mech: &Mechanics,
+    include_position: bool,
+    options: EmitOptions,
+) -> OpCounts {
+    let mut body = BodyEmitter::new(model, mech, Scalar::F64, options);
+    let roots = output_roots(&mut body.dag, model, mech, &tick_outputs(mech, include_position));
+    body.dag.optimised_count_with(&roots, options.fused_multiply_add)
+}

@@ -1,0 +1,304 @@
+//! Assembly of a rig's items: the struct (tunable parameters as fields), its constants
+//! (nominal values, drive trains, current-loop gains), its methods, the
+//! `::hapticgen_runtime::RigModel` implementation and the fused control laws' implementation,
+//! with the operation counts of every emitted function.
+
+use proc_macro2::{Ident, Span, TokenStream};
+use quote::{format_ident, quote};
+
+use crate::check::CheckedModel;
+use crate::dynamics::mechanics::Mechanics;
+use crate::model::JointKind;
+use crate::sym::dag::{NodeId, OpCounts};
+
+use super::catalogue::function_specs;
+use super::fused_impl::fused_impl;
+use super::literal::{unsuffixed, Scalar};
+use super::lower::{BodyEmitter, EmitOptions};
+use super::methods::{closure_margin_function, function, terms_function};
+use super::naming::rig_type_name;
+
+/// Operation counts of each emitted function and of the fused tick.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct Stats {
+    /// Per function, in emission order.
+    pub functions: Vec<(String, OpCounts)>,
+}
+
+/// Emits every item of a rig: the struct, its methods and the `RigModel` implementation.
+pub fn items(
+    model: &CheckedModel,
+    mech: &Mechanics,
+    scalar: Scalar,
+    options: EmitOptions,
+) -> (TokenStream, Stats) {
+    let s = scalar.tokens();
+    let n = unsuffixed(mech.joints);
+    let m = unsuffixed(mech.task_dim);
+    let type_name = Ident::new(&rig_type_name(model), Span::call_site());
+    let rig_name = &model.name;
+    let mut stats = Stats::default();
+
+    let mut methods = TokenStream::new();
+    for spec in function_specs(model, mech) {
+        let (tokens, counts) = function(model, mech, scalar, options, &spec);
+        methods.extend(tokens);
+        stats.functions.push((spec.name.clone(), counts));
+    }
+    let (terms, tick) = terms_function(model, mech, scalar, options);
+    stats.functions.push(("terms".into(), tick));
+    methods.extend(terms);
+    if let Some((margin, counts)) = closure_margin_function(model, mech, scalar, options) {
+        stats.functions.push(("closure_margin".into(), counts));
+        methods.extend(margin);
+    }
+    let (fused, fused_counts) = fused_impl(model, mech, scalar, options);
+    stats.functions.extend(fused_counts);
+
+    // Damping depends on tunable parameters at most.
+    let mut damping_body = BodyEmitter::new(model, mech, scalar, options);
+    let damping_roots: Vec<NodeId> = mech.damping.iter().map(|p| damping_body.dag.polynomial(p)).collect();
+    let (damping_statements, damping_values, _) = damping_body.emit(&damping_roots, "damping");
+
+    // Tunable parameters become fields.
+    let fields = model.tunable.iter().map(|p| {
+        let ident = format_ident!("{}", p.name);
+        let doc = format!(
+            " {}{}",
+            p.description.clone().unwrap_or_else(|| format!("Tunable parameter `{}`", p.name)),
+            p.unit.as_ref().map(|u| format!(" ({u})")).unwrap_or_default()
+        );
+        quote!(#[doc = #doc] pub #ident: #s,)
+    });
+    let nominal_fields = model.tunable.iter().map(|p| {
+        let ident = format_ident!("{}", p.name);
+        let v = scalar.literal(p.value);
+        quote!(#ident: #v,)
+    });
+    let struct_def = if model.tunable.is_empty() {
+        quote!(pub struct #type_name;)
+    } else {
+        quote!(pub struct #type_name { #(#fields)* })
+    };
+    let nominal = if model.tunable.is_empty() {
+        quote!(#type_name)
+    } else {
+        quote!(#type_name { #(#nominal_fields)* })
+    };
+
+    let drives = model.joints.iter().map(|j| {
+        let d = &j.drive;
+        let lit = |v: f64| scalar.literal(v);
+        let (gr, eff, kt, r, l, jm, tl, cl, sv) = (
+            lit(d.gear_ratio),
+            lit(d.efficiency),
+            lit(d.motor.torque_constant),
+            lit(d.motor.resistance),
+            lit(d.motor.inductance),
+            lit(d.motor.rotor_inertia),
+            lit(d.torque_limit),
+            lit(d.current_limit),
+            lit(d.supply_voltage),
+        );
+        let counts = proc_macro2::Literal::u32_unsuffixed(d.encoder.counts_per_turn);
+        let (lo, hi) = (lit(j.lower), lit(j.upper));
+        quote! {
+            ::hapticgen_runtime::DriveTrain {
+                gear_ratio: #gr,
+                efficiency: #eff,
+                torque_constant: #kt,
+                resistance: #r,
+                inductance: #l,
+                rotor_inertia: #jm,
+                torque_limit: #tl,
+                current_limit: #cl,
+                supply_voltage: #sv,
+                encoder_counts_per_turn: #counts,
+                position_lower: #lo,
+                position_upper: #hi,
+            }
+        }
+    });
+    let gains = model.analyses.current_loop_designs.iter().map(|d| {
+        let (kp, ki, t, beta) = (
+            scalar.literal(d.kp),
+            scalar.literal(d.ki),
+            scalar.literal(d.sample_period),
+            scalar.literal(d.proportional_setpoint_weight),
+        );
+        quote! {
+            ::hapticgen_runtime::current_loop::CurrentLoopGains {
+                kp: #kp,
+                ki: #ki,
+                sample_period: #t,
+                proportional_setpoint_weight: #beta,
+            }
+        }
+    });
+    let gains_doc: Vec<String> = {
+        let cl = &model.current_loop;
+        let mut lines = vec![
+            " Gains of each joint's PI current loop (section 2), designed by discrete pole placement"
+                .to_string(),
+            format!(
+                " on `V = I (sL + R)` at {} Hz for a {} Hz bandwidth and damping ratio {}, taking the lag",
+                model.rates.current_loop_hz, cl.bandwidth_hz, cl.damping_ratio
+            ),
+            format!(
+                " of an order-{} Bessel anti-aliasing filter at {} Hz into account.",
+                cl.anti_alias_filter_order, cl.anti_alias_cutoff_hz
+            ),
+        ];
+        for (j, d) in model.joints.iter().zip(&model.analyses.current_loop_designs) {
+            lines.push(String::new());
+            lines.push(format!(
+                " Joint `{}`: R = {} Ω, L = {:e} H; achieved bandwidth {:.1} Hz, dominant damping ratio {:.3}.",
+                j.name, j.drive.motor.resistance, j.drive.motor.inductance, d.achieved_bandwidth_hz,
+                d.achieved_damping_ratio
+            ));
+        }
+        lines
+    };
+    let joint_names = model.joints.iter().map(|j| j.name.as_str());
+    let joint_kinds = model.joints.iter().map(|j| match j.kind {
+        JointKind::Revolute => "revolute",
+        JointKind::Prismatic => "prismatic",
+    });
+    let current_hz = model.rates.current_loop_hz;
+    let impedance_hz = model.rates.impedance_loop_hz;
+    let description = format!(
+        " The `{}` rig{}.",
+        rig_name,
+        model
+            .description
+            .as_ref()
+            .map(|d| format!(": {}", d.trim().trim_end_matches('.')))
+            .unwrap_or_default()
+    );
+    let closure_doc: Vec<String> = match &mech.closures {
+        None => Vec::new(),
+        Some(c) => {
+            let loops: Vec<String> = c
+                .loops
+                .iter()
+                .map(|l| {
+                    format!(
+                        "`{}` (passive `{}` and `{}`, branch {})",
+                        l.name,
+                        c.names[l.joints[0]],
+                        c.names[l.joints[1]],
+                        if l.branch_sign > 0.0 { "left" } else { "right" }
+                    )
+                })
+                .collect();
+            vec![
+                String::new(),
+                format!(
+                    " A closed chain reduced to its actuated joints by the closures {}.",
+                    loops.join(", ")
+                ),
+                " Where the loop cannot close, or at the aligned-links boundary, the functions return".into(),
+                " non-finite values (they never panic), which the runtime's safety monitor latches as a"
+                    .into(),
+                " fault with zero torque.".into(),
+            ]
+        }
+    };
+    let variant_doc = format!(
+        " Generated from `{}`{}; `{}` joints, `{}` task coordinates.",
+        model.file,
+        model.variant.as_ref().map(|v| format!(", variant `{v}`")).unwrap_or_default(),
+        n,
+        m
+    );
+
+    let tokens = quote! {
+        #[doc = #description]
+        ///
+        #[doc = #variant_doc]
+        #(#[doc = #closure_doc])*
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        #struct_def
+
+        impl Default for #type_name {
+            fn default() -> Self {
+                Self::NOMINAL
+            }
+        }
+
+        impl #type_name {
+            /// The rig with every tunable parameter at its nominal value.
+            pub const NOMINAL: Self = #nominal;
+            /// Number of joints.
+            pub const JOINTS: usize = #n;
+            /// Number of task coordinates.
+            pub const TASK_DIM: usize = #m;
+            /// Joint names, in the order of `q`.
+            pub const JOINT_NAMES: [&'static str; #n] = [#(#joint_names),*];
+            /// Joint kinds, in the order of `q`.
+            pub const JOINT_KINDS: [&'static str; #n] = [#(#joint_kinds),*];
+            /// The drive train of each joint, in the order of `q`.
+            pub const DRIVES: [::hapticgen_runtime::DriveTrain<#s>; #n] = [#(#drives),*];
+            #(#[doc = #gains_doc])*
+            pub const CURRENT_LOOP_GAINS: [::hapticgen_runtime::current_loop::CurrentLoopGains<#s>; #n] =
+                [#(#gains),*];
+
+            /// Diagonal of the viscous damping matrix `B` of eq. (1).
+            #[inline]
+            #[must_use]
+            pub fn damping(&self) -> [#s; #n] {
+                #damping_statements
+                [#(#damping_values),*]
+            }
+
+            #methods
+        }
+
+        impl ::hapticgen_runtime::RigModel<#n, #m> for #type_name {
+            type Scalar = #s;
+            const NAME: &'static str = #rig_name;
+            const CURRENT_LOOP_HZ: u32 = #current_hz;
+            const IMPEDANCE_LOOP_HZ: u32 = #impedance_hz;
+
+            fn inertia_matrix(&self, q: &[#s; #n]) -> [[#s; #n]; #n] {
+                Self::inertia_matrix(self, q)
+            }
+            fn coriolis_matrix(&self, q: &[#s; #n], qd: &[#s; #n]) -> [[#s; #n]; #n] {
+                Self::coriolis_matrix(self, q, qd)
+            }
+            fn coriolis_times_qdot(&self, q: &[#s; #n], qd: &[#s; #n]) -> [#s; #n] {
+                Self::coriolis_times_qdot(self, q, qd)
+            }
+            fn gravity(&self, q: &[#s; #n]) -> [#s; #n] {
+                Self::gravity(self, q)
+            }
+            fn damping(&self) -> [#s; #n] {
+                Self::damping(self)
+            }
+            fn position(&self, q: &[#s; #n]) -> [#s; #m] {
+                Self::position(self, q)
+            }
+            fn jacobian(&self, q: &[#s; #n]) -> [[#s; #n]; #m] {
+                Self::jacobian(self, q)
+            }
+            fn jacobian_dot(&self, q: &[#s; #n], qd: &[#s; #n]) -> [[#s; #n]; #m] {
+                Self::jacobian_dot(self, q, qd)
+            }
+            fn jacobian_dot_times_qdot(&self, q: &[#s; #n], qd: &[#s; #n]) -> [#s; #m] {
+                Self::jacobian_dot_times_qdot(self, q, qd)
+            }
+            fn terms(&self, q: &[#s; #n], qd: &[#s; #n]) -> ::hapticgen_runtime::RigTerms<#s, #n, #m> {
+                Self::terms(self, q, qd)
+            }
+            fn drives(&self) -> [::hapticgen_runtime::DriveTrain<#s>; #n] {
+                Self::DRIVES
+            }
+            fn inverse_dynamics(&self, q: &[#s; #n], qd: &[#s; #n], qdd: &[#s; #n]) -> [#s; #n] {
+                Self::inverse_dynamics(self, q, qd, qdd)
+            }
+        }
+
+        #fused
+    };
+    (tokens, stats)
+}

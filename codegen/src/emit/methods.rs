@@ -1,0 +1,173 @@
+//! The rig's methods: each catalogue entry lowered to one `pub fn` (with the cheapest
+//! derivation of its outputs), the fused per-tick `terms` and a closed chain's
+//! `closure_margin`.
+
+use proc_macro2::TokenStream;
+use quote::{format_ident, quote};
+
+use crate::dynamics::mechanics::Mechanics;
+use crate::model::Model;
+use crate::plan::{cheapest_choice, derivation_note, output_roots, output_roots_with};
+use crate::sym::dag::{Dag, Node, NodeId, OpCounts};
+use crate::sym::poly::Atom;
+
+use super::catalogue::{tick_outputs, FunctionSpec, Shape};
+use super::literal::{unsuffixed, Scalar};
+use super::lower::{BodyEmitter, EmitOptions};
+
+/// The Rust type of a result of `shape`.
+fn shape_tokens(shape: Shape, scalar: Scalar) -> TokenStream {
+    let s = scalar.tokens();
+    match shape {
+        Shape::Scalar => s,
+        Shape::Vector(n) => {
+            let n = unsuffixed(n);
+            quote!([#s; #n])
+        }
+        Shape::Matrix(r, c) => {
+            let (r, c) = (unsuffixed(r), unsuffixed(c));
+            quote!([[#s; #c]; #r])
+        }
+    }
+}
+
+/// The value of a result of `shape` from its outputs, row-major.
+fn shape_value(shape: Shape, outputs: &[TokenStream]) -> TokenStream {
+    match shape {
+        Shape::Scalar => outputs[0].clone(),
+        Shape::Vector(_) => quote!([#(#outputs),*]),
+        Shape::Matrix(_, c) => {
+            let rows = outputs.chunks(c.max(1)).map(|row| quote!([#(#row),*]));
+            quote!([#(#rows),*])
+        }
+    }
+}
+
+/// Whether any input reachable from `roots` satisfies `pred`.
+fn uses_atom(dag: &Dag, roots: &[NodeId], pred: impl Fn(Atom) -> bool) -> bool {
+    dag.reachable(roots).into_iter().any(|id| matches!(dag.nodes()[id], Node::Input(a) if pred(a)))
+}
+
+/// Emits one method; returns it with its operation counts.
+pub fn function(
+    model: &Model,
+    mech: &Mechanics,
+    scalar: Scalar,
+    options: EmitOptions,
+    spec: &FunctionSpec<'_>,
+) -> (TokenStream, OpCounts) {
+    let mut body = BodyEmitter::new(model, mech, scalar, options);
+    let choice = cheapest_choice(model, mech, &spec.outputs, options.fused_multiply_add);
+    let roots = output_roots_with(&mut body.dag, model, mech, &spec.outputs, choice);
+    let doc = format!("{}{}", spec.doc, derivation_note(&spec.outputs, choice));
+    let (statements, outputs, counts) = body.emit(&roots, &spec.name);
+    let value = shape_value(spec.shape, &outputs);
+    let ret = shape_tokens(spec.shape, scalar);
+    let n = unsuffixed(model.joints.len());
+    let s = scalar.tokens();
+    let q_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Sin(_) | Atom::Cos(_) | Atom::Q(_)));
+    let qd_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Qd(_)));
+    let q = if q_used { quote!(q) } else { quote!(_q) };
+    let qd = if qd_used { quote!(qd) } else { quote!(_qd) };
+    let name = format_ident!("{}", spec.name);
+    let args = if spec.takes_qdd {
+        let qdd_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Qdd(_)));
+        let qdd = if qdd_used { quote!(qdd) } else { quote!(_qdd) };
+        quote!(&self, #q: &[#s; #n], #qd: &[#s; #n], #qdd: &[#s; #n])
+    } else if spec.takes_qd {
+        quote!(&self, #q: &[#s; #n], #qd: &[#s; #n])
+    } else {
+        quote!(&self, #q: &[#s; #n])
+    };
+    let tokens = quote! {
+        #[doc = #doc]
+        #[inline]
+        #[must_use]
+        pub fn #name(#args) -> #ret {
+            #statements
+            #value
+        }
+    };
+    (tokens, counts)
+}
+
+/// The fused per-tick `terms` method; returns it with its operation counts.
+pub(crate) fn terms_function(
+    model: &Model,
+    mech: &Mechanics,
+    scalar: Scalar,
+    options: EmitOptions,
+) -> (TokenStream, OpCounts) {
+    let mut body = BodyEmitter::new(model, mech, scalar, options);
+    let roots = output_roots(&mut body.dag, model, mech, &tick_outputs(mech, true));
+    let (statements, values, counts) = body.emit(&roots, "terms");
+    let n = mech.joints;
+    let m = mech.task_dim;
+    let mut rest = values.as_slice();
+    let mut take = |k: usize| {
+        let (head, tail) = rest.split_at(k);
+        rest = tail;
+        head.to_vec()
+    };
+    let inertia = shape_value(Shape::Matrix(n, n), &take(n * n));
+    let coriolis = shape_value(Shape::Vector(n), &take(n));
+    let gravity = shape_value(Shape::Vector(n), &take(n));
+    let position = shape_value(Shape::Vector(m), &take(m));
+    let jacobian = shape_value(Shape::Matrix(m, n), &take(m * n));
+    let jdot = shape_value(Shape::Vector(m), &take(m));
+    let (n, m) = (unsuffixed(n), unsuffixed(m));
+    let s = scalar.tokens();
+    let q_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Sin(_) | Atom::Cos(_) | Atom::Q(_)));
+    let qd_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Qd(_)));
+    let q = if q_used { quote!(q) } else { quote!(_q) };
+    let qd = if qd_used { quote!(qd) } else { quote!(_qd) };
+    let tokens = quote! {
+        /// Every term one control tick needs (`D`, `C q̇`, `g`, `p`, `J`, `J̇ q̇`), computed in one
+        /// pass so that sines, cosines and products are shared.
+        #[inline]
+        #[must_use]
+        pub fn terms(&self, #q: &[#s; #n], #qd: &[#s; #n]) -> ::hapticgen_runtime::RigTerms<#s, #n, #m> {
+            #statements
+            ::hapticgen_runtime::RigTerms {
+                inertia_matrix: #inertia,
+                coriolis_times_qdot: #coriolis,
+                gravity: #gravity,
+                position: #position,
+                jacobian: #jacobian,
+                jacobian_dot_times_qdot: #jdot,
+            }
+        }
+    };
+    (tokens, counts)
+}
+
+/// A closed chain's `closure_margin` method (see `crate::dynamics::closure::Installed::margins`).
+pub(crate) fn closure_margin_function(
+    model: &Model,
+    mech: &Mechanics,
+    scalar: Scalar,
+    options: EmitOptions,
+) -> Option<(TokenStream, OpCounts)> {
+    let closures = mech.closures.as_ref()?;
+    let mut body = BodyEmitter::new(model, mech, scalar, options);
+    // Installing again into the same DAG re-interns the same nodes: it only reports them.
+    let roots = crate::dynamics::closure::install(&mut body.dag, Some(closures)).margins;
+    let (statements, values, counts) = body.emit(&roots, "closure_margin");
+    let (n, k) = (unsuffixed(model.joints.len()), unsuffixed(roots.len()));
+    let s = scalar.tokens();
+    let names: Vec<String> = closures.loops.iter().map(|l| format!("`{}`", l.name)).collect();
+    let doc = format!(
+        " Assembly margin of each closure ({}): the squared sine of the angle between the first distal link and the line joining the passive joints' axes; 1 with the link square to it, 0 at the singular boundary (links aligned), negative where the loop cannot close (NaN if the axes coincide). Guard the workspace with it: the dynamics grow without bound as it approaches 0.",
+        names.join(", ")
+    );
+    let tokens = quote! {
+        #[doc = #doc]
+        #[inline]
+        #[must_use]
+        pub fn closure_margin(&self, q: &[#s; #n]) -> [#s; #k] {
+            #statements
+            [#(#values),*]
+        }
+    };
+    Some((tokens, counts))
+}
