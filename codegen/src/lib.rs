@@ -19,7 +19,7 @@ pub mod emit;
 pub mod eval;
 mod math;
 pub mod model;
-pub mod plan;
+mod plan;
 pub mod rig_macro;
 #[doc(hidden)]
 pub mod sym;

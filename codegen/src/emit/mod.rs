@@ -6,7 +6,7 @@
 //! computed once per function. The items implement `::hapticgen_runtime::RigModel`; everything
 //! that is the same for every rig stays in the runtime.
 //!
-//! One job per file; each uses only files listed before it (and [`crate::plan`], which
+//! One job per file; each uses only files listed before it (and `crate::plan`, which
 //! decides the derivation of each function's outputs before emission):
 //!
 //! - `literal` — the scalar type and its literals;

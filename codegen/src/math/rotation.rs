@@ -50,7 +50,7 @@ pub fn rotation_rpy(rpy: [f64; 3]) -> Mat3<f64> {
     ]
 }
 
-/// Roll, pitch, yaw of a rotation matrix (the inverse of [`rotation_rpy`]); at gimbal lock
+/// Roll, pitch, yaw of a rotation matrix (the inverse of `rotation_rpy`); at gimbal lock
 /// (pitch ±90°) roll and yaw turn about the same axis, and all of it goes into yaw.
 pub fn rpy_of(r: &Mat3<f64>) -> [f64; 3] {
     let pitch = (-r[2][0]).atan2((r[0][0] * r[0][0] + r[1][0] * r[1][0]).sqrt());

@@ -18,7 +18,7 @@ mod task;
 
 use super::positions::Segment;
 use super::schema::{ModelFile, Space, Value};
-use super::types::*;
+use super::types::{LoopClosure, Model};
 use super::{Locator, ParameterValues};
 use crate::diag::{Diagnostic, Diagnostics};
 use crate::sym::poly::Poly;
