@@ -1,8 +1,11 @@
 //! Generates the rig of the image named by `HAPTICGEN_FW_VARIANT` (a line of variants.txt;
-//! the first line when unset) in f32, its glue module, and `memory.x` for the MPS2-AN386.
+//! the first line when unset) in f32, its glue module (with the line's scenario on the
+//! simulated board), and `memory.x` for the MPS2-AN386. Both binaries, the image and its
+//! control-path probe, include the glue.
 use std::path::PathBuf;
 
 use hapticgen_codegen::Scalar;
+use hapticgen_fw_build::Glue;
 
 fn main() {
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"));
@@ -18,7 +21,7 @@ fn main() {
         }),
         None => table.first().expect("variants.txt lists at least one image"),
     };
-    let glue = hapticgen_fw_build::generate(variant, &firmware, Scalar::F32, &out, "image")
+    let glue = hapticgen_fw_build::generate(variant, &firmware, Scalar::F32, &out, "image", Glue::Simulation)
         .unwrap_or_else(|e| panic!("{e}"));
     std::fs::write(out.join("image.rs"), glue).expect("OUT_DIR is writable");
     // MPS2-AN386 under QEMU: 4 MiB SSRAM1 at 0 (code), 4 MiB SSRAM2 at 0x2000_0000 (data).

@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use hapticgen_codegen::Scalar;
+use hapticgen_fw_build::Glue;
 
 fn main() {
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"));
@@ -15,12 +16,9 @@ fn main() {
         .iter()
         .find(|v| v.name == name)
         .unwrap_or_else(|| panic!("HAPTICGEN_FW_VARIANT={name} is not in variants.txt"));
-    let glue = hapticgen_fw_build::generate(variant, &firmware, Scalar::F32, &out, "image")
+    // A board image: the rig and its model-derived setup, no simulated scenario.
+    let glue = hapticgen_fw_build::generate(variant, &firmware, Scalar::F32, &out, "image", Glue::Board)
         .unwrap_or_else(|e| panic!("{e}"));
-    // This image uses the rig and its setup, not the simulated scenario: drop `new`.
-    let glue = glue
-        .replace("pub type Run", "#[cfg(any())] pub type Run")
-        .replace("pub fn new(", "#[cfg(any())] pub fn new(");
     std::fs::write(out.join("image.rs"), glue).expect("OUT_DIR is writable");
     std::fs::write(
         out.join("memory.x"),
