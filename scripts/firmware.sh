@@ -43,6 +43,20 @@ START=$SECONDS
 step() { printf '\n=== firmware [%ds]: %s ===\n' $((SECONDS - START)) "$*"; }
 die() { printf 'FAIL %s\n' "$*" >&2; exit 1; }
 
+# The images: every line of variants.txt, and the board image.
+TABLE=$(awk '{ sub(/#.*/, "") } NF { print $1 }' "$FW/variants.txt")
+[ -n "$TABLE" ] || die "$FW/variants.txt lists no image"
+KNOWN=$(printf '%s\n%s\n' "$TABLE" "$BOARD")
+SELECTED=()
+if [ ${#ONLY[@]} -eq 0 ]; then
+    mapfile -t SELECTED <<<"$KNOWN"
+else
+    for NAME in "${ONLY[@]}"; do
+        grep -qxF -- "$NAME" <<<"$KNOWN" || die "--only $NAME: no such image (known: $(tr '\n' ' ' <<<"$KNOWN"))"
+        SELECTED+=("$NAME")
+    done
+fi
+
 step "toolchain and QEMU"
 TOOLCHAIN=$(sed -n 's/^channel *= *"\(.*\)"/\1/p' "$FW/rust-toolchain.toml")
 [ -n "$TOOLCHAIN" ] || die "no channel in $FW/rust-toolchain.toml"
@@ -98,18 +112,8 @@ cargo build --locked -p hapticgen-fw-reference
 REF=$TARGET_DIR/debug/hapticgen-fw-reference
 [ -x "$REF" ] || die "the host reference was built but is not at $REF"
 NAMES=$("$REF" list) || die "$REF list failed"
-[ -n "$NAMES" ] || die "variants.txt lists no image"
-KNOWN=$(printf '%s\n%s\n' "$NAMES" "$BOARD")
-SELECTED=()
-if [ ${#ONLY[@]} -eq 0 ]; then
-    mapfile -t SELECTED <<<"$KNOWN"
-else
-    for NAME in "${ONLY[@]}"; do
-        grep -qxF -- "$NAME" <<<"$KNOWN" \
-            || die "--only $NAME: no such image (known: $(tr '\n' ' ' <<<"$KNOWN"))"
-        SELECTED+=("$NAME")
-    done
-fi
+[ -n "$NAMES" ] || die "the host reference lists no image"
+[ "$NAMES" = "$TABLE" ] || die "the host reference lists $(tr '\n' ' ' <<<"$NAMES")but variants.txt $(tr '\n' ' ' <<<"$TABLE")"
 
 # The panic check of a linked control-path probe; on failure, where the panics are called.
 panic_check() {
@@ -119,7 +123,7 @@ panic_check() {
     fi
     if [ -x "$OBJDUMP" ]; then
         echo "call sites (source line of the call, and of each branch into its block):" >&2
-        "$OBJDUMP" -d -l --no-show-raw-insn -C "$elf" | awk -v root="$ROOT/" '
+        "$OBJDUMP" -d -l --no-show-raw-insn -C "$elf" 2>/dev/null | awk -v root="$ROOT/" '
             function hex(s,    i, v) {
                 v = 0; sub(/^0x/, "", s)
                 for (i = 1; i <= length(s); i++) v = v * 16 + index("0123456789abcdef", substr(s, i, 1)) - 1
@@ -127,9 +131,17 @@ panic_check() {
             }
             function panicky(name) { return name ~ /panic|unwrap_failed|expect_failed|_fail$|begin_unwind/ }
             /^[0-9a-f]+ <[^$].*>:$/ { fn = $0; sub(/^[0-9a-f]+ </, "", fn); sub(/>:$/, "", fn); next }
-            /^; \// { src = substr($0, 3); if (index(src, root) == 1) src = substr(src, length(root) + 1); next }
+            # src: the source line of the next instructions; own: the last one outside the
+            # standard library (whose inlined helpers hide the line that called them).
+            /^; \/[^:]*:[0-9]+$/ {
+                src = substr($0, 3); if (index(src, root) == 1) src = substr(src, length(root) + 1)
+                if (src !~ /^\/rustc\//) own = src
+                next
+            }
             /^ *[0-9a-f]+:[ \t]/ {
-                a = $1; sub(/:$/, "", a); a = hex(a); line_of[a] = src; fn_of[a] = fn
+                a = $1; sub(/:$/, "", a); a = hex(a); fn_of[a] = fn
+                lib = src; sub(/^\/rustc\/[0-9a-f]+\//, "", lib)
+                line_of[a] = (src ~ /^\/rustc\// && own != "") ? own " (inlined: " lib ")" : lib
                 if (new_block) { block = a; new_block = 0 }
                 name = ""
                 if (match($0, /0x[0-9a-f]+ <[^>]*>/)) {

@@ -53,9 +53,15 @@ pub fn panic_symbols(path: &str) -> Result<Vec<String>, String> {
     Ok(found)
 }
 
-/// A legacy-mangled Rust name (`_ZN4core9panicking9panic_fmt17h0123456789abcdefE`) as a path
-/// (`core::panicking::panic_fmt`), without the hash; any other name unchanged.
+/// A mangled Rust name as a path without hashes: legacy
+/// (`_ZN4core9panicking9panic_fmt17h0123456789abcdefE`) or, for plain paths (crate root and
+/// nested names, no generics or impls), v0 (`_RNvNtCs1234_4core9panicking9panic_fmt`), both
+/// `core::panicking::panic_fmt`. Any other name comes back unchanged.
 pub fn demangle(name: &str) -> String {
+    if let Some(v0) = name.strip_prefix("_R") {
+        let mut parser = V0 { rest: v0.trim_start_matches(|c: char| c.is_ascii_digit()) };
+        return parser.path().unwrap_or_else(|| name.to_string());
+    }
     let Some(mut rest) = name.strip_prefix("_ZN") else { return name.to_string() };
     let mut parts: Vec<String> = Vec::new();
     while let Some(first) = rest.chars().next() {
@@ -96,4 +102,63 @@ pub fn demangle(name: &str) -> String {
         text = text.replace(from, to);
     }
     text
+}
+
+/// The subset of the v0 mangling grammar that `core`'s panic functions use: `C` (crate root),
+/// `N` (nested path); identifiers with an optional disambiguator.
+struct V0<'a> {
+    rest: &'a str,
+}
+
+impl V0<'_> {
+    fn take(&mut self, prefix: char) -> bool {
+        match self.rest.strip_prefix(prefix) {
+            Some(rest) => {
+                self.rest = rest;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// `s <base-62> _`, skipped.
+    fn disambiguator(&mut self) -> Option<()> {
+        if self.take('s') {
+            let end = self.rest.find('_')?;
+            self.rest = &self.rest[end + 1..];
+        }
+        Some(())
+    }
+
+    fn identifier(&mut self) -> Option<&str> {
+        self.disambiguator()?;
+        if self.rest.starts_with('u') {
+            return None; // Punycode: not needed here.
+        }
+        let digits = self.rest.len() - self.rest.trim_start_matches(|c: char| c.is_ascii_digit()).len();
+        let length: usize = self.rest[..digits].parse().ok()?;
+        self.rest = &self.rest[digits..];
+        self.take('_');
+        let identifier = self.rest.get(..length)?;
+        self.rest = &self.rest[length..];
+        Some(identifier)
+    }
+
+    fn path(&mut self) -> Option<String> {
+        if self.take('C') {
+            return self.identifier().map(str::to_string);
+        }
+        if !self.take('N') {
+            return None;
+        }
+        let namespace = self.rest.chars().next()?;
+        self.rest = &self.rest[namespace.len_utf8()..];
+        let parent = self.path()?;
+        let identifier = self.identifier()?;
+        Some(match namespace {
+            'C' => format!("{parent}::{{closure}}"),
+            c if c.is_ascii_uppercase() => format!("{parent}::{{{c}}}"),
+            _ => format!("{parent}::{identifier}"),
+        })
+    }
 }

@@ -80,6 +80,10 @@ fn names_every_panic_entry_point_and_nothing_else() {
         "_ZN4core5slice5index16slice_index_fail17h0123456789abcdefE",
         "_ZN7__rustc17rust_begin_unwind17h0123456789abcdefE",
         "_ZN20hapticgen_fw_control5probe26hapticgen_fw_panic_reached17h0123456789abcdefE",
+        // v0 mangling, as Rust 1.95 writes them into the probes.
+        "_RNvNtCs7ldSeZOOJos_4core6option13unwrap_failed",
+        "_RNvNtCs7ldSeZOOJos_4core9panicking9panic_fmt",
+        "_RNvCsfLfy6EI15iL_7___rustc17rust_begin_unwind",
     ] {
         assert!(is_panic_symbol(name), "{name}");
     }
@@ -101,4 +105,17 @@ fn demangles_legacy_names() {
         "<hapticgen_fw_control::probe::OpaqueBoard as Encoders>::counts"
     );
     assert_eq!(demangle("SysTick"), "SysTick");
+}
+
+#[test]
+fn demangles_v0_paths_and_leaves_the_rest() {
+    assert_eq!(demangle("_RNvNtCs7ldSeZOOJos_4core6option13unwrap_failed"), "core::option::unwrap_failed");
+    assert_eq!(demangle("_RNvCsfLfy6EI15iL_7___rustc17rust_begin_unwind"), "__rustc::rust_begin_unwind");
+    assert_eq!(
+        demangle("_RNvNtCs1a_20hapticgen_fw_control5probe26hapticgen_fw_panic_reached"),
+        "hapticgen_fw_control::probe::hapticgen_fw_panic_reached"
+    );
+    // Generic instances (`I … E`) are not decoded: the name is kept as it is.
+    let generic = "_RINvNtCs1a_4core3ptr13drop_in_placeNtCs2b_3foo3BarEB4_";
+    assert_eq!(demangle(generic), generic);
 }
