@@ -111,6 +111,12 @@ step "host reference (hapticgen-fw-reference)"
 cargo build --locked -p hapticgen-fw-reference
 REF=$TARGET_DIR/debug/hapticgen-fw-reference
 [ -x "$REF" ] || die "the host reference was built but is not at $REF"
+# The images compile the rigs the host reference generated (and its f32 run compiled): the
+# image crates are built without their `generate` feature, so the generator is not built a
+# second time (in the release profile's build-override) for their build scripts.
+HAPTICGEN_FW_GENERATED=$("$REF" generated) || die "$REF generated failed"
+[ -d "$HAPTICGEN_FW_GENERATED" ] || die "no pre-generated images at $HAPTICGEN_FW_GENERATED"
+export HAPTICGEN_FW_GENERATED
 NAMES=$("$REF" list) || die "$REF list failed"
 [ -n "$NAMES" ] || die "the host reference lists no image"
 [ "$NAMES" = "$TABLE" ] || die "the host reference lists $(tr '\n' ' ' <<<"$NAMES")but variants.txt $(tr '\n' ' ' <<<"$TABLE")"
@@ -185,7 +191,7 @@ for NAME in "${SELECTED[@]}"; do
     if [ "$NAME" = "$BOARD" ]; then
         step "board image $BOARD ($BOARD_VARIANT): lint (board support, runtime and generated code, for the target)"
         HAPTICGEN_FW_VARIANT=$BOARD_VARIANT cargo clippy --locked --release --target "$TARGET" \
-            -p hapticgen-fw-stm32f4 --lib --bins -- -D warnings
+            -p hapticgen-fw-stm32f4 --no-default-features --lib --bins -- -D warnings
         step "board image $BOARD: layering (no dependency on the simulator)"
         TREE=$(cargo tree --locked -p hapticgen-fw-stm32f4 --target "$TARGET" -e normal,build --prefix none)
         grep -q '^hapticgen-fw-control ' <<<"$TREE" || die "cargo tree of hapticgen-fw-stm32f4 looks wrong: $TREE"
@@ -195,7 +201,8 @@ for NAME in "${SELECTED[@]}"; do
             echo "hapticgen-fw-stm32f4 depends on: $(sed 's/ .*//' <<<"$TREE" | grep '^hapticgen' | sort -u | tr '\n' ' ')"
         fi
         step "board image $BOARD: build (image and control-path probe)"
-        HAPTICGEN_FW_VARIANT=$BOARD_VARIANT cargo build --locked --release --target "$TARGET" -p hapticgen-fw-stm32f4 --bins
+        HAPTICGEN_FW_VARIANT=$BOARD_VARIANT cargo build --locked --release --target "$TARGET" \
+            -p hapticgen-fw-stm32f4 --no-default-features --bins
         BIN=$TARGET_DIR/$TARGET/release
         cp "$BIN/hapticgen-fw-stm32f4" "$OUT/$BOARD.elf"
         cp "$BIN/hapticgen-fw-stm32f4-control-path" "$OUT/$BOARD.control-path.elf"
@@ -207,9 +214,11 @@ for NAME in "${SELECTED[@]}"; do
     fi
 
     step "image $NAME: lint (generated code, runtime and firmware, for the target)"
-    HAPTICGEN_FW_VARIANT=$NAME cargo clippy --locked --release --target "$TARGET" -p hapticgen-fw-qemu --bins -- -D warnings
+    HAPTICGEN_FW_VARIANT=$NAME cargo clippy --locked --release --target "$TARGET" \
+        -p hapticgen-fw-qemu --no-default-features --bins -- -D warnings
     step "image $NAME: build (image and control-path probe)"
-    HAPTICGEN_FW_VARIANT=$NAME cargo build --locked --release --target "$TARGET" -p hapticgen-fw-qemu --bins
+    HAPTICGEN_FW_VARIANT=$NAME cargo build --locked --release --target "$TARGET" \
+        -p hapticgen-fw-qemu --no-default-features --bins
     BIN=$TARGET_DIR/$TARGET/release
     ELF=$OUT/$NAME.elf
     cp "$BIN/hapticgen-fw-qemu" "$ELF"

@@ -1,5 +1,7 @@
 //! Generates every variant of `variants.txt` in f64 (the reference) and f32 (must match the
-//! target bit for bit), and a dispatch table.
+//! target bit for bit), and a dispatch table; and, in `$OUT_DIR/images`, every image's f32 rig
+//! with its glue modules as the image crates' build scripts take them
+//! (`hapticgen_fw_build::copy_pregenerated`).
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -18,12 +20,24 @@ fn main() {
     let mut scenarios = String::new();
     let mut renderings = String::new();
     let mut pushes = String::new();
+    let images = out.join("images");
     for v in &table {
         for scalar in [Scalar::F64, Scalar::F32] {
             let module = format!("{}_{}", v.name, scalar.name());
-            let glue = hapticgen_fw_build::generate(v, &firmware, scalar, &out, &module, Glue::Simulation)
+            let rig_file = out.join(format!("{module}_rig.rs"));
+            let rig = hapticgen_fw_build::generate_rig(v, &firmware, scalar, &rig_file)
                 .unwrap_or_else(|e| panic!("{e}"));
-            text.push_str(&glue);
+            text.push_str(&rig.glue(&module, Glue::Simulation));
+            if scalar == Scalar::F32 {
+                // The images compile this very rig file (scripts/firmware.sh).
+                hapticgen_fw_build::write_pregenerated(
+                    &images,
+                    &v.name,
+                    |kind| rig.glue("image", kind),
+                    &rig_file,
+                )
+                .unwrap_or_else(|e| panic!("{e}"));
+            }
             text.push('\n');
             writeln!(
                 arms,

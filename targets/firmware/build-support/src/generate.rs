@@ -37,15 +37,45 @@ pub fn generate(
     module: &str,
     glue_kind: Glue,
 ) -> Result<String, String> {
+    let rig = generate_rig(v, firmware_dir, scalar, &out_dir.join(format!("{module}_rig.rs")))?;
+    Ok(rig.glue(module, glue_kind))
+}
+
+/// A rig generated into a file, and what its glue modules say about it.
+#[derive(Clone, Debug)]
+pub struct GeneratedRig {
+    name: String,
+    description: String,
+    scenario: String,
+    type_name: String,
+    scalar: &'static str,
+    joints: usize,
+    task_dim: usize,
+    current_loop_hz: String,
+    impedance_loop_hz: String,
+    gains: Vec<String>,
+    start: Vec<String>,
+    rendering: String,
+    sense_time_constant: f64,
+}
+
+/// Generates the rig of `v` in `scalar` into `rig_file`; its glue modules come from
+/// [`GeneratedRig::glue`], any number of them (a crate's `OUT_DIR` must then hold the rig as
+/// `<module>_rig.rs`).
+pub fn generate_rig(
+    v: &Variant,
+    firmware_dir: &Path,
+    scalar: Scalar,
+    rig_file: &Path,
+) -> Result<GeneratedRig, String> {
     let repo_root = firmware_dir.join("../..");
     let model_path = repo_root.join(&v.model);
-    let rig_file = out_dir.join(format!("{module}_rig.rs"));
     hapticgen_codegen::build::generate_with(
         &model_path,
         v.variant.as_deref(),
         scalar,
         emit_options(),
-        &rig_file,
+        rig_file,
     )
     .map_err(|e| e.to_string())?;
     let loaded = model::load_file(&model_path, &v.model, v.variant.as_deref()).map_err(|e| e.to_string())?;
@@ -106,69 +136,98 @@ pub fn generate(
         .collect();
     // Every joint has the same anti-aliasing filter: its time constant from the first design.
     let tau = designs[0].filter_time_constant;
-    let mut glue = String::new();
-    writeln!(
-        glue,
-        "/// Image `{name}`: `{model}`{variant}, scenario `{scenario}`, {s}.\n\
-         pub mod {module} {{\n\
-         \x20   #[allow(clippy::all, missing_docs)]\n\
-         \x20   pub mod rig {{ include!(concat!(env!(\"OUT_DIR\"), \"/{module}_rig.rs\")); }}\n\
-         \x20   /// The generated rig.\n\
-         \x20   pub type Rig = rig::{type_name};\n\
-         \x20   /// Number of joints.\n\
-         \x20   pub const JOINTS: usize = {n};\n\
-         \x20   /// Number of task coordinates.\n\
-         \x20   pub const TASK_DIM: usize = {m};\n\
-         \x20   /// The image name.\n\
-         \x20   pub const NAME: &str = \"{name}\";\n\
-         \x20   /// The rig's current-loop rate, Hz (the interrupt rate).\n\
-         \x20   pub const CURRENT_LOOP_HZ: u32 = {hz};\n\
-         \x20   /// The rig's impedance-loop rate, Hz.\n\
-         \x20   pub const IMPEDANCE_LOOP_HZ: u32 = {imp_hz};\n\
-         \x20   /// Model-derived settings: per-joint current-loop gains (designed from each joint's\n\
-         \x20   /// motor), the start pose of `variants.txt`, rendering.\n\
-         \x20   pub fn setup() -> ::hapticgen_fw_control::Setup<{s}, JOINTS> {{\n\
-         \x20       type S = {s};\n\
-         \x20       use ::hapticgen_runtime::Real as _;\n\
-         \x20       ::hapticgen_fw_control::Setup {{\n\
-         \x20           current_gains: [{gains}],\n\
-         \x20           start: [{start}],\n\
-         \x20           rendering: {rendering},\n\
-         \x20       }}\n\
-         \x20   }}",
-        name = v.name,
-        model = v.model,
-        variant = v.variant.as_ref().map(|x| format!(" variant `{x}`")).unwrap_or_default(),
-        scenario = v.scenario,
-        gains = gains.join(", "),
-        start = start.join(", "),
-        hz = loaded.rates.current_loop_hz,
-        imp_hz = loaded.rates.impedance_loop_hz,
-    )
-    .map_err(|e| e.to_string())?;
-    if glue_kind == Glue::Simulation {
-        writeln!(
+    Ok(GeneratedRig {
+        name: v.name.clone(),
+        description: format!(
+            "`{}`{}, scenario `{}`",
+            v.model,
+            v.variant.as_ref().map(|x| format!(" variant `{x}`")).unwrap_or_default(),
+            v.scenario
+        ),
+        scenario: v.scenario.clone(),
+        type_name,
+        scalar: s,
+        joints: n,
+        task_dim: m,
+        current_loop_hz: loaded.rates.current_loop_hz.to_string(),
+        impedance_loop_hz: loaded.rates.impedance_loop_hz.to_string(),
+        gains,
+        start,
+        rendering,
+        sense_time_constant: tau,
+    })
+}
+
+impl GeneratedRig {
+    /// The text of the glue module `module` of `kind`; it includes the rig from
+    /// `$OUT_DIR/<module>_rig.rs`.
+    pub fn glue(&self, module: &str, kind: Glue) -> String {
+        let mut glue = String::new();
+        let _ = writeln!(
             glue,
-            "\x20   /// The scenario's reference source.\n\
-             \x20   pub type Source = ::hapticgen_fw_sim::scenarios::{scenario}::Source<Rig, JOINTS, TASK_DIM>;\n\
-             \x20   /// The firmware's control state for this rig and source (what the interrupt runs).\n\
-             \x20   pub type Control = ::hapticgen_fw_control::Controller<Rig, Source, JOINTS, TASK_DIM>;\n\
-             \x20   /// The scenario for this rig.\n\
-             \x20   pub type Run = ::hapticgen_fw_sim::scenarios::{scenario}::Run<Rig, JOINTS, TASK_DIM>;\n\
-             \x20   /// Time constant of the simulated current sense, s: the model's anti-aliasing filter\n\
-             \x20   /// as its current-loop design approximates it (a first-order lag).\n\
-             \x20   pub fn sense_time_constant() -> {s} {{\n\
-             \x20       <{s} as ::hapticgen_runtime::Real>::from_f64({tau})\n\
-             \x20   }}\n\
-             \x20   /// The scenario, ready to run.\n\
-             \x20   pub fn new(profile: bool) -> Option<Run> {{\n\
-             \x20       ::hapticgen_fw_sim::scenarios::{scenario}::new(NAME, Rig::NOMINAL, &setup(), sense_time_constant(), profile)\n\
+            "/// Image `{name}`: {description}, {s}.\n\
+             pub mod {module} {{\n\
+             \x20   #[allow(clippy::all, missing_docs)]\n\
+             \x20   pub mod rig {{ include!(concat!(env!(\"OUT_DIR\"), \"/{module}_rig.rs\")); }}\n\
+             \x20   /// The generated rig.\n\
+             \x20   pub type Rig = rig::{type_name};\n\
+             \x20   /// Number of joints.\n\
+             \x20   pub const JOINTS: usize = {n};\n\
+             \x20   /// Number of task coordinates.\n\
+             \x20   pub const TASK_DIM: usize = {m};\n\
+             \x20   /// The image name.\n\
+             \x20   pub const NAME: &str = \"{name}\";\n\
+             \x20   /// The rig's current-loop rate, Hz (the interrupt rate).\n\
+             \x20   pub const CURRENT_LOOP_HZ: u32 = {hz};\n\
+             \x20   /// The rig's impedance-loop rate, Hz.\n\
+             \x20   pub const IMPEDANCE_LOOP_HZ: u32 = {imp_hz};\n\
+             \x20   /// Model-derived settings: per-joint current-loop gains (designed from each joint's\n\
+             \x20   /// motor), the start pose of `variants.txt`, rendering.\n\
+             \x20   pub fn setup() -> ::hapticgen_fw_control::Setup<{s}, JOINTS> {{\n\
+             \x20       type S = {s};\n\
+             \x20       use ::hapticgen_runtime::Real as _;\n\
+             \x20       ::hapticgen_fw_control::Setup {{\n\
+             \x20           current_gains: [{gains}],\n\
+             \x20           start: [{start}],\n\
+             \x20           rendering: {rendering},\n\
+             \x20       }}\n\
              \x20   }}",
-            scenario = v.scenario,
-            tau = literal(tau),
-        )
-        .map_err(|e| e.to_string())?;
+            name = self.name,
+            description = self.description,
+            s = self.scalar,
+            type_name = self.type_name,
+            n = self.joints,
+            m = self.task_dim,
+            hz = self.current_loop_hz,
+            imp_hz = self.impedance_loop_hz,
+            gains = self.gains.join(", "),
+            start = self.start.join(", "),
+            rendering = self.rendering,
+        );
+        if kind == Glue::Simulation {
+            let _ = writeln!(
+                glue,
+                "\x20   /// The scenario's reference source.\n\
+                 \x20   pub type Source = ::hapticgen_fw_sim::scenarios::{scenario}::Source<Rig, JOINTS, TASK_DIM>;\n\
+                 \x20   /// The firmware's control state for this rig and source (what the interrupt runs).\n\
+                 \x20   pub type Control = ::hapticgen_fw_control::Controller<Rig, Source, JOINTS, TASK_DIM>;\n\
+                 \x20   /// The scenario for this rig.\n\
+                 \x20   pub type Run = ::hapticgen_fw_sim::scenarios::{scenario}::Run<Rig, JOINTS, TASK_DIM>;\n\
+                 \x20   /// Time constant of the simulated current sense, s: the model's anti-aliasing filter\n\
+                 \x20   /// as its current-loop design approximates it (a first-order lag).\n\
+                 \x20   pub fn sense_time_constant() -> {s} {{\n\
+                 \x20       <{s} as ::hapticgen_runtime::Real>::from_f64({tau})\n\
+                 \x20   }}\n\
+                 \x20   /// The scenario, ready to run.\n\
+                 \x20   pub fn new(profile: bool) -> Option<Run> {{\n\
+                 \x20       ::hapticgen_fw_sim::scenarios::{scenario}::new(NAME, Rig::NOMINAL, &setup(), sense_time_constant(), profile)\n\
+                 \x20   }}",
+                scenario = self.scenario,
+                s = self.scalar,
+                tau = literal(self.sense_time_constant),
+            );
+        }
+        glue.push_str("}\n");
+        glue
     }
-    glue.push_str("}\n");
-    Ok(glue)
 }

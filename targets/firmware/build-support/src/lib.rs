@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 #[cfg(feature = "generate")]
 mod generate;
 #[cfg(feature = "generate")]
-pub use generate::{emit_options, generate};
+pub use generate::{emit_options, generate, generate_rig, GeneratedRig};
 
 /// One line of `variants.txt`:
 /// `name model variant scenario pose impedance current flash ram`.
@@ -122,6 +122,61 @@ pub enum Glue {
     /// Also the line's scenario on the simulated board: for the QEMU images and the host
     /// reference, which depend on `hapticgen-fw-sim` too.
     Simulation,
+}
+
+/// The environment variable that points the image crates' build scripts at pre-generated
+/// images instead of the generator: a directory written by [`write_pregenerated`] (the host
+/// reference's, printed by `hapticgen-fw-reference generated`). `scripts/firmware.sh` sets it
+/// and builds the images without their `generate` feature, so that the generator is built
+/// once, for the host, and every image compiles the very rig file that the host reference's
+/// `f32` run compiles.
+pub const PREGENERATED_ENV: &str = "HAPTICGEN_FW_GENERATED";
+
+/// The glue file of `kind` for one image in a pre-generated directory.
+fn glue_file(kind: Glue) -> &'static str {
+    match kind {
+        Glue::Board => "board.rs",
+        Glue::Simulation => "simulation.rs",
+    }
+}
+
+/// The rig file of one image in a pre-generated directory.
+const RIG_FILE: &str = "image_rig.rs";
+
+/// Writes image `name`'s glue modules `image` of both kinds (`board`, `simulation`) and its rig
+/// (copied from `rig_file`) into `dir/<name>/`, for [`copy_pregenerated`].
+pub fn write_pregenerated(
+    dir: &Path,
+    name: &str,
+    glue: impl Fn(Glue) -> String,
+    rig_file: &Path,
+) -> Result<(), String> {
+    let image = dir.join(name);
+    std::fs::create_dir_all(&image).map_err(|e| format!("{}: {e}", image.display()))?;
+    for kind in [Glue::Board, Glue::Simulation] {
+        let path = image.join(glue_file(kind));
+        std::fs::write(&path, glue(kind)).map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    let path = image.join(RIG_FILE);
+    std::fs::copy(rig_file, &path).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(())
+}
+
+/// For an image crate's build script: when [`PREGENERATED_ENV`] is set, copies image `name`'s
+/// glue of `kind` and its rig from there into `out_dir` as `image.rs` and `image_rig.rs`
+/// (the glue module is `image`), tells cargo to rerun when they change, and returns
+/// `Some(result)`; `None` when the variable is unset (generate the image instead).
+pub fn copy_pregenerated(name: &str, kind: Glue, out_dir: &Path) -> Option<Result<(), String>> {
+    println!("cargo:rerun-if-env-changed={PREGENERATED_ENV}");
+    let dir = PathBuf::from(std::env::var_os(PREGENERATED_ENV)?).join(name);
+    let copy = |from: &str, to: &str| -> Result<(), String> {
+        let source = dir.join(from);
+        println!("cargo:rerun-if-changed={}", source.display());
+        std::fs::copy(&source, out_dir.join(to))
+            .map(|_| ())
+            .map_err(|e| format!("{PREGENERATED_ENV}: {}: {e}", source.display()))
+    };
+    Some(copy(glue_file(kind), "image.rs").and_then(|()| copy(RIG_FILE, "image_rig.rs")))
 }
 
 #[cfg(test)]

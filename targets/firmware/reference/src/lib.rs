@@ -36,6 +36,10 @@ pub struct Limits {
     pub ram: u64,
 }
 
+/// Where the build script left every image's f32 rig and glue modules, for the image crates'
+/// build scripts (`HAPTICGEN_FW_GENERATED`, see `hapticgen_fw_build::copy_pregenerated`).
+pub const GENERATED_IMAGES: &str = concat!(env!("OUT_DIR"), "/images");
+
 /// SysTick/APB-timer ticks per instruction under `-icount shift=10` at the MPS2's 25 MHz:
 /// 2^10 ns per instruction / 40 ns per tick = 25.6.
 pub const TICKS_PER_INSTRUCTION: f64 = 1024.0 / 40.0;

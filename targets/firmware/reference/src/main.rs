@@ -7,6 +7,7 @@
 //! hapticgen-fw-reference push <image>               the operator's push (N) of a `wall_contact` image
 //! hapticgen-fw-reference check <image> <qemu-output> <elf> [--limits=warn]
 //! hapticgen-fw-reference panics <probe-elf>         the panic paths left in a control-path probe
+//! hapticgen-fw-reference generated                  the directory of pre-generated images
 //! ```
 //!
 //! `check` compares the QEMU run with the host runs of the same scenario and enforces the
@@ -16,7 +17,7 @@
 
 use std::process::ExitCode;
 
-use hapticgen_fw_reference::{check, elf, panics, variants, Stdout};
+use hapticgen_fw_reference::{check, elf, panics, variants, Stdout, GENERATED_IMAGES};
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -29,6 +30,10 @@ fn main() -> ExitCode {
             }
             None => ExitCode::FAILURE,
         },
+        ["generated"] => {
+            println!("{GENERATED_IMAGES}");
+            ExitCode::SUCCESS
+        }
         ["list"] => {
             for (name, _) in variants::VARIANTS {
                 println!("{name}");
@@ -80,7 +85,7 @@ fn main() -> ExitCode {
             }
         }
         _ => {
-            eprintln!("usage: hapticgen-fw-reference list | run <image> <f32|f64> | size <elf> | push <image> | check <image> <qemu-output> <elf> [--limits=warn] | panics <probe-elf>");
+            eprintln!("usage: hapticgen-fw-reference list | run <image> <f32|f64> | size <elf> | push <image> | check <image> <qemu-output> <elf> [--limits=warn] | panics <probe-elf> | generated");
             ExitCode::from(2)
         }
     }
