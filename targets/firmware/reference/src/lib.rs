@@ -9,6 +9,8 @@
 //! * [`check`]: a QEMU run against the host runs of the same scenario, and the image's limits.
 //! * [`elf`]: `size`-style accounting and the symbol table of an image.
 //! * [`panics`]: the panic paths left in a linked control-path probe.
+#![deny(missing_docs)]
+
 use hapticgen_fw_control::board::NoClock;
 use hapticgen_fw_control::report::Sink;
 
