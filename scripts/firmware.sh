@@ -1,42 +1,73 @@
 #!/usr/bin/env bash
 # Builds one Cortex-M4F firmware image per line of targets/firmware/variants.txt, runs each
 # under QEMU (MPS2-AN386, -icount shift=10) and checks it against the host reference run of
-# the same scenario, and against the limits (see docs/firmware.md).
+# the same scenario and against its limits; links each image's control-path probe and fails
+# if a panic is reachable from the interrupt body; builds the example board image (stm32f4)
+# and its probe the same way (see docs/firmware.md).
 #
 #   scripts/firmware.sh                  everything, limits enforced
 #   scripts/firmware.sh --limits=warn    limit violations reported but not fatal
-#   scripts/firmware.sh --only NAME      one image
+#   scripts/firmware.sh --only NAME      one image (repeatable; `stm32f4` is the board image)
 #   HAPTICGEN_FW_OPT_LEVEL=s scripts/firmware.sh   another opt-level (the measurement in the docs)
 #   HAPTICGEN_FW_FMA=1 scripts/firmware.sh         generated code with fused multiply-adds (vfma.f32)
 #
+# Works with any CARGO_TARGET_DIR (binaries are found through `cargo metadata`); outputs land
+# in <target dir>/images. Honours CARGO_BUILD_JOBS (default: 1, from targets/firmware's
+# .cargo/config.toml). Fails, and says why, when a step cannot run, when `--only` names an
+# unknown image, or when no image was checked.
+#
 # Installs what it needs on a fresh machine: the pinned toolchain's thumbv7em-none-eabihf
-# target (rustup) and qemu-system-arm (apt-get).
+# target and llvm-tools (rustup) and qemu-system-arm (apt-get).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
 FW=$ROOT/targets/firmware
 TARGET=thumbv7em-none-eabihf
+BOARD=stm32f4                 # the board image's name for --only
+BOARD_VARIANT=horizontal      # the variants.txt line it is built for (its wiring has two joints)
 QEMU_TIMEOUT=${HAPTICGEN_FW_QEMU_TIMEOUT:-300}
 LIMITS=()
-ONLY=""
+ONLY=()
+usage() { echo "usage: $0 [--limits=warn] [--only NAME]..." >&2; exit 2; }
 while [ $# -gt 0 ]; do
     case "$1" in
         --limits=warn) LIMITS=(--limits=warn) ;;
-        --only) ONLY=$2; shift ;;
-        *) echo "usage: $0 [--limits=warn] [--only NAME]" >&2; exit 2 ;;
+        --only) [ $# -ge 2 ] && [ -n "$2" ] || usage; ONLY+=("$2"); shift ;;
+        --only=?*) ONLY+=("${1#--only=}") ;;
+        *) usage ;;
     esac
     shift
 done
 
-step() { printf '\n=== firmware: %s ===\n' "$*"; }
+START=$SECONDS
+step() { printf '\n=== firmware [%ds]: %s ===\n' $((SECONDS - START)) "$*"; }
 die() { printf 'FAIL %s\n' "$*" >&2; exit 1; }
+
+# The images: every line of variants.txt, and the board image.
+TABLE=$(awk '{ sub(/#.*/, "") } NF { print $1 }' "$FW/variants.txt")
+[ -n "$TABLE" ] || die "$FW/variants.txt lists no image"
+KNOWN=$(printf '%s\n%s\n' "$TABLE" "$BOARD")
+SELECTED=()
+if [ ${#ONLY[@]} -eq 0 ]; then
+    mapfile -t SELECTED <<<"$KNOWN"
+else
+    for NAME in "${ONLY[@]}"; do
+        grep -qxF -- "$NAME" <<<"$KNOWN" || die "--only $NAME: no such image (known: $(tr '\n' ' ' <<<"$KNOWN"))"
+        SELECTED+=("$NAME")
+    done
+fi
 
 step "toolchain and QEMU"
 TOOLCHAIN=$(sed -n 's/^channel *= *"\(.*\)"/\1/p' "$FW/rust-toolchain.toml")
+[ -n "$TOOLCHAIN" ] || die "no channel in $FW/rust-toolchain.toml"
 rustup toolchain install "$TOOLCHAIN" --profile minimal --target "$TARGET" >/dev/null 2>&1 \
     || rustup target add --toolchain "$TOOLCHAIN" "$TARGET"
 rustup target list --installed --toolchain "$TOOLCHAIN" | grep -qx "$TARGET" \
     || die "the $TARGET target of toolchain $TOOLCHAIN is not installed"
+rustup component add --toolchain "$TOOLCHAIN" clippy >/dev/null 2>&1 || true
+# llvm-objdump names the call sites when a probe still has a panic path (the check itself
+# does not need it).
+rustup component add --toolchain "$TOOLCHAIN" llvm-tools >/dev/null 2>&1 || true
 if ! command -v qemu-system-arm >/dev/null 2>&1; then
     SUDO=""
     [ "$(id -u)" -eq 0 ] || SUDO=sudo
@@ -54,32 +85,148 @@ export CARGO_TERM_COLOR=never
 if [ -n "${HAPTICGEN_FW_OPT_LEVEL:-}" ]; then
     export CARGO_PROFILE_RELEASE_OPT_LEVEL=$HAPTICGEN_FW_OPT_LEVEL
 fi
+SYSROOT=$(rustc --print sysroot)
+HOST_TRIPLE=$(rustc -vV | sed -n 's/^host: //p')
+OBJDUMP=$SYSROOT/lib/rustlib/$HOST_TRIPLE/bin/llvm-objdump
+[ -x "$OBJDUMP" ] || OBJDUMP=$(command -v llvm-objdump || true)
+
+# Where cargo puts this workspace's artifacts: $CARGO_TARGET_DIR, build.target-dir or ./target.
+METADATA=$(cargo metadata --locked --format-version 1 --no-deps)
+TARGET_DIR=$(printf '%s' "$METADATA" | sed -n 's/.*"target_directory":"\([^"]*\)".*/\1/p')
+[ -n "$TARGET_DIR" ] || die "cargo metadata did not name the target directory"
+OUT=$TARGET_DIR/images
+mkdir -p "$OUT"
+echo "target directory: $TARGET_DIR"
 
 step "lint: host-side crates (clippy, warnings are errors)"
-rustup component add --toolchain "$TOOLCHAIN" clippy >/dev/null 2>&1 || true
-cargo clippy --locked -j1 --all-targets -p hapticgen-fw-control -p hapticgen-fw-sim -p hapticgen-fw-host \
-    -p hapticgen-fw-build -- -D warnings
+# hapticgen-fw-build without its generator feature: its own tests need only the table parser;
+# the generator half is linted as the build dependency of hapticgen-fw-reference.
+cargo clippy --locked --all-targets -p hapticgen-fw-control -p hapticgen-fw-sim -p hapticgen-fw-reference \
+    -p hapticgen-fw-build --no-default-features -- -D warnings
 
-step "unit tests: renderer, table parser, and each scenario's reference run against its closed-form physics"
-cargo test --locked -j1 -q -p hapticgen-fw-control -p hapticgen-fw-build -p hapticgen-fw-host
+step "unit tests: renderer, table parser, panic check, and each scenario's reference run against its closed-form physics"
+cargo test --locked -q -p hapticgen-fw-control -p hapticgen-fw-build -p hapticgen-fw-reference --no-default-features
 
-step "host reference (hapticgen-fw-host)"
-cargo build --locked -j1 -p hapticgen-fw-host
-HOST=$FW/target/debug/hapticgen-fw-host
+step "host reference (hapticgen-fw-reference)"
+cargo build --locked -p hapticgen-fw-reference
+REF=$TARGET_DIR/debug/hapticgen-fw-reference
+[ -x "$REF" ] || die "the host reference was built but is not at $REF"
+# The images compile the rigs the host reference generated (and its f32 run compiled): the
+# image crates are built without their `generate` feature, so the generator is not built a
+# second time (in the release profile's build-override) for their build scripts.
+HAPTICGEN_FW_GENERATED=$("$REF" generated) || die "$REF generated failed"
+[ -d "$HAPTICGEN_FW_GENERATED" ] || die "no pre-generated images at $HAPTICGEN_FW_GENERATED"
+export HAPTICGEN_FW_GENERATED
+NAMES=$("$REF" list) || die "$REF list failed"
+[ -n "$NAMES" ] || die "the host reference lists no image"
+[ "$NAMES" = "$TABLE" ] || die "the host reference lists $(tr '\n' ' ' <<<"$NAMES")but variants.txt $(tr '\n' ' ' <<<"$TABLE")"
 
-OUT=$FW/target/images
-mkdir -p "$OUT"
+# The panic check of a linked control-path probe; on failure, where the panics are called.
+panic_check() {
+    local name=$1 elf=$2
+    if "$REF" panics "$elf"; then
+        return 0
+    fi
+    if [ -x "$OBJDUMP" ]; then
+        echo "call sites (source line of the call, and of each branch into its block):" >&2
+        "$OBJDUMP" -d -l --no-show-raw-insn -C "$elf" 2>/dev/null | awk -v root="$ROOT/" '
+            function hex(s,    i, v) {
+                v = 0; sub(/^0x/, "", s)
+                for (i = 1; i <= length(s); i++) v = v * 16 + index("0123456789abcdef", substr(s, i, 1)) - 1
+                return v
+            }
+            function panicky(name) { return name ~ /panic|unwrap_failed|expect_failed|_fail$|begin_unwind/ }
+            /^[0-9a-f]+ <[^$].*>:$/ { fn = $0; sub(/^[0-9a-f]+ </, "", fn); sub(/>:$/, "", fn); next }
+            # src: the source line of the next instructions; own: the last one outside the
+            # standard library (whose inlined helpers hide the line that called them).
+            /^; \/[^:]*:[0-9]+$/ {
+                src = substr($0, 3); if (index(src, root) == 1) src = substr(src, length(root) + 1)
+                if (src !~ /^\/rustc\//) own = src
+                next
+            }
+            /^ *[0-9a-f]+:[ \t]/ {
+                a = $1; sub(/:$/, "", a); a = hex(a); fn_of[a] = fn
+                lib = src; sub(/^\/rustc\/[0-9a-f]+\//, "", lib)
+                line_of[a] = (src ~ /^\/rustc\// && own != "") ? own " (inlined: " lib ")" : lib
+                if (new_block) { block = a; new_block = 0 }
+                name = ""
+                if (match($0, /0x[0-9a-f]+ <[^>]*>/)) {
+                    dest = substr($0, RSTART, RLENGTH)
+                    t = hex(substr(dest, 1, index(dest, " ") - 1))
+                    name = substr(dest, index(dest, "<") + 1); sub(/>$/, "", name)
+                    if (panicky(name) && !panicky(fn)) { calls[++n] = a; callee[n] = name; start[n] = block }
+                    else from[t] = from[t] " " a
+                }
+                # The next instruction starts a block after a jump, a return or a call that
+                # does not return.
+                if ($2 ~ /^(b|b\.w|b\.n|bx)$/ || ($2 ~ /^pop/ && $0 ~ /pc/) || panicky(name)) new_block = 1
+            }
+            END {
+                for (k = 1; k <= n; k++) {
+                    a = calls[k]
+                    printf "  %s, called at 0x%x in %s (%s)\n", callee[k], a, fn_of[a], line_of[a]
+                    split("", count); split("", order); u = 0
+                    for (t = start[k]; t <= a; t += 2) {
+                        if (!(t in from)) continue
+                        m = split(from[t], sites, " ")
+                        for (j = 1; j <= m; j++) {
+                            l = line_of[sites[j] + 0]
+                            if (!(l in count)) order[++u] = l
+                            count[l]++
+                        }
+                    }
+                    for (j = 1; j <= u; j++) printf "    reached from %s (%d branches)\n", order[j], count[order[j]]
+                }
+            }' >&2
+    else
+        echo "(no llvm-objdump for the call sites: rustup component add llvm-tools)" >&2
+    fi
+    FAILED+=("$name: a panic is reachable from the control path (see above)")
+}
+
 ROWS=()
 FAILED=()
-for NAME in $("$HOST" list); do
-    [ -z "$ONLY" ] || [ "$ONLY" = "$NAME" ] || continue
+CHECKED=()
+for NAME in "${SELECTED[@]}"; do
+    if [ "$NAME" = "$BOARD" ]; then
+        step "board image $BOARD ($BOARD_VARIANT): lint (board support, runtime and generated code, for the target)"
+        HAPTICGEN_FW_VARIANT=$BOARD_VARIANT cargo clippy --locked --release --target "$TARGET" \
+            -p hapticgen-fw-stm32f4 --no-default-features --lib --bins -- -D warnings
+        step "board image $BOARD: layering (no dependency on the simulator)"
+        TREE=$(cargo tree --locked -p hapticgen-fw-stm32f4 --target "$TARGET" -e normal,build --prefix none)
+        grep -q '^hapticgen-fw-control ' <<<"$TREE" || die "cargo tree of hapticgen-fw-stm32f4 looks wrong: $TREE"
+        if grep -q '^hapticgen-fw-sim ' <<<"$TREE"; then
+            FAILED+=("$BOARD: the board crate depends on hapticgen-fw-sim")
+        else
+            echo "hapticgen-fw-stm32f4 depends on: $(sed 's/ .*//' <<<"$TREE" | grep '^hapticgen' | sort -u | tr '\n' ' ')"
+        fi
+        step "board image $BOARD: build (image and control-path probe)"
+        HAPTICGEN_FW_VARIANT=$BOARD_VARIANT cargo build --locked --release --target "$TARGET" \
+            -p hapticgen-fw-stm32f4 --no-default-features --bins
+        BIN=$TARGET_DIR/$TARGET/release
+        cp "$BIN/hapticgen-fw-stm32f4" "$OUT/$BOARD.elf"
+        cp "$BIN/hapticgen-fw-stm32f4-control-path" "$OUT/$BOARD.control-path.elf"
+        "$REF" size "$OUT/$BOARD.elf"
+        step "board image $BOARD: no panic reachable from the interrupt body"
+        panic_check "$BOARD" "$OUT/$BOARD.control-path.elf"
+        CHECKED+=("$BOARD")
+        continue
+    fi
+
     step "image $NAME: lint (generated code, runtime and firmware, for the target)"
-    HAPTICGEN_FW_VARIANT=$NAME cargo clippy --locked -j1 --release --target "$TARGET" -p hapticgen-fw-qemu -- -D warnings
-    step "image $NAME: build"
-    HAPTICGEN_FW_VARIANT=$NAME cargo build --locked -j1 --release --target "$TARGET" -p hapticgen-fw-qemu
+    HAPTICGEN_FW_VARIANT=$NAME cargo clippy --locked --release --target "$TARGET" \
+        -p hapticgen-fw-qemu --no-default-features --bins -- -D warnings
+    step "image $NAME: build (image and control-path probe)"
+    HAPTICGEN_FW_VARIANT=$NAME cargo build --locked --release --target "$TARGET" \
+        -p hapticgen-fw-qemu --no-default-features --bins
+    BIN=$TARGET_DIR/$TARGET/release
     ELF=$OUT/$NAME.elf
-    cp "$FW/target/$TARGET/release/hapticgen-fw-qemu" "$ELF"
-    "$HOST" size "$ELF"
+    cp "$BIN/hapticgen-fw-qemu" "$ELF"
+    cp "$BIN/hapticgen-fw-qemu-control-path" "$OUT/$NAME.control-path.elf"
+    "$REF" size "$ELF"
+
+    step "image $NAME: no panic reachable from the control path"
+    panic_check "$NAME" "$OUT/$NAME.control-path.elf"
 
     step "image $NAME: run under QEMU"
     STATUS=0
@@ -89,27 +236,34 @@ for NAME in $("$HOST" list); do
     grep -v '^S ' "$OUT/$NAME.out" || true
     if [ "$STATUS" -ne 0 ]; then
         cat "$OUT/$NAME.err" >&2
-        [ "$STATUS" -eq 124 ] && FAILED+=("$NAME: QEMU timed out after ${QEMU_TIMEOUT}s") \
-            || FAILED+=("$NAME: QEMU exit status $STATUS")
+        if [ "$STATUS" -eq 124 ]; then
+            FAILED+=("$NAME: QEMU timed out after ${QEMU_TIMEOUT}s")
+        else
+            FAILED+=("$NAME: QEMU exit status $STATUS")
+        fi
         continue
     fi
 
     step "image $NAME: compare with the host reference, check limits"
-    if ROW=$("$HOST" check "$NAME" "$OUT/$NAME.out" "$ELF" "${LIMITS[@]}"); then
+    if ROW=$("$REF" check "$NAME" "$OUT/$NAME.out" "$ELF" "${LIMITS[@]}"); then
         ROWS+=("$ROW")
     else
         ROWS+=("$ROW")
         FAILED+=("$NAME: see FAIL lines above")
     fi
     printf '%s\n' "$ROW"
+    CHECKED+=("$NAME")
 done
 
 step "summary (instructions; opt-level ${HAPTICGEN_FW_OPT_LEVEL:-from Cargo.toml})"
 echo "| image | impedance min | mean | max | current min | mean | max | flash B | RAM B | checksum | max |Δx| / |Δi| vs f64 |"
 echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
 for ROW in "${ROWS[@]}"; do printf '%s\n' "$ROW" | head -n 1; done
+[ ${#CHECKED[@]} -eq ${#SELECTED[@]} ] \
+    || FAILED+=("${#SELECTED[@]} images selected, ${#CHECKED[@]} checked")
+[ ${#CHECKED[@]} -gt 0 ] || FAILED+=("no image was checked")
 if [ ${#FAILED[@]} -gt 0 ]; then
     printf 'FAIL %s\n' "${FAILED[@]}" >&2
     exit 1
 fi
-echo "firmware: all images passed"
+echo "firmware: all ${#CHECKED[@]} images passed (${CHECKED[*]}) in $((SECONDS - START)) s"

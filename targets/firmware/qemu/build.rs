@@ -1,8 +1,11 @@
-//! Generates the rig of the image named by `HAPTICGEN_FW_VARIANT` (a line of variants.txt;
-//! the first line when unset) in f32, its glue module, and `memory.x` for the MPS2-AN386.
-use std::path::PathBuf;
+//! The image named by `HAPTICGEN_FW_VARIANT` (a line of variants.txt; the first line when
+//! unset): its rig in f32 and its glue module `image` (with the line's scenario on the
+//! simulated board), generated here (feature `generate`, the default) or copied from
+//! `$HAPTICGEN_FW_GENERATED` (see `hapticgen_fw_build::copy_pregenerated`); and `memory.x` for
+//! the MPS2-AN386. Both binaries, the image and its control-path probe, include the glue.
+use std::path::{Path, PathBuf};
 
-use hapticgen_codegen::Scalar;
+use hapticgen_fw_build::{Glue, Variant};
 
 fn main() {
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"));
@@ -18,9 +21,10 @@ fn main() {
         }),
         None => table.first().expect("variants.txt lists at least one image"),
     };
-    let glue = hapticgen_fw_build::generate(variant, &firmware, Scalar::F32, &out, "image")
-        .unwrap_or_else(|e| panic!("{e}"));
-    std::fs::write(out.join("image.rs"), glue).expect("OUT_DIR is writable");
+    match hapticgen_fw_build::copy_pregenerated(&variant.name, Glue::Simulation, &out) {
+        Some(copied) => copied.unwrap_or_else(|e| panic!("{e}")),
+        None => generate(variant, &firmware, &out),
+    }
     // MPS2-AN386 under QEMU: 4 MiB SSRAM1 at 0 (code), 4 MiB SSRAM2 at 0x2000_0000 (data).
     // Each image's flash and RAM limits (variants.txt) are checked on the ELF by
     // scripts/firmware.sh.
@@ -31,4 +35,28 @@ fn main() {
     .expect("OUT_DIR is writable");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed=build.rs");
+}
+
+#[cfg(feature = "generate")]
+fn generate(variant: &Variant, firmware: &Path, out: &Path) {
+    let glue = hapticgen_fw_build::generate(
+        variant,
+        firmware,
+        hapticgen_codegen::Scalar::F32,
+        out,
+        "image",
+        Glue::Simulation,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    std::fs::write(out.join("image.rs"), glue).expect("OUT_DIR is writable");
+}
+
+#[cfg(not(feature = "generate"))]
+fn generate(variant: &Variant, _: &Path, _: &Path) {
+    panic!(
+        "image `{}`: built without the feature `generate`, so {} must name the host reference's \
+         pre-generated images (`hapticgen-fw-reference generated`)",
+        variant.name,
+        hapticgen_fw_build::PREGENERATED_ENV
+    );
 }

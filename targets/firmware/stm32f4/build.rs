@@ -1,8 +1,10 @@
-//! Generates the rig (f32) of the image named by `HAPTICGEN_FW_VARIANT` (default
-//! `horizontal`; this board wiring has two joints) and memory.x for the STM32F407VG.
-use std::path::PathBuf;
+//! The rig (f32) of the image named by `HAPTICGEN_FW_VARIANT` (default `horizontal`; this
+//! board wiring has two joints) and its board glue module `image` (no simulated scenario),
+//! generated here (feature `generate`, the default) or copied from `$HAPTICGEN_FW_GENERATED`
+//! (see `hapticgen_fw_build::copy_pregenerated`); and memory.x for the STM32F407VG.
+use std::path::{Path, PathBuf};
 
-use hapticgen_codegen::Scalar;
+use hapticgen_fw_build::{Glue, Variant};
 
 fn main() {
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"));
@@ -15,13 +17,10 @@ fn main() {
         .iter()
         .find(|v| v.name == name)
         .unwrap_or_else(|| panic!("HAPTICGEN_FW_VARIANT={name} is not in variants.txt"));
-    let glue = hapticgen_fw_build::generate(variant, &firmware, Scalar::F32, &out, "image")
-        .unwrap_or_else(|e| panic!("{e}"));
-    // This image uses the rig and its setup, not the simulated scenario: drop `new`.
-    let glue = glue
-        .replace("pub type Run", "#[cfg(any())] pub type Run")
-        .replace("pub fn new(", "#[cfg(any())] pub fn new(");
-    std::fs::write(out.join("image.rs"), glue).expect("OUT_DIR is writable");
+    match hapticgen_fw_build::copy_pregenerated(&variant.name, Glue::Board, &out) {
+        Some(copied) => copied.unwrap_or_else(|e| panic!("{e}")),
+        None => generate(variant, &firmware, &out),
+    }
     std::fs::write(
         out.join("memory.x"),
         "MEMORY\n{\n  FLASH : ORIGIN = 0x08000000, LENGTH = 1024K\n  RAM : ORIGIN = 0x20000000, LENGTH = 128K\n}\n",
@@ -29,4 +28,29 @@ fn main() {
     .expect("OUT_DIR is writable");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed=build.rs");
+}
+
+/// A board image: the rig and its model-derived setup, no simulated scenario.
+#[cfg(feature = "generate")]
+fn generate(variant: &Variant, firmware: &Path, out: &Path) {
+    let glue = hapticgen_fw_build::generate(
+        variant,
+        firmware,
+        hapticgen_codegen::Scalar::F32,
+        out,
+        "image",
+        Glue::Board,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    std::fs::write(out.join("image.rs"), glue).expect("OUT_DIR is writable");
+}
+
+#[cfg(not(feature = "generate"))]
+fn generate(variant: &Variant, _: &Path, _: &Path) {
+    panic!(
+        "image `{}`: built without the feature `generate`, so {} must name the host reference's \
+         pre-generated images (`hapticgen-fw-reference generated`)",
+        variant.name,
+        hapticgen_fw_build::PREGENERATED_ENV
+    );
 }

@@ -1,19 +1,25 @@
-//! Used by the build scripts of the firmware image (`qemu`, one variant, `f32`) and of the
-//! host reference (`host`, every variant, `f32` and `f64`).
+//! Used by the build scripts of the firmware images (`qemu`, one variant, `f32`; the example
+//! board `stm32f4`) and of the host reference (`reference`, every variant, `f32` and `f64`).
 //!
 //! `targets/firmware/variants.txt` is the table of images, one per line:
 //! `name model variant scenario pose impedance current flash ram` ([`COLUMNS`]). For each,
 //! [`generate`] writes the rig's code (through the build-script helper
 //! `hapticgen_codegen::build::generate`) and returns a glue module: the rig type, its joint
-//! and task dimensions, the scenario type `Run`, the model-derived `Setup` (each joint's
-//! current-loop gains as the model loader designed them, the start pose, rendering
-//! parameters) and `new(profile)`.
+//! and task dimensions and rates, and `setup()`, the model-derived
+//! `hapticgen_fw_control::Setup` (each joint's current-loop gains as the model loader designed
+//! them, the start pose, rendering parameters): what a board needs ([`Glue::Board`]). With
+//! [`Glue::Simulation`] also the line's scenario on the simulated board
+//! (`hapticgen_fw_sim::scenarios`): its reference source `Source`, the controller type
+//! `Control`, the run `Run`, the simulated current sense's `sense_time_constant()` and
+//! `new(profile)`.
 #![deny(missing_docs)]
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use hapticgen_codegen::{emit, model, EmitOptions, Scalar};
+#[cfg(feature = "generate")]
+mod generate;
+#[cfg(feature = "generate")]
+pub use generate::{emit_options, generate, generate_rig, GeneratedRig};
 
 /// One line of `variants.txt`:
 /// `name model variant scenario pose impedance current flash ram`.
@@ -107,147 +113,70 @@ pub fn parse_table(text: &str) -> Result<Vec<Variant>, (usize, String)> {
     Ok(table)
 }
 
-fn literal(value: f64) -> String {
-    // `{:?}` prints the shortest representation that round-trips, always with a `.` or `e`.
-    format!("{value:?}")
+/// What a glue module offers besides the rig: see the crate's documentation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Glue {
+    /// The rig, its dimensions and rates, and `setup()`: for a board image, which depends on
+    /// `hapticgen-fw-control` and the runtime only.
+    Board,
+    /// Also the line's scenario on the simulated board: for the QEMU images and the host
+    /// reference, which depend on `hapticgen-fw-sim` too.
+    Simulation,
 }
 
-/// The emission options of every image and of the host reference, which must agree so that the
-/// reference runs the same arithmetic as the target: unfused by default; with
-/// `HAPTICGEN_FW_FMA=1`, fused multiply-adds (`hapticgen generate --fma`; `vfma.f32` on the
-/// target through the runtime's `fpu-fma` feature, libm's exact `fmaf` on the host, bit for bit
-/// the same). Not the default because on the Cortex-M4F it costs instructions: stable Rust
-/// reaches `vfma.f32` only by inline assembly through core registers (about nine instructions
-/// for a fused operation against two for `vmul` + `vadd`; see docs/firmware.md for the
-/// measurement). Tells cargo to rerun the calling build script when the variable changes.
-pub fn emit_options() -> EmitOptions {
-    println!("cargo:rerun-if-env-changed=HAPTICGEN_FW_FMA");
-    let on = std::env::var("HAPTICGEN_FW_FMA").map(|v| v == "1").unwrap_or(false);
-    EmitOptions { fused_multiply_add: on }
+/// The environment variable that points the image crates' build scripts at pre-generated
+/// images instead of the generator: a directory written by [`write_pregenerated`] (the host
+/// reference's, printed by `hapticgen-fw-reference generated`). `scripts/firmware.sh` sets it
+/// and builds the images without their `generate` feature, so that the generator is built
+/// once, for the host, and every image compiles the very rig file that the host reference's
+/// `f32` run compiles.
+pub const PREGENERATED_ENV: &str = "HAPTICGEN_FW_GENERATED";
+
+/// The glue file of `kind` for one image in a pre-generated directory.
+fn glue_file(kind: Glue) -> &'static str {
+    match kind {
+        Glue::Board => "board.rs",
+        Glue::Simulation => "simulation.rs",
+    }
 }
 
-/// Generates the rig of `v` in `scalar` into `out_dir/<module>_rig.rs` and returns the text of
-/// the glue module `<module>` (to be written into a file the crate `include!`s).
-pub fn generate(
-    v: &Variant,
-    firmware_dir: &Path,
-    scalar: Scalar,
-    out_dir: &Path,
-    module: &str,
-) -> Result<String, String> {
-    let repo_root = firmware_dir.join("../..");
-    let model_path = repo_root.join(&v.model);
-    let rig_file = out_dir.join(format!("{module}_rig.rs"));
-    hapticgen_codegen::build::generate_with(&model_path, v.variant.as_deref(), scalar, emit_options(), &rig_file)
-        .map_err(|e| e.to_string())?;
-    let loaded = hapticgen_codegen::load_file(&model_path, &v.model, v.variant.as_deref()).map_err(|e| e.to_string())?;
-    let (n, m) = (loaded.joints.len(), loaded.task_dim());
-    if n == 0 {
-        return Err(format!("{}: the model has no joints", v.model));
+/// The rig file of one image in a pre-generated directory.
+const RIG_FILE: &str = "image_rig.rs";
+
+/// Writes image `name`'s glue modules `image` of both kinds (`board`, `simulation`) and its rig
+/// (copied from `rig_file`) into `dir/<name>/`, for [`copy_pregenerated`].
+pub fn write_pregenerated(
+    dir: &Path,
+    name: &str,
+    glue: impl Fn(Glue) -> String,
+    rig_file: &Path,
+) -> Result<(), String> {
+    let image = dir.join(name);
+    std::fs::create_dir_all(&image).map_err(|e| format!("{}: {e}", image.display()))?;
+    for kind in [Glue::Board, Glue::Simulation] {
+        let path = image.join(glue_file(kind));
+        std::fs::write(&path, glue(kind)).map_err(|e| format!("{}: {e}", path.display()))?;
     }
-    if v.pose.len() != n {
-        return Err(format!(
-            "image `{}`: the pose has {} values, `{}` has {n} joints",
-            v.name,
-            v.pose.len(),
-            v.model
-        ));
-    }
-    // The model's own per-joint designs (the generated `CURRENT_LOOP_GAINS`), in f64; the
-    // glue converts them with `from_f64`, as the scenario converts everything else.
-    let designs = &loaded.analyses.current_loop_designs;
-    if designs.len() != n {
-        return Err(format!("{}: {} current-loop designs for {n} joints", v.model, designs.len()));
-    }
-    let type_name = emit::rig_type_name(&loaded);
-    let s = scalar.name();
-    let rendering = match &loaded.rendering {
-        Some(r) => format!(
-            "Some([S::from_f64({}), S::from_f64({}), S::from_f64({})])",
-            literal(r.grid_spacing),
-            literal(r.wall_stiffness),
-            literal(r.wall_damping)
-        ),
-        None => "None".to_string(),
+    let path = image.join(RIG_FILE);
+    std::fs::copy(rig_file, &path).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(())
+}
+
+/// For an image crate's build script: when [`PREGENERATED_ENV`] is set, copies image `name`'s
+/// glue of `kind` and its rig from there into `out_dir` as `image.rs` and `image_rig.rs`
+/// (the glue module is `image`), tells cargo to rerun when they change, and returns
+/// `Some(result)`; `None` when the variable is unset (generate the image instead).
+pub fn copy_pregenerated(name: &str, kind: Glue, out_dir: &Path) -> Option<Result<(), String>> {
+    println!("cargo:rerun-if-env-changed={PREGENERATED_ENV}");
+    let dir = PathBuf::from(std::env::var_os(PREGENERATED_ENV)?).join(name);
+    let copy = |from: &str, to: &str| -> Result<(), String> {
+        let source = dir.join(from);
+        println!("cargo:rerun-if-changed={}", source.display());
+        std::fs::copy(&source, out_dir.join(to))
+            .map(|_| ())
+            .map_err(|e| format!("{PREGENERATED_ENV}: {}: {e}", source.display()))
     };
-    let gains: Vec<String> = designs
-        .iter()
-        .map(|d| {
-            format!(
-                "::hapticgen_runtime::current_loop::CurrentLoopGains {{ kp: S::from_f64({}), ki: S::from_f64({}), \
-                 sample_period: S::from_f64({}), proportional_setpoint_weight: S::from_f64({}) }}",
-                literal(d.kp),
-                literal(d.ki),
-                literal(d.sample_period),
-                literal(d.proportional_setpoint_weight)
-            )
-        })
-        .collect();
-    // Degrees (revolute) or millimetres (prismatic) to SI; `x / 180 · π` is exact for the
-    // multiples of 45° the table uses.
-    let start: Vec<String> = v
-        .pose
-        .iter()
-        .zip(loaded.joints.iter())
-        .map(|(&x, j)| match j.kind {
-            model::JointKind::Revolute => {
-                format!("S::from_f64({})", literal(x / 180.0 * std::f64::consts::PI))
-            }
-            model::JointKind::Prismatic => format!("S::from_f64({})", literal(x / 1000.0)),
-        })
-        .collect();
-    // Every joint has the same anti-aliasing filter: its time constant from the first design.
-    let tau = designs[0].filter_time_constant;
-    let mut glue = String::new();
-    writeln!(
-        glue,
-        "/// Image `{name}`: `{model}`{variant}, scenario `{scenario}`, {s}.\n\
-         pub mod {module} {{\n\
-         \x20   #[allow(clippy::all, missing_docs)]\n\
-         \x20   pub mod rig {{ include!(concat!(env!(\"OUT_DIR\"), \"/{module}_rig.rs\")); }}\n\
-         \x20   /// The generated rig.\n\
-         \x20   pub type Rig = rig::{type_name};\n\
-         \x20   /// Number of joints.\n\
-         \x20   pub const JOINTS: usize = {n};\n\
-         \x20   /// Number of task coordinates.\n\
-         \x20   pub const TASK_DIM: usize = {m};\n\
-         \x20   /// The scenario for this rig.\n\
-         \x20   pub type Run = ::hapticgen_fw_sim::scenarios::{scenario}::Run<Rig, JOINTS, TASK_DIM>;\n\
-         \x20   /// The image name.\n\
-         \x20   pub const NAME: &str = \"{name}\";\n\
-         \x20   /// The rig's current-loop rate, Hz (the interrupt rate).\n\
-         \x20   pub const CURRENT_LOOP_HZ: u32 = {hz};\n\
-         \x20   /// The rig's impedance-loop rate, Hz.\n\
-         \x20   pub const IMPEDANCE_LOOP_HZ: u32 = {imp_hz};\n\
-         \x20   /// Model-derived settings: per-joint current-loop gains (designed from each joint's\n\
-         \x20   /// motor), the start pose of `variants.txt`, rendering.\n\
-         \x20   pub fn setup() -> ::hapticgen_fw_sim::Setup<{s}, JOINTS> {{\n\
-         \x20       type S = {s};\n\
-         \x20       use ::hapticgen_runtime::Real as _;\n\
-         \x20       ::hapticgen_fw_sim::Setup {{\n\
-         \x20           current_gains: [{gains}],\n\
-         \x20           sense_time_constant: S::from_f64({tau}),\n\
-         \x20           start: [{start}],\n\
-         \x20           rendering: {rendering},\n\
-         \x20       }}\n\
-         \x20   }}\n\
-         \x20   /// The scenario, ready to run.\n\
-         \x20   pub fn new(profile: bool) -> Option<Run> {{\n\
-         \x20       ::hapticgen_fw_sim::scenarios::{scenario}::new(NAME, Rig::NOMINAL, &setup(), profile)\n\
-         \x20   }}\n\
-         }}",
-        name = v.name,
-        model = v.model,
-        variant = v.variant.as_ref().map(|x| format!(" variant `{x}`")).unwrap_or_default(),
-        scenario = v.scenario,
-        gains = gains.join(", "),
-        start = start.join(", "),
-        tau = literal(tau),
-        hz = loaded.rates.current_loop_hz,
-        imp_hz = loaded.rates.impedance_loop_hz,
-    )
-    .map_err(|e| e.to_string())?;
-    Ok(glue)
+    Some(copy(glue_file(kind), "image.rs").and_then(|()| copy(RIG_FILE, "image_rig.rs")))
 }
 
 #[cfg(test)]

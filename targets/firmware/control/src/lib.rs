@@ -10,6 +10,10 @@
 //!   the impedance tick on a copy of the state ([`app::Profile`]).
 //! * [`spatial`]: point-based haptic rendering (solid/cavity balls and half-spaces, the
 //!   anti-drift grid) in an `M`-dimensional task space, for rigs whose task point moves in 3-D.
+//! * [`setup`]: [`Setup`], what an image takes from its model file (each joint's current-loop
+//!   gains, the start pose, the rendering parameters), as the build script computes it.
+//! * [`probe`]: the parts of a control-path probe, a binary linked (never run) to show that no
+//!   panic is reachable from an image's interrupt body (`scripts/firmware.sh` checks each).
 //! * [`report`]: integer-only text output (no `core::fmt`, no float formatting: it costs
 //!   ~29 KB of flash), shared by the target and the host reference so both print the same
 //!   lines.
@@ -18,8 +22,11 @@
 
 pub mod app;
 pub mod board;
+pub mod probe;
 pub mod report;
+pub mod setup;
 pub mod spatial;
 
 pub use app::{Controller, CostStats, Profile};
 pub use board::{Board, CurrentSense, CycleCounter, Encoders, ForceSense, TickTimer, VoltageOutput};
+pub use setup::Setup;

@@ -14,4 +14,4 @@ pub mod scenario;
 pub mod scenarios;
 
 pub use plant::SimBoard;
-pub use scenario::{Load, Scenario, Setup};
+pub use scenario::{Load, Scenario};

@@ -15,26 +15,11 @@
 use hapticgen_fw_control::app::{Controller, PROFILE_NAMES};
 use hapticgen_fw_control::board::CycleCounter;
 use hapticgen_fw_control::report::{Line, Sink};
-use hapticgen_runtime::current_loop::CurrentLoopGains;
 use hapticgen_runtime::safety::FaultCode;
 use hapticgen_runtime::tick::ReferenceSource;
 use hapticgen_runtime::{Real, RigModel};
 
 use crate::plant::SimBoard;
-
-/// What a scenario takes from the model file and `variants.txt` (computed by the build script).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Setup<S, const N: usize> {
-    /// Each joint's current-loop gains, designed from its motor by the model loader
-    /// (`hapticgen_codegen::check::current_loop::design_current_loop`; the generated `CURRENT_LOOP_GAINS`).
-    pub current_gains: [CurrentLoopGains<S>; N],
-    /// Time constant standing for the anti-aliasing filter on the current sense, s.
-    pub sense_time_constant: S,
-    /// Start pose (the `pose` column of `variants.txt`), rad or m.
-    pub start: [S; N],
-    /// Free-space grid spacing, wall stiffness and damping (`rendering:` in the model).
-    pub rendering: Option<[S; 3]>,
-}
 
 /// An operator force, task space, held from period `start` (inclusive) to `end` (exclusive).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,10 +1,12 @@
 //! The scenarios a variant can name in `targets/firmware/variants.txt`. Each module offers
-//! `Run<R, N, M>` (the scenario type for a rig `R` with `N` joints and `M` task coordinates)
-//! and `new(name, rig, setup, profile)`; `new` states which `N`, `M` it accepts (a line that
-//! pairs a scenario with an unsuitable rig does not compile). Every run starts at rest at the
-//! `pose` of its line.
+//! `Source<R, N, M>` (the reference source its controller runs: a fixed reference or a
+//! renderer), `Run<R, N, M>` (the scenario type for a rig `R` with `N` joints and `M` task
+//! coordinates) and `new(name, rig, setup, sense_time_constant, profile)`; `new` states which
+//! `N`, `M` it accepts (a line that pairs a scenario with an unsuitable rig does not compile).
+//! Every run starts at rest at the `pose` of its line, with the image's model-derived
+//! [`Setup`] (the same a board image gets) and the simulated current sense's time constant.
 
-use hapticgen_fw_control::Controller;
+use hapticgen_fw_control::{Controller, Setup};
 use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::fused::FusedImpedance;
@@ -12,7 +14,7 @@ use hapticgen_runtime::tick::{HapticLoopSettings, ReferenceSource};
 use hapticgen_runtime::{Real, RigModel};
 
 use crate::plant::SimBoard;
-use crate::scenario::{current_tolerance, trace_tolerance, Load, Scenario, Setup};
+use crate::scenario::{current_tolerance, trace_tolerance, Load, Scenario};
 
 fn s<S: Real>(value: f64) -> S {
     S::from_f64(value)
@@ -82,13 +84,16 @@ where
     Some(controller)
 }
 
-/// The simulated board at rest at the line's pose, stepped at the current-loop rate.
+/// The simulated board at rest at the line's pose, stepped at the current-loop rate, its
+/// current sensed through a lag of `sense_time_constant` s (the model's anti-aliasing filter
+/// as the current-loop design approximates it).
 fn board<R: RigModel<N, M> + Clone, const N: usize, const M: usize>(
     rig: &R,
     setup: &Setup<R::Scalar, N>,
+    sense_time_constant: R::Scalar,
 ) -> SimBoard<R, N, M> {
     let period = R::Scalar::ONE / s(f64::from(R::CURRENT_LOOP_HZ));
-    SimBoard::new(rig.clone(), setup.start, period, setup.sense_time_constant)
+    SimBoard::new(rig.clone(), setup.start, period, sense_time_constant)
 }
 
 /// The paper's Fig. 4 on a 1-DOF rig: Controller 2, second variant (`M_d = W⁻¹`),
@@ -100,15 +105,18 @@ pub mod fig4_step {
     use super::*;
     use hapticgen_runtime::control::TaskReference;
 
+    /// The reference source: fixed at the start.
+    pub type Source<R, const N: usize, const M: usize> = TaskReference<<R as RigModel<N, M>>::Scalar, M>;
+
     /// The scenario type for a rig `R` (`N = M = 1`).
-    pub type Run<R, const N: usize, const M: usize> =
-        Scenario<R, TaskReference<<R as RigModel<N, M>>::Scalar, M>, N, M>;
+    pub type Run<R, const N: usize, const M: usize> = Scenario<R, Source<R, N, M>, N, M>;
 
     /// Builds the run; `None` if the rig's rates are unusable.
     pub fn new<R: FusedImpedance<1, 1> + Clone>(
         name: &'static str,
         rig: R,
         setup: &Setup<R::Scalar, 1>,
+        sense_time_constant: R::Scalar,
         profile: bool,
     ) -> Option<Run<R, 1, 1>> {
         let law = ImpedanceController {
@@ -125,7 +133,7 @@ pub mod fig4_step {
             },
         };
         let fast = R::CURRENT_LOOP_HZ;
-        let board = board(&rig, setup);
+        let board = board(&rig, setup, sense_time_constant);
         let reference = TaskReference::at_rest(rig.position(&setup.start));
         let controller = controller(rig, reference, law, setup, profile)?;
         let load = Load { start: fast / 10, end: u32::MAX, force: [s(1.0)] };
@@ -188,15 +196,18 @@ pub mod wall_contact {
         }
     }
 
+    /// The reference source: the runtime's planar proxy renderer with one object.
+    pub type Source<R, const N: usize, const M: usize> = Scene<<R as RigModel<N, M>>::Scalar, 1, 1>;
+
     /// The scenario type for a rig `R` (`M = 2`).
-    pub type Run<R, const N: usize, const M: usize> =
-        Scenario<R, Scene<<R as RigModel<N, M>>::Scalar, 1, 1>, N, M>;
+    pub type Run<R, const N: usize, const M: usize> = Scenario<R, Source<R, N, M>, N, M>;
 
     /// Builds the run; `None` if the rig's rates are unusable.
     pub fn new<R: FusedImpedance<N, 2> + Clone, const N: usize>(
         name: &'static str,
         rig: R,
         setup: &Setup<R::Scalar, N>,
+        sense_time_constant: R::Scalar,
         profile: bool,
     ) -> Option<Run<R, N, 2>> {
         let [grid, wall_stiffness, wall_damping] = rendering(setup);
@@ -214,7 +225,7 @@ pub mod wall_contact {
             damping: wall_damping,
         })?;
         let fast = R::CURRENT_LOOP_HZ;
-        let board = board(&rig, setup);
+        let board = board(&rig, setup, sense_time_constant);
         let force = push(&rig, &setup.start);
         let controller =
             controller(rig, scene, controller3(wall_stiffness, wall_damping, false), setup, profile)?;
@@ -249,15 +260,18 @@ pub mod sphere_cavity {
     /// Operator force, N, along `(2, 1, 2)/3`.
     pub const FORCE: f64 = 1.0;
 
+    /// The reference source: the `M`-dimensional renderer with one object.
+    pub type Source<R, const N: usize, const M: usize> = SpatialScene<<R as RigModel<N, M>>::Scalar, 1, M>;
+
     /// The scenario type for a rig `R` (`M = 3`).
-    pub type Run<R, const N: usize, const M: usize> =
-        Scenario<R, SpatialScene<<R as RigModel<N, M>>::Scalar, 1, M>, N, M>;
+    pub type Run<R, const N: usize, const M: usize> = Scenario<R, Source<R, N, M>, N, M>;
 
     /// Builds the run; `None` if the rig's rates are unusable.
     pub fn new<R: FusedImpedance<N, 3> + Clone, const N: usize>(
         name: &'static str,
         rig: R,
         setup: &Setup<R::Scalar, N>,
+        sense_time_constant: R::Scalar,
         profile: bool,
     ) -> Option<Run<R, N, 3>> {
         let [grid, wall_stiffness, wall_damping] = rendering(setup);
@@ -270,7 +284,7 @@ pub mod sphere_cavity {
             damping: wall_damping,
         })?;
         let fast = R::CURRENT_LOOP_HZ;
-        let board = board(&rig, setup);
+        let board = board(&rig, setup, sense_time_constant);
         let controller =
             controller(rig, scene, controller3(wall_stiffness, wall_damping, false), setup, profile)?;
         let third = FORCE / 3.0;
@@ -304,19 +318,22 @@ pub mod hold_pose {
     /// Operator force, N.
     pub const FORCE: f64 = 20.0;
 
+    /// The reference source: fixed at the start's task point.
+    pub type Source<R, const N: usize, const M: usize> = TaskReference<<R as RigModel<N, M>>::Scalar, M>;
+
     /// The scenario type for a rig `R`.
-    pub type Run<R, const N: usize, const M: usize> =
-        Scenario<R, TaskReference<<R as RigModel<N, M>>::Scalar, M>, N, M>;
+    pub type Run<R, const N: usize, const M: usize> = Scenario<R, Source<R, N, M>, N, M>;
 
     /// Builds the run; `None` if the rig's rates are unusable or `M = 0`.
     pub fn new<R: FusedImpedance<N, M> + Clone, const N: usize, const M: usize>(
         name: &'static str,
         rig: R,
         setup: &Setup<R::Scalar, N>,
+        sense_time_constant: R::Scalar,
         profile: bool,
     ) -> Option<Run<R, N, M>> {
         let fast = R::CURRENT_LOOP_HZ;
-        let board = board(&rig, setup);
+        let board = board(&rig, setup, sense_time_constant);
         let reference = TaskReference::at_rest(rig.position(&setup.start));
         let law = controller3(s(STIFFNESS), s(DAMPING), true);
         let controller = controller(rig, reference, law, setup, profile)?;

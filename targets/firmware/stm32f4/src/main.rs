@@ -1,134 +1,28 @@
-//! Example real-board image: the 2-DOF parallel link on an STM32F407 at 168 MHz, through
-//! `stm32f4xx-hal`. **Compiles; untested on hardware.** It shows how a board support crate
-//! plugs into the board-layer traits of `hapticgen_fw_control` without touching the control
-//! code (the same `Controller::on_current_tick` as under QEMU).
-//!
-//! Wiring assumed (change to suit the board):
-//!
-//! | role | peripheral | pins |
-//! | --- | --- | --- |
-//! | encoder joint 1 | TIM2 (32-bit) encoder mode | PA0, PA1 |
-//! | encoder joint 2 | TIM3 (16-bit, sign-extended) | PA6, PA7 |
-//! | motor currents | ADC1 after the Bessel filter, 0–3.3 V = −20…+20 A | PA2, PA3 |
-//! | force sensor | ADC1, raw volts (calibrated by the runtime) | PA4, PA5 |
-//! | PWM (locked antiphase, 50 % = 0 V) | TIM1 CH1, CH2 at 20 kHz | PA8, PA9 |
-//! | current-loop interrupt | SysTick at `CURRENT_LOOP_HZ` | — |
-//! | cycle counter | DWT CYCCNT | — |
+//! The STM32F407 image (see the crate's documentation for the wiring): start-up, then the
+//! current-loop interrupt (SysTick at `CURRENT_LOOP_HZ`) runs the control cycle.
 #![no_std]
 #![no_main]
 
 use core::cell::RefCell;
 
 use cortex_m::interrupt::Mutex;
-use cortex_m::peripheral::syst::SystClkSource;
-use cortex_m::peripheral::{DWT, SYST};
 use cortex_m_rt::{entry, exception};
-use hapticgen_fw_control::board::{
-    CurrentSense, CycleCounter, Encoders, ForceSense, TickTimer, VoltageOutput,
+use hapticgen_fw_control::board::{Encoders, TickTimer, VoltageOutput};
+use hapticgen_fw_stm32f4::{
+    image, on_current_loop_interrupt, App, Cycles, F4Board, State, SysTickTimer, SYSCLK_HZ,
 };
-use hapticgen_fw_control::Controller;
 use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::render::Scene;
 use hapticgen_runtime::tick::HapticLoopSettings;
-use stm32f4xx_hal::adc::config::{AdcConfig, SampleTime};
+use stm32f4xx_hal::adc::config::AdcConfig;
 use stm32f4xx_hal::adc::Adc;
-use stm32f4xx_hal::gpio::{Analog, Pin};
-use stm32f4xx_hal::pac::{self, ADC1, TIM1, TIM2, TIM3};
+use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::qei::Qei;
 use stm32f4xx_hal::rcc::Config;
-use stm32f4xx_hal::timer::PwmChannel;
 
-#[allow(clippy::all, dead_code)]
-mod generated {
-    include!(concat!(env!("OUT_DIR"), "/image.rs"));
-}
-use generated::image;
-
-const SYSCLK_HZ: u32 = 168_000_000;
-const ADC_FULL_SCALE: f32 = 4095.0;
-const CURRENT_RANGE_AMPS: f32 = 20.0;
-const ADC_VOLTS: f32 = 3.3;
-
-/// The STM32F407 board: HAL drivers behind the board-layer traits.
-struct F4Board {
-    encoder1: Qei<TIM2>,
-    encoder2: Qei<TIM3>,
-    adc: Adc<ADC1>,
-    current_pins: (Pin<'A', 2, Analog>, Pin<'A', 3, Analog>),
-    force_pins: (Pin<'A', 4, Analog>, Pin<'A', 5, Analog>),
-    pwm: (PwmChannel<TIM1, 0>, PwmChannel<TIM1, 1>),
-    supply: f32,
-}
-
-impl Encoders<2> for F4Board {
-    fn counts(&mut self) -> [i32; 2] {
-        // TIM3 is 16 bits wide: sign-extend, the runtime accumulates wrap-safe differences
-        // between ticks (at most 32767 counts per tick).
-        [self.encoder1.count() as i32, i32::from(self.encoder2.count() as i16)]
-    }
-}
-
-impl CurrentSense<f32, 2> for F4Board {
-    fn currents(&mut self) -> [f32; 2] {
-        let a = self.adc.convert(&self.current_pins.0, SampleTime::Cycles_3);
-        let b = self.adc.convert(&self.current_pins.1, SampleTime::Cycles_3);
-        let amps = |raw: u16| (f32::from(raw) / ADC_FULL_SCALE * 2.0 - 1.0) * CURRENT_RANGE_AMPS;
-        [amps(a), amps(b)]
-    }
-}
-
-impl ForceSense<f32, 2> for F4Board {
-    fn force_readings(&mut self) -> [f32; 2] {
-        let a = self.adc.convert(&self.force_pins.0, SampleTime::Cycles_15);
-        let b = self.adc.convert(&self.force_pins.1, SampleTime::Cycles_15);
-        [f32::from(a) / ADC_FULL_SCALE * ADC_VOLTS, f32::from(b) / ADC_FULL_SCALE * ADC_VOLTS]
-    }
-}
-
-impl VoltageOutput<f32, 2> for F4Board {
-    fn set_voltages(&mut self, volts: &[f32; 2]) {
-        let max = self.pwm.0.get_max_duty();
-        let duty = |v: f32| {
-            let fraction = (0.5 + 0.5 * v / self.supply).clamp(0.0, 1.0);
-            (fraction * f32::from(max)) as u16
-        };
-        let (d0, d1) = (duty(volts[0]), duty(volts[1]));
-        self.pwm.0.set_duty(d0);
-        self.pwm.1.set_duty(d1);
-    }
-
-    fn disable(&mut self) {
-        self.pwm.0.disable();
-        self.pwm.1.disable();
-    }
-}
-
-/// DWT cycle counter.
-struct Cycles;
-
-impl CycleCounter for Cycles {
-    fn now(&self) -> u32 {
-        DWT::cycle_count()
-    }
-}
-
-struct SysTickTimer(SYST);
-
-impl TickTimer for SysTickTimer {
-    fn start(&mut self, hz: u32) {
-        self.0.set_clock_source(SystClkSource::Core);
-        self.0.set_reload(SYSCLK_HZ / hz - 1);
-        self.0.clear_current();
-        self.0.enable_interrupt();
-        self.0.enable_counter();
-    }
-}
-
-type App = Controller<image::Rig, Scene<f32, 1, 1>, 2, 2>;
-
-static STATE: Mutex<RefCell<Option<(App, F4Board)>>> = Mutex::new(RefCell::new(None));
+static STATE: State = Mutex::new(RefCell::new(None));
 
 #[entry]
 fn main() -> ! {
@@ -192,7 +86,11 @@ fn main() -> ! {
     // Each motor's own gains (identical for the parallel link's two motors).
     app.haptic.set_current_loop_gains(&setup.current_gains);
     app.calibrate(&Cycles);
-    cortex_m::interrupt::free(|cs| STATE.borrow(cs).replace(Some((app, board))));
+    cortex_m::interrupt::free(|cs| {
+        if let Ok(mut slot) = STATE.borrow(cs).try_borrow_mut() {
+            *slot = Some((app, board));
+        }
+    });
     SysTickTimer(cp.SYST).start(image::CURRENT_LOOP_HZ);
     loop {
         cortex_m::asm::wfi();
@@ -201,11 +99,7 @@ fn main() -> ! {
 
 #[exception]
 fn SysTick() {
-    cortex_m::interrupt::free(|cs| {
-        if let Some((app, board)) = STATE.borrow(cs).borrow_mut().as_mut() {
-            let _ = app.on_current_tick(board, &Cycles);
-        }
-    });
+    on_current_loop_interrupt(&STATE);
 }
 
 fn halt() -> ! {

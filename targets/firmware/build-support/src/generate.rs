@@ -1,0 +1,233 @@
+//! The generation half of the crate (feature `generate`, on by default): the rig's code
+//! through `hapticgen-codegen`, and the glue module around it.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use hapticgen_codegen::{emit, model, EmitOptions, Scalar};
+
+use crate::{Glue, Variant};
+
+fn literal(value: f64) -> String {
+    // `{:?}` prints the shortest representation that round-trips, always with a `.` or `e`.
+    format!("{value:?}")
+}
+
+/// The emission options of every image and of the host reference, which must agree so that the
+/// reference runs the same arithmetic as the target: unfused by default; with
+/// `HAPTICGEN_FW_FMA=1`, fused multiply-adds (`hapticgen generate --fma`; `vfma.f32` on the
+/// target through the runtime's `fpu-fma` feature, libm's exact `fmaf` on the host, bit for bit
+/// the same). Not the default because on the Cortex-M4F it costs instructions: stable Rust
+/// reaches `vfma.f32` only by inline assembly through core registers (about nine instructions
+/// for a fused operation against two for `vmul` + `vadd`; see docs/firmware.md for the
+/// measurement). Tells cargo to rerun the calling build script when the variable changes.
+pub fn emit_options() -> EmitOptions {
+    println!("cargo:rerun-if-env-changed=HAPTICGEN_FW_FMA");
+    let on = std::env::var("HAPTICGEN_FW_FMA").map(|v| v == "1").unwrap_or(false);
+    EmitOptions { fused_multiply_add: on }
+}
+
+/// Generates the rig of `v` in `scalar` into `out_dir/<module>_rig.rs` and returns the text of
+/// the glue module `<module>` (to be written into a file the crate `include!`s).
+pub fn generate(
+    v: &Variant,
+    firmware_dir: &Path,
+    scalar: Scalar,
+    out_dir: &Path,
+    module: &str,
+    glue_kind: Glue,
+) -> Result<String, String> {
+    let rig = generate_rig(v, firmware_dir, scalar, &out_dir.join(format!("{module}_rig.rs")))?;
+    Ok(rig.glue(module, glue_kind))
+}
+
+/// A rig generated into a file, and what its glue modules say about it.
+#[derive(Clone, Debug)]
+pub struct GeneratedRig {
+    name: String,
+    description: String,
+    scenario: String,
+    type_name: String,
+    scalar: &'static str,
+    joints: usize,
+    task_dim: usize,
+    current_loop_hz: String,
+    impedance_loop_hz: String,
+    gains: Vec<String>,
+    start: Vec<String>,
+    rendering: String,
+    sense_time_constant: f64,
+}
+
+/// Generates the rig of `v` in `scalar` into `rig_file`; its glue modules come from
+/// [`GeneratedRig::glue`], any number of them (a crate's `OUT_DIR` must then hold the rig as
+/// `<module>_rig.rs`).
+pub fn generate_rig(
+    v: &Variant,
+    firmware_dir: &Path,
+    scalar: Scalar,
+    rig_file: &Path,
+) -> Result<GeneratedRig, String> {
+    let repo_root = firmware_dir.join("../..");
+    let model_path = repo_root.join(&v.model);
+    hapticgen_codegen::build::generate_with(
+        &model_path,
+        v.variant.as_deref(),
+        scalar,
+        emit_options(),
+        rig_file,
+    )
+    .map_err(|e| e.to_string())?;
+    let loaded = hapticgen_codegen::load_file(&model_path, &v.model, v.variant.as_deref()).map_err(|e| e.to_string())?;
+    let (n, m) = (loaded.joints.len(), loaded.task_dim());
+    if n == 0 {
+        return Err(format!("{}: the model has no joints", v.model));
+    }
+    if v.pose.len() != n {
+        return Err(format!(
+            "image `{}`: the pose has {} values, `{}` has {n} joints",
+            v.name,
+            v.pose.len(),
+            v.model
+        ));
+    }
+    // The model's own per-joint designs (the generated `CURRENT_LOOP_GAINS`), in f64; the
+    // glue converts them with `from_f64`, as the scenario converts everything else.
+    let designs = &loaded.analyses.current_loop_designs;
+    if designs.len() != n {
+        return Err(format!("{}: {} current-loop designs for {n} joints", v.model, designs.len()));
+    }
+    let type_name = emit::rig_type_name(&loaded);
+    let s = scalar.name();
+    let rendering = match &loaded.rendering {
+        Some(r) => format!(
+            "Some([S::from_f64({}), S::from_f64({}), S::from_f64({})])",
+            literal(r.grid_spacing),
+            literal(r.wall_stiffness),
+            literal(r.wall_damping)
+        ),
+        None => "None".to_string(),
+    };
+    let gains: Vec<String> = designs
+        .iter()
+        .map(|d| {
+            format!(
+                "::hapticgen_runtime::current_loop::CurrentLoopGains {{ kp: S::from_f64({}), ki: S::from_f64({}), \
+                 sample_period: S::from_f64({}), proportional_setpoint_weight: S::from_f64({}) }}",
+                literal(d.kp),
+                literal(d.ki),
+                literal(d.sample_period),
+                literal(d.proportional_setpoint_weight)
+            )
+        })
+        .collect();
+    // Degrees (revolute) or millimetres (prismatic) to SI; `x / 180 · π` is exact for the
+    // multiples of 45° the table uses.
+    let start: Vec<String> = v
+        .pose
+        .iter()
+        .zip(loaded.joints.iter())
+        .map(|(&x, j)| match j.kind {
+            model::JointKind::Revolute => {
+                format!("S::from_f64({})", literal(x / 180.0 * std::f64::consts::PI))
+            }
+            model::JointKind::Prismatic => format!("S::from_f64({})", literal(x / 1000.0)),
+        })
+        .collect();
+    // Every joint has the same anti-aliasing filter: its time constant from the first design.
+    let tau = designs[0].filter_time_constant;
+    Ok(GeneratedRig {
+        name: v.name.clone(),
+        description: format!(
+            "`{}`{}, scenario `{}`",
+            v.model,
+            v.variant.as_ref().map(|x| format!(" variant `{x}`")).unwrap_or_default(),
+            v.scenario
+        ),
+        scenario: v.scenario.clone(),
+        type_name,
+        scalar: s,
+        joints: n,
+        task_dim: m,
+        current_loop_hz: loaded.rates.current_loop_hz.to_string(),
+        impedance_loop_hz: loaded.rates.impedance_loop_hz.to_string(),
+        gains,
+        start,
+        rendering,
+        sense_time_constant: tau,
+    })
+}
+
+impl GeneratedRig {
+    /// The text of the glue module `module` of `kind`; it includes the rig from
+    /// `$OUT_DIR/<module>_rig.rs`.
+    pub fn glue(&self, module: &str, kind: Glue) -> String {
+        let mut glue = String::new();
+        let _ = writeln!(
+            glue,
+            "/// Image `{name}`: {description}, {s}.\n\
+             pub mod {module} {{\n\
+             \x20   #[allow(clippy::all, missing_docs)]\n\
+             \x20   pub mod rig {{ include!(concat!(env!(\"OUT_DIR\"), \"/{module}_rig.rs\")); }}\n\
+             \x20   /// The generated rig.\n\
+             \x20   pub type Rig = rig::{type_name};\n\
+             \x20   /// Number of joints.\n\
+             \x20   pub const JOINTS: usize = {n};\n\
+             \x20   /// Number of task coordinates.\n\
+             \x20   pub const TASK_DIM: usize = {m};\n\
+             \x20   /// The image name.\n\
+             \x20   pub const NAME: &str = \"{name}\";\n\
+             \x20   /// The rig's current-loop rate, Hz (the interrupt rate).\n\
+             \x20   pub const CURRENT_LOOP_HZ: u32 = {hz};\n\
+             \x20   /// The rig's impedance-loop rate, Hz.\n\
+             \x20   pub const IMPEDANCE_LOOP_HZ: u32 = {imp_hz};\n\
+             \x20   /// Model-derived settings: per-joint current-loop gains (designed from each joint's\n\
+             \x20   /// motor), the start pose of `variants.txt`, rendering.\n\
+             \x20   pub fn setup() -> ::hapticgen_fw_control::Setup<{s}, JOINTS> {{\n\
+             \x20       type S = {s};\n\
+             \x20       use ::hapticgen_runtime::Real as _;\n\
+             \x20       ::hapticgen_fw_control::Setup {{\n\
+             \x20           current_gains: [{gains}],\n\
+             \x20           start: [{start}],\n\
+             \x20           rendering: {rendering},\n\
+             \x20       }}\n\
+             \x20   }}",
+            name = self.name,
+            description = self.description,
+            s = self.scalar,
+            type_name = self.type_name,
+            n = self.joints,
+            m = self.task_dim,
+            hz = self.current_loop_hz,
+            imp_hz = self.impedance_loop_hz,
+            gains = self.gains.join(", "),
+            start = self.start.join(", "),
+            rendering = self.rendering,
+        );
+        if kind == Glue::Simulation {
+            let _ = writeln!(
+                glue,
+                "\x20   /// The scenario's reference source.\n\
+                 \x20   pub type Source = ::hapticgen_fw_sim::scenarios::{scenario}::Source<Rig, JOINTS, TASK_DIM>;\n\
+                 \x20   /// The firmware's control state for this rig and source (what the interrupt runs).\n\
+                 \x20   pub type Control = ::hapticgen_fw_control::Controller<Rig, Source, JOINTS, TASK_DIM>;\n\
+                 \x20   /// The scenario for this rig.\n\
+                 \x20   pub type Run = ::hapticgen_fw_sim::scenarios::{scenario}::Run<Rig, JOINTS, TASK_DIM>;\n\
+                 \x20   /// Time constant of the simulated current sense, s: the model's anti-aliasing filter\n\
+                 \x20   /// as its current-loop design approximates it (a first-order lag).\n\
+                 \x20   pub fn sense_time_constant() -> {s} {{\n\
+                 \x20       <{s} as ::hapticgen_runtime::Real>::from_f64({tau})\n\
+                 \x20   }}\n\
+                 \x20   /// The scenario, ready to run.\n\
+                 \x20   pub fn new(profile: bool) -> Option<Run> {{\n\
+                 \x20       ::hapticgen_fw_sim::scenarios::{scenario}::new(NAME, Rig::NOMINAL, &setup(), sense_time_constant(), profile)\n\
+                 \x20   }}",
+                scenario = self.scenario,
+                s = self.scalar,
+                tau = literal(self.sense_time_constant),
+            );
+        }
+        glue.push_str("}\n");
+        glue
+    }
+}

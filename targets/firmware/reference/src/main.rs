@@ -1,0 +1,92 @@
+//! `hapticgen-fw-reference`: the host side of `scripts/firmware.sh`.
+//!
+//! ```text
+//! hapticgen-fw-reference list                       image names, one per line
+//! hapticgen-fw-reference run <image> <f32|f64>      the scenario on the host (same output format)
+//! hapticgen-fw-reference size <elf>                 flash and static RAM of an image
+//! hapticgen-fw-reference push <image>               the operator's push (N) of a `wall_contact` image
+//! hapticgen-fw-reference check <image> <qemu-output> <elf> [--limits=warn]
+//! hapticgen-fw-reference panics <probe-elf>         the panic paths left in a control-path probe
+//! hapticgen-fw-reference generated                  the directory of pre-generated images
+//! ```
+//!
+//! `check` compares the QEMU run with the host runs of the same scenario and enforces the
+//! limits; it prints one result row and exits non-zero, naming every violation, on failure.
+//! `panics` exits non-zero, naming the panic symbols, when a control-path probe (see
+//! `hapticgen_fw_control::probe`) still holds a panic path.
+
+use std::process::ExitCode;
+
+use hapticgen_fw_reference::{check, elf, panics, variants, Stdout, GENERATED_IMAGES};
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    match args.as_slice() {
+        ["push", name] => match variants::wall_push(name) {
+            Some(f) => {
+                println!("{f}");
+                ExitCode::SUCCESS
+            }
+            None => ExitCode::FAILURE,
+        },
+        ["generated"] => {
+            println!("{GENERATED_IMAGES}");
+            ExitCode::SUCCESS
+        }
+        ["list"] => {
+            for (name, _) in variants::VARIANTS {
+                println!("{name}");
+            }
+            ExitCode::SUCCESS
+        }
+        ["run", name, scalar] => match variants::run(name, scalar, &mut Stdout) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        },
+        ["size", path] => match elf::sizes(path) {
+            Ok(s) => {
+                println!("text={} data={} bss={} flash={} ram={}", s.text, s.data, s.bss, s.flash(), s.ram());
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: {path}: {e}");
+                ExitCode::FAILURE
+            }
+        },
+        ["panics", path] => match panics::panic_symbols(path) {
+            Ok(found) if found.is_empty() => {
+                println!("no panic path in {path}");
+                ExitCode::SUCCESS
+            }
+            Ok(found) => {
+                for symbol in found {
+                    eprintln!("FAIL {path}: panic path left: {symbol}");
+                }
+                ExitCode::FAILURE
+            }
+            Err(e) => {
+                eprintln!("error: {path}: {e}");
+                ExitCode::FAILURE
+            }
+        },
+        ["check", name, output, elf_path, rest @ ..] if rest.is_empty() || rest == ["--limits=warn"] => {
+            match check(name, output, elf_path, !rest.is_empty()) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(errors) => {
+                    for e in errors {
+                        eprintln!("FAIL {e}");
+                    }
+                    ExitCode::FAILURE
+                }
+            }
+        }
+        _ => {
+            eprintln!("usage: hapticgen-fw-reference list | run <image> <f32|f64> | size <elf> | push <image> | check <image> <qemu-output> <elf> [--limits=warn] | panics <probe-elf> | generated");
+            ExitCode::from(2)
+        }
+    }
+}
