@@ -24,7 +24,11 @@ case "$("$RUSTC" --version)" in
     "rustc 1.63."*) ;;
     *) echo "msrv: expected rustc 1.63 at $RUSTC" >&2; exit 1 ;;
 esac
-OUT=$ROOT/target/msrv
+# Cargo's target directory: target/, or wherever CARGO_TARGET_DIR puts it.
+TARGET_DIR=$(cargo metadata --format-version 1 --no-deps \
+    | python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')
+[ -n "$TARGET_DIR" ] || { echo "msrv: cargo metadata named no target directory" >&2; exit 1; }
+OUT=$TARGET_DIR/msrv
 rm -rf "$OUT"
 mkdir -p "$OUT/generated"
 LIBM_SRC=$(ls -d /usr/share/cargo/registry/libm-* | sort -V | tail -n 1)
@@ -41,7 +45,7 @@ mkdir -p "$OUT/fma"
 echo "msrv: generated code"
 # The tests crate's build script generates every shipped model, variant and scalar.
 cargo build -q -p hapticgen-tests
-GENERATED=$(ls -td target/debug/build/hapticgen-tests-*/out 2>/dev/null | while read -r d; do
+GENERATED=$(ls -td "$TARGET_DIR"/debug/build/hapticgen-tests-*/out 2>/dev/null | while read -r d; do
     [ -f "$d/registry.rs" ] && echo "$d" && break
 done)
 [ -n "$GENERATED" ] || { echo "msrv: no generated rigs found" >&2; exit 1; }
@@ -58,6 +62,7 @@ for file in "$GENERATED"/*.rs; do
     printf 'pub mod %s {\n    include!("%s.rs");\n}\n' "$name" "$name" >> "$LIB"
     n=$((n + 1))
 done
+[ "$n" -gt 0 ] || { echo "msrv: no generated rig in $GENERATED: nothing to compile" >&2; exit 1; }
 "$RUSTC" --edition 2021 --crate-type lib --crate-name generated_rigs -D warnings "$LIB" \
     --extern hapticgen_runtime="$OUT/libhapticgen_runtime.rlib" -L "$OUT" --out-dir "$OUT"
 echo "msrv: ok: runtime and $n generated rigs build with $("$RUSTC" --version)"

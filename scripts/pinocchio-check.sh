@@ -10,19 +10,29 @@
 # compares D − diag(N²·J_m) with crba. Viscous damping is not part of nonLinearEffects and not
 # part of hapticgen's C·q̇ + g either. Models with direct poses (closed chains) are skipped.
 #
-# Usage: scripts/pinocchio-check.sh   (creates target/pinocchio-venv on first use)
+# The check fails, rather than passing on nothing, when no model was exported, when the set of
+# exported models differs from the set checked, or when a model has no states to compare.
+#
+# Usage: scripts/pinocchio-check.sh   (creates <target dir>/pinocchio-venv on first use; the
+# target directory is cargo's: `target/` or wherever CARGO_TARGET_DIR puts it)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-venv=target/pinocchio-venv
+target_dir=$(cargo metadata --format-version 1 --no-deps \
+    | python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')
+[ -n "$target_dir" ] || { echo "pinocchio-check: cargo metadata named no target directory" >&2; exit 1; }
+
+venv=$target_dir/pinocchio-venv
 if [ ! -x "$venv/bin/python" ]; then
     python3 -m venv "$venv"
 fi
 if ! "$venv/bin/python" -c 'import pinocchio, numpy' 2>/dev/null; then
     "$venv/bin/pip" install --quiet pin numpy
+    "$venv/bin/python" -c 'import pinocchio, numpy' \
+        || { echo "pinocchio-check: pinocchio and numpy do not import after installing them" >&2; exit 1; }
 fi
 
-reference=target/pinocchio-reference
+reference=$target_dir/pinocchio-reference
 rm -rf "$reference"
 cargo run --quiet -p hapticgen-tests --example pinocchio_reference -- "$reference"
 
@@ -36,6 +46,15 @@ TOLERANCE = 1e-10
 directory = sys.argv[1]
 failures = []
 summary = []
+comparisons = 0
+# The exporter lists every model it wrote; each must be here and checked, and nothing else.
+with open(os.path.join(directory, "models.txt")) as f:
+    exported = sorted(line.strip() for line in f if line.strip())
+found = sorted(os.path.basename(p)[:-5] for p in glob.glob(os.path.join(directory, "*.json")))
+if not exported:
+    sys.exit("pinocchio-check: FAIL: the exporter wrote no serial model, so nothing was checked")
+if found != exported:
+    sys.exit(f"pinocchio-check: FAIL: reference files {found} differ from the exported models {exported}")
 for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
     name = os.path.basename(path)[:-5]
     with open(path) as f:
@@ -52,6 +71,8 @@ for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
     worst = {"D": 0.0, "nle": 0.0, "g": 0.0, "J": 0.0, "p": 0.0, "R": 0.0, "Jw": 0.0}
 
     def compare(what, got, want, state):
+        global comparisons
+        comparisons += 1
         scale = max(1.0, float(np.max(np.abs(want))) if np.size(want) else 1.0)
         error = float(np.max(np.abs(np.asarray(got) - np.asarray(want)))) / scale
         key = what.split("[")[0]
@@ -59,6 +80,8 @@ for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
         if error > TOLERANCE:
             failures.append(f"{name} state {state}: {what} differs by {error:.3e} (relative to {scale:.3g})")
 
+    if not ref["states"]:
+        failures.append(f"{name}: no states to compare")
     for k, s in enumerate(ref["states"]):
         q, v = np.array(s["q"]), np.array(s["qd"])
         compare("D", np.reshape(pin.crba(model, data, q), (model.nv, model.nv)) + armature, np.array(s["D"]), k)
@@ -86,5 +109,10 @@ if failures:
     print(f"\n{len(failures)} disagreements with Pinocchio {pin.__version__} (first 20):")
     print("\n".join(failures[:20]))
     sys.exit(1)
-print(f"\nall {len(summary)} serial models agree with Pinocchio {pin.__version__} to {TOLERANCE:g}")
+if len(summary) != len(exported):
+    sys.exit(f"pinocchio-check: FAIL: {len(summary)} models checked of {len(exported)} exported")
+print(
+    f"\nall {len(summary)} serial models agree with Pinocchio {pin.__version__} to {TOLERANCE:g} "
+    f"({comparisons} comparisons)"
+)
 PY

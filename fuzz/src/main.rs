@@ -12,7 +12,10 @@
 //! running it, so when a stack overflow aborts the child, the supervisor reports that input
 //! (copied to `DIR/crash-stack-overflow.yaml`). Panics and invariant violations are saved as
 //! `DIR/finding-*.yaml`, a hang as `DIR/hang.yaml`, the slowest input as `DIR/slowest.yaml`.
-//! Exit code 0 when no input broke the invariant, 1 otherwise.
+//! `DIR` defaults to `fuzz/` in the target directory this executable was built in (`target/`
+//! or wherever `CARGO_TARGET_DIR` puts it). Exit code 0 when inputs ran, some of them through
+//! to generated code and some to a diagnostic, and none broke the invariant; 1 otherwise (a
+//! run that executed nothing, or whose seed directories are missing or empty, fails too).
 
 use std::io::{Seek as _, Write as _};
 use std::path::{Path, PathBuf};
@@ -47,7 +50,7 @@ fn parse() -> Result<Options, String> {
         seed: 1,
         timeout: Duration::from_millis(1000),
         stack_bytes: 8 << 20,
-        out: workspace.join("target/fuzz"),
+        out: default_out_dir().unwrap_or_else(|| workspace.join("target/fuzz")),
         child: false,
         replay: None,
         minimise: None,
@@ -71,6 +74,13 @@ fn parse() -> Result<Options, String> {
         }
     }
     Ok(o)
+}
+
+/// `fuzz/` in the target directory this executable was built in: it runs from
+/// `<target dir>/<profile>/hapticgen-fuzz` (or `<target dir>/<triple>/<profile>/…`).
+fn default_out_dir() -> Option<PathBuf> {
+    let exe = std::env::current_exe().ok()?;
+    Some(exe.parent()?.parent()?.join("fuzz"))
 }
 
 fn main() -> ExitCode {
@@ -144,6 +154,15 @@ fn scalar_of(rng: &mut SmallRng) -> Scalar {
 /// The fuzzing loop (in the child process).
 fn fuzz(options: &Options) -> ExitCode {
     let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    // Every seed directory must contribute: one that moved or emptied would shrink the corpus
+    // without a word.
+    for dir in corpus_dirs(&workspace) {
+        let seeds = load_corpus(std::slice::from_ref(&dir)).len();
+        if seeds == 0 {
+            eprintln!("fuzz: FAIL: no seed files (*.yaml) in {}", dir.display());
+            return ExitCode::FAILURE;
+        }
+    }
     let corpus = load_corpus(&corpus_dirs(&workspace));
     if corpus.is_empty() {
         eprintln!("error: empty seed corpus");
@@ -307,11 +326,20 @@ fn fuzz(options: &Options) -> ExitCode {
         findings.len(),
         known.len()
     );
-    if findings.is_empty() {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
+    if !findings.is_empty() {
+        return ExitCode::FAILURE;
     }
+    // A run that executed nothing, or never reached one of the two outcomes, checked nothing
+    // (or only half of the generator): fail rather than pass on it.
+    if executions == 0 || generated == 0 || rejected == 0 {
+        eprintln!(
+            "fuzz: FAIL: the run exercised too little: {executions} inputs executed, {generated} generated \
+             code, {rejected} rejected (each must be at least 1; --seconds {})",
+            options.seconds
+        );
+        return ExitCode::FAILURE;
+    }
+    ExitCode::SUCCESS
 }
 
 /// Saves a finding (once per distinct message).

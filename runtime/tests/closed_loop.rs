@@ -1,13 +1,20 @@
 //! Eq. (6), (11) and (13) hold exactly with an exact plant and exact sensing: for random
 //! states, the torque of each law is applied to eq. (1) with a random operator force, q̈ and
 //! ẍ = J q̈ + J̇ q̇ (eq. (2)) are computed, and the target impedance is checked to 1e-9.
+//!
+//! Each law is given only the sensor it has: Controller 1 the operator force, the first variant
+//! of Controller 2 a task acceleration (and no force: a zero reading), the others nothing. The
+//! acceleration Controller 2 senses is the simulated plant's own: its torque depends on the
+//! acceleration it senses, and the plant's acceleration on that torque, so the test probes the
+//! plant (the law and eq. (1)) at N + 1 sensed accelerations, solves for the one the plant
+//! then actually has, and checks eq. (6) there; and, at a random sensed acceleration `a`, that
+//! the impedance error is exactly what eq. (9) leaves for a sensing error,
+//! `M_d ẍ̃ + B_d ẋ̃ + K_d x̃ + f_l = (M_d − W⁻¹)(ẍ − a)`.
 
 // Index loops mirror the equations component by component.
 #![allow(clippy::needless_range_loop)]
 
-mod common;
-
-use common::{forward_dynamics, solve, Joystick, Parallelogram};
+use crate::common::{forward_dynamics, solve, Joystick, Parallelogram};
 use hapticgen_runtime::control::{
     ControlOptions, ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference,
     TaskSensing,
@@ -79,6 +86,7 @@ fn residuals<R: RigModel<N, N, Scalar = f64>, const N: usize>(
     }
 
     let mut worst = [0.0f64; 4];
+    let mut sensing_error_worst = 0.0f64;
     for (slot, law) in worst.iter_mut().zip(LAWS) {
         let controller = ImpedanceController {
             law,
@@ -89,19 +97,72 @@ fn residuals<R: RigModel<N, N, Scalar = f64>, const N: usize>(
                 spring_lead_time: 0.0,
             },
         };
-        // Exact sensing: the true f_l; for Controller 2's first variant the acceleration
-        // estimate is ẍ*, and the check below shows the plant then indeed accelerates at ẍ*
-        // (ẍ* is the unique fixed point of the law's algebraic loop, since M_d ≠ 0).
-        let sensed = TaskSensing { operator_force, acceleration: target_accel };
-        let output = controller.torque(rig, &terms, &qd, &reference, &sensed);
-        assert_eq!(output.status, ControlStatus::Ok, "{law:?}");
-        let qdd = forward_dynamics(rig, &q, &qd, &output.torque, &operator_force);
-        let mut accel = terms.jacobian_dot_times_qdot;
-        for k in 0..N {
-            for i in 0..N {
-                accel[k] += terms.jacobian[k][i] * qdd[i];
+        // The law's torque for what it senses, applied to the plant: q̈ from eq. (1) and the
+        // task acceleration ẍ = J q̈ + J̇ q̇ of eq. (2).
+        let plant = |sensed: &TaskSensing<f64, N>| -> ([f64; N], [f64; N]) {
+            let output = controller.torque(rig, &terms, &qd, &reference, sensed);
+            assert_eq!(output.status, ControlStatus::Ok, "{law:?}");
+            let qdd = forward_dynamics(rig, &q, &qd, &output.torque, &operator_force);
+            let mut accel = terms.jacobian_dot_times_qdot;
+            for k in 0..N {
+                for i in 0..N {
+                    accel[k] += terms.jacobian[k][i] * qdd[i];
+                }
             }
-        }
+            (qdd, accel)
+        };
+        let (qdd, accel) = match law {
+            // Exact force sensing, no accelerometer.
+            ImpedanceLaw::Controller1ForceSensing => {
+                plant(&TaskSensing { operator_force, acceleration: [0.0; N] })
+            }
+            // An accelerometer, no force sensor: the plant's own acceleration, the fixed point
+            // of a ↦ ẍ(a), found from the plant alone (ẍ(a) is affine in the sensed a).
+            ImpedanceLaw::Controller2Accel => {
+                let sensing = |acceleration: [f64; N]| TaskSensing { operator_force: [0.0; N], acceleration };
+                let (_, at_zero) = plant(&sensing([0.0; N]));
+                let mut system = [[0.0; N]; N]; // I − ∂ẍ/∂a
+                for j in 0..N {
+                    let mut probe = [0.0; N];
+                    probe[j] = 1.0;
+                    let (_, response) = plant(&sensing(probe));
+                    for i in 0..N {
+                        system[i][j] = f64::from(u8::from(i == j)) - (response[i] - at_zero[i]);
+                    }
+                }
+                let sensed = solve(system, at_zero);
+                let (qdd, accel) = plant(&sensing(sensed));
+                for k in 0..N {
+                    let mismatch = (accel[k] - sensed[k]).abs();
+                    assert!(mismatch < 1e-9 * sensed[k].abs().max(1.0), "sensed {sensed:?}, plant {accel:?}");
+                }
+                // A sensing error: at a random sensed acceleration a, eq. (6)'s residual is
+                // (M_d − W⁻¹)(ẍ − a), with W⁻¹ v = J⁻ᵀ D J⁻¹ v.
+                let wrong = random_array::<N>(rng, -5.0, 5.0);
+                let (_, off) = plant(&sensing(wrong));
+                let error: [f64; N] = core::array::from_fn(|k| off[k] - wrong[k]);
+                let jacobian_transpose: [[f64; N]; N] =
+                    core::array::from_fn(|i| core::array::from_fn(|k| terms.jacobian[k][i]));
+                let d_j_inv_error: [f64; N] = {
+                    let j_inv_error = solve(terms.jacobian, error);
+                    core::array::from_fn(|i| {
+                        (0..N).map(|j| terms.inertia_matrix[i][j] * j_inv_error[j]).sum()
+                    })
+                };
+                let w_inv_error = solve(jacobian_transpose, d_j_inv_error);
+                for k in 0..N {
+                    let impedance_error =
+                        parameters.mass[k] * (off[k] - reference.acceleration[k]) + restoring_plus_force[k];
+                    let predicted = parameters.mass[k] * error[k] - w_inv_error[k];
+                    let scale = predicted.abs().max(1.0);
+                    sensing_error_worst =
+                        sensing_error_worst.max((impedance_error - predicted).abs() / scale);
+                }
+                (qdd, accel)
+            }
+            // Neither sensor.
+            ImpedanceLaw::Controller2Mobility | ImpedanceLaw::Controller3 => plant(&TaskSensing::default()),
+        };
         let residual: [f64; N] = match law {
             // Eq. (6): M_d ẍ̃ + B_d ẋ̃ + K_d x̃ + f_l = 0.
             ImpedanceLaw::Controller1ForceSensing | ImpedanceLaw::Controller2Accel => {
@@ -128,9 +189,12 @@ fn residuals<R: RigModel<N, N, Scalar = f64>, const N: usize>(
         };
         *slot = residual.iter().fold(0.0f64, |m, r| m.max(r.abs()));
         if law == ImpedanceLaw::Controller2Accel {
+            // The acceleration the plant settles at is the target ẍ*, and a sensing error
+            // leaves exactly the predicted impedance error.
             for k in 0..N {
                 *slot = slot.max((accel[k] - target_accel[k]).abs() * parameters.mass[k]);
             }
+            *slot = slot.max(sensing_error_worst);
         }
     }
     worst

@@ -4,9 +4,7 @@
 // Index loops mirror the equations component by component.
 #![allow(clippy::needless_range_loop)]
 
-mod common;
-
-use common::{forward_dynamics, Parallelogram};
+use crate::common::{forward_dynamics, Parallelogram};
 use hapticgen_runtime::control::{
     ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskSensing,
 };

@@ -4,9 +4,7 @@
 // Index loops mirror the equations component by component.
 #![allow(clippy::needless_range_loop)]
 
-mod common;
-
-use common::Parallelogram;
+use crate::common::Parallelogram;
 use hapticgen_runtime::control::{
     ControlOptions, ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference,
     TaskSensing,

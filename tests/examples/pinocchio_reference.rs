@@ -7,7 +7,8 @@
 //! hapticgen's `D`, `C q̇ + g`, `g` and, for every named point, its position and Jacobian
 //! (3 rows; planar models padded with a zero z row), and for every named frame its rotation
 //! matrix and angular-velocity Jacobian. Models with direct poses are skipped
-//! (listed on standard error): they are closed chains.
+//! (listed on standard error): they are closed chains. `models.txt` lists the names written,
+//! one per line, for the check to compare with what it found; writing none is an error.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -46,7 +47,7 @@ fn main() {
     let out = PathBuf::from(std::env::args().nth(1).expect("usage: pinocchio_reference OUT_DIR"));
     std::fs::create_dir_all(&out).expect("the output directory can be created");
     let root = workspace_root();
-    let mut written = 0;
+    let mut written: Vec<String> = Vec::new();
     for dir in ["models", "codegen/tests/good-models"] {
         for path in yaml_files(&root.join(dir)) {
             let display = format!("{dir}/{}", path.file_name().expect("a file").to_string_lossy());
@@ -144,9 +145,16 @@ fn main() {
                 }
                 json.push_str("]}\n");
                 std::fs::write(out.join(format!("{name}.json")), json).expect("writable");
-                written += 1;
+                written.push(name);
             }
         }
     }
-    eprintln!("wrote {written} models to {}", out.display());
+    let mut list = written.join("\n");
+    list.push('\n');
+    std::fs::write(out.join("models.txt"), list).expect("writable");
+    eprintln!("wrote {} models to {}", written.len(), out.display());
+    if written.is_empty() {
+        eprintln!("error: no serial model to export");
+        std::process::exit(1);
+    }
 }

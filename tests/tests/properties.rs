@@ -12,7 +12,7 @@
 //!    for every entry of `p`, `J`, `J̇`, `J̇q̇`, `D`, `C`, `Cq̇`, `g` and `V`.
 //!
 //! Cases: 48 per property by default (a few seconds in a debug build); set `PROPTEST_CASES`
-//! for a longer run (`PROPTEST_CASES=1000 cargo test -p hapticgen-tests --test properties`).
+//! for a longer run (`PROPTEST_CASES=1000 cargo test -p hapticgen-tests --test workspace properties::`).
 
 // Matrix checks read best with explicit indices.
 #![allow(clippy::needless_range_loop)]

@@ -2,7 +2,7 @@
 //! drive trains for the simulator.
 //!
 //! * [`CompiledModel`] holds the terms of the paper's eq. (1)–(2) of one model, derived by
-//!   `hapticgen_codegen::dynamics::mechanics::derive` and compiled into [`Tape`]s, optionally after
+//!   `hapticgen_codegen::derive` and compiled into [`Tape`]s, optionally after
 //!   scaling every body's mass and inertia (the plant/model mismatch the paper discusses in
 //!   section 2: "assuming no modeling mismatch").
 //! * [`TapeRig`] implements `RigModel<N, M, Scalar = f64>` on a [`CompiledModel`], so the

@@ -3,7 +3,7 @@
 //! The simulator needs the rigid-body terms of the paper's eq. (1)–(2) (`D(q)`, `C(q, q̇) q̇`,
 //! `g(q)`, `p(q)`, `J(q)`, `J̇ q̇`) for model files that were not compiled into the binary, and
 //! for perturbed copies of the shipped ones (a plant whose masses differ from the
-//! controller's model). The polynomials of `hapticgen_codegen::dynamics::mechanics::derive` are lowered
+//! controller's model). The polynomials of `hapticgen_codegen::derive` are lowered
 //! once, at load time, into the same hash-consed expression DAG the code generator uses
 //! (`hapticgen_codegen::sym::dag::Dag`, with its Horner factoring and common-subexpression
 //! elimination), and the nodes reachable from the requested outputs are flattened into a

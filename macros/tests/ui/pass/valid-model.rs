@@ -1,5 +1,5 @@
 // A valid model expands to a module whose rig implements the runtime's traits.
-hapticgen_macros::rig!(pub mod pendulum = "../../../../tests/ui/models/pendulum.yaml", scalar = f32);
+hapticgen_macros::rig!(pub mod pendulum = "tests/ui/models/pendulum.yaml", scalar = f32);
 
 fn main() {
     use hapticgen_runtime::RigModel;

@@ -1,0 +1,4 @@
+// An unknown key in a body.
+hapticgen_macros::rig!(pub mod pendulum = "tests/ui/models/unknown-key.yaml");
+
+fn main() {}
