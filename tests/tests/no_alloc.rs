@@ -201,7 +201,7 @@ where
                     (300.0 * (f64::from(tick) * 0.01 * (1.0 + i as f64 * 0.3)).sin()) as i32
                 });
                 let inputs = ImpedanceInputs { encoder_counts, force_readings: [s(0.2); M], tick };
-                if tick % 2 == 0 {
+                if tick.is_multiple_of(2) {
                     haptic.impedance_tick_fused(&inputs);
                 } else {
                     haptic.impedance_tick(&inputs);
