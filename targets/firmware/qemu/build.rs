@@ -39,24 +39,11 @@ fn main() {
 
 #[cfg(feature = "generate")]
 fn generate(variant: &Variant, firmware: &Path, out: &Path) {
-    let glue = hapticgen_fw_build::generate(
-        variant,
-        firmware,
-        hapticgen_codegen::Scalar::F32,
-        out,
-        "image",
-        Glue::Simulation,
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    std::fs::write(out.join("image.rs"), glue).expect("OUT_DIR is writable");
+    hapticgen_fw_build::generate_image(variant, firmware, out, Glue::Simulation)
+        .unwrap_or_else(|e| panic!("{e}"));
 }
 
 #[cfg(not(feature = "generate"))]
 fn generate(variant: &Variant, _: &Path, _: &Path) {
-    panic!(
-        "image `{}`: built without the feature `generate`, so {} must name the host reference's \
-         pre-generated images (`hapticgen-fw-reference generated`)",
-        variant.name,
-        hapticgen_fw_build::PREGENERATED_ENV
-    );
+    panic!("{}", hapticgen_fw_build::not_pregenerated(variant));
 }

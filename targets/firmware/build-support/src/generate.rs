@@ -78,7 +78,8 @@ pub fn generate_rig(
         rig_file,
     )
     .map_err(|e| e.to_string())?;
-    let loaded = hapticgen_codegen::load_file(&model_path, &v.model, v.variant.as_deref()).map_err(|e| e.to_string())?;
+    let loaded = hapticgen_codegen::load_file(&model_path, &v.model, v.variant.as_deref())
+        .map_err(|e| e.to_string())?;
     let (n, m) = (loaded.joints.len(), loaded.task_dim());
     if n == 0 {
         return Err(format!("{}: the model has no joints", v.model));

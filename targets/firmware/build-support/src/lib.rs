@@ -132,6 +132,30 @@ pub enum Glue {
 /// `f32` run compiles.
 pub const PREGENERATED_ENV: &str = "HAPTICGEN_FW_GENERATED";
 
+/// For an image crate's build script: generates image `variant`'s `f32` rig and its glue of
+/// `kind` into `out_dir` (`image_rig.rs`, and `image.rs` holding the glue module `image`).
+#[cfg(feature = "generate")]
+pub fn generate_image(
+    variant: &Variant,
+    firmware_dir: &Path,
+    out_dir: &Path,
+    kind: Glue,
+) -> Result<(), String> {
+    let glue = generate(variant, firmware_dir, hapticgen_codegen::Scalar::F32, out_dir, "image", kind)?;
+    let path = out_dir.join("image.rs");
+    std::fs::write(&path, glue).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Why an image crate built without its `generate` feature cannot build image `variant`:
+/// [`PREGENERATED_ENV`] does not name the host reference's pre-generated images.
+pub fn not_pregenerated(variant: &Variant) -> String {
+    format!(
+        "image `{}`: built without the feature `generate`, so {PREGENERATED_ENV} must name the host \
+         reference's pre-generated images (`hapticgen-fw-reference generated`)",
+        variant.name
+    )
+}
+
 /// The glue file of `kind` for one image in a pre-generated directory.
 fn glue_file(kind: Glue) -> &'static str {
     match kind {
