@@ -15,27 +15,20 @@
 //!
 //! The cases live in this crate rather than in `hapticgen-tests` because trybuild builds the
 //! crate under test with all its dependencies: here the macro, the generator and the runtime,
-//! not the tests crate's every generated rig, nalgebra and proptest.
+//! not the tests crate's every generated rig, nalgebra and proptest. They build with the
+//! profile `tests/src/nested_builds.rs` writes for trybuild's directory (the generator
+//! optimised, no debug information), and share the built dependencies with the rebuild probe.
 
 use std::path::{Path, PathBuf};
 
+// The nested builds' shared directory and settings (this crate cannot depend on
+// `hapticgen-tests`, whose module it is).
+#[path = "../../tests/src/nested_builds.rs"]
+#[allow(dead_code)] // the probe's part (`TRYBUILD_RUSTFLAGS`) is not used here
+mod nested_builds;
+
 /// The directories of model files the cases name, relative to the workspace root.
 const MODEL_DIRS: [&str; 2] = ["models", "tests/ui/models"];
-
-/// Cargo's target directory as `cargo metadata` reports it, which is how trybuild places its
-/// projects: `<workspace>/target`, or wherever `CARGO_TARGET_DIR` or `build.target-dir` put it.
-fn target_dir() -> PathBuf {
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let output = std::process::Command::new(cargo)
-        .args(["metadata", "--format-version=1", "--no-deps", "--offline"])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("cargo metadata runs");
-    assert!(output.status.success(), "cargo metadata failed:\n{}", String::from_utf8_lossy(&output.stderr));
-    let metadata: serde_json::Value =
-        serde_json::from_slice(&output.stdout).expect("cargo metadata prints JSON");
-    PathBuf::from(metadata["target_directory"].as_str().expect("cargo metadata names the target directory"))
-}
 
 /// Copies every `.yaml` file of `from` into `to` (rewriting only files whose content differs).
 fn mirror_yaml_files(from: &Path, to: &Path) -> usize {
@@ -76,8 +69,9 @@ fn rig_macro_reports_bad_input_as_compile_errors() {
             assert!(stderr.exists(), "{} has no expected {}", case.display(), stderr.display());
         }
     }
-    // trybuild's project directory for this crate (its `Runner::prepare`).
-    let project = target_dir().join("tests/trybuild").join(env!("CARGO_PKG_NAME"));
+    // trybuild's project directory for this crate (its `Runner::prepare`), below the nested
+    // builds' directory with its shared profile.
+    let project = nested_builds::prepare().join(env!("CARGO_PKG_NAME"));
     let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     for dir in MODEL_DIRS {
         let copied = mirror_yaml_files(&workspace.join(dir), &project.join(dir));

@@ -459,6 +459,17 @@ impl SerialBaseline {
         }
     }
 
+    /// The potential energy `V(q) = −Σ m_i g⃗ · c_i(q)` of gravity, with `c_i` each body's
+    /// centre of mass in base coordinates.
+    pub fn potential_energy(&self, q: &DVector<f64>) -> f64 {
+        let poses = self.poses(q);
+        self.links
+            .iter()
+            .zip(&poses)
+            .map(|(link, pose)| -link.mass * self.gravity.dot(&(pose.origin + pose.rotation * link.com)))
+            .sum()
+    }
+
     /// `p(q)`.
     pub fn position(&self, q: &DVector<f64>) -> DVector<f64> {
         self.position_at(q, &self.poses(q))

@@ -4,6 +4,9 @@
 
 pub mod baseline;
 pub mod baseline_serial;
+pub mod nested_builds;
+
+pub use nested_builds::target_dir;
 
 use hapticgen_runtime::fused::FusedImpedance;
 
@@ -39,24 +42,6 @@ include!(concat!(env!("OUT_DIR"), "/registry.rs"));
 /// The workspace root (for loading model files in tests).
 pub fn workspace_root() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-/// The target directory cargo builds this workspace in, as `cargo metadata` reports it: the
-/// default `<workspace>/target`, or wherever `CARGO_TARGET_DIR` or `build.target-dir` put it.
-/// trybuild asks the same question to place its projects; tests that build or write files
-/// put them under this directory, never at a path assumed inside the repository.
-pub fn target_dir() -> std::path::PathBuf {
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let output = std::process::Command::new(cargo)
-        .args(["metadata", "--format-version=1", "--no-deps", "--offline"])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("cargo metadata runs");
-    assert!(output.status.success(), "cargo metadata failed:\n{}", String::from_utf8_lossy(&output.stderr));
-    let metadata: serde_json::Value =
-        serde_json::from_slice(&output.stdout).expect("cargo metadata prints JSON");
-    let dir = metadata["target_directory"].as_str().expect("cargo metadata names the target directory");
-    std::path::PathBuf::from(dir)
 }
 
 /// Shared checks of generated rigs against the numeric evaluator.

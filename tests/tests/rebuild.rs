@@ -1,23 +1,36 @@
 //! Rebuild tracking of the `rig!` macro, end to end: a small crate that uses `rig!` on a model
 //! file is built with cargo; editing the model makes cargo rebuild it (the expansion
 //! `include_bytes!`s the file) and the new numbers come out; building again without an edit
-//! compiles nothing. The probe crate lives in `<target dir>/rebuild-probe` (the workspace's
-//! target directory, wherever `CARGO_TARGET_DIR` puts it) with its own target directory inside
-//! it, so repeated runs reuse its dependencies; it builds without debug information, which
-//! the test does not need (124 MB instead of 257 MB, measured).
+//! compiles nothing. The probe crate lives in `<target dir>/tests/trybuild/rebuild-probe` (the
+//! workspace's target directory, wherever `CARGO_TARGET_DIR` puts it) and builds with the
+//! settings and in the target directory of the `rig!` macro's trybuild cases
+//! (`hapticgen_tests::nested_builds`), so the macro, the generator, the runtime and their
+//! dependencies are compiled once for both.
 
 use std::path::Path;
 use std::process::Command;
 
-use hapticgen_tests::{target_dir, workspace_root};
+use hapticgen_tests::nested_builds::{self, TRYBUILD_RUSTFLAGS};
+use hapticgen_tests::workspace_root;
+
+/// `cargo SUBCOMMAND` on the probe, in its directory (so that the nested builds' configuration
+/// applies), with trybuild's target directory, rustflags and environment.
+fn cargo(probe: &Path, target: &Path, subcommand: &str) -> Command {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut command = Command::new(cargo);
+    command
+        .current_dir(probe)
+        .arg(subcommand)
+        .arg(format!("--config=build.rustflags={TRYBUILD_RUSTFLAGS}"))
+        .env("CARGO_TARGET_DIR", target)
+        .env("CARGO_INCREMENTAL", "0")
+        .env_remove("RUSTFLAGS");
+    command
+}
 
 fn cargo_run(probe: &Path, target: &Path) -> (String, String) {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let output = Command::new(cargo)
-        .args(["run", "--quiet", "--manifest-path"])
-        .arg(probe.join("Cargo.toml"))
-        .env("CARGO_TARGET_DIR", target)
-        .env_remove("RUSTFLAGS")
+    let output = cargo(probe, target, "run")
+        .arg("--quiet")
         .env("CARGO_TERM_QUIET", "false")
         .output()
         .expect("cargo runs");
@@ -28,14 +41,7 @@ fn cargo_run(probe: &Path, target: &Path) -> (String, String) {
 }
 
 fn build_log(probe: &Path, target: &Path) -> String {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let output = Command::new(cargo)
-        .args(["build", "--manifest-path"])
-        .arg(probe.join("Cargo.toml"))
-        .env("CARGO_TARGET_DIR", target)
-        .env_remove("RUSTFLAGS")
-        .output()
-        .expect("cargo runs");
+    let output = cargo(probe, target, "build").output().expect("cargo runs");
     assert!(output.status.success());
     String::from_utf8_lossy(&output.stderr).into_owned()
 }
@@ -43,13 +49,12 @@ fn build_log(probe: &Path, target: &Path) -> String {
 #[test]
 fn editing_the_model_file_rebuilds_the_crate_that_uses_it() {
     let root = workspace_root().canonicalize().expect("workspace root");
-    let probe = target_dir().join("rebuild-probe");
-    let target = probe.join("target");
+    let target = nested_builds::prepare();
+    let probe = target.join("rebuild-probe");
     std::fs::create_dir_all(probe.join("src")).unwrap();
     let manifest = format!(
         "[package]\nname = \"rebuild-probe\"\nversion = \"0.0.0\"\nedition = \"2021\"\npublish = false\n\n\
-         [dependencies]\nhapticgen-macros = {{ path = {:?} }}\nhapticgen-runtime = {{ path = {:?} }}\n\n[workspace]\n\n\
-         [profile.dev]\ndebug = 0\nincremental = false\n\n[profile.dev.build-override]\ndebug = 0\n",
+         [dependencies]\nhapticgen-macros = {{ path = {:?} }}\nhapticgen-runtime = {{ path = {:?} }}\n\n[workspace]\n",
         root.join("macros"),
         root.join("runtime")
     );
