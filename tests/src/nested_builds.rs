@@ -7,12 +7,12 @@
 //! `<target dir>/tests/trybuild/<crate>` and builds it with `CARGO_TARGET_DIR` set to
 //! `<target dir>/tests/trybuild` and its own rustflags ([`TRYBUILD_RUSTFLAGS`]), and with no
 //! profile of ours (its manifest copies none): left alone, that is a full debug build at
-//! `opt-level = 0` (the generator running unoptimised inside the macro), and the probe, with
-//! settings of its own, was a third build of the same crates. Instead, [`prepare`] writes a
-//! cargo configuration into `<target dir>/tests/trybuild/.cargo/` that both builds read (cargo
-//! reads configuration from the directories above the one it runs in): this workspace's
-//! `[profile.dev]` settings without debug information. The probe runs in that directory too,
-//! with trybuild's rustflags, so the dependencies are compiled once for both.
+//! `opt-level = 0` with full debug information, and the probe, with settings of its own, was a
+//! third build of the same crates. Instead, [`prepare`] writes a cargo configuration into
+//! `<target dir>/tests/trybuild/.cargo/` that both builds read (cargo reads configuration from
+//! the directories above the one it runs in): no debug information. The probe runs in that
+//! directory too, with trybuild's rustflags and `--target` ([`host_triple`]), so the
+//! dependencies are compiled once for both.
 //!
 //! This file is a module of `hapticgen-tests` and is included by path into the macro crate's
 //! test, which cannot depend on `hapticgen-tests`.
@@ -23,22 +23,31 @@ use std::path::{Path, PathBuf};
 /// `--config build.rustflags=…` with these makes another build's units identical to its.
 pub const TRYBUILD_RUSTFLAGS: &str = r#"["--cfg", "trybuild", "--verbose", "-A", "dead_code"]"#;
 
-/// The profile of the nested builds: the workspace's `[profile.dev]` (dependencies at
-/// `opt-level = 1`, the generator at 3, so that the macro expands fast) without debug
-/// information, which no nested build needs (it halves their size).
+/// The profile of the nested builds: cargo's `dev` profile without debug information, which
+/// no nested build needs. It stays at `opt-level = 0` everywhere, the generator included:
+/// the cases expand small models, for which compiling the generator with optimisation costs
+/// far more than it saves (measured: trybuild's build took 13 CPU-minutes with the workspace's
+/// `opt-level = 3` for the generator).
 const NESTED_PROFILE: &str = r#"# Written by the tests (tests/src/nested_builds.rs): the profile of the builds that trybuild
 # and the rebuild probe start in this directory.
 [profile.dev]
 debug = 0
 incremental = false
-
-[profile.dev.package."*"]
-opt-level = 1
-debug = 0
-
-[profile.dev.package.hapticgen-codegen]
-opt-level = 3
 "#;
+
+/// The host's target triple (`rustc -vV`): trybuild builds with `--target` set to it, which
+/// keeps the rustflags off build scripts and proc-macros; another build must do the same to
+/// share their units.
+pub fn host_triple() -> String {
+    let rustc = std::env::var_os("RUSTC").unwrap_or_else(|| "rustc".into());
+    let output = std::process::Command::new(rustc).arg("-vV").output().expect("rustc runs");
+    let text = String::from_utf8_lossy(&output.stdout);
+    text.lines()
+        .find_map(|line| line.strip_prefix("host: "))
+        .expect("rustc -vV names the host")
+        .trim()
+        .to_string()
+}
 
 /// The target directory cargo builds this workspace in, as `cargo metadata` reports it: the
 /// default `<workspace>/target`, or wherever `CARGO_TARGET_DIR` or `build.target-dir` put it.

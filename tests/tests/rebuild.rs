@@ -22,6 +22,7 @@ fn cargo(probe: &Path, target: &Path, subcommand: &str) -> Command {
         .current_dir(probe)
         .arg(subcommand)
         .arg(format!("--config=build.rustflags={TRYBUILD_RUSTFLAGS}"))
+        .args(["--target", &nested_builds::host_triple()])
         .env("CARGO_TARGET_DIR", target)
         .env("CARGO_INCREMENTAL", "0")
         .env_remove("RUSTFLAGS");
