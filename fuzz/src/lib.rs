@@ -2,13 +2,14 @@
 //!
 //! Inputs come from two sources: [`structured`] documents (random but plausible models drawn
 //! with `arbitrary` and serialised to YAML) and [`mutate`]d seeds (the corpus in
-//! `fuzz/corpus/` plus every model file of the repository). Each input goes through
-//! `hapticgen_codegen::generate` end to end — load, mechanics, emission — and the emitted
-//! items are formatted with prettyplease. The invariant ([`check`]): every input ends in
-//! generated code or in diagnostics whose line and column are at least 1 and within the
-//! file; never a panic, a hang (the [`Runner`] measures every input against a time limit)
-//! or a stack overflow (inputs run on a thread with a bounded stack; an overflow aborts the
-//! process, and the binary's supervisor reports the input that was running).
+//! `fuzz/corpus/` plus every model file of the repository). Each input goes through one of two
+//! [`Stage`]s: the model loader alone (parse → resolve → checks → diagnostics, at the rate a
+//! parser deserves), or `hapticgen_codegen::generate` end to end — load, mechanics, emission —
+//! with the emitted items formatted by prettyplease. The invariant ([`check`]): every input
+//! ends in a loaded model (or generated code) or in diagnostics whose line and column are at
+//! least 1 and within the file; never a panic, a hang (the [`Runner`] measures every input
+//! against a time limit) or a stack overflow (inputs run on a thread with a bounded stack; an
+//! overflow aborts the process, and the binary's supervisor finds the input that was running).
 #![deny(missing_docs)]
 
 pub mod mutate;
@@ -24,6 +25,27 @@ use hapticgen_codegen::{Scalar, Source};
 /// The name every input is loaded under (diagnostics must name it).
 pub const INPUT_NAME: &str = "fuzz.yaml";
 
+/// How far an input goes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// `hapticgen_codegen::model::load`: parsing, the variant, resolution and validation
+    /// (the model-level analyses — current-loop design, closure analysis — belong to the
+    /// generator stage).
+    Loader,
+    /// `hapticgen_codegen::generate_with` and formatting: load, mechanics, emission.
+    Generator,
+}
+
+impl Stage {
+    /// The stage's name on the command line (`--stage`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Loader => "loader",
+            Stage::Generator => "generator",
+        }
+    }
+}
+
 /// One input.
 #[derive(Clone, Debug)]
 pub struct Input {
@@ -35,61 +57,64 @@ pub struct Input {
     pub scalar: Scalar,
     /// Emit fused multiply-adds (`hapticgen generate --fma`).
     pub fused_multiply_add: bool,
+    /// How far the input goes.
+    pub stage: Stage,
 }
 
 /// How an input ended when the invariant held.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Outcome {
-    /// Code was generated and formatted.
+    /// Code was generated and formatted (the generator stage), or the model loaded (the
+    /// loader stage).
     Generated,
     /// The loader rejected the input with diagnostics inside the file.
     Rejected,
 }
 
-/// Runs one input through the generator and checks the invariant (except time and stack,
-/// which the [`Runner`] watches). Panics propagate to the caller.
+/// Runs one input through its stage and checks the invariant (except time and stack, which
+/// the [`Runner`] watches). Panics propagate to the caller.
 pub fn check(input: &Input) -> Result<Outcome, String> {
     let source = Source { name: INPUT_NAME, text: &input.text };
-    let options = hapticgen_codegen::EmitOptions { fused_multiply_add: input.fused_multiply_add };
-    match hapticgen_codegen::generate_with(&source, input.variant.as_deref(), input.scalar, options) {
-        Ok(generated) => {
-            let text = generated.formatted_items();
-            if text.trim().is_empty() {
-                return Err("generation succeeded but the formatted code is empty".into());
+    let variant = input.variant.as_deref();
+    let diagnostics = match input.stage {
+        Stage::Loader => match hapticgen_codegen::model::load(&source, variant) {
+            Ok(_) => return Ok(Outcome::Generated),
+            Err(diagnostics) => diagnostics,
+        },
+        Stage::Generator => {
+            let options = hapticgen_codegen::EmitOptions { fused_multiply_add: input.fused_multiply_add };
+            match hapticgen_codegen::generate_with(&source, variant, input.scalar, options) {
+                Ok(generated) => {
+                    if generated.formatted_items().trim().is_empty() {
+                        return Err("generation succeeded but the formatted code is empty".into());
+                    }
+                    return Ok(Outcome::Generated);
+                }
+                Err(diagnostics) => diagnostics,
             }
-            Ok(Outcome::Generated)
         }
-        Err(diagnostics) => {
-            if diagnostics.0.is_empty() {
-                return Err("the generator failed without a diagnostic".into());
-            }
-            for d in &diagnostics.0 {
-                if d.file != INPUT_NAME {
-                    return Err(format!("diagnostic names file `{}`, not `{INPUT_NAME}`: {d}", d.file));
-                }
-                if d.message.trim().is_empty() {
-                    return Err(format!("diagnostic without a message at {}:{}", d.line, d.column));
-                }
-                let lines = yaml_lines(&input.text);
-                if d.line == lines.len() + 1 && d.column == 1 && !lines.is_empty() {
-                    return Err(format!(
-                        "diagnostic one line past the end of a file without a final line break: {d}"
-                    ));
-                }
-                if !position_within(&input.text, d.line, d.column) {
-                    return Err(format!(
-                        "diagnostic outside the file ({} lines): {d}",
-                        line_count(&input.text)
-                    ));
-                }
-            }
-            Ok(Outcome::Rejected)
+    };
+    if diagnostics.0.is_empty() {
+        return Err("the model was rejected without a diagnostic".into());
+    }
+    let lines = yaml_lines(&input.text);
+    for d in &diagnostics.0 {
+        if d.file != INPUT_NAME {
+            return Err(format!("diagnostic names file `{}`, not `{INPUT_NAME}`: {d}", d.file));
+        }
+        if d.message.trim().is_empty() {
+            return Err(format!("diagnostic without a message at {}:{}", d.line, d.column));
+        }
+        if d.line == lines.len() + 1 && d.column == 1 && !lines.is_empty() {
+            return Err(format!(
+                "diagnostic one line past the end of a file without a final line break: {d}"
+            ));
+        }
+        if !position_within(&input.text, d.line, d.column) {
+            return Err(format!("diagnostic outside the file ({} lines): {d}", lines.len()));
         }
     }
-}
-
-fn line_count(text: &str) -> usize {
-    yaml_lines(text).len()
+    Ok(Outcome::Rejected)
 }
 
 /// The lines of `text` as YAML counts them: a line break is `\r\n`, `\n` or a lone `\r`,
@@ -148,7 +173,10 @@ pub enum Verdict {
     Hang(Duration),
 }
 
-type Job = (Input, Sender<(Result<Result<Outcome, String>, String>, Duration)>);
+/// What the worker answers for one input: the check's result (or the panic's message) and
+/// the input's CPU time.
+type Answer = (Result<Result<Outcome, String>, String>, Duration);
+type Job = (Vec<Input>, Sender<Vec<Answer>>);
 
 /// CPU time of the calling thread (wall time where the platform has no thread clock):
 /// the machine is shared, so a wall-clock limit would flag inputs that merely waited.
@@ -165,13 +193,26 @@ pub fn thread_cpu_time() -> Duration {
     START.get_or_init(Instant::now).elapsed()
 }
 
-/// Runs inputs one at a time on a worker thread with a bounded stack, catching panics and
-/// measuring each input's CPU time against a time limit. An input that does not finish
-/// within ten times the limit of wall time (a real hang, or a machine too busy to tell) is
-/// a hang too.
+/// Runs inputs on a worker thread with a bounded stack, catching panics and measuring each
+/// input's CPU time against a time limit. Inputs go to the worker one at a time or in
+/// batches (the loader takes tens of microseconds per input, so a round trip between threads
+/// per input would cost as much as the input itself). A batch that does not finish within
+/// ten times the limit of wall time (a real hang, or a machine too busy to tell) is a hang.
 pub struct Runner {
     jobs: Option<Sender<Job>>,
     timeout: Duration,
+}
+
+fn answer(input: &Input) -> Answer {
+    let start = thread_cpu_time();
+    let result = catch_unwind(AssertUnwindSafe(|| check(input))).map_err(|payload| {
+        payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "non-string panic payload".into())
+    });
+    (result, thread_cpu_time().saturating_sub(start))
 }
 
 impl Runner {
@@ -179,16 +220,17 @@ impl Runner {
     pub fn new(stack_bytes: usize, timeout: Duration) -> std::io::Result<Runner> {
         let (jobs, receiver): (Sender<Job>, Receiver<Job>) = mpsc::channel();
         std::thread::Builder::new().name("fuzz-worker".into()).stack_size(stack_bytes).spawn(move || {
-            for (input, reply) in receiver {
-                let start = thread_cpu_time();
-                let result = catch_unwind(AssertUnwindSafe(|| check(&input))).map_err(|payload| {
-                    payload
-                        .downcast_ref::<&str>()
-                        .map(|s| s.to_string())
-                        .or_else(|| payload.downcast_ref::<String>().cloned())
-                        .unwrap_or_else(|| "non-string panic payload".into())
-                });
-                let _ = reply.send((result, thread_cpu_time().saturating_sub(start)));
+            for (inputs, reply) in receiver {
+                let mut answers = Vec::with_capacity(inputs.len());
+                for input in &inputs {
+                    let answer = answer(input);
+                    let failed = !matches!(answer.0, Ok(Ok(_)));
+                    answers.push(answer);
+                    if failed {
+                        break;
+                    }
+                }
+                let _ = reply.send(answers);
             }
         })?;
         Ok(Runner { jobs: Some(jobs), timeout })
@@ -197,23 +239,38 @@ impl Runner {
     /// Runs one input. After a [`Verdict::Hang`] the worker is still busy: the runner is
     /// unusable and the caller should stop.
     pub fn run(&mut self, input: Input) -> Verdict {
+        self.run_batch(vec![input])
+            .pop()
+            .unwrap_or_else(|| Verdict::Violation("the worker answered nothing".into()))
+    }
+
+    /// Runs a batch of inputs in order, up to and including the first that fails (a panic or
+    /// a broken invariant): one verdict per input run, so a failing input is the last one.
+    /// A hang is one [`Verdict::Hang`] for the whole batch, after which the runner is
+    /// unusable.
+    pub fn run_batch(&mut self, inputs: Vec<Input>) -> Vec<Verdict> {
         let Some(jobs) = &self.jobs else {
-            return Verdict::Violation("the runner's worker is gone".into());
+            return vec![Verdict::Violation("the runner's worker is gone".into())];
         };
-        let (reply, answer) = mpsc::channel();
-        if jobs.send((input, reply)).is_err() {
-            return Verdict::Violation("the runner's worker is gone".into());
+        let (reply, answers) = mpsc::channel();
+        if jobs.send((inputs, reply)).is_err() {
+            return vec![Verdict::Violation("the runner's worker is gone".into())];
         }
-        match answer.recv_timeout(self.timeout * 10) {
-            Ok((Ok(Ok(outcome)), elapsed)) if elapsed > self.timeout => Verdict::Slow(outcome, elapsed),
-            Ok((Ok(Ok(outcome)), elapsed)) => Verdict::Ok(outcome, elapsed),
-            Ok((Ok(Err(violation)), _)) => Verdict::Violation(violation),
-            Ok((Err(message), _)) => Verdict::Panic(message),
+        match answers.recv_timeout(self.timeout * 10) {
+            Ok(answers) => answers
+                .into_iter()
+                .map(|answer| match answer {
+                    (Ok(Ok(outcome)), elapsed) if elapsed > self.timeout => Verdict::Slow(outcome, elapsed),
+                    (Ok(Ok(outcome)), elapsed) => Verdict::Ok(outcome, elapsed),
+                    (Ok(Err(violation)), _) => Verdict::Violation(violation),
+                    (Err(message), _) => Verdict::Panic(message),
+                })
+                .collect(),
             Err(RecvTimeoutError::Timeout) => {
                 self.jobs = None;
-                Verdict::Hang(self.timeout * 10)
+                vec![Verdict::Hang(self.timeout * 10)]
             }
-            Err(RecvTimeoutError::Disconnected) => Verdict::Violation("the worker died".into()),
+            Err(RecvTimeoutError::Disconnected) => vec![Verdict::Violation("the worker died".into())],
         }
     }
 }
@@ -298,16 +355,50 @@ mod tests {
         let good =
             std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/joystick_1dof.yaml"))
                 .unwrap();
-        let verdict =
-            runner.run(Input { text: good, variant: None, scalar: Scalar::F64, fused_multiply_add: false });
+        let verdict = runner.run(Input {
+            text: good,
+            variant: None,
+            scalar: Scalar::F64,
+            fused_multiply_add: false,
+            stage: Stage::Generator,
+        });
         assert!(matches!(verdict, Verdict::Ok(Outcome::Generated, _)), "{verdict:?}");
-        let bad =
-            Input { text: "name: [\n".into(), variant: None, scalar: Scalar::F32, fused_multiply_add: true };
+        let bad = Input {
+            text: "name: [\n".into(),
+            variant: None,
+            scalar: Scalar::F32,
+            fused_multiply_add: true,
+            stage: Stage::Generator,
+        };
         assert!(matches!(runner.run(bad), Verdict::Ok(Outcome::Rejected, _)));
         // Without the final newline the parsers point past the last line; the loader clamps.
-        let unterminated =
-            Input { text: "name: [".into(), variant: None, scalar: Scalar::F32, fused_multiply_add: false };
+        let unterminated = Input {
+            text: "name: [".into(),
+            variant: None,
+            scalar: Scalar::F32,
+            fused_multiply_add: false,
+            stage: Stage::Generator,
+        };
         assert!(matches!(runner.run(unterminated), Verdict::Ok(Outcome::Rejected, _)));
+    }
+
+    #[test]
+    fn a_batch_runs_every_input_in_order_and_the_loader_stage_only_loads() {
+        let mut runner = Runner::new(8 << 20, Duration::from_secs(30)).unwrap();
+        let good =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/joystick_1dof.yaml"))
+                .unwrap();
+        let input = |text: &str| Input {
+            text: text.to_string(),
+            variant: None,
+            scalar: Scalar::F64,
+            fused_multiply_add: false,
+            stage: Stage::Loader,
+        };
+        let verdicts = runner.run_batch(vec![input(&good), input("name: [\n"), input(&good)]);
+        let outcomes: Vec<Option<Outcome>> =
+            verdicts.iter().map(|v| if let Verdict::Ok(o, _) = v { Some(*o) } else { None }).collect();
+        assert_eq!(outcomes, [Some(Outcome::Generated), Some(Outcome::Rejected), Some(Outcome::Generated)]);
     }
 
     #[test]
@@ -321,7 +412,13 @@ mod tests {
             ("slow-4-joint-spatial.yaml", Scalar::F64),
         ] {
             let text = std::fs::read_to_string(format!("{dir}/{file}")).unwrap();
-            let verdict = runner.run(Input { text, variant: None, scalar, fused_multiply_add: true });
+            let verdict = runner.run(Input {
+                text,
+                variant: None,
+                scalar,
+                fused_multiply_add: true,
+                stage: Stage::Generator,
+            });
             assert!(matches!(verdict, Verdict::Ok(..)), "{file}: {verdict:?}");
         }
     }

@@ -1,16 +1,20 @@
-//! `hapticgen-fuzz`: fuzzes `hapticgen_codegen::generate` end to end for a given time.
+//! `hapticgen-fuzz`: fuzzes the model loader alone or `hapticgen_codegen::generate` end to
+//! end for a given time.
 //!
 //! ```text
-//! cargo run --release -p hapticgen-fuzz -- [--seconds S] [--seed N] [--timeout-ms MS]
-//!     [--stack-mb MB] [--out DIR]
-//! cargo run --release -p hapticgen-fuzz -- --replay FILE [--variant V]   # one input
-//! cargo run --release -p hapticgen-fuzz -- --minimise FILE                # shrink a finding
+//! cargo run --release -p hapticgen-fuzz -- [--stage loader|generator] [--seconds S] [--seed N]
+//!     [--timeout-ms MS] [--stack-mb MB] [--out DIR]
+//! cargo run --release -p hapticgen-fuzz -- --replay FILE [--variant V] [--stage S]   # one input
+//! cargo run --release -p hapticgen-fuzz -- --minimise FILE                            # shrink a finding
 //! ```
 //!
-//! `--seconds` defaults to `$HAPTICGEN_FUZZ_SECONDS`, else 60. The process supervises a
-//! child that does the fuzzing: the child writes each input to `DIR/current.yaml` before
-//! running it, so when a stack overflow aborts the child, the supervisor reports that input
-//! (copied to `DIR/crash-stack-overflow.yaml`). Panics and invariant violations are saved as
+//! `--stage` defaults to `generator` (load, mechanics, emission, formatting: milliseconds per
+//! input); `loader` stops after the model is loaded and checked (tens of microseconds), and
+//! runs inputs in batches of [`LOADER_BATCH`]. `--seconds` defaults to
+//! `$HAPTICGEN_FUZZ_SECONDS`, else 60. The process supervises a child that does the fuzzing:
+//! the child writes each batch to `DIR/current.batch` before running it, so when a stack
+//! overflow aborts the child, the supervisor replays the batch's inputs one by one in fresh
+//! processes and reports the one that aborts (copied to `DIR/crash-stack-overflow.yaml`). Panics and invariant violations are saved as
 //! `DIR/finding-*.yaml`, a hang as `DIR/hang.yaml`, the slowest input as `DIR/slowest.yaml`.
 //! `DIR` defaults to `fuzz/` in the target directory this executable was built in (`target/`
 //! or wherever `CARGO_TARGET_DIR` puts it). Exit code 0 when inputs ran, some of them through
@@ -25,8 +29,12 @@ use std::time::{Duration, Instant};
 use arbitrary::Unstructured;
 use hapticgen_codegen::Scalar;
 use hapticgen_fuzz::{
-    corpus_dirs, load_corpus, mutate, quiet_worker_panics, structured, Input, Runner, Verdict,
+    corpus_dirs, load_corpus, mutate, quiet_worker_panics, structured, Input, Runner, Stage, Verdict,
 };
+
+/// Inputs per batch at the loader stage: enough that the round trip to the worker thread is
+/// a small part of a batch, few enough that a batch takes milliseconds.
+const LOADER_BATCH: usize = 64;
 use rand::rngs::SmallRng;
 use rand::{Rng, RngCore, SeedableRng};
 
@@ -40,6 +48,7 @@ struct Options {
     replay: Option<PathBuf>,
     minimise: Option<PathBuf>,
     variant: Option<String>,
+    stage: Stage,
 }
 
 fn parse() -> Result<Options, String> {
@@ -55,6 +64,7 @@ fn parse() -> Result<Options, String> {
         replay: None,
         minimise: None,
         variant: None,
+        stage: Stage::Generator,
     };
     let mut args = std::env::args().skip(1);
     while let Some(arg) = args.next() {
@@ -70,6 +80,13 @@ fn parse() -> Result<Options, String> {
             "--minimise" => o.minimise = Some(PathBuf::from(value()?)),
             "--variant" => o.variant = Some(value()?),
             "--child" => o.child = true,
+            "--stage" => {
+                o.stage = match value()?.as_str() {
+                    "loader" => Stage::Loader,
+                    "generator" => Stage::Generator,
+                    other => return Err(format!("--stage: `{other}` is neither `loader` nor `generator`")),
+                }
+            }
             other => return Err(format!("unknown argument `{other}`")),
         }
     }
@@ -119,7 +136,7 @@ fn supervise(options: &Options) -> ExitCode {
     };
     let mut args: Vec<String> = std::env::args().skip(1).collect();
     args.push("--child".into());
-    let status = match std::process::Command::new(exe).args(&args).status() {
+    let status = match std::process::Command::new(&exe).args(&args).status() {
         Ok(s) => s,
         Err(e) => {
             eprintln!("error: cannot start the fuzzing process: {e}");
@@ -130,17 +147,71 @@ fn supervise(options: &Options) -> ExitCode {
         Some(0) => ExitCode::SUCCESS,
         Some(1) => ExitCode::FAILURE,
         _ => {
-            let current = options.out.join("current.yaml");
-            let crash = options.out.join("crash-stack-overflow.yaml");
-            let _ = std::fs::copy(&current, &crash);
-            eprintln!(
-                "fuzz: FAIL: the fuzzing process died ({status}), most likely a stack overflow; \
-                 the input it was running is {} (variant in current.variant)",
-                crash.display()
-            );
+            eprintln!("fuzz: FAIL: the fuzzing process died ({status}), most likely a stack overflow");
+            report_crash(&exe, options);
             ExitCode::FAILURE
         }
     }
+}
+
+/// The batch the fuzzing child was running when it died, as written by [`write_batch`].
+fn read_batch(path: &Path) -> Vec<(String, Vec<u8>)> {
+    let Ok(bytes) = std::fs::read(path) else { return Vec::new() };
+    let fields: Vec<&[u8]> = bytes.split(|&b| b == 0).collect();
+    fields
+        .chunks_exact(2)
+        .map(|pair| (String::from_utf8_lossy(pair[0]).into_owned(), pair[1].to_vec()))
+        .collect()
+}
+
+/// Writes a batch as `variant NUL text NUL` per input (the texts are valid UTF-8 without NUL
+/// bytes only by chance, so NULs are replaced: the loader sees the same lossy text).
+fn write_batch(file: &mut std::fs::File, inputs: &[Input]) -> std::io::Result<()> {
+    let mut buffer = Vec::new();
+    for input in inputs {
+        buffer.extend_from_slice(input.variant.as_deref().unwrap_or("").as_bytes());
+        buffer.push(0);
+        buffer.extend(input.text.bytes().map(|b| if b == 0 { b' ' } else { b }));
+        buffer.push(0);
+    }
+    file.set_len(0)?;
+    file.rewind()?;
+    file.write_all(&buffer)?;
+    file.flush()
+}
+
+/// Finds the input of the dead child's batch that kills a process on its own (each replayed
+/// in a fresh child), and saves it as `crash-stack-overflow.yaml`.
+fn report_crash(exe: &Path, options: &Options) {
+    let batch = read_batch(&options.out.join("current.batch"));
+    let replay_file = options.out.join("crash-candidate.yaml");
+    for (variant, text) in &batch {
+        if std::fs::write(&replay_file, text).is_err() {
+            break;
+        }
+        let mut command = std::process::Command::new(exe);
+        command.arg("--replay").arg(&replay_file).args(["--stage", options.stage.name()]);
+        command.args(["--stack-mb", &(options.stack_bytes >> 20).to_string()]);
+        if !variant.is_empty() {
+            command.args(["--variant", variant]);
+        }
+        let died = command
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .status()
+            .is_ok_and(|status| status.code().is_none());
+        if died {
+            let crash = options.out.join("crash-stack-overflow.yaml");
+            let _ = std::fs::rename(&replay_file, &crash);
+            eprintln!("fuzz: the input that kills the process is {} (variant {variant:?})", crash.display());
+            return;
+        }
+    }
+    eprintln!(
+        "fuzz: none of the {} inputs of the last batch ({}) kills a process on its own",
+        batch.len(),
+        options.out.join("current.batch").display()
+    );
 }
 
 fn scalar_of(rng: &mut SmallRng) -> Scalar {
@@ -175,7 +246,7 @@ fn fuzz(options: &Options) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    let current_path = options.out.join("current.yaml");
+    let current_path = options.out.join("current.batch");
     let mut current = match std::fs::File::create(&current_path) {
         Ok(f) => f,
         Err(e) => {
@@ -183,8 +254,13 @@ fn fuzz(options: &Options) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    let batch_size = match options.stage {
+        Stage::Loader => LOADER_BATCH,
+        Stage::Generator => 1,
+    };
     println!(
-        "fuzz: {} seeds, {:.0} s, seed {}, time limit {} ms per input, worker stack {} MiB",
+        "fuzz: the {}, {} seeds, {:.0} s, seed {}, time limit {} ms per input, worker stack {} MiB",
+        options.stage.name(),
         corpus.len(),
         options.seconds,
         options.seed,
@@ -200,104 +276,118 @@ fn fuzz(options: &Options) -> ExitCode {
     let mut findings: Vec<String> = Vec::new();
     let mut known: Vec<String> = Vec::new();
     let mut next_report = Duration::from_secs(10);
-    while start.elapsed() < deadline {
-        let input = if rng.gen_bool(0.5) {
-            rng.fill_bytes(&mut bytes);
-            let mut u = Unstructured::new(&bytes);
-            let Ok(doc) = structured::document(&mut u) else { continue };
-            structured_count += 1;
-            Input {
-                text: doc.text,
-                variant: doc.variant,
-                scalar: scalar_of(&mut rng),
-                fused_multiply_add: rng.gen_bool(0.5),
-            }
-        } else {
-            let seed = &corpus[rng.gen_range(0..corpus.len())].1;
-            let other = &corpus[rng.gen_range(0..corpus.len())].1;
-            let data = mutate::mutate(seed, other, &mut rng);
-            let variant = match rng.gen_range(0..6) {
-                0 => Some("horizontal".to_string()),
-                1 => Some("vertical".to_string()),
-                _ => None,
-            };
-            Input {
-                text: String::from_utf8_lossy(&data).into_owned(),
-                variant,
-                scalar: scalar_of(&mut rng),
-                fused_multiply_add: rng.gen_bool(0.5),
-            }
-        };
-        let _ = current.set_len(0).and_then(|_| current.rewind()).and_then(|_| {
-            current.write_all(input.text.as_bytes())?;
-            current.flush()
-        });
-        let _ =
-            std::fs::write(options.out.join("current.variant"), input.variant.clone().unwrap_or_default());
-        let text = input.text.clone();
-        let variant = input.variant.clone();
-        executions += 1;
-        match runner.run(input) {
-            Verdict::Ok(outcome, elapsed) => {
-                match outcome {
-                    hapticgen_fuzz::Outcome::Generated => generated += 1,
-                    hapticgen_fuzz::Outcome::Rejected => rejected += 1,
+    // CPU time inside the stage (on the worker), against the run's wall time: the rest is
+    // drawing inputs and bookkeeping.
+    let mut checking = Duration::ZERO;
+    'fuzzing: while start.elapsed() < deadline {
+        let mut batch = Vec::with_capacity(batch_size);
+        let mut structured_flags = Vec::with_capacity(batch_size);
+        while batch.len() < batch_size {
+            let from_structured = rng.gen_bool(0.5);
+            let input = if from_structured {
+                rng.fill_bytes(&mut bytes);
+                let mut u = Unstructured::new(&bytes);
+                let Ok(doc) = structured::document(&mut u) else { continue };
+                Input {
+                    text: doc.text,
+                    variant: doc.variant,
+                    scalar: scalar_of(&mut rng),
+                    fused_multiply_add: rng.gen_bool(0.5),
+                    stage: options.stage,
                 }
-                if elapsed > slowest.0 {
-                    slowest = (elapsed, text);
-                }
-            }
-            Verdict::Panic(message) => {
-                let list = if hapticgen_fuzz::known_finding(&message).is_some() {
-                    &mut known
-                } else {
-                    &mut findings
+            } else {
+                let seed = &corpus[rng.gen_range(0..corpus.len())].1;
+                let other = &corpus[rng.gen_range(0..corpus.len())].1;
+                let data = mutate::mutate(seed, other, &mut rng);
+                let variant = match rng.gen_range(0..6) {
+                    0 => Some("horizontal".to_string()),
+                    1 => Some("vertical".to_string()),
+                    _ => None,
                 };
-                record(&options.out, list, "panic", &message, &text, variant.as_deref());
-            }
-            Verdict::Violation(message) => {
-                let list = if hapticgen_fuzz::known_finding(&message).is_some() {
-                    &mut known
-                } else {
-                    &mut findings
-                };
-                record(&options.out, list, "violation", &message, &text, variant.as_deref());
-            }
-            Verdict::Slow(outcome, took) => {
-                let message = match outcome {
-                    hapticgen_fuzz::Outcome::Generated => format!(
-                        "slow generation of a valid model: {} ms CPU, over the limit of {} ms",
-                        took.as_millis(),
-                        options.timeout.as_millis()
-                    ),
-                    hapticgen_fuzz::Outcome::Rejected => format!(
-                        "slow rejection: {} ms CPU, over the limit of {} ms",
-                        took.as_millis(),
-                        options.timeout.as_millis()
-                    ),
-                };
-                let list = if hapticgen_fuzz::known_finding(&message).is_some() {
-                    &mut known
-                } else {
-                    &mut findings
-                };
-                record(&options.out, list, "slow", &message, &text, variant.as_deref());
-                if took > slowest.0 {
-                    slowest = (took, text);
-                }
-            }
-            Verdict::Hang(took) => {
-                let path = options.out.join("hang.yaml");
-                let _ = std::fs::write(&path, &text);
-                eprintln!(
-                    "fuzz: FAIL: an input gave no answer within {} ms (limit {} ms CPU; variant {:?}); saved as {}",
-                    took.as_millis(),
-                    options.timeout.as_millis(),
+                Input {
+                    text: String::from_utf8_lossy(&data).into_owned(),
                     variant,
-                    path.display()
-                );
-                findings.push("hang".into());
-                break; // the worker is still busy
+                    scalar: scalar_of(&mut rng),
+                    fused_multiply_add: rng.gen_bool(0.5),
+                    stage: options.stage,
+                }
+            };
+            batch.push(input);
+            structured_flags.push(from_structured);
+        }
+        let _ = write_batch(&mut current, &batch);
+        let texts: Vec<(String, Option<String>)> =
+            batch.iter().map(|i| (i.text.clone(), i.variant.clone())).collect();
+        let structured_inputs = structured_flags;
+        let verdicts = runner.run_batch(batch);
+        for ((verdict, (text, variant)), from_structured) in
+            verdicts.into_iter().zip(texts).zip(structured_inputs)
+        {
+            executions += 1;
+            structured_count += u64::from(from_structured);
+            match verdict {
+                Verdict::Ok(outcome, elapsed) => {
+                    checking += elapsed;
+                    match outcome {
+                        hapticgen_fuzz::Outcome::Generated => generated += 1,
+                        hapticgen_fuzz::Outcome::Rejected => rejected += 1,
+                    }
+                    if elapsed > slowest.0 {
+                        slowest = (elapsed, text);
+                    }
+                }
+                Verdict::Panic(message) => {
+                    let list = if hapticgen_fuzz::known_finding(&message).is_some() {
+                        &mut known
+                    } else {
+                        &mut findings
+                    };
+                    record(&options.out, list, "panic", &message, &text, variant.as_deref());
+                }
+                Verdict::Violation(message) => {
+                    let list = if hapticgen_fuzz::known_finding(&message).is_some() {
+                        &mut known
+                    } else {
+                        &mut findings
+                    };
+                    record(&options.out, list, "violation", &message, &text, variant.as_deref());
+                }
+                Verdict::Slow(outcome, took) => {
+                    let what = match outcome {
+                        hapticgen_fuzz::Outcome::Generated => "slow acceptance of a valid model",
+                        hapticgen_fuzz::Outcome::Rejected => "slow rejection",
+                    };
+                    let message = format!(
+                        "{what} ({}): {} ms CPU, over the limit of {} ms",
+                        options.stage.name(),
+                        took.as_millis(),
+                        options.timeout.as_millis()
+                    );
+                    let list = if hapticgen_fuzz::known_finding(&message).is_some() {
+                        &mut known
+                    } else {
+                        &mut findings
+                    };
+                    record(&options.out, list, "slow", &message, &text, variant.as_deref());
+                    if took > slowest.0 {
+                        slowest = (took, text);
+                    }
+                }
+                Verdict::Hang(took) => {
+                    // The batch as a whole gave no answer: save it; `--replay` each input to
+                    // find the one that hangs.
+                    let path = options.out.join("hang.batch");
+                    let _ = std::fs::copy(&current_path, &path);
+                    eprintln!(
+                        "fuzz: FAIL: a batch of {batch_size} inputs gave no answer within {} ms (limit {} ms CPU \
+                         per input); saved as {} (variant NUL text NUL per input)",
+                        took.as_millis(),
+                        options.timeout.as_millis(),
+                        path.display()
+                    );
+                    findings.push("hang".into());
+                    break 'fuzzing; // the worker is still busy
+                }
             }
         }
         if findings.len() >= 20 {
@@ -306,7 +396,7 @@ fn fuzz(options: &Options) -> ExitCode {
         }
         if start.elapsed() >= next_report {
             println!(
-                "fuzz: {:>5.0} s  {executions} executions ({:.0}/s), {generated} generated, {rejected} rejected",
+                "fuzz: {:>5.0} s  {executions} executions ({:.0}/s), {generated} accepted, {rejected} rejected",
                 start.elapsed().as_secs_f64(),
                 executions as f64 / start.elapsed().as_secs_f64()
             );
@@ -317,12 +407,20 @@ fn fuzz(options: &Options) -> ExitCode {
     let _ = std::fs::write(options.out.join("slowest.yaml"), &slowest.1);
     println!(
         "fuzz: {executions} executions in {seconds:.1} s ({:.0} executions/s; {structured_count} structured, {} \
-         mutated): {generated} generated code, {rejected} rejected with a diagnostic; slowest input {:.1} ms \
-         (limit {} ms); {} findings, {} known findings (not failing: see docs/reliability.md)",
+         mutated) at the {}: {generated} {}, {rejected} rejected with a diagnostic; slowest input {:.1} ms \
+         (limit {} ms), {:.1} s of CPU time in the {}; {} findings, {} known findings (not failing: see \
+         docs/reliability.md)",
         executions as f64 / seconds.max(1e-9),
         executions - structured_count,
+        options.stage.name(),
+        match options.stage {
+            Stage::Loader => "loaded",
+            Stage::Generator => "generated code",
+        },
         slowest.0.as_secs_f64() * 1e3,
         options.timeout.as_millis(),
+        checking.as_secs_f64(),
+        options.stage.name(),
         findings.len(),
         known.len()
     );
@@ -333,8 +431,8 @@ fn fuzz(options: &Options) -> ExitCode {
     // (or only half of the generator): fail rather than pass on it.
     if executions == 0 || generated == 0 || rejected == 0 {
         eprintln!(
-            "fuzz: FAIL: the run exercised too little: {executions} inputs executed, {generated} generated \
-             code, {rejected} rejected (each must be at least 1; --seconds {})",
+            "fuzz: FAIL: the run exercised too little: {executions} inputs executed, {generated} accepted, \
+             {rejected} rejected (each must be at least 1; --seconds {})",
             options.seconds
         );
         return ExitCode::FAILURE;
@@ -381,6 +479,7 @@ fn read_input(path: &Path, options: &Options) -> Result<Input, String> {
         variant: options.variant.clone(),
         scalar: Scalar::F64,
         fused_multiply_add: false,
+        stage: options.stage,
     })
 }
 
