@@ -4,7 +4,9 @@
 # point's frame Jacobian (LOCAL_WORLD_ALIGNED, position rows) and each named frame's rotation
 # (oMf) and angular rows of its LOCAL_WORLD_ALIGNED frame Jacobian, from the URDF that hapticgen
 # exports, at 50 random states per model; every entry must agree with hapticgen's evaluator to
-# 1e-10 (relative to the quantity's scale when that exceeds 1).
+# 1e-10 (relative to the quantity's scale when that exceeds 1). The same for the hand-written
+# URDFs of tests/urdf/ (written by no exporter): hapticgen imports each (`import-urdf`'s code)
+# and Pinocchio reads the original file.
 #
 # Rotor inertia: hapticgen adds N²·J_m to D's diagonal; URDF has no place for it, so the check
 # compares D − diag(N²·J_m) with crba. Viscous damping is not part of nonLinearEffects and not
@@ -62,11 +64,41 @@ for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
     model = pin.buildModelFromUrdf(os.path.join(directory, name + ".urdf"))
     data = model.createData()
     model.gravity.linear = np.array(ref["gravity"])
-    # hapticgen's joint order must be Pinocchio's (one 1-DOF joint each, same names).
+    # The same joints by name, each with one velocity; the order may differ (Pinocchio numbers a
+    # branching tree depth first, the URDF importer in document order) and a continuous joint
+    # has two configuration entries in Pinocchio (cos q, sin q).
     names = [model.names[i] for i in range(1, model.njoints)]
-    if names != ref["joints"] or model.nq != len(ref["joints"]):
+    if sorted(names) != sorted(ref["joints"]) or model.nv != len(ref["joints"]):
         failures.append(f"{name}: Pinocchio's joints {names} differ from hapticgen's {ref['joints']}")
         continue
+    joints = [model.joints[model.getJointId(j)] for j in ref["joints"]]
+    if any(j.nv != 1 for j in joints):
+        failures.append(f"{name}: a joint with other than one velocity")
+        continue
+    velocity_index = [j.idx_v for j in joints]  # hapticgen's joint k is Pinocchio's velocity velocity_index[k]
+
+    def configuration(q_hapticgen):
+        q = np.zeros(model.nq)
+        for joint, value in zip(joints, q_hapticgen):
+            if joint.nq == 2:
+                q[joint.idx_q:joint.idx_q + 2] = [np.cos(value), np.sin(value)]
+            else:
+                q[joint.idx_q] = value
+        return q
+
+    def velocity(v_hapticgen):
+        v = np.zeros(model.nv)
+        v[velocity_index] = v_hapticgen
+        return v
+
+    def in_hapticgen_order(x):
+        """A joint-space vector or the joint-space matrix D, in hapticgen's joint order."""
+        x = np.asarray(x)
+        return x[velocity_index] if x.ndim == 1 else x[np.ix_(velocity_index, velocity_index)]
+
+    def columns_in_hapticgen_order(jacobian):
+        return np.asarray(jacobian)[:, velocity_index]
+
     armature = np.diag(ref["armature"])
     worst = {"D": 0.0, "nle": 0.0, "g": 0.0, "J": 0.0, "p": 0.0, "R": 0.0, "Jw": 0.0}
 
@@ -83,24 +115,26 @@ for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
     if not ref["states"]:
         failures.append(f"{name}: no states to compare")
     for k, s in enumerate(ref["states"]):
-        q, v = np.array(s["q"]), np.array(s["qd"])
-        compare("D", np.reshape(pin.crba(model, data, q), (model.nv, model.nv)) + armature, np.array(s["D"]), k)
-        compare("nle", pin.nonLinearEffects(model, data, q, v), np.array(s["nle"]), k)
-        compare("g", pin.computeGeneralizedGravity(model, data, q), np.array(s["g"]), k)
+        q, v = configuration(s["q"]), velocity(s["qd"])
+        crba = np.reshape(pin.crba(model, data, q), (model.nv, model.nv))
+        crba = np.triu(crba) + np.triu(crba, 1).T  # crba fills the upper triangle
+        compare("D", in_hapticgen_order(crba) + armature, np.array(s["D"]), k)
+        compare("nle", in_hapticgen_order(pin.nonLinearEffects(model, data, q, v)), np.array(s["nle"]), k)
+        compare("g", in_hapticgen_order(pin.computeGeneralizedGravity(model, data, q)), np.array(s["g"]), k)
         pin.forwardKinematics(model, data, q)
         pin.updateFramePlacements(model, data)
         for frame, values in s["points"].items():
             fid = model.getFrameId(frame)
             jacobian = np.reshape(pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED), (6, model.nv))[:3, :]
-            compare(f"J[{frame}]", jacobian, np.array(values["J"]), k)
+            compare(f"J[{frame}]", columns_in_hapticgen_order(jacobian), np.array(values["J"]), k)
             compare(f"p[{frame}]", data.oMf[fid].translation, np.array(values["p"]), k)
         for frame, values in s.get("frames", {}).items():
             fid = model.getFrameId(frame)
             jacobian = np.reshape(pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED), (6, model.nv))[3:, :]
-            compare(f"Jw[{frame}]", jacobian, np.array(values["Jw"]), k)
+            compare(f"Jw[{frame}]", columns_in_hapticgen_order(jacobian), np.array(values["Jw"]), k)
             compare(f"R[{frame}]", data.oMf[fid].rotation, np.array(values["R"]), k)
     summary.append(
-        f"{name:<36} {model.nq} dof, {len(ref['states'])} states: max error "
+        f"{name:<36} {model.nv} dof, {len(ref['states'])} states: max error "
         + ", ".join(f"{k} {v:.1e}" for k, v in worst.items())
     )
 

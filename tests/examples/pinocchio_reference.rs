@@ -9,6 +9,11 @@
 //! matrix and angular-velocity Jacobian. Models with direct poses are skipped
 //! (listed on standard error): they are closed chains. `models.txt` lists the names written,
 //! one per line, for the check to compare with what it found; writing none is an error.
+//!
+//! Then, for every hand-written URDF of `tests/urdf/` (files no exporter wrote), `urdf_NAME.urdf`
+//! (the file itself, copied) and `urdf_NAME.json` with hapticgen's quantities of the model that
+//! `import-urdf` makes of it: Pinocchio then reads the original file, so a mistake in how the
+//! importer or the model's resolution reads origins, rpy, axes or inertial frames shows.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -33,14 +38,105 @@ fn json_matrix(m: &[Vec<f64>]) -> String {
     format!("[{}]", rows.join(", "))
 }
 
-fn yaml_files(dir: &Path) -> Vec<PathBuf> {
+fn files_with_extension(dir: &Path, extension: &str) -> Vec<PathBuf> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
         .map(|e| e.expect("directory entry").path())
-        .filter(|p| p.extension().is_some_and(|x| x == "yaml"))
+        .filter(|p| p.extension().is_some_and(|x| x == extension))
         .collect();
     files.sort();
     files
+}
+
+/// How the URDF the check loads names a point's link: as `urdf::export` writes it, or as the
+/// hand-written file does (the importer turns a link `tool` into the point `tool`).
+#[derive(Clone, Copy)]
+enum PointLinks {
+    Exported,
+    HandWritten,
+}
+
+/// Writes `NAME.json`: the model's gravity, rotor inertias, joint names and hapticgen's
+/// quantities at `STATES` random states.
+fn write_reference(
+    out: &Path,
+    name: &str,
+    display: &str,
+    variant: Option<&str>,
+    m: &hapticgen_codegen::CheckedModel,
+    links: PointLinks,
+) {
+    let mech = hapticgen_codegen::derive(&m);
+    let params = m.nominal_parameters();
+    let gravity: Vec<f64> =
+        m.gravity.iter().map(|p| p.eval(&hapticgen_codegen::eval::NominalAtoms(&params))).collect();
+    let armature: Vec<f64> = m
+        .joints
+        .iter()
+        .map(|j| j.drive.gear_ratio * j.drive.gear_ratio * j.drive.motor.rotor_inertia)
+        .collect();
+    let mut json = String::new();
+    let _ = write!(
+        json,
+        "{{\"model\": \"{display}\", \"variant\": {}, \"gravity\": {}, \"armature\": {}, \"joints\": [{}], \"states\": [",
+        variant.map_or("null".to_string(), |v| format!("\"{v}\"")),
+        json_vector(&gravity),
+        json_vector(&armature),
+        m.joints.iter().map(|j| format!("\"{}\"", j.name)).collect::<Vec<_>>().join(", ")
+    );
+    let mut rng = SmallRng::seed_from_u64(0x9170_c410);
+    for s in 0..STATES {
+        let (q, qd) = random_state(&m, &mut rng);
+        let state = State { q: &q, qd: &qd, parameters: &params };
+        let e = evaluate(&mech, &state, None);
+        let nle: Vec<f64> = e.coriolis_times_qdot.iter().zip(&e.g).map(|(c, g)| c + g).collect();
+        let mut points = Vec::new();
+        for p in &mech.points {
+            let pe = evaluate(&mech, &state, Some(p));
+            let mut position = pe.p.clone();
+            let mut jacobian = pe.jacobian.clone();
+            while position.len() < 3 {
+                position.push(0.0);
+                jacobian.push(vec![0.0; q.len()]);
+            }
+            points.push(format!(
+                "\"{}\": {{\"p\": {}, \"J\": {}}}",
+                match links {
+                    PointLinks::Exported => urdf::point_link_name(&p.name),
+                    PointLinks::HandWritten => p.name.clone(),
+                },
+                json_vector(&position),
+                json_matrix(&jacobian)
+            ));
+        }
+        let frames: Vec<String> = mech
+            .frames
+            .iter()
+            .map(|f| {
+                let fe = evaluate_frame(&mech, &state, f);
+                format!(
+                    "\"{}\": {{\"R\": {}, \"Jw\": {}}}",
+                    urdf::frame_link_name(&f.name),
+                    json_matrix(&fe.rotation),
+                    json_matrix(&fe.angular_jacobian)
+                )
+            })
+            .collect();
+        let _ = write!(
+            json,
+            "{}{{\"q\": {}, \"qd\": {}, \"D\": {}, \"nle\": {}, \"g\": {}, \"points\": {{{}}}, \"frames\": {{{}}}}}",
+            if s == 0 { "" } else { ", " },
+            json_vector(&q),
+            json_vector(&qd),
+            json_matrix(&e.inertia_matrix),
+            json_vector(&nle),
+            json_vector(&e.g),
+            points.join(", "),
+            frames.join(", ")
+        );
+    }
+    json.push_str("]}\n");
+    std::fs::write(out.join(format!("{name}.json")), json).expect("writable");
 }
 
 fn main() {
@@ -49,7 +145,7 @@ fn main() {
     let root = workspace_root();
     let mut written: Vec<String> = Vec::new();
     for dir in ["models", "codegen/tests/good-models"] {
-        for path in yaml_files(&root.join(dir)) {
+        for path in files_with_extension(&root.join(dir), "yaml") {
             let display = format!("{dir}/{}", path.file_name().expect("a file").to_string_lossy());
             let base = hapticgen_codegen::load_file(&path, &display, None).unwrap_or_else(|e| panic!("{e}"));
             let variants: Vec<Option<String>> = if base.variants.is_empty() {
@@ -74,80 +170,31 @@ fn main() {
                     variant.as_ref().map(|v| format!("_{v}")).unwrap_or_default()
                 );
                 std::fs::write(out.join(format!("{name}.urdf")), text).expect("writable");
-                let mech = hapticgen_codegen::derive(&m);
-                let params = m.nominal_parameters();
-                let gravity: Vec<f64> = m
-                    .gravity
-                    .iter()
-                    .map(|p| p.eval(&hapticgen_codegen::eval::NominalAtoms(&params)))
-                    .collect();
-                let armature: Vec<f64> = m
-                    .joints
-                    .iter()
-                    .map(|j| j.drive.gear_ratio * j.drive.gear_ratio * j.drive.motor.rotor_inertia)
-                    .collect();
-                let mut json = String::new();
-                let _ = write!(
-                    json,
-                    "{{\"model\": \"{display}\", \"variant\": {}, \"gravity\": {}, \"armature\": {}, \"joints\": [{}], \"states\": [",
-                    variant.as_ref().map_or("null".to_string(), |v| format!("\"{v}\"")),
-                    json_vector(&gravity),
-                    json_vector(&armature),
-                    m.joints.iter().map(|j| format!("\"{}\"", j.name)).collect::<Vec<_>>().join(", ")
-                );
-                let mut rng = SmallRng::seed_from_u64(0x9170_c410);
-                for s in 0..STATES {
-                    let (q, qd) = random_state(&m, &mut rng);
-                    let state = State { q: &q, qd: &qd, parameters: &params };
-                    let e = evaluate(&mech, &state, None);
-                    let nle: Vec<f64> = e.coriolis_times_qdot.iter().zip(&e.g).map(|(c, g)| c + g).collect();
-                    let mut points = Vec::new();
-                    for p in &mech.points {
-                        let pe = evaluate(&mech, &state, Some(p));
-                        let mut position = pe.p.clone();
-                        let mut jacobian = pe.jacobian.clone();
-                        while position.len() < 3 {
-                            position.push(0.0);
-                            jacobian.push(vec![0.0; q.len()]);
-                        }
-                        points.push(format!(
-                            "\"{}\": {{\"p\": {}, \"J\": {}}}",
-                            urdf::point_link_name(&p.name),
-                            json_vector(&position),
-                            json_matrix(&jacobian)
-                        ));
-                    }
-                    let frames: Vec<String> = mech
-                        .frames
-                        .iter()
-                        .map(|f| {
-                            let fe = evaluate_frame(&mech, &state, f);
-                            format!(
-                                "\"{}\": {{\"R\": {}, \"Jw\": {}}}",
-                                urdf::frame_link_name(&f.name),
-                                json_matrix(&fe.rotation),
-                                json_matrix(&fe.angular_jacobian)
-                            )
-                        })
-                        .collect();
-                    let _ = write!(
-                        json,
-                        "{}{{\"q\": {}, \"qd\": {}, \"D\": {}, \"nle\": {}, \"g\": {}, \"points\": {{{}}}, \"frames\": {{{}}}}}",
-                        if s == 0 { "" } else { ", " },
-                        json_vector(&q),
-                        json_vector(&qd),
-                        json_matrix(&e.inertia_matrix),
-                        json_vector(&nle),
-                        json_vector(&e.g),
-                        points.join(", "),
-                        frames.join(", ")
-                    );
-                }
-                json.push_str("]}\n");
-                std::fs::write(out.join(format!("{name}.json")), json).expect("writable");
+                write_reference(&out, &name, &display, variant.as_deref(), &m, PointLinks::Exported);
                 written.push(name);
             }
         }
+    }
+    // Hand-written URDFs: imported with `import-urdf`'s code, checked against Pinocchio reading
+    // the same files, so that resolution of origins, rpy, axes and inertial frames is checked by
+    // something that does not share the exporter's reading of them.
+    let hand_written = files_with_extension(&root.join("tests/urdf"), "urdf");
+    if hand_written.is_empty() {
+        eprintln!("error: no hand-written URDF in tests/urdf");
+        std::process::exit(1);
+    }
+    for path in hand_written {
+        let stem = path.file_stem().expect("a file").to_string_lossy().into_owned();
+        let display = format!("tests/urdf/{stem}.urdf");
+        let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{display}: {e}"));
+        let yaml = urdf::import(&text, &display, urdf::DEFAULT_DRIVE).unwrap_or_else(|d| panic!("{d}"));
+        let model_name = format!("{display} (imported)");
+        let m = hapticgen_codegen::load(&hapticgen_codegen::Source { name: &model_name, text: &yaml }, None)
+            .unwrap_or_else(|d| panic!("{d}\n{yaml}"));
+        let name = format!("urdf_{stem}");
+        std::fs::copy(&path, out.join(format!("{name}.urdf"))).expect("writable");
+        write_reference(&out, &name, &display, None, &m, PointLinks::HandWritten);
+        written.push(name);
     }
     let mut list = written.join("\n");
     list.push('\n');
