@@ -511,7 +511,8 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     sim.apply_scenario(scenario, &settings, &mut cfg)?;
     let largest_det = sim.largest_jacobian_determinant();
     let singularity = |q: &[f64]| largest_det.map(|largest| sim.task_at(q).1.abs() / largest);
-    if let Some(measure) = singularity(&start).filter(|&m| m < SINGULAR) {
+    let singular_start = singularity(&start).filter(|&m| m < SINGULAR);
+    if let Some(measure) = singular_start {
         eprintln!(
             "warning: the start pose q = {} is singular (|det J| is {:.1} % of its largest value over the joint \
              limits){}; the scenario's motion there is clipped. Start elsewhere with --start q1,q2",
@@ -541,7 +542,7 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     if let Some((t, fault)) = &trace.fault {
         println!("note: the safety monitor latched {fault} at t = {t:.3} s");
     }
-    if scenario != Scenario::Singularity {
+    if scenario != Scenario::Singularity && singular_start.is_none() {
         if let Some((t, q)) = first_singular_sample(&sim, &trace, singularity) {
             eprintln!(
                 "warning: the run reached a singular pose at t = {t:.3} s (q = {}); the task-space motion \
