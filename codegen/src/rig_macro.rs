@@ -130,8 +130,25 @@ pub fn expand(input: TokenStream, manifest_dir: &Path) -> TokenStream {
                 }
             }
         }
-        Err(diagnostics) => error_tokens(&diagnostics, span, visibility, module),
+        Err(diagnostics) => {
+            let stub = std::fs::read_to_string(&full).ok().and_then(|text| stub_type_name(&text));
+            error_tokens(&diagnostics, span, visibility, module, stub)
+        }
     }
+}
+
+/// The rig struct's name a model file would give (`name: my_arm` → `MyArm`), if its top-level
+/// `name` can be read despite the errors: the stub module then holds a struct of that name, so
+/// that the crate's `use module::MyArm;` resolves and the model's errors are the only ones.
+fn stub_type_name(text: &str) -> Option<Ident> {
+    let value: serde_yaml::Value = serde_yaml::from_str(text).ok()?;
+    let name = value.get("name")?.as_str()?;
+    if !name.bytes().all(|b| b == b'_' || b.is_ascii_lowercase() || b.is_ascii_digit()) {
+        return None;
+    }
+    let words = name.split('_').filter(|w| !w.is_empty());
+    let camel: String = words.map(|w| w[..1].to_ascii_uppercase() + &w[1..]).collect();
+    syn::parse_str::<Ident>(&camel).ok()
 }
 
 fn error_tokens(
@@ -139,11 +156,21 @@ fn error_tokens(
     span: Span,
     visibility: &Visibility,
     module: &Ident,
+    stub: Option<Ident>,
 ) -> TokenStream {
     let message = diagnostics.0.iter().map(|d| d.to_string()).collect::<Vec<_>>().join("\n");
+    let stub = stub.map(|name| {
+        quote_spanned! {span=>
+            /// A stand-in: the model file has errors (see the compile error above).
+            #[allow(dead_code)]
+            pub struct #name;
+        }
+    });
     quote_spanned! {span=>
         ::core::compile_error!(#message);
-        #visibility mod #module {}
+        #visibility mod #module {
+            #stub
+        }
     }
 }
 

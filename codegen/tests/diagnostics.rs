@@ -775,19 +775,20 @@ fn joint_that_moves_no_body() {
 #[test]
 fn current_loop_without_a_design() {
     // 2000 Hz is below the current loop's Nyquist frequency (3750 Hz) but too close to it for
-    // the PI design, which needs the bandwidth below half of it.
-    check(
+    // the PI design, which needs the bandwidth below half of it: the validation says so at the
+    // value, with the limit, as the reference's table does (`current_loop_hz / 4`).
+    let d = check(
         "current-loop-infeasible",
         None,
         Expect {
-            context: "current_loop:\n  bandwidth_hz",
-            token: "bandwidth_hz",
-            path: "current_loop",
-            message:
-                "no current-loop design for joint `q` (drive `re40_gp42`): current loop: bandwidth 2000 Hz \
-                      is too close to the Nyquist frequency 3750 Hz",
+            context: "bandwidth_hz: 2000",
+            token: "2000",
+            path: "current_loop.bandwidth_hz",
+            message: "must be below a quarter of `rates.current_loop_hz` (1875 Hz, half the current loop's \
+                      Nyquist frequency), got 2000 Hz",
         },
     );
+    assert_eq!(d.0.len(), 1, "{d}");
 }
 
 #[test]

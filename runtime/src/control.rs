@@ -174,6 +174,19 @@ pub struct ImpedanceController<S, const M: usize> {
 }
 
 impl<S: Real, const M: usize> ImpedanceController<S, M> {
+    /// `law` rendering the desired impedance of eq. (6): diagonal stiffness `K_d`, damping
+    /// `B_d` and mass `M_d`, one entry per task axis, with the paper's options
+    /// ([`ControlOptions::paper`]).
+    pub fn new(law: ImpedanceLaw, stiffness: [S; M], damping: [S; M], mass: [S; M]) -> Self {
+        Self {
+            law,
+            parameters: ImpedanceParameters { stiffness, damping, mass },
+            options: ControlOptions::paper(),
+        }
+    }
+}
+
+impl<S: Real, const M: usize> ImpedanceController<S, M> {
     /// Joint torques for one tick. `terms` must come from `rig.terms(q, joint_velocity)`;
     /// `rig` supplies the damping `B`. Never panics; see [`ControlStatus`] for refusals.
     pub fn torque<R, const N: usize>(

@@ -157,6 +157,12 @@ impl<S: Real, const N: usize> CurrentLoopBank<S, N> {
         Self { controllers }
     }
 
+    /// Each motor with its own gains (the generated `CURRENT_LOOP_GAINS`, one design per
+    /// joint's motor), each limited by its own supply voltage.
+    pub fn with_gains(gains: &[CurrentLoopGains<S>; N], supply_voltages: &[S; N]) -> Self {
+        Self { controllers: core::array::from_fn(|i| CurrentController::new(gains[i], supply_voltages[i])) }
+    }
+
     /// Gives each motor its own gains (e.g. the model's per-joint designs, the generated
     /// `CURRENT_LOOP_GAINS`, for a rig whose motors differ); supplies and integrals are kept.
     pub fn set_gains(&mut self, gains: &[CurrentLoopGains<S>; N]) {

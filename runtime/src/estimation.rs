@@ -55,6 +55,19 @@ pub struct EstimatorSettings<S> {
     pub acceleration_cutoff_hz: S,
 }
 
+impl<S: Real> EstimatorSettings<S> {
+    /// The estimator of an impedance loop at `impedance_loop_hz` (the rig's
+    /// `RigModel::IMPEDANCE_LOOP_HZ`) with the filters every shipped rig uses: velocity
+    /// low-pass at 50 Hz, acceleration low-pass at 20 Hz.
+    pub fn at_rate(impedance_loop_hz: u32) -> Self {
+        Self {
+            sample_period: S::ONE / S::from_f64(f64::from(impedance_loop_hz)),
+            velocity_cutoff_hz: S::from_f64(50.0),
+            acceleration_cutoff_hz: S::from_f64(20.0),
+        }
+    }
+}
+
 /// Joint angles, velocities and accelerations from encoder counts.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct JointState<S, const N: usize> {

@@ -10,6 +10,42 @@
 //!   due.
 //!
 //! All state lives in [`HapticLoop`]; nothing allocates.
+//!
+//! # Example
+//!
+//! A control loop on the paper's parallel link, generated from its model with `rig!`: the
+//! settings built from the rig in one call, a fixed reference at the start point, and one
+//! second of the current-loop interrupt with the impedance tick run whenever it is due. On a
+//! board the currents come from the ADC, the counts from the encoders and the voltages go to
+//! the PWM stage; `docs/runtime-guide.md` walks through a longer example.
+//!
+//! ```
+//! hapticgen_macros::rig!(mod rig = "../models/parallel_link_2dof.yaml", variant = "horizontal");
+//! use hapticgen_runtime::control::{ImpedanceController, ImpedanceLaw, TaskReference};
+//! use hapticgen_runtime::tick::{HapticLoop, HapticLoopSettings, ImpedanceInputs};
+//! use hapticgen_runtime::RigModel;
+//! use rig::ParallelLink2dof;
+//!
+//! let rig = ParallelLink2dof::NOMINAL;
+//! let law = ImpedanceController::new(ImpedanceLaw::Controller3, [200.0; 2], [5.0; 2], [0.2; 2]);
+//! let settings = HapticLoopSettings::for_rig(&rig, law, ParallelLink2dof::CURRENT_LOOP_GAINS);
+//! let start = RigModel::position(&rig, &settings.zero_offset);
+//! let mut haptic = HapticLoop::new(rig, TaskReference::at_rest(start), &settings).expect("rates");
+//!
+//! let mut impedance_ticks = 0;
+//! for _ in 0..ParallelLink2dof::CURRENT_LOOP_HZ {
+//!     let measured_currents = [0.0; 2]; // A
+//!     let (outputs, due) = haptic.current_tick(&measured_currents);
+//!     let _volts = [outputs[0].voltage, outputs[1].voltage];
+//!     if due {
+//!         impedance_ticks += 1;
+//!         let inputs = ImpedanceInputs { encoder_counts: [0; 2], force_readings: [0.0; 2], tick: impedance_ticks };
+//!         let report = haptic.impedance_tick_fused(&inputs);
+//!         assert_eq!(report.command.fault, None);
+//!     }
+//! }
+//! assert_eq!(impedance_ticks, ParallelLink2dof::IMPEDANCE_LOOP_HZ); // 1 kHz for one second
+//! ```
 
 use crate::control::{
     ControlOutput, ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference,
@@ -94,10 +130,57 @@ pub struct HapticLoopSettings<S, const N: usize, const M: usize> {
     pub initial_counts: [i32; N],
     /// Force-sensor calibration.
     pub force_calibration: ForceSensorCalibration<S, M>,
-    /// Current-loop gains (from `hapticgen_codegen::check::current_loop::design_current_loop`).
-    pub current_gains: CurrentLoopGains<S>,
+    /// Each motor's current-loop gains, in the order of `q`: the generated
+    /// `CURRENT_LOOP_GAINS` (designed per joint from the model's motor, rates and filter).
+    pub current_gains: [CurrentLoopGains<S>; N],
     /// Impedance periods allowed between ticks before the watchdog trips.
     pub max_tick_gap: u32,
+}
+
+impl<S: Real, const N: usize, const M: usize> HapticLoopSettings<S, N, M> {
+    /// Everything the rig determines, in one call: the estimator at the rig's impedance rate
+    /// ([`EstimatorSettings::at_rate`]: 50 Hz velocity and 20 Hz acceleration filters), the
+    /// joints' start pose in the middle of each joint's limits (as `hapticgen simulate` starts),
+    /// counters reading zero there, each motor's own current-loop gains (pass the rig's
+    /// generated `CURRENT_LOOP_GAINS`), an identity force calibration (`f = reading`) and a
+    /// watchdog that trips when one impedance tick is skipped.
+    ///
+    /// Change the fields that differ on your rig afterwards — the start pose (`zero_offset`,
+    /// `initial_counts`: where the device is homed) and the force sensor's calibration:
+    ///
+    /// ```
+    /// hapticgen_macros::rig!(mod arm = "../models/planar_arm_2dof.yaml", variant = "horizontal");
+    /// use arm::PlanarArm2dof;
+    /// use hapticgen_runtime::control::{ImpedanceController, ImpedanceLaw};
+    /// use hapticgen_runtime::tick::HapticLoopSettings;
+    ///
+    /// let rig = PlanarArm2dof::NOMINAL;
+    /// let controller = ImpedanceController::new(ImpedanceLaw::Controller3, [200.0; 2], [5.0; 2], [0.2; 2]);
+    /// let mut settings = HapticLoopSettings::for_rig(&rig, controller, PlanarArm2dof::CURRENT_LOOP_GAINS);
+    /// assert_eq!(settings.estimator.sample_period, 1e-3); // the model's 1 kHz impedance loop
+    /// settings.zero_offset = [0.5, 1.2]; // homed at q = (0.5, 1.2) rad
+    /// ```
+    pub fn for_rig<R: RigModel<N, M, Scalar = S>>(
+        rig: &R,
+        controller: ImpedanceController<S, M>,
+        current_gains: [CurrentLoopGains<S>; N],
+    ) -> Self {
+        let drives = rig.drives();
+        let half = S::from_f64(0.5);
+        let mut zero_offset = [S::ZERO; N];
+        for (q, drive) in zero_offset.iter_mut().zip(drives.iter()) {
+            *q = (drive.position_lower + drive.position_upper) * half;
+        }
+        Self {
+            controller,
+            estimator: EstimatorSettings::at_rate(R::IMPEDANCE_LOOP_HZ),
+            zero_offset,
+            initial_counts: [0; N],
+            force_calibration: ForceSensorCalibration { scale: [S::ONE; M], offset: [S::ZERO; M] },
+            current_gains,
+            max_tick_gap: 1,
+        }
+    }
 }
 
 /// All run-time state of one rig's controller.
@@ -154,7 +237,7 @@ where
                 settings.initial_counts,
             ),
             safety: SafetyMonitor::new(&drives, settings.max_tick_gap),
-            current_loops: CurrentLoopBank::new(settings.current_gains, &supply),
+            current_loops: CurrentLoopBank::with_gains(&settings.current_gains, &supply),
             force_calibration: settings.force_calibration,
             controller: settings.controller,
             current_setpoints: [R::Scalar::ZERO; N],
@@ -168,9 +251,8 @@ where
         })
     }
 
-    /// Gives each motor's current loop its own gains (`HapticLoopSettings::current_gains`
-    /// applies one set to every motor); for rigs whose motors differ, e.g. the generated
-    /// `CURRENT_LOOP_GAINS`. Integrals and supply limits are kept.
+    /// Replaces the motors' current-loop gains while running (the loop starts with
+    /// `HapticLoopSettings::current_gains`). Integrals and supply limits are kept.
     pub fn set_current_loop_gains(&mut self, gains: &[CurrentLoopGains<R::Scalar>; N]) {
         self.current_loops.set_gains(gains);
     }

@@ -219,7 +219,7 @@ fn full_tick() {
     let mut estimator = JointStateEstimator::new(&drives, &s.estimator, s.zero_offset, s.initial_counts);
     let mut scene = circle_scene();
     let mut safety = SafetyMonitor::new(&drives, 1);
-    let mut currents = CurrentLoopBank::new(s.current_gains, &[24.0; 2]);
+    let mut currents = CurrentLoopBank::with_gains(&s.current_gains, &[24.0; 2]);
     let mut parameters = s.controller.parameters;
     let mut tick = 0u32;
     let baseline_ns = nanoseconds(|_| {
@@ -255,7 +255,7 @@ fn serial_tick<R, const N: usize, const M: usize>(
     name: &str,
     rig: R,
     baseline: &SerialBaseline,
-    current_gains: CurrentLoopGains<f64>,
+    current_gains: [CurrentLoopGains<f64>; N],
     start: [f64; N],
 ) where
     R: FusedImpedance<N, M, Scalar = f64> + Copy,
@@ -310,7 +310,7 @@ fn serial_tick<R, const N: usize, const M: usize>(
     });
     let mut estimator = JointStateEstimator::new(&drives, &settings.estimator, start, [0; N]);
     let mut safety = SafetyMonitor::new(&drives, 1);
-    let mut currents = CurrentLoopBank::new(current_gains, &supply);
+    let mut currents = CurrentLoopBank::with_gains(&current_gains, &supply);
     let parameters = settings.controller.parameters;
     let mut tick = 0u32;
     let baseline_ns = nanoseconds(|_| {
@@ -387,17 +387,17 @@ fn main() {
     quantities("planar arm (vertical)", &m, &planar_arm_2dof_vertical_f64::PlanarArm2dof::NOMINAL, &b);
     type PlanarArm = planar_arm_2dof_vertical_f64::PlanarArm2dof;
     let start = [70f64.to_radians(), 30f64.to_radians()];
-    serial_tick("planar arm (vertical)", PlanarArm::NOMINAL, &b, PlanarArm::CURRENT_LOOP_GAINS[0], start);
+    serial_tick("planar arm (vertical)", PlanarArm::NOMINAL, &b, PlanarArm::CURRENT_LOOP_GAINS, start);
     let (m, b) = serial("models/planar_arm_2dof.yaml", Some("horizontal"));
     quantities("planar arm (horizontal)", &m, &planar_arm_2dof_horizontal_f64::PlanarArm2dof::NOMINAL, &b);
     let (m, b) = serial("models/phantom_3dof.yaml", None);
     quantities("PHANToM-like arm", &m, &phantom_3dof_f64::Phantom3dof::NOMINAL, &b);
     type Phantom = phantom_3dof_f64::Phantom3dof;
     let start = [0.0, 20f64.to_radians(), 30f64.to_radians()];
-    serial_tick("PHANToM-like arm", Phantom::NOMINAL, &b, Phantom::CURRENT_LOOP_GAINS[0], start);
+    serial_tick("PHANToM-like arm", Phantom::NOMINAL, &b, Phantom::CURRENT_LOOP_GAINS, start);
     let (m, b) = serial("models/puma560.yaml", None);
     quantities("PUMA 560", &m, &puma560_f64::Puma560::NOMINAL, &b);
     type Puma = puma560_f64::Puma560;
     let start = [0.0, 45f64, -180.0, 0.0, 45.0, 0.0].map(f64::to_radians);
-    serial_tick("PUMA 560", Puma::NOMINAL, &b, Puma::CURRENT_LOOP_GAINS[0], start);
+    serial_tick("PUMA 560", Puma::NOMINAL, &b, Puma::CURRENT_LOOP_GAINS, start);
 }

@@ -28,7 +28,7 @@ use hapticgen_tests::{
 
 fn settings<const N: usize, const M: usize>(
     law: ImpedanceLaw,
-    gains: hapticgen_runtime::current_loop::CurrentLoopGains<f64>,
+    gains: [hapticgen_runtime::current_loop::CurrentLoopGains<f64>; N],
 ) -> HapticLoopSettings<f64, N, M> {
     HapticLoopSettings {
         controller: ImpedanceController {
@@ -52,7 +52,7 @@ fn settings<const N: usize, const M: usize>(
 /// Controller 3 holding a point 1 cm from the task position at `start` (joint angles, degrees).
 fn hold<R, const N: usize, const M: usize>(
     rig: R,
-    gains: hapticgen_runtime::current_loop::CurrentLoopGains<f64>,
+    gains: [hapticgen_runtime::current_loop::CurrentLoopGains<f64>; N],
     start_degrees: [f64; N],
     fused: bool,
     ticks: u32,
@@ -103,7 +103,7 @@ fn main() {
     let fused = mode == "fused";
     match rig.as_str() {
         "joystick" => {
-            let s = settings::<1, 1>(ImpedanceLaw::Controller2Mobility, Joystick1dof::CURRENT_LOOP_GAINS[0]);
+            let s = settings::<1, 1>(ImpedanceLaw::Controller2Mobility, Joystick1dof::CURRENT_LOOP_GAINS);
             let haptic =
                 HapticLoop::new(Joystick1dof::NOMINAL, TaskReference::at_rest([0.0]), &s).expect("settings");
             run(haptic, fused, ticks);
@@ -116,23 +116,23 @@ fn main() {
                 stiffness: 1500.0,
                 damping: 5.0,
             });
-            let s = settings::<2, 2>(ImpedanceLaw::Controller3, ParallelLink2dof::CURRENT_LOOP_GAINS[0]);
+            let s = settings::<2, 2>(ImpedanceLaw::Controller3, ParallelLink2dof::CURRENT_LOOP_GAINS);
             let haptic = HapticLoop::new(ParallelLink2dof::NOMINAL, scene, &s).expect("settings");
             run(haptic, fused, ticks);
         }
         // The firmware images' start poses (targets/firmware/variants.txt).
         "planar_arm" => {
-            hold(PlanarArm2dof::NOMINAL, PlanarArm2dof::CURRENT_LOOP_GAINS[0], [70.0, 30.0], fused, ticks);
+            hold(PlanarArm2dof::NOMINAL, PlanarArm2dof::CURRENT_LOOP_GAINS, [70.0, 30.0], fused, ticks);
         }
         "phantom" => {
-            hold(Phantom3dof::NOMINAL, Phantom3dof::CURRENT_LOOP_GAINS[0], [0.0, 20.0, 30.0], fused, ticks)
+            hold(Phantom3dof::NOMINAL, Phantom3dof::CURRENT_LOOP_GAINS, [0.0, 20.0, 30.0], fused, ticks)
         }
         "puma560" => {
             let start = [0.0, 45.0, -180.0, 0.0, 45.0, 0.0];
-            hold(Puma560::NOMINAL, Puma560::CURRENT_LOOP_GAINS[0], start, fused, ticks);
+            hold(Puma560::NOMINAL, Puma560::CURRENT_LOOP_GAINS, start, fused, ticks);
         }
         "pantograph" => {
-            hold(Pantograph5bar::NOMINAL, Pantograph5bar::CURRENT_LOOP_GAINS[0], [117.5, 62.5], fused, ticks);
+            hold(Pantograph5bar::NOMINAL, Pantograph5bar::CURRENT_LOOP_GAINS, [117.5, 62.5], fused, ticks);
         }
         other => {
             eprintln!("unknown rig `{other}`");

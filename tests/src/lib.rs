@@ -8,6 +8,17 @@ pub mod nested_builds;
 
 pub use nested_builds::target_dir;
 
+/// The README's and the runtime guide's examples, compiled and run as doc tests (their
+/// `rig!` paths resolve against this crate's directory, where `tests/models` links to the
+/// workspace's `models/`).
+#[doc(hidden)]
+pub mod docs {
+    #[doc = include_str!("../../README.md")]
+    pub mod readme {}
+    #[doc = include_str!("../../docs/runtime-guide.md")]
+    pub mod runtime_guide {}
+}
+
 use hapticgen_runtime::fused::FusedImpedance;
 
 /// Which model file and variant a generated rig came from.
@@ -339,7 +350,7 @@ pub mod stack {
             zero_offset: [1.4, 0.1],
             initial_counts: [0; 2],
             force_calibration: ForceSensorCalibration { scale: [5.0; 2], offset: [2.5; 2] },
-            current_gains: ParallelLink2dof::CURRENT_LOOP_GAINS[0],
+            current_gains: ParallelLink2dof::CURRENT_LOOP_GAINS,
             max_tick_gap: 1,
         }
     }

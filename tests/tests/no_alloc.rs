@@ -168,12 +168,12 @@ where
         zero_offset,
         initial_counts: [0; N],
         force_calibration: ForceSensorCalibration { scale: [s(1.0); M], offset: [s(0.0); M] },
-        current_gains: CurrentLoopGains {
+        current_gains: [CurrentLoopGains {
             kp: s(0.43),
             ki: s(1219.6),
             sample_period: s(1.0) / s(f64::from(R::CURRENT_LOOP_HZ)),
             proportional_setpoint_weight: s(0.0),
-        },
+        }; N],
         max_tick_gap: 1,
     };
     let mut haptic = HapticLoop::new(*rig, reference, &settings)

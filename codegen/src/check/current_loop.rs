@@ -116,8 +116,10 @@ pub fn design_current_loop(input: &CurrentLoopDesignInput) -> Result<CurrentLoop
     let nyquist = input.sample_rate_hz / 2.0;
     if input.bandwidth_hz >= 0.5 * nyquist {
         return Err(format!(
-            "current loop: bandwidth {} Hz is too close to the Nyquist frequency {} Hz",
-            input.bandwidth_hz, nyquist
+            "current loop: bandwidth {} Hz must be below a quarter of the sample rate ({} Hz, half the \
+             Nyquist frequency {nyquist} Hz)",
+            input.bandwidth_hz,
+            0.5 * nyquist
         ));
     }
     let group_delay = match input.filter_order {

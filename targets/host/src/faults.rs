@@ -307,7 +307,7 @@ where
         zero_offset,
         initial_counts,
         force_calibration: ForceSensorCalibration { scale: [scale; M], offset: [offset; M] },
-        current_gains: data.gains,
+        current_gains: [data.gains; N],
         max_tick_gap: 1,
     };
     let reference = TaskReference::at_rest(start.position);

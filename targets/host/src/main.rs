@@ -224,6 +224,11 @@ struct SimulateArgs {
     /// The scenario.
     #[arg(long, value_enum)]
     scenario: ScenarioArg,
+    /// Start pose: the joint coordinates, rad (or m), comma-separated (default: the middle of
+    /// every joint's limits, which for a joint with symmetric limits is 0: a serial arm then
+    /// starts stretched out, a singular pose).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    start: Option<Vec<f64>>,
     /// Simulated time, s (default 5; tracing scenarios run at least one lap).
     #[arg(long)]
     duration: Option<f64>,
@@ -477,7 +482,11 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
         Scenario::Singularity => (100.0, 2.0),
         _ => rendering.map_or((1500.0, 5.0), |r| (r.wall_stiffness, r.wall_damping)),
     };
-    let mut cfg = hapticgen_host::sim::SimConfig::new(sim.home());
+    let start = match &args.start {
+        Some(q) => start_pose(&sim, q)?,
+        None => sim.home(),
+    };
+    let mut cfg = hapticgen_host::sim::SimConfig::new(start.clone());
     cfg.law = match args.controller {
         ControllerArg::One => ImpedanceLaw::Controller1ForceSensing,
         ControllerArg::TwoA => ImpedanceLaw::Controller2Accel,
@@ -494,8 +503,24 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     cfg.singular_fallback = args.singular_fallback;
     cfg.spring_lead_time = args.spring_lead;
     cfg.progress = true;
-    let settings = ScenarioSettings { grid_spacing: args.grid, ..ScenarioSettings::default() };
+    let settings = ScenarioSettings {
+        grid_spacing: args.grid,
+        start: Some(start.clone()),
+        ..ScenarioSettings::default()
+    };
     sim.apply_scenario(scenario, &settings, &mut cfg)?;
+    let largest_det = sim.largest_jacobian_determinant();
+    let singularity = |q: &[f64]| largest_det.map(|largest| sim.task_at(q).1.abs() / largest);
+    let singular_start = singularity(&start).filter(|&m| m < SINGULAR);
+    if let Some(measure) = singular_start {
+        eprintln!(
+            "warning: the start pose q = {} is singular (|det J| is {:.1} % of its largest value over the joint \
+             limits){}; the scenario's motion there is clipped. Start elsewhere with --start q1,q2",
+            format_pose(&start),
+            100.0 * measure,
+            if args.start.is_none() { " — the default start is the middle of the joint limits" } else { "" },
+        );
+    }
     if args.duration.is_some() {
         cfg.duration = args.duration.unwrap_or(cfg.duration);
     }
@@ -517,7 +542,65 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     if let Some((t, fault)) = &trace.fault {
         println!("note: the safety monitor latched {fault} at t = {t:.3} s");
     }
+    if scenario != Scenario::Singularity && singular_start.is_none() {
+        if let Some((t, q)) = first_singular_sample(&sim, &trace, singularity) {
+            eprintln!(
+                "warning: the run reached a singular pose at t = {t:.3} s (q = {}); the task-space motion \
+                 is clipped there. Start elsewhere with --start q1,q2",
+                format_pose(&q)
+            );
+        }
+    }
     Ok(())
+}
+
+/// `|det J|` under this fraction of its largest value over the joint limits is singular.
+const SINGULAR: f64 = 0.02;
+
+/// `--start`: one coordinate per joint, within the joint's limits.
+fn start_pose(sim: &Simulation, q: &[f64]) -> Result<Vec<f64>, String> {
+    let joints = &sim.model.joints;
+    if q.len() != joints.len() {
+        return Err(format!("error: --start needs {} joint coordinates, got {}", joints.len(), q.len()));
+    }
+    for (joint, &value) in joints.iter().zip(q) {
+        if !(value.is_finite() && joint.lower <= value && value <= joint.upper) {
+            return Err(format!(
+                "error: --start: joint `{}` at {value} is outside its limits [{}, {}]",
+                joint.name, joint.lower, joint.upper
+            ));
+        }
+    }
+    Ok(q.to_vec())
+}
+
+/// The first sample of a run (after the start) at a singular pose, with its time and joints.
+fn first_singular_sample(
+    sim: &Simulation,
+    trace: &hapticgen_host::sim::Trace,
+    singularity: impl Fn(&[f64]) -> Option<f64>,
+) -> Option<(f64, Vec<f64>)> {
+    let columns: Vec<Vec<f64>> =
+        (0..sim.joints()).map(|j| trace.column(&format!("q{j}"))).collect::<Option<_>>()?;
+    let times = trace.column("t")?;
+    // Every 10 ms of simulated time.
+    let mut next = 0.0;
+    for (i, &t) in times.iter().enumerate() {
+        if t < next {
+            continue;
+        }
+        next = t + 0.01;
+        let q: Vec<f64> = columns.iter().map(|c| c[i]).collect();
+        if singularity(&q)? < SINGULAR {
+            return Some((t, q));
+        }
+    }
+    None
+}
+
+fn format_pose(q: &[f64]) -> String {
+    let parts: Vec<String> = q.iter().map(|v| format!("{v:.3}")).collect();
+    format!("({}) rad", parts.join(", "))
 }
 
 /// Writes `text` to `path`, or to standard output without one.

@@ -279,10 +279,12 @@ fn figure4(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
             title: "Fig. 4: joystick, Controller 2 (M_d = W⁻¹), K_d = 1 N·m/rad, B_d = 0.01".into(),
             x_label: "time (s)".into(),
             y_label: "displacement q (rad)".into(),
+            // The prediction first, so that the friction-free response, which follows it within
+            // the line's width, stays visible on top of it (marked).
             series: vec![
-                Series::line("simulated, friction off", points(&smooth, "t", "x0", 1.0, 1.0)),
-                Series::line("simulated, friction on", points(&rough, "t", "x0", 1.0, 1.0)),
                 Series::dashed("eq. (11) prediction", prediction),
+                Series::marked("simulated, friction off", points(&smooth, "t", "x0", 1.0, 1.0)),
+                Series::line("simulated, friction on", points(&rough, "t", "x0", 1.0, 1.0)),
             ],
             equal_aspect: false,
         },
@@ -965,7 +967,7 @@ pub fn run_experiments(out: &Path, durations: Durations) -> Result<Report, Strin
     writeln!(
         text,
         "Zammit Mangion & Fabri, *Experimental Evaluation of Haptic Control for Human Activated Command Devices*, \
-         section 6, with the settings of `shared/spec/rigs.md`. {generated_note}. The plant is the same derivation \
+         section 6, with the settings stated with each experiment below and the model files. {generated_note}. The plant is the same derivation \
          evaluated from tapes, with the drive's electrical dynamics, friction, 0.8° backlash, encoder and sensor \
          quantisation and the torque/voltage limits (see each experiment for what is switched off); the current \
          loop is the runtime's PI with gains from discrete pole placement ({:.0} Hz design bandwidth), the \

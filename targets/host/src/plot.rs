@@ -89,7 +89,15 @@ fn color(index: usize) -> RGBColor {
     COLORS[index % COLORS.len()]
 }
 
-fn ranges(chart: &Chart) -> ((f64, f64), (f64, f64)) {
+/// Margin around the plot and the sizes of the axis label areas, px.
+const MARGIN: u32 = 15;
+const X_LABEL_AREA: u32 = 50;
+const Y_LABEL_AREA: u32 = 80;
+
+/// The axis ranges: the data, padded 5 %, with room for the legend at the top; with
+/// `equal_aspect`, the narrower range widened so that a metre is as many pixels along x as
+/// along y in a plot area of `plot_pixels` (width, height).
+fn ranges(chart: &Chart, plot_pixels: (f64, f64)) -> ((f64, f64), (f64, f64)) {
     let mut x = (f64::INFINITY, f64::NEG_INFINITY);
     let mut y = (f64::INFINITY, f64::NEG_INFINITY);
     for (px, py) in chart.series.iter().flat_map(|s| s.points.iter()) {
@@ -106,32 +114,41 @@ fn ranges(chart: &Chart) -> ((f64, f64), (f64, f64)) {
         (r.0 - 0.05 * span, r.1 + 0.05 * span)
     };
     let (mut x, mut y) = (pad(x), pad(y));
-    if chart.equal_aspect {
-        // Plot area is roughly 780 × 480 px: widen the narrower range.
-        let per_pixel = ((x.1 - x.0) / 780.0).max((y.1 - y.0) / 480.0);
-        let (cx, cy) = (0.5 * (x.0 + x.1), 0.5 * (y.0 + y.1));
-        x = (cx - 390.0 * per_pixel, cx + 390.0 * per_pixel);
-        y = (cy - 240.0 * per_pixel, cy + 240.0 * per_pixel);
-    }
     // Keep the legend clear of the data: extra room at the top.
-    let span = y.1 - y.0;
-    (x, (y.0, y.1 + 0.25 * span))
+    y.1 += 0.25 * (y.1 - y.0);
+    if chart.equal_aspect {
+        let (width, height) = (plot_pixels.0.max(1.0), plot_pixels.1.max(1.0));
+        let per_pixel = ((x.1 - x.0) / width).max((y.1 - y.0) / height);
+        let (cx, cy) = (0.5 * (x.0 + x.1), 0.5 * (y.0 + y.1));
+        x = (cx - 0.5 * width * per_pixel, cx + 0.5 * width * per_pixel);
+        y = (cy - 0.5 * height * per_pixel, cy + 0.5 * height * per_pixel);
+    }
+    (x, y)
 }
 
-fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, chart: &Chart) -> Result<(), String>
+/// Draws `chart`; returns the data units per pixel along x and along y.
+fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, chart: &Chart) -> Result<(f64, f64), String>
 where
     DB::ErrorType: 'static,
 {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| format!("error: plotting failed: {e}");
     root.fill(&WHITE).map_err(err)?;
-    let ((x0, x1), (y0, y1)) = ranges(chart);
-    let mut ctx = ChartBuilder::on(&root)
-        .caption(&chart.title, ("sans-serif", 22))
-        .margin(15)
-        .x_label_area_size(50)
-        .y_label_area_size(80)
+    let area = root.titled(&chart.title, ("sans-serif", 22)).map_err(err)?;
+    let (width, height) = area.dim_in_pixel();
+    let plot_pixels = (
+        f64::from(width.saturating_sub(2 * MARGIN + Y_LABEL_AREA)),
+        f64::from(height.saturating_sub(2 * MARGIN + X_LABEL_AREA)),
+    );
+    let ((x0, x1), (y0, y1)) = ranges(chart, plot_pixels);
+    let mut ctx = ChartBuilder::on(&area)
+        .margin(MARGIN)
+        .x_label_area_size(X_LABEL_AREA)
+        .y_label_area_size(Y_LABEL_AREA)
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(err)?;
+    // Data units per pixel along x and y in the plot area as drawn.
+    let (plot_width, plot_height) = ctx.plotting_area().dim_in_pixel();
+    let scales = ((x1 - x0) / f64::from(plot_width.max(1)), (y1 - y0) / f64::from(plot_height.max(1)));
     ctx.configure_mesh()
         .x_desc(&chart.x_label)
         .y_desc(&chart.y_label)
@@ -171,7 +188,7 @@ where
         .draw()
         .map_err(err)?;
     root.present().map_err(err)?;
-    Ok(())
+    Ok(scales)
 }
 
 /// Writes `chart` as `base.svg` and `base.png`.
@@ -182,4 +199,36 @@ pub fn save(chart: &Chart, base: &Path) -> Result<(), String> {
     let png = base.with_extension("png");
     draw(BitMapBackend::new(&png, SIZE).into_drawing_area(), chart)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A path in the plane is drawn with as many pixels per metre along x as along y: a
+    /// circle stays round (it was drawn 25 % flatter while the legend's room was added after
+    /// the scales were equalised).
+    #[test]
+    fn equal_aspect_charts_have_equal_scales() {
+        register_font();
+        let circle: Vec<(f64, f64)> = (0..=60)
+            .map(|i| f64::from(i) * std::f64::consts::TAU / 60.0)
+            .map(|a| (0.1 + 0.02 * a.cos(), 0.13 + 0.02 * a.sin()))
+            .collect();
+        for (wide, tall) in [(1.0, 1.0), (3.0, 1.0), (1.0, 3.0)] {
+            let points = circle.iter().map(|&(x, y)| (x * wide, y * tall)).collect();
+            let chart = Chart {
+                title: "path".into(),
+                x_label: "x0 (m)".into(),
+                y_label: "x1 (m)".into(),
+                series: vec![Series::line("circle", points)],
+                equal_aspect: true,
+            };
+            let mut buffer = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
+            let root = BitMapBackend::with_buffer(&mut buffer, SIZE).into_drawing_area();
+            let (x_per_pixel, y_per_pixel) = draw(root, &chart).expect("drawn");
+            let ratio = x_per_pixel / y_per_pixel;
+            assert!((ratio - 1.0).abs() < 0.01, "{wide}×{tall}: x scale / y scale = {ratio}");
+        }
+    }
 }

@@ -424,7 +424,7 @@ where
             scale: std::array::from_fn(|k| sensors[k].scale),
             offset: std::array::from_fn(|k| sensors[k].offset),
         },
-        current_gains: data.gains,
+        current_gains: [data.gains; N],
         max_tick_gap: 1,
     };
     let mut haptic = HapticLoop::new(rig, source, &settings)

@@ -98,6 +98,9 @@ pub struct ScenarioSettings {
     /// How far beyond the singular configuration's task point the hand pulls (fraction of
     /// the distance from the start).
     pub singular_overshoot: f64,
+    /// Joint configuration the scenario starts at (`None`: [`Simulation::home`], the middle
+    /// of every joint's limits).
+    pub start: Option<Vec<f64>>,
 }
 
 impl Default for ScenarioSettings {
@@ -111,6 +114,7 @@ impl Default for ScenarioSettings {
             grid_spacing: None,
             singular_target: None,
             singular_overshoot: 0.3,
+            start: None,
         }
     }
 }
@@ -263,7 +267,7 @@ impl Simulation {
         cfg: &mut SimConfig,
     ) -> Result<(), String> {
         let m = self.task_dim();
-        let q0 = self.home();
+        let q0 = settings.start.clone().unwrap_or_else(|| self.home());
         let (x0, _) = self.task_at(&q0);
         cfg.initial_q = q0.clone();
         let rendering = self.model.rendering.as_ref();
@@ -372,6 +376,25 @@ impl Simulation {
             }
         }
         Ok(())
+    }
+
+    /// The largest `|det J|` over the joint limits (a 41 × 41 grid) of a 2-joint rig with a
+    /// 2-D task (`None` for other rigs). Under 2 % of it is what the singularity scenario and
+    /// `hapticgen simulate`'s warnings call singular.
+    pub fn largest_jacobian_determinant(&self) -> Option<f64> {
+        if (self.joints(), self.task_dim()) != (2, 2) {
+            return None;
+        }
+        let joints = &self.model.joints;
+        let steps = 40u32;
+        let at = |j: usize, i: u32| {
+            joints[j].lower + (joints[j].upper - joints[j].lower) * f64::from(i) / f64::from(steps)
+        };
+        let largest = (0..=steps)
+            .flat_map(|a| (0..=steps).map(move |b| (a, b)))
+            .map(|(a, b)| self.task_at(&[at(0, a), at(1, b)]).1.abs())
+            .fold(0.0, f64::max);
+        (largest > 0.0).then_some(largest)
     }
 
     /// The configuration within the joint limits nearest to `q0` (joint-space distance)

@@ -155,3 +155,41 @@ fn bad_input_gives_the_right_exit_codes() {
     assert_eq!(bad_effect.status.code(), Some(1));
     let _ = std::fs::remove_dir_all(out);
 }
+
+/// The tutorial's arm (`docs/tutorial.md`) runs `trace-circle` from its default start, the
+/// middle of the joint limits, without a warning; `--start` at a singular pose of the parallel
+/// link (q1 = q2: the links folded onto each other) is warned about, and a start outside the
+/// limits or of the wrong length is refused.
+#[test]
+fn start_pose_and_singular_warnings() {
+    let out = scratch("start");
+    let out = out.to_str().unwrap();
+    // `hapticgen simulate ARGS -o OUT`, the arguments written as on a command line.
+    let simulate = |args: &str| {
+        let mut words: Vec<&str> = args.split_whitespace().collect();
+        words.extend(["-o", out]);
+        hapticgen(&words)
+    };
+    let tutorial =
+        simulate("simulate docs/tutorial/desk_arm_2dof.yaml --controller 3 --scenario trace-circle");
+    let stderr = String::from_utf8_lossy(&tutorial.stderr);
+    assert!(tutorial.status.success(), "{stderr}");
+    assert!(!stderr.contains("warning"), "{stderr}");
+    let from = |start: &str| {
+        simulate(&format!(
+            "simulate models/parallel_link_2dof.yaml --controller 3 --scenario step --duration 0.05 --start {start}"
+        ))
+    };
+    let singular = from("0.775,0.775");
+    let stderr = String::from_utf8_lossy(&singular.stderr);
+    assert!(singular.status.success(), "{stderr}");
+    assert!(stderr.contains("warning: the start pose q = (0.775, 0.775) rad is singular"), "{stderr}");
+    let regular = from("1.55,0.0");
+    assert!(!String::from_utf8_lossy(&regular.stderr).contains("warning"));
+    for bad in ["3.5,0.0", "1.0"] {
+        let refused = from(bad);
+        assert_eq!(refused.status.code(), Some(1), "--start {bad}");
+        assert!(String::from_utf8_lossy(&refused.stderr).contains("--start"), "--start {bad}");
+    }
+    let _ = std::fs::remove_dir_all(out);
+}

@@ -42,11 +42,16 @@ pub(super) fn settings(r: &mut Resolver<'_, '_>, file: &ModelFile, variant: &Opt
     r.positive(file.current_loop.bandwidth_hz, &cl("bandwidth_hz"));
     r.positive(file.current_loop.damping_ratio, &cl("damping_ratio"));
     r.positive(file.current_loop.anti_alias_cutoff_hz, &cl("anti_alias_cutoff_hz"));
-    let nyquist = f64::from(file.rates.current_loop_hz) / 2.0;
-    if file.current_loop.bandwidth_hz >= nyquist && nyquist > 0.0 {
+    // The PI design (`check::current_loop`) needs the bandwidth below half the Nyquist frequency.
+    let limit = f64::from(file.rates.current_loop_hz) / 4.0;
+    if file.current_loop.bandwidth_hz >= limit && limit > 0.0 {
         r.error(
             &cl("bandwidth_hz"),
-            format!("must be below the Nyquist frequency of the current loop ({nyquist} Hz)"),
+            format!(
+                "must be below a quarter of `rates.current_loop_hz` ({limit} Hz, half the current loop's \
+                 Nyquist frequency), got {} Hz",
+                file.current_loop.bandwidth_hz
+            ),
         );
     }
     if let Some(rend) = &file.rendering {

@@ -9,8 +9,7 @@ use hapticgen_runtime::current_loop::CurrentLoopGains;
 pub struct Setup<S, const N: usize> {
     /// Each joint's current-loop gains, designed from its motor by the model loader
     /// (`hapticgen_codegen::check::current_loop::design_current_loop`; the generated
-    /// `CURRENT_LOOP_GAINS`). Give them to the control cycle with
-    /// `HapticLoop::set_current_loop_gains`: the loop's settings carry one set for all motors.
+    /// `CURRENT_LOOP_GAINS`), for `HapticLoopSettings::current_gains`.
     pub current_gains: [CurrentLoopGains<S>; N],
     /// Start pose (the `pose` column of `variants.txt`), rad or m: where the device is homed.
     pub start: [S; N],

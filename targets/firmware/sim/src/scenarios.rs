@@ -62,7 +62,6 @@ where
     R: FusedImpedance<N, M> + Clone,
     Src: ReferenceSource<R::Scalar, M> + Clone,
 {
-    let first_gains = *setup.current_gains.first()?;
     let settings = HapticLoopSettings {
         controller: law,
         estimator: EstimatorSettings {
@@ -76,12 +75,10 @@ where
             scale: [R::Scalar::ONE; M],
             offset: [R::Scalar::ZERO; M],
         },
-        current_gains: first_gains,
+        current_gains: setup.current_gains,
         max_tick_gap: 1,
     };
-    let mut controller = Controller::new(rig, source, &settings, profile)?;
-    controller.haptic.set_current_loop_gains(&setup.current_gains);
-    Some(controller)
+    Controller::new(rig, source, &settings, profile)
 }
 
 /// The simulated board at rest at the line's pose, stepped at the current-loop rate, its

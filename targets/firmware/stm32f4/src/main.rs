@@ -79,12 +79,10 @@ fn main() -> ! {
         zero_offset: q0,
         initial_counts: board.counts(),
         force_calibration: ForceSensorCalibration { scale: [5.0; 2], offset: [2.5; 2] },
-        current_gains: setup.current_gains[0],
+        current_gains: setup.current_gains,
         max_tick_gap: 1,
     };
     let Some(mut app) = App::new(rig, scene, &settings, false) else { halt() };
-    // Each motor's own gains (identical for the parallel link's two motors).
-    app.haptic.set_current_loop_gains(&setup.current_gains);
     app.calibrate(&Cycles);
     cortex_m::interrupt::free(|cs| {
         if let Ok(mut slot) = STATE.borrow(cs).try_borrow_mut() {
