@@ -15,11 +15,14 @@ pub mod current_loop;
 pub mod estimation;
 pub mod fused;
 pub mod linalg;
+pub mod proxy;
 pub mod real;
 pub mod render;
 pub mod rig;
 pub mod safety;
 pub mod schedule;
+pub mod shape;
+pub mod spatial;
 pub mod tick;
 
 pub use real::Real;
