@@ -492,3 +492,67 @@ fn the_minimum_distance_scene_pushes_back_along_the_normal_by_the_depth() {
         assert!(dot(unit(force), normal) > 1.0 - 1e-9);
     }
 }
+
+// The minimum-distance rule in 3-D as the firmware's sphere_cavity scenario uses it (these
+// were the firmware's own tests when it carried its copy of the renderer).
+
+fn cavity(center: V, radius: f64) -> MinDistanceScene<'static, f64, 2, 3> {
+    let mut scene = MinDistanceScene::new(100.0, 1.0, 1e-3);
+    scene
+        .add(Object {
+            shape: Shape::Sphere { center, radius },
+            kind: ObjectKind::Cavity,
+            material: Material::frictionless(1500.0, 5.0),
+        })
+        .unwrap();
+    scene
+}
+
+#[test]
+fn min_distance_cavity_holds_the_hip_in_with_the_wall_gains() {
+    let mut scene = cavity([0.0; 3], 0.01);
+    let mut parameters = ImpedanceParameters { stiffness: [0.0; 3], damping: [0.0; 3], mass: [1.0; 3] };
+    // Outside, 12 mm along (2, 1, -2)/3: the proxy is on the sphere along the same ray.
+    let hip = [0.008, 0.004, -0.008];
+    let reference = scene.update_reference(&hip, &mut parameters);
+    let length = norm(hip);
+    for (x, h) in reference.position.iter().zip(hip.iter()) {
+        assert!((x - h * 0.01 / length).abs() < 1e-15);
+    }
+    assert_eq!(parameters.stiffness, [1500.0; 3]);
+    assert_eq!(parameters.damping, [5.0; 3]);
+    assert_eq!(scene.contact(), Some(0));
+}
+
+#[test]
+fn min_distance_free_space_grid_moves_only_beyond_one_spacing() {
+    let mut scene = cavity([0.0; 3], 1.0);
+    let mut parameters = ImpedanceParameters { stiffness: [0.0; 3], damping: [0.0; 3], mass: [1.0; 3] };
+    let first = scene.update_reference(&[0.0104, 0.0, -0.0021], &mut parameters).position;
+    assert_eq!(parameters.stiffness, [100.0; 3]);
+    assert_eq!(scene.contact(), None);
+    // Nearest node: every coordinate rounded to a multiple of 1 mm.
+    let expected = [0.010, 0.0, -0.002];
+    for (x, e) in first.iter().zip(expected.iter()) {
+        assert!((x - e).abs() < 1e-15);
+    }
+    // Within one spacing along every axis: the node holds.
+    assert_eq!(scene.update_reference(&[0.0109, 0.0009, -0.0029], &mut parameters).position, first);
+    // Beyond along one axis: it jumps to the new nearest node.
+    let moved = scene.update_reference(&[0.0121, 0.0, -0.002], &mut parameters).position;
+    assert!((moved[0] - 0.012).abs() < 1e-15);
+    // A NaN HIP keeps the last proxy with zero gains.
+    let kept = scene.update_reference(&[f64::NAN, 0.0, 0.0], &mut parameters).position;
+    assert_eq!(kept, moved);
+    assert_eq!(parameters.stiffness, [0.0; 3]);
+}
+
+#[test]
+fn a_degenerate_shape_gives_no_contact() {
+    let p = [0.1, 0.2, 0.3];
+    assert!(Shape::Sphere { center: [0.0; 3], radius: 0.0 }.closest(&p).is_none());
+    assert!(Shape::<f64, 3>::half_space([0.0; 3], [0.0; 3]).is_none());
+    assert!(Shape::Cylinder { a: p, b: p, radius: 0.1 }.closest(&p).is_none());
+    assert!(Shape::aligned_box([0.0; 3], [0.1, 0.0, 0.1]).closest(&p).is_none());
+    assert!(Shape::Polytope::<f64, 3> { planes: &[] }.closest(&p).is_none());
+}
