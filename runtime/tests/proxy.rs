@@ -556,3 +556,21 @@ fn a_degenerate_shape_gives_no_contact() {
     assert!(Shape::aligned_box([0.0; 3], [0.1, 0.0, 0.1]).closest(&p).is_none());
     assert!(Shape::Polytope::<f64, 3> { planes: &[] }.closest(&p).is_none());
 }
+
+#[test]
+fn on_a_sphere_one_update_nearly_reaches_the_closest_point() {
+    // The tangent plane of the first contact is only a local model: the update starts new
+    // rounds towards the HIP from the plane's goal. From a start 60° off the HIP's direction
+    // one update must land within 1 % of the way.
+    let c = [0.0; 3];
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene.add(solid(Shape::Sphere { center: c, radius: 0.05 })).unwrap();
+    let start = [0.1 * 60f64.to_radians().sin(), 0.0, 0.1 * 60f64.to_radians().cos()];
+    scene.reset(start);
+    let hip = [0.0, 0.0, 0.045];
+    let expected = [0.0, 0.0, 0.05 + R];
+    let proxy = scene.render(&hip).proxy;
+    let first_contact = norm(sub(add(c, scale(unit(start), 0.05 + R)), expected));
+    let error = norm(sub(proxy, expected));
+    assert!(error < 0.01 * first_contact, "{proxy:?}: {error} from {expected:?}");
+}
