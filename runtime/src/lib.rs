@@ -12,6 +12,7 @@
 
 pub mod control;
 pub mod current_loop;
+pub mod effects;
 pub mod estimation;
 pub mod fused;
 pub mod linalg;

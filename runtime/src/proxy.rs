@@ -54,6 +54,7 @@
 //! with zero gains).
 
 use crate::control::{ImpedanceParameters, TaskReference};
+use crate::effects::{Effect, EffectState};
 use crate::render::ObjectKind;
 use crate::shape::{add_scaled, dot, finite, norm, segment_meets_box, sub, unit, Object, Shape};
 use crate::tick::ReferenceSource;
@@ -102,6 +103,10 @@ pub struct GodObject<'a, S, const K: usize, const M: usize> {
     pub free_space_stiffness: S,
     /// `B_d` in free space (a viscous field).
     pub free_space_damping: S,
+    /// What the operator feels in free space ([`crate::effects`]), applied by the
+    /// [`ReferenceSource`] implementation.
+    pub effect: Effect<S, M>,
+    effect_state: EffectState<S>,
     radius: S,
     skin: S,
     proxy: Option<[S; M]>,
@@ -118,6 +123,8 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             objects: [None; K],
             free_space_stiffness,
             free_space_damping,
+            effect: Effect::None,
+            effect_state: EffectState::default(),
             radius: radius.max(S::ZERO),
             skin,
             proxy: None,
@@ -617,8 +624,13 @@ impl<'a, S: Real, const K: usize, const M: usize> ReferenceSource<S, M> for GodO
         parameters: &mut ImpedanceParameters<S, M>,
     ) -> TaskReference<S, M> {
         let output = self.render(task_position);
-        parameters.stiffness = [output.stiffness; M];
-        parameters.damping = [output.damping; M];
-        TaskReference::at_rest(output.proxy)
+        let (reference, stiffness, damping) = if output.valid && output.contact.is_none() {
+            self.effect_state.apply(&self.effect, task_position, output.stiffness, output.damping)
+        } else {
+            (output.proxy, output.stiffness, output.damping)
+        };
+        parameters.stiffness = [stiffness; M];
+        parameters.damping = [damping; M];
+        TaskReference::at_rest(reference)
     }
 }

@@ -574,3 +574,38 @@ fn on_a_sphere_one_update_nearly_reaches_the_closest_point() {
     let error = norm(sub(proxy, expected));
     assert!(error < 0.01 * first_contact, "{proxy:?}: {error} from {expected:?}");
 }
+
+#[test]
+fn free_space_effects_give_their_closed_form_forces() {
+    use hapticgen_runtime::effects::Effect;
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(400.0, 2.0, R, SKIN);
+    scene.add(solid(Shape::half_space([0.0; 3], [0.0, 0.0, 1.0]).unwrap())).unwrap();
+    let mut parameters = ImpedanceParameters { stiffness: [0.0; 3], damping: [0.0; 3], mass: [1.0; 3] };
+    let hip = [0.01, -0.02, 0.05];
+    let mut force = |scene: &mut GodObject<f64, 1, 3>, hip: V| {
+        let reference = scene.update_reference(&hip, &mut parameters).position;
+        (scale(sub(reference, hip), parameters.stiffness[0]), parameters.damping[0])
+    };
+    let (f, b) = force(&mut scene, hip);
+    assert_eq!((f, b), ([0.0; 3], 2.0));
+    scene.effect = Effect::Spring { anchor: [0.0, 0.0, 0.1], stiffness: 50.0 };
+    let (f, _) = force(&mut scene, hip);
+    assert!(close(f, scale(sub([0.0, 0.0, 0.1], hip), 50.0), 1e-12));
+    scene.effect = Effect::Viscous { damping: 7.0 };
+    assert_eq!(force(&mut scene, hip), ([0.0; 3], 7.0));
+    scene.effect = Effect::Force { force: [0.5, -1.0, 2.0] };
+    assert!(close(force(&mut scene, hip).0, [0.5, -1.0, 2.0], 1e-12));
+    // 50 Hz at 1 kHz: 20 ticks a cycle, F = A sin(2π f t) e.
+    let e = unit([1.0, 1.0, 0.0]);
+    scene.effect = Effect::Vibration { direction: e, amplitude: 0.8, frequency: 50.0, period: 1e-3 };
+    for k in 0..100 {
+        let expected = scale(e, 0.8 * (2.0 * std::f64::consts::PI * 50.0 * k as f64 * 1e-3).sin());
+        let (f, _) = force(&mut scene, hip);
+        assert!(close(f, expected, 1e-9), "tick {k}: {f:?} against {expected:?}");
+        assert!(norm(f) <= 0.8 + 1e-12);
+    }
+    // In contact the object's gains and the proxy apply, not the effect.
+    let (f, b) = force(&mut scene, [0.0, 0.0, -0.002]);
+    assert!(close(f, [0.0, 0.0, 1500.0 * (0.002 + R)], 1e-5));
+    assert_eq!(b, 5.0);
+}
