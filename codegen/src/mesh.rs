@@ -89,9 +89,9 @@ impl TriangleMesh {
             let area_normal = cross(sub(b, a), sub(c, a)); // Twice the area, along the normal.
             face_normals.push(normalised(area_normal));
             for &v in face {
-                let n = &mut vertex_normals[v as usize];
-                for k in 0..3 {
-                    n[k] += area_normal[k];
+                let n: &mut [f64; 3] = &mut vertex_normals[v as usize];
+                for (x, a) in n.iter_mut().zip(area_normal) {
+                    *x += a;
                 }
             }
         }
@@ -106,8 +106,8 @@ impl TriangleMesh {
         let centroid = |f: &[u32; 3]| {
             let mut c = [0.0; 3];
             for &v in f {
-                for k in 0..3 {
-                    c[k] += self.vertices[v as usize][k] / 3.0;
+                for (x, p) in c.iter_mut().zip(self.vertices[v as usize]) {
+                    *x += p / 3.0;
                 }
             }
             c
@@ -121,14 +121,14 @@ impl TriangleMesh {
             let (mut cmin, mut cmax) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
             for (face, c) in &order[start..end] {
                 for &v in &self.faces[*face] {
-                    for k in 0..3 {
-                        min[k] = min[k].min(self.vertices[v as usize][k]);
-                        max[k] = max[k].max(self.vertices[v as usize][k]);
+                    for ((lo, hi), x) in min.iter_mut().zip(max.iter_mut()).zip(self.vertices[v as usize]) {
+                        *lo = lo.min(x);
+                        *hi = hi.max(x);
                     }
                 }
-                for k in 0..3 {
-                    cmin[k] = cmin[k].min(c[k]);
-                    cmax[k] = cmax[k].max(c[k]);
+                for ((lo, hi), x) in cmin.iter_mut().zip(cmax.iter_mut()).zip(c) {
+                    *lo = lo.min(*x);
+                    *hi = hi.max(*x);
                 }
             }
             if end - start <= leaf_size {

@@ -56,7 +56,7 @@
 use crate::control::{ImpedanceParameters, TaskReference};
 use crate::effects::{Effect, EffectState};
 use crate::render::ObjectKind;
-use crate::shape::{add_scaled, dot, finite, norm, segment_meets_box, sub, unit, Object, Shape};
+use crate::shape::{add_scaled, dot, exceeds, finite, norm, segment_meets_box, sub, unit, Object, Shape};
 use crate::tick::ReferenceSource;
 use crate::Real;
 
@@ -576,7 +576,7 @@ fn equality_projection<S: Real, const M: usize>(
         1 => [b[0] / g(0, 0), S::ZERO, S::ZERO],
         2 => {
             let det = g(0, 0) * g(1, 1) - g(0, 1) * g(1, 0);
-            if !(det.abs() > singular) {
+            if !exceeds(det.abs(), singular) {
                 return None;
             }
             [(b[0] * g(1, 1) - g(0, 1) * b[1]) / det, (g(0, 0) * b[1] - b[0] * g(1, 0)) / det, S::ZERO]
@@ -589,7 +589,7 @@ fn equality_projection<S: Real, const M: usize>(
                     + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
             };
             let det = det3(&m);
-            if !(det.abs() > singular) {
+            if !exceeds(det.abs(), singular) {
                 return None;
             }
             let mut lambda = [S::ZERO; 3];

@@ -72,6 +72,11 @@ pub(crate) fn unit<S: Real, const M: usize>(a: &[S; M]) -> Option<[S; M]> {
     }
 }
 
+/// `x > bound`, false for NaN (so `!exceeds(..)` rejects NaN too).
+pub(crate) fn exceeds<S: Real>(x: S, bound: S) -> bool {
+    x > bound
+}
+
 pub(crate) fn finite<S: Real, const M: usize>(a: &[S; M]) -> bool {
     a.iter().all(|x| x.is_finite())
 }
@@ -190,7 +195,7 @@ pub fn closest_on_triangle<S: Real, const M: usize>(
         return (add_scaled(b, w, &sub(c, b)), [S::ZERO, S::ONE - w, w]);
     }
     let denominator = va + vb + vc;
-    if !(denominator.abs() > S::ZERO) {
+    if !exceeds(denominator.abs(), S::ZERO) {
         return (*a, [S::ONE, S::ZERO, S::ZERO]); // A degenerate triangle: any vertex.
     }
     let v = vb / denominator;
@@ -510,7 +515,7 @@ impl<'a, S: Real, const M: usize> Shape<'a, S, M> {
     pub fn project_inside(&self, p: &[S; M], margin: S) -> Option<[S; M]> {
         let ball = |center: &[S; M], radius: S| {
             let radius = radius - margin;
-            if !(radius > S::ZERO) {
+            if !exceeds(radius, S::ZERO) {
                 return None;
             }
             let offset = sub(p, center);
@@ -538,7 +543,7 @@ impl<'a, S: Real, const M: usize> Shape<'a, S, M> {
                 let mut out = center;
                 for (axis, half) in axes.iter().zip(half_extents.iter()) {
                     let h = *half - margin;
-                    if !(h > S::ZERO) {
+                    if !exceeds(h, S::ZERO) {
                         return None;
                     }
                     out = add_scaled(&out, dot(axis, &offset).clamp_to(-h, h), axis);

@@ -14,7 +14,6 @@ pub struct Arrays {
     vertices: Vec<[f64; 3]>,
     faces: Vec<[u32; 3]>,
     face_normals: Vec<[f64; 3]>,
-    vertex_normals: Vec<[f64; 3]>,
     nodes: Vec<BvhNode<f64, 3>>,
 }
 
@@ -24,7 +23,6 @@ impl Arrays {
             vertices: mesh.vertices.clone(),
             faces: mesh.faces.clone(),
             face_normals: mesh.face_normals.clone(),
-            vertex_normals: mesh.vertex_normals.clone(),
             nodes: mesh
                 .nodes
                 .iter()
@@ -48,6 +46,9 @@ impl Arrays {
 const CUBE: &str = "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n\
 f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
 const PLATE: &str = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3 4\n";
+/// The distance from a point to the object, computed independently of the runtime.
+type Clearance = fn([f64; 3]) -> f64;
+
 const R: f64 = 1e-3;
 const H: f64 = 0.05;
 
@@ -105,7 +106,7 @@ proptest! {
         // The plates are wider than the HIP's range: the proxy cannot go round them.
         let plate = Arrays::new(&scaled(PLATE, 0.2));
         let (cube_mesh, plate_mesh) = (cube.mesh(), plate.mesh());
-        let (shape, clearance): (Shape<f64, 3>, fn([f64; 3]) -> f64) = match which {
+        let (shape, clearance): (Shape<f64, 3>, Clearance) = match which {
             0 => (Shape::Mesh(&cube_mesh), |p| box_sdf(p, [H; 3])),
             1 => (Shape::Mesh(&plate_mesh), |p| box_sdf(p, [0.2, 0.2, 0.0])),
             _ => (Shape::aligned_box([0.0; 3], [0.2, 0.2, 0.001]), |p| box_sdf(p, [0.2, 0.2, 0.001])),
