@@ -17,7 +17,9 @@ pub mod diag;
 pub mod dynamics;
 pub mod emit;
 pub mod eval;
+// Build-time meshes for the renderer (OBJ/STL → static arrays with a BVH).
 mod math;
+pub mod mesh;
 pub mod model;
 mod plan;
 pub mod rig_macro;

@@ -12,14 +12,18 @@
 
 pub mod control;
 pub mod current_loop;
+pub mod effects;
 pub mod estimation;
 pub mod fused;
 pub mod linalg;
+pub mod proxy;
 pub mod real;
 pub mod render;
 pub mod rig;
 pub mod safety;
 pub mod schedule;
+pub mod shape;
+pub mod spatial;
 pub mod tick;
 
 pub use real::Real;

@@ -4,5 +4,6 @@
 
 mod closed_loop;
 mod common;
+mod proxy;
 mod render;
 mod safety_rules;

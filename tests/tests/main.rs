@@ -11,6 +11,7 @@ mod no_alloc;
 mod numerical;
 mod orientation;
 mod properties;
+mod proxy;
 mod random_chain;
 mod rebuild;
 mod recursive_properties;

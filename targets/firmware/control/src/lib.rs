@@ -8,8 +8,6 @@
 //!   impedance tick (estimation → rig terms → reference/rendering → impedance law → safety).
 //!   It times both with the board's cycle counter, and optionally times the sub-steps of
 //!   the impedance tick on a copy of the state ([`app::Profile`]).
-//! * [`spatial`]: point-based haptic rendering (solid/cavity balls and half-spaces, the
-//!   anti-drift grid) in an `M`-dimensional task space, for rigs whose task point moves in 3-D.
 //! * [`setup`]: [`Setup`], what an image takes from its model file (each joint's current-loop
 //!   gains, the start pose, the rendering parameters), as the build script computes it.
 //! * [`probe`]: the parts of a control-path probe, a binary linked (never run) to show that no
@@ -25,7 +23,6 @@ pub mod board;
 pub mod probe;
 pub mod report;
 pub mod setup;
-pub mod spatial;
 
 pub use app::{Controller, CostStats, Profile};
 pub use board::{Board, CurrentSense, CycleCounter, Encoders, ForceSense, TickTimer, VoltageOutput};

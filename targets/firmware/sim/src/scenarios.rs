@@ -239,7 +239,8 @@ pub mod wall_contact {
 }
 
 /// A spherical cavity for a spatial task (`M = 3`, any number of joints) with Controller 3
-/// and the `M`-dimensional renderer (`hapticgen_fw_control::spatial`): the task point starts
+/// and the runtime's `M`-dimensional renderer (`hapticgen_runtime::spatial`, the paper's
+/// minimum-distance rule): the task point starts
 /// at rest at the centre of a 10 mm-radius cavity; the operator pushes with 1 N along the
 /// oblique direction `(2, 1, 2)/3` (forward, sideways and up: the arm's gravity load and the
 /// push do not add up beyond the drives' current limit) from 0.1 s to 1.0 s (through free space on the anti-drift
@@ -249,8 +250,9 @@ pub mod wall_contact {
 /// axes, gravity and the coupling of every joint. Gains and grid as in [`wall_contact`].
 pub mod sphere_cavity {
     use super::*;
-    use hapticgen_fw_control::spatial::{Primitive, SpatialObject, SpatialScene};
     use hapticgen_runtime::render::ObjectKind;
+    use hapticgen_runtime::shape::{Material, Object, Shape};
+    use hapticgen_runtime::spatial::MinDistanceScene;
 
     /// Radius of the cavity, m.
     pub const RADIUS: f64 = 0.010;
@@ -258,7 +260,8 @@ pub mod sphere_cavity {
     pub const FORCE: f64 = 1.0;
 
     /// The reference source: the `M`-dimensional renderer with one object.
-    pub type Source<R, const N: usize, const M: usize> = SpatialScene<<R as RigModel<N, M>>::Scalar, 1, M>;
+    pub type Source<R, const N: usize, const M: usize> =
+        MinDistanceScene<'static, <R as RigModel<N, M>>::Scalar, 1, M>;
 
     /// The scenario type for a rig `R` (`M = 3`).
     pub type Run<R, const N: usize, const M: usize> = Scenario<R, Source<R, N, M>, N, M>;
@@ -273,12 +276,11 @@ pub mod sphere_cavity {
     ) -> Option<Run<R, N, 3>> {
         let [grid, wall_stiffness, wall_damping] = rendering(setup);
         let start = rig.position(&setup.start);
-        let mut scene = SpatialScene::new(wall_stiffness, wall_damping, grid);
-        scene.add(SpatialObject {
-            shape: Primitive::Ball { center: start, radius: s(RADIUS) },
+        let mut scene = MinDistanceScene::new(wall_stiffness, wall_damping, grid);
+        scene.add(Object {
+            shape: Shape::Sphere { center: start, radius: s(RADIUS) },
             kind: ObjectKind::Cavity,
-            stiffness: wall_stiffness,
-            damping: wall_damping,
+            material: Material::frictionless(wall_stiffness, wall_damping),
         })?;
         let fast = R::CURRENT_LOOP_HZ;
         let board = board(&rig, setup, sense_time_constant);

@@ -1,0 +1,636 @@
+//! God-object haptic rendering with history (Zilles & Salisbury 1995; Ruspini, Kolarov &
+//! Khatib 1997) for 2-D and 3-D task spaces, with friction (Salisbury et al.'s friction cone).
+//!
+//! The device point is the HIP `x`; the renderer keeps a **proxy** `p` (the god object, a
+//! ball of radius `r`) that never enters an object and is used by the impedance law as its
+//! reference `x_d`, so the force is `K_d (p − x) − B_d ẋ`. Unlike the paper's minimum-distance
+//! rule (eq. (16), [`crate::spatial`] and [`crate::render`]), the proxy remembers which side
+//! of each surface it is on: a thin plate cannot be pushed through, and corners and edges
+//! where several surfaces meet hold the proxy on all of them at once.
+//!
+//! # The update (each tick)
+//!
+//! The proxy moves towards the HIP in at most [`PASSES`] straight **sweeps**. Each sweep goes
+//! from `p` towards a goal `g` and stops at the first contact:
+//!
+//! 1. `g` is the point closest to `x` on the constraints collected in this tick: up to
+//!    [`MAX_CONSTRAINTS`] tangent planes `n_i · (y − c_i) ≥ 0` (through the contact points
+//!    `c_i`, normals `n_i` pointing into free space) and, for curved cavities, the cavity
+//!    shrunk by `r` itself. The planes' part is the small quadratic programme
+//!    `min |y − x|²` over the planes, solved exactly by trying every subset of them as
+//!    equalities (`G λ = b` with the Gram matrix `G_ij = n_i · n_j`, `b_i = n_i · (x − c_i)`,
+//!    `y = x − Σ λ_i n_i`) and keeping the feasible solution closest to `x`. Curved cavities
+//!    then project `g` into themselves (exact for one cavity).
+//! 2. The sweep is **conservative advancement**: from the current point `y`, every object
+//!    gives a step the proxy can certainly take along the direction `d` without coming within
+//!    `r + ε` of it (ε, the skin, is the tolerance): for a convex solid and for each triangle
+//!    of a mesh, with `q` the closest point and `n = (y − q)/|y − q|`, the supporting plane
+//!    gives `s = (|y − q| − r − ε)/(−d · n)` when `d · n < 0` and no limit otherwise (moving
+//!    away from a convex set never brings the proxy closer); for a polytope the same for each
+//!    of its planes, the union of their outer half-spaces being free; for a flat cavity
+//!    (half-space or polytope) the exit through its planes; for a curved cavity (convex from
+//!    inside) the exit found by bisection. The proxy moves by the smallest step and repeats;
+//!    a step below ε is a contact with that object, whose free-side normal becomes a new
+//!    plane. Because each step is certified, **the proxy never crosses a surface**, however
+//!    fast the HIP moves: history is the proxy's position itself.
+//! 3. A sweep that reaches its goal while constrained starts a new round towards `x` itself
+//!    (the tangent planes of curved surfaces are only a local model), until no sweep is left.
+//!
+//! With no contact in the last round the proxy has reached the HIP: free space, the force is
+//! zero and the free-space `K_d`, `B_d` apply.
+//!
+//! # Friction
+//!
+//! In contact (this tick and the last), with `f` the frictionless proxy found above, `p₀` the
+//! previous proxy and `δ = |x − f|` the penetration: the proxy **sticks** (stays at `p₀`) while
+//! `|f − p₀| ≤ μ δ`, the HIP within the friction cone about the normal, with `μ = μ_s` when it
+//! stuck at the last tick and `μ_d` when it slid; otherwise it **slides** to the point of the
+//! segment `f p₀` at `μ_d δ` from `f` (on the dynamic cone), reached by a sweep from `p₀`. Every
+//! move of the proxy is towards points no farther from `x` than where it was, so the spring
+//! energy `½ K_d |x − p|²` never grows when the proxy moves: the renderer is passive, friction
+//! only dissipates.
+//!
+//! Everything is fixed-size; nothing allocates or panics (a non-finite HIP keeps the last proxy
+//! with zero gains).
+
+use crate::control::{ImpedanceParameters, TaskReference};
+use crate::effects::{Effect, EffectState};
+use crate::render::ObjectKind;
+use crate::shape::{add_scaled, dot, exceeds, finite, norm, segment_meets_box, sub, unit, Object, Shape};
+use crate::tick::ReferenceSource;
+use crate::Real;
+
+/// The most constraints (tangent planes and curved cavities) one round of sweeps collects; three
+/// meet at a corner in 3-D.
+pub const MAX_CONSTRAINTS: usize = 3;
+/// The most sweeps per update.
+pub const PASSES: usize = 8;
+/// The most conservative-advancement steps per sweep.
+pub const ADVANCE_STEPS: usize = 32;
+/// Bisection steps for the exit from a curved cavity.
+const BISECTIONS: usize = 48;
+
+#[derive(Clone, Copy, Debug)]
+enum Constraint<S, const M: usize> {
+    Plane { normal: [S; M], point: [S; M] },
+    Inside { object: usize },
+}
+
+/// What the renderer asks of the impedance law this tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProxyOutput<S, const M: usize> {
+    /// The proxy `p`, to be used as `x_d`.
+    pub proxy: [S; M],
+    /// `K_d` in effect (isotropic).
+    pub stiffness: S,
+    /// `B_d` in effect.
+    pub damping: S,
+    /// Index of the object in contact, `None` in free space.
+    pub contact: Option<usize>,
+    /// `true` when friction held the proxy in place this tick.
+    pub sticking: bool,
+    /// `false` when the HIP was NaN or infinite: the last proxy is kept and the gains are zero.
+    pub valid: bool,
+}
+
+/// A god-object renderer of up to `K` objects in an `M`-dimensional task space.
+#[derive(Clone, Copy, Debug)]
+pub struct GodObject<'a, S, const K: usize, const M: usize> {
+    /// The objects; `None` slots are empty.
+    pub objects: [Option<Object<'a, S, M>>; K],
+    /// `K_d` in free space (the proxy is at the HIP there, so this only matters at the moment
+    /// of leaving contact).
+    pub free_space_stiffness: S,
+    /// `B_d` in free space (a viscous field).
+    pub free_space_damping: S,
+    /// What the operator feels in free space ([`crate::effects`]), applied by the
+    /// [`ReferenceSource`] implementation.
+    pub effect: Effect<S, M>,
+    effect_state: EffectState<S>,
+    radius: S,
+    skin: S,
+    proxy: Option<[S; M]>,
+    contact: Option<usize>,
+    sticking: bool,
+}
+
+impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
+    /// An empty scene with a proxy of radius `radius` (≥ 0) and contact tolerance `skin`
+    /// (> 0, far below the thinnest object and `radius`; 1 µm suits metres in `f64` and
+    /// `f32` alike). The proxy starts at the first HIP rendered, which must be in free space.
+    pub fn new(free_space_stiffness: S, free_space_damping: S, radius: S, skin: S) -> Self {
+        Self {
+            objects: [None; K],
+            free_space_stiffness,
+            free_space_damping,
+            effect: Effect::None,
+            effect_state: EffectState::default(),
+            radius: radius.max(S::ZERO),
+            skin,
+            proxy: None,
+            contact: None,
+            sticking: false,
+        }
+    }
+
+    /// Puts `object` in the first free slot; returns its index, or `None` if the scene is full.
+    pub fn add(&mut self, object: Object<'a, S, M>) -> Option<usize> {
+        let index = self.objects.iter().position(|slot| slot.is_none())?;
+        if let Some(slot) = self.objects.get_mut(index) {
+            *slot = Some(object);
+        }
+        Some(index)
+    }
+
+    /// The proxy, `None` before the first update.
+    pub fn proxy(&self) -> Option<[S; M]> {
+        self.proxy
+    }
+
+    /// Puts the proxy at `position` (which must be in free space) and forgets the contact.
+    pub fn reset(&mut self, position: [S; M]) {
+        self.proxy = Some(position);
+        self.contact = None;
+        self.sticking = false;
+    }
+
+    /// The proxy's radius.
+    pub fn radius(&self) -> S {
+        self.radius
+    }
+
+    /// Moves object `index` rigidly by `displacement` (a moving object, updated each tick
+    /// before [`GodObject::render`]); a proxy in contact with it is carried along, as if the
+    /// object pushed or dragged it. `false` for an empty slot, a non-finite displacement or a
+    /// shape that cannot be moved in place (a borrowed polytope or mesh).
+    pub fn translate(&mut self, index: usize, displacement: &[S; M]) -> bool {
+        if !finite(displacement) {
+            return false;
+        }
+        let object = match self.objects.get_mut(index).and_then(|slot| slot.as_mut()) {
+            Some(object) => object,
+            None => return false,
+        };
+        let moved = match &mut object.shape {
+            Shape::HalfSpace { point, .. } => {
+                *point = add_scaled(point, S::ONE, displacement);
+                true
+            }
+            Shape::Sphere { center, .. } | Shape::Box { center, .. } => {
+                *center = add_scaled(center, S::ONE, displacement);
+                true
+            }
+            Shape::Capsule { a, b, .. } | Shape::Cylinder { a, b, .. } => {
+                *a = add_scaled(a, S::ONE, displacement);
+                *b = add_scaled(b, S::ONE, displacement);
+                true
+            }
+            Shape::Polytope { .. } | Shape::Mesh(_) => false,
+        };
+        if moved && self.contact == Some(index) {
+            if let Some(p) = self.proxy.as_mut() {
+                *p = add_scaled(p, S::ONE, displacement);
+            }
+        }
+        moved
+    }
+
+    /// Updates the proxy for the HIP `hip` (see the module docs).
+    pub fn render(&mut self, hip: &[S; M]) -> ProxyOutput<S, M> {
+        let previous = match self.proxy {
+            Some(p) if finite(hip) => p,
+            Some(p) => return self.invalid(p),
+            None if finite(hip) => *hip,
+            None => return self.invalid([S::ZERO; M]),
+        };
+        let (frictionless, contact) = self.constrained_proxy(&previous, hip);
+        let mut proxy = frictionless;
+        let mut sticking = false;
+        if let (Some(index), Some(_)) = (contact, self.contact) {
+            if let Some(object) = self.objects.get(index).copied().flatten() {
+                let material = object.material;
+                let depth = norm(&sub(hip, &frictionless));
+                let slide = norm(&sub(&frictionless, &previous));
+                let mu = if self.sticking { material.static_friction } else { material.dynamic_friction };
+                if slide <= mu * depth {
+                    proxy = previous;
+                    sticking = true;
+                } else if material.dynamic_friction > S::ZERO && slide > S::ZERO {
+                    // On the dynamic cone: μ_d δ from f towards p₀, reached by a sweep from p₀.
+                    let back = (material.dynamic_friction * depth / slide).min(S::ONE);
+                    let target = add_scaled(&frictionless, back, &sub(&previous, &frictionless));
+                    let travel = sub(&target, &previous);
+                    let length = norm(&travel);
+                    proxy = previous;
+                    if let Some(direction) = unit(&travel) {
+                        let (s, _) = self.sweep(&previous, &direction, length);
+                        proxy = add_scaled(&previous, s, &direction);
+                    }
+                }
+            }
+        }
+        self.proxy = Some(proxy);
+        self.contact = contact;
+        self.sticking = sticking;
+        let (stiffness, damping) = match contact.and_then(|i| self.objects.get(i).copied().flatten()) {
+            Some(object) => (object.material.stiffness, object.material.damping),
+            None => (self.free_space_stiffness, self.free_space_damping),
+        };
+        ProxyOutput { proxy, stiffness, damping, contact, sticking, valid: true }
+    }
+
+    fn invalid(&mut self, proxy: [S; M]) -> ProxyOutput<S, M> {
+        self.contact = None;
+        self.sticking = false;
+        ProxyOutput {
+            proxy,
+            stiffness: S::ZERO,
+            damping: S::ZERO,
+            contact: None,
+            sticking: false,
+            valid: false,
+        }
+    }
+
+    /// The frictionless proxy reached from `start` towards `hip`, and the object in contact.
+    fn constrained_proxy(&self, start: &[S; M], hip: &[S; M]) -> ([S; M], Option<usize>) {
+        let mut p = *start;
+        let mut constraints: [Option<Constraint<S, M>>; MAX_CONSTRAINTS] = [None; MAX_CONSTRAINTS];
+        let mut count = 0;
+        let mut contact = None;
+        for _ in 0..PASSES {
+            let goal = self.goal(&p, hip, &constraints);
+            let travel = sub(&goal, &p);
+            let length = norm(&travel);
+            let direction = match unit(&travel) {
+                Some(direction) if length > self.skin => direction,
+                _ => {
+                    if count == 0 {
+                        p = goal; // At the HIP (or within the skin of it).
+                    }
+                    break;
+                }
+            };
+            let (s, hit) = self.sweep(&p, &direction, length);
+            p = if hit.is_none() { goal } else { add_scaled(&p, s, &direction) };
+            match hit {
+                None if count == 0 => break, // Reached the HIP: free space.
+                None => {
+                    // Reached the constrained goal: a new round towards the HIP.
+                    constraints = [None; MAX_CONSTRAINTS];
+                    count = 0;
+                    contact = None;
+                }
+                Some((index, normal)) => {
+                    if contact.is_none() {
+                        contact = Some(index);
+                    }
+                    let curved_cavity = self.objects.get(index).copied().flatten().map_or(false, |o| {
+                        o.kind == ObjectKind::Cavity
+                            && matches!(
+                                o.shape,
+                                Shape::Sphere { .. }
+                                    | Shape::Box { .. }
+                                    | Shape::Capsule { .. }
+                                    | Shape::Cylinder { .. }
+                            )
+                    });
+                    let new = if curved_cavity {
+                        Constraint::Inside { object: index }
+                    } else {
+                        Constraint::Plane { normal, point: p }
+                    };
+                    // The same plane or cavity again replaces the old one.
+                    let same = constraints.iter().position(|c| match (c, &new) {
+                        (Some(Constraint::Plane { normal: a, .. }), Constraint::Plane { normal: b, .. }) => {
+                            dot(a, b) > S::ONE - S::from_f64(1e-9)
+                        }
+                        (Some(Constraint::Inside { object: a }), Constraint::Inside { object: b }) => a == b,
+                        _ => false,
+                    });
+                    match same {
+                        Some(i) => {
+                            if let Some(slot) = constraints.get_mut(i) {
+                                *slot = Some(new);
+                            }
+                        }
+                        None if count < MAX_CONSTRAINTS => {
+                            if let Some(slot) = constraints.get_mut(count) {
+                                *slot = Some(new);
+                            }
+                            count += 1;
+                        }
+                        None => break, // More surfaces than a corner: stay.
+                    }
+                }
+            }
+        }
+        // A round ended by the pass limit while constrained is still in contact.
+        (p, contact)
+    }
+
+    /// The point closest to `hip` on the constraints (see the module docs), `p` when none of
+    /// the candidate solutions is feasible.
+    fn goal(
+        &self,
+        p: &[S; M],
+        hip: &[S; M],
+        constraints: &[Option<Constraint<S, M>>; MAX_CONSTRAINTS],
+    ) -> [S; M] {
+        let mut planes: [([S; M], [S; M]); MAX_CONSTRAINTS] = [([S::ZERO; M], [S::ZERO; M]); MAX_CONSTRAINTS];
+        let mut k = 0;
+        for c in constraints.iter().flatten() {
+            if let Constraint::Plane { normal, point } = c {
+                if let Some(slot) = planes.get_mut(k) {
+                    *slot = (*normal, *point);
+                    k += 1;
+                }
+            }
+        }
+        let mut goal = project_on_planes(hip, planes.get(..k).unwrap_or(&[]), self.skin).unwrap_or(*p);
+        for c in constraints.iter().flatten() {
+            if let Constraint::Inside { object } = c {
+                if let Some(object) = self.objects.get(*object).copied().flatten() {
+                    let margin = self.radius + self.skin * S::from_f64(1.5);
+                    goal = object.shape.project_inside(&goal, margin).unwrap_or(goal);
+                }
+            }
+        }
+        goal
+    }
+
+    /// Conservative advancement from `p` along the unit `direction` for up to `length`: the
+    /// distance travelled and, if stopped short, the object hit with its free-side normal.
+    fn sweep(&self, p: &[S; M], direction: &[S; M], length: S) -> (S, Option<(usize, [S; M])>) {
+        let mut s = S::ZERO;
+        let mut last = None;
+        for _ in 0..ADVANCE_STEPS {
+            let y = add_scaled(p, s, direction);
+            let remaining = length - s;
+            let mut step = remaining;
+            let mut hit = None;
+            for (index, slot) in self.objects.iter().enumerate() {
+                if let Some(object) = slot {
+                    if let Some((safe, normal)) = self.safe_step(object, &y, direction, step) {
+                        if safe < step {
+                            step = safe;
+                            hit = Some((index, normal));
+                        }
+                    }
+                }
+            }
+            match hit {
+                None => return (length, None),
+                Some(_) if step <= self.skin => return (s, hit),
+                Some(_) => {
+                    s += step;
+                    last = hit;
+                }
+            }
+        }
+        (s, last)
+    }
+
+    /// How far the proxy can certainly move from `y` along `d` (up to `limit`) without
+    /// coming within `r + ε` of `object`, with the free-side normal there; `None` when the
+    /// object does not limit it (or is degenerate).
+    fn safe_step(&self, object: &Object<'a, S, M>, y: &[S; M], d: &[S; M], limit: S) -> Option<(S, [S; M])> {
+        let margin = self.radius + self.skin;
+        let solid = object.kind == ObjectKind::Solid;
+        match object.shape {
+            Shape::Mesh(mesh) => {
+                let mut best: Option<(S, [S; M])> = None;
+                let bound = core::cell::Cell::new(limit);
+                mesh.for_each_candidate(
+                    |min, max| segment_meets_box(y, d, bound.get(), min, max, margin),
+                    |face| {
+                        if let Some([a, b, c]) = mesh.triangle(face) {
+                            let (q, _) = crate::shape::closest_on_triangle(y, &a, &b, &c);
+                            let offset = sub(y, &q);
+                            let normal = match unit(&offset) {
+                                Some(n) => n,
+                                None => match mesh.face_normals.get(face) {
+                                    Some(n) if dot(n, d) <= S::ZERO => *n,
+                                    Some(n) => add_scaled(&[S::ZERO; M], -S::ONE, n),
+                                    None => return,
+                                },
+                            };
+                            let step = convex_step(norm(&offset) - margin, dot(d, &normal), limit);
+                            if step < bound.get() {
+                                bound.set(step);
+                                best = Some((step, normal));
+                            }
+                        }
+                    },
+                );
+                best
+            }
+            Shape::HalfSpace { point, normal } => {
+                let n = if solid { normal } else { negate(&normal) };
+                let gap = dot(&n, &sub(y, &point)) - margin;
+                Some((convex_step(gap, dot(d, &n), limit), n))
+            }
+            Shape::Polytope { planes } if solid => {
+                // Free while outside any one plane: the longest step any plane allows.
+                let mut best: Option<(S, [S; M])> = None;
+                for plane in planes {
+                    let gap = dot(&plane.normal, y) - plane.offset - margin;
+                    let rate = dot(d, &plane.normal);
+                    let step = if gap > -self.skin && rate > S::ZERO {
+                        limit
+                    } else {
+                        convex_step(gap, rate, limit)
+                    };
+                    if best.map_or(true, |(b, _)| step > b) {
+                        best = Some((step, plane.normal));
+                    }
+                }
+                best
+            }
+            Shape::Polytope { planes } => {
+                // Free while inside every plane: the shortest step any plane allows.
+                let mut best: Option<(S, [S; M])> = None;
+                for plane in planes {
+                    let n = negate(&plane.normal);
+                    let gap = dot(&n, y) + plane.offset - margin;
+                    let step = convex_step(gap, dot(d, &n), limit);
+                    if best.map_or(true, |(b, _)| step < b) {
+                        best = Some((step, n));
+                    }
+                }
+                best
+            }
+            _ if solid => {
+                let closest = object.shape.closest(y)?;
+                let offset = sub(y, &closest.point);
+                let (distance, normal) = if closest.inside {
+                    (-norm(&offset), closest.normal)
+                } else {
+                    (norm(&offset), unit(&offset).unwrap_or(closest.normal))
+                };
+                Some((convex_step(distance - margin, dot(d, &normal), limit), normal))
+            }
+            _ => {
+                // A curved cavity: the exit from its (convex) inner parallel body.
+                let inside = |z: &[S; M]| object.shape.signed_distance(z).map_or(false, |sd| sd <= -margin);
+                let normal = negate(&object.shape.closest(y)?.normal);
+                if inside(&add_scaled(y, limit, d)) {
+                    return Some((limit, normal));
+                }
+                if !inside(y) {
+                    return Some((S::ZERO, normal));
+                }
+                let (mut low, mut high) = (S::ZERO, limit);
+                for _ in 0..BISECTIONS {
+                    if high - low <= self.skin * S::from_f64(0.5) {
+                        break;
+                    }
+                    let middle = (low + high) * S::from_f64(0.5);
+                    if inside(&add_scaled(y, middle, d)) {
+                        low = middle;
+                    } else {
+                        high = middle;
+                    }
+                }
+                let normal = negate(&object.shape.closest(&add_scaled(y, low, d))?.normal);
+                Some((low, normal))
+            }
+        }
+    }
+}
+
+fn negate<S: Real, const M: usize>(v: &[S; M]) -> [S; M] {
+    let mut out = *v;
+    for x in out.iter_mut() {
+        *x = -*x;
+    }
+    out
+}
+
+/// The step along a direction with rate `rate = d · n` towards a convex obstacle whose
+/// supporting plane is `gap` away along `−n`: unlimited when moving away (`rate ≥ 0`), else
+/// `gap / −rate`; 0 when already within the margin.
+fn convex_step<S: Real>(gap: S, rate: S, limit: S) -> S {
+    if rate >= S::ZERO {
+        limit
+    } else if gap <= S::ZERO {
+        S::ZERO
+    } else {
+        (gap / -rate).min(limit)
+    }
+}
+
+/// The point closest to `x` satisfying `n_i · (y − c_i) ≥ 0` for every plane `(n_i, c_i)`:
+/// each subset of the planes is tried as equalities, the feasible solution closest to `x`
+/// kept; `None` if none is feasible (within `tolerance`).
+pub fn project_on_planes<S: Real, const M: usize>(
+    x: &[S; M],
+    planes: &[([S; M], [S; M])],
+    tolerance: S,
+) -> Option<[S; M]> {
+    let k = planes.len().min(MAX_CONSTRAINTS);
+    let mut best: Option<(S, [S; M])> = None;
+    for mask in 0u32..(1u32 << k) {
+        let mut chosen = [0usize; MAX_CONSTRAINTS];
+        let mut size = 0;
+        for (i, slot) in (0..k).filter(|i| mask & (1 << i) != 0).zip(0..) {
+            if let Some(c) = chosen.get_mut(slot) {
+                *c = i;
+                size = slot + 1;
+            }
+        }
+        let candidate = match equality_projection(x, planes, chosen.get(..size).unwrap_or(&[])) {
+            Some(y) => y,
+            None => continue,
+        };
+        let feasible = planes.iter().all(|(n, c)| dot(n, &sub(&candidate, c)) >= -tolerance);
+        let distance = norm(&sub(&candidate, x));
+        if feasible && best.map_or(true, |(d, _)| distance < d) {
+            best = Some((distance, candidate));
+        }
+    }
+    best.map(|(_, y)| y)
+}
+
+/// `x − Σ λ_i n_i` on the planes `chosen` as equalities (`G λ = b`, Cramer's rule); `None`
+/// for (nearly) dependent normals.
+fn equality_projection<S: Real, const M: usize>(
+    x: &[S; M],
+    planes: &[([S; M], [S; M])],
+    chosen: &[usize],
+) -> Option<[S; M]> {
+    let mut normals = [[S::ZERO; M]; MAX_CONSTRAINTS];
+    let mut b = [S::ZERO; MAX_CONSTRAINTS];
+    for (slot, &i) in chosen.iter().enumerate() {
+        let (n, c) = planes.get(i)?;
+        *normals.get_mut(slot)? = *n;
+        *b.get_mut(slot)? = dot(n, &sub(x, c));
+    }
+    let g = |i: usize, j: usize| match (normals.get(i), normals.get(j)) {
+        (Some(a), Some(b)) => dot(a, b),
+        _ => S::ZERO,
+    };
+    let singular = S::from_f64(1e-10);
+    let lambda: [S; MAX_CONSTRAINTS] = match chosen.len() {
+        0 => return Some(*x),
+        1 => [b[0] / g(0, 0), S::ZERO, S::ZERO],
+        2 => {
+            let det = g(0, 0) * g(1, 1) - g(0, 1) * g(1, 0);
+            if !exceeds(det.abs(), singular) {
+                return None;
+            }
+            [(b[0] * g(1, 1) - g(0, 1) * b[1]) / det, (g(0, 0) * b[1] - b[0] * g(1, 0)) / det, S::ZERO]
+        }
+        3 => {
+            let m = [[g(0, 0), g(0, 1), g(0, 2)], [g(1, 0), g(1, 1), g(1, 2)], [g(2, 0), g(2, 1), g(2, 2)]];
+            let det3 = |m: &[[S; 3]; 3]| {
+                m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                    - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                    + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+            };
+            let det = det3(&m);
+            if !exceeds(det.abs(), singular) {
+                return None;
+            }
+            let mut lambda = [S::ZERO; 3];
+            for (column, l) in lambda.iter_mut().enumerate() {
+                let mut replaced = m;
+                for (r, value) in replaced.iter_mut().zip(b.iter()) {
+                    if let Some(x) = r.get_mut(column) {
+                        *x = *value;
+                    }
+                }
+                *l = det3(&replaced) / det;
+            }
+            lambda
+        }
+        _ => return None,
+    };
+    let mut y = *x;
+    for (n, l) in normals.iter().zip(lambda.iter()).take(chosen.len()) {
+        y = add_scaled(&y, -*l, n);
+    }
+    if finite(&y) {
+        Some(y)
+    } else {
+        None
+    }
+}
+
+impl<'a, S: Real, const K: usize, const M: usize> ReferenceSource<S, M> for GodObject<'a, S, K, M> {
+    fn update_reference(
+        &mut self,
+        task_position: &[S; M],
+        parameters: &mut ImpedanceParameters<S, M>,
+    ) -> TaskReference<S, M> {
+        let output = self.render(task_position);
+        let (reference, stiffness, damping) = if output.valid && output.contact.is_none() {
+            self.effect_state.apply(&self.effect, task_position, output.stiffness, output.damping)
+        } else {
+            (output.proxy, output.stiffness, output.damping)
+        };
+        parameters.stiffness = [stiffness; M];
+        parameters.damping = [damping; M];
+        TaskReference::at_rest(reference)
+    }
+}

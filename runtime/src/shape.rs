@@ -1,0 +1,737 @@
+//! Geometry for haptic rendering in an `M`-dimensional task space (2-D and 3-D rigs alike):
+//! the shapes of virtual objects, their closest boundary points and outward normals, and
+//! triangle meshes with a bounding-volume hierarchy.
+//!
+//! Every query is a fixed number of arithmetic steps on fixed-size arrays: nothing allocates,
+//! slices are read with `get` (a malformed mesh gives no contact, not a panic), and a
+//! degenerate shape (zero radius, zero-length axis, …) or a non-finite result gives `None`.
+//!
+//! Closest points, for a query `p` (all exact unless said otherwise):
+//!
+//! * **half-space** `n · (x − q) < 0`: `p − (n · (p − q)) n`;
+//! * **sphere** (a ball in `M` dimensions) of centre `c`, radius `R`: `c + R (p − c)/|p − c|`;
+//! * **box** with centre `c`, orthonormal axes `a_i` and half extents `h_i`: outside, the
+//!   local coordinates `a_i · (p − c)` clamped to `[−h_i, h_i]`; inside, the nearest face;
+//! * **capsule** (segment `ab` swept by a ball of radius `R`): the sphere rule about the
+//!   segment's closest point `a + clamp(t, 0, 1)(b − a)`, `t = (p − a)·(b − a)/|b − a|²`;
+//! * **cylinder** (axis `ab`, radius `R`, flat caps): the axial coordinate clamped to the
+//!   caps and the radial distance to `R` outside, the nearer of side and cap inside;
+//! * **convex polytope** `{x : n_i · x ≤ d_i}`: the projection on the plane of largest
+//!   `n_i · p − d_i` (exact inside; outside it is the plane the god-object proxy sees, so
+//!   edges and corners of the polytope stay sharp for it);
+//! * **triangle mesh**: the closest point over the triangles (Ericson, *Real-Time Collision
+//!   Detection*, 5.1.5, dot products only so any `M` works), pruned with the mesh's AABB tree;
+//!   with vertex normals the normal is interpolated from the barycentric coordinates of the
+//!   closest point (force shading). A mesh is a surface: it has no inside.
+
+use crate::Real;
+
+/// Depth of the traversal stack of a mesh's BVH (a tree of up to 2⁶⁴ leaves).
+pub const BVH_STACK: usize = 64;
+
+pub(crate) fn dot<S: Real, const M: usize>(a: &[S; M], b: &[S; M]) -> S {
+    let mut sum = S::ZERO;
+    for (x, y) in a.iter().zip(b.iter()) {
+        sum += *x * *y;
+    }
+    sum
+}
+
+pub(crate) fn sub<S: Real, const M: usize>(a: &[S; M], b: &[S; M]) -> [S; M] {
+    let mut out = *a;
+    for (o, y) in out.iter_mut().zip(b.iter()) {
+        *o -= *y;
+    }
+    out
+}
+
+/// `a + t b`.
+pub(crate) fn add_scaled<S: Real, const M: usize>(a: &[S; M], t: S, b: &[S; M]) -> [S; M] {
+    let mut out = *a;
+    for (o, y) in out.iter_mut().zip(b.iter()) {
+        *o += t * *y;
+    }
+    out
+}
+
+pub(crate) fn norm<S: Real, const M: usize>(a: &[S; M]) -> S {
+    dot(a, a).sqrt()
+}
+
+/// `a / |a|`, or `None` for a zero or non-finite vector.
+pub(crate) fn unit<S: Real, const M: usize>(a: &[S; M]) -> Option<[S; M]> {
+    let length = norm(a);
+    if length > S::ZERO && length.is_finite() {
+        let mut out = *a;
+        for o in out.iter_mut() {
+            *o = *o / length;
+        }
+        Some(out)
+    } else {
+        None
+    }
+}
+
+/// `x > bound`, false for NaN (so `!exceeds(..)` rejects NaN too).
+pub(crate) fn exceeds<S: Real>(x: S, bound: S) -> bool {
+    x > bound
+}
+
+pub(crate) fn finite<S: Real, const M: usize>(a: &[S; M]) -> bool {
+    a.iter().all(|x| x.is_finite())
+}
+
+/// The unit basis vector along axis `i` (the zero vector when `i >= M`).
+fn basis<S: Real, const M: usize>(i: usize) -> [S; M] {
+    let mut out = [S::ZERO; M];
+    if let Some(x) = out.get_mut(i) {
+        *x = S::ONE;
+    }
+    out
+}
+
+/// A unit vector perpendicular to the unit vector `u` (for `M >= 2`): the basis vector least
+/// aligned with `u`, made orthogonal to it.
+fn perpendicular<S: Real, const M: usize>(u: &[S; M]) -> [S; M] {
+    let mut best = 0;
+    for (i, x) in u.iter().enumerate() {
+        if x.abs() < u.get(best).map_or(S::ONE, |b| b.abs()) {
+            best = i;
+        }
+    }
+    let e = basis::<S, M>(best);
+    let v = add_scaled(&e, -dot(&e, u), u);
+    unit(&v).unwrap_or(e)
+}
+
+/// A plane `n · x = d` bounding a convex polytope `{x : n · x ≤ d}` (`n` unit, outward).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plane<S, const M: usize> {
+    /// Unit outward normal `n`.
+    pub normal: [S; M],
+    /// Offset `d`.
+    pub offset: S,
+}
+
+impl<S: Real, const M: usize> Plane<S, M> {
+    /// The plane through `point` with outward normal along `normal` (normalised here);
+    /// `None` for a zero or non-finite normal.
+    pub fn through(point: &[S; M], normal: &[S; M]) -> Option<Self> {
+        let normal = unit(normal)?;
+        Some(Self { normal, offset: dot(&normal, point) })
+    }
+}
+
+/// A node of a mesh's bounding-volume hierarchy (an AABB tree, built with the mesh at build
+/// time, see `hapticgen_codegen::mesh`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BvhNode<S, const M: usize> {
+    /// Lower corner of the box bounding every triangle below the node.
+    pub min: [S; M],
+    /// Upper corner.
+    pub max: [S; M],
+    /// A leaf (`count > 0`): index of its first face in the mesh's `faces`; an inner node:
+    /// index of its first child (the second is the next node).
+    pub first: u32,
+    /// Number of faces of a leaf; 0 for an inner node.
+    pub count: u32,
+}
+
+/// A triangle mesh held in borrowed (typically `const`, so in flash) arrays.
+#[derive(Clone, Copy, Debug)]
+pub struct Mesh<'a, S, const M: usize> {
+    /// Vertex positions.
+    pub vertices: &'a [[S; M]],
+    /// Triangles as vertex indices, ordered so every BVH leaf's faces are contiguous.
+    pub faces: &'a [[u32; 3]],
+    /// Unit normal of each face (used when the query point lies on the face's plane).
+    pub face_normals: &'a [[S; M]],
+    /// Unit normal of each vertex for force shading; empty for flat faces.
+    pub vertex_normals: &'a [[S; M]],
+    /// The BVH; node 0 is the root.
+    pub nodes: &'a [BvhNode<S, M>],
+}
+
+/// The closest point of a triangle `abc` to `p` with its barycentric coordinates.
+pub fn closest_on_triangle<S: Real, const M: usize>(
+    p: &[S; M],
+    a: &[S; M],
+    b: &[S; M],
+    c: &[S; M],
+) -> ([S; M], [S; 3]) {
+    let ab = sub(b, a);
+    let ac = sub(c, a);
+    let ap = sub(p, a);
+    let d1 = dot(&ab, &ap);
+    let d2 = dot(&ac, &ap);
+    if d1 <= S::ZERO && d2 <= S::ZERO {
+        return (*a, [S::ONE, S::ZERO, S::ZERO]);
+    }
+    let bp = sub(p, b);
+    let d3 = dot(&ab, &bp);
+    let d4 = dot(&ac, &bp);
+    if d3 >= S::ZERO && d4 <= d3 {
+        return (*b, [S::ZERO, S::ONE, S::ZERO]);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= S::ZERO && d1 >= S::ZERO && d3 <= S::ZERO {
+        let v = d1 / (d1 - d3);
+        return (add_scaled(a, v, &ab), [S::ONE - v, v, S::ZERO]);
+    }
+    let cp = sub(p, c);
+    let d5 = dot(&ab, &cp);
+    let d6 = dot(&ac, &cp);
+    if d6 >= S::ZERO && d5 <= d6 {
+        return (*c, [S::ZERO, S::ZERO, S::ONE]);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= S::ZERO && d2 >= S::ZERO && d6 <= S::ZERO {
+        let w = d2 / (d2 - d6);
+        return (add_scaled(a, w, &ac), [S::ONE - w, S::ZERO, w]);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= S::ZERO && (d4 - d3) >= S::ZERO && (d5 - d6) >= S::ZERO {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (add_scaled(b, w, &sub(c, b)), [S::ZERO, S::ONE - w, w]);
+    }
+    let denominator = va + vb + vc;
+    if !exceeds(denominator.abs(), S::ZERO) {
+        return (*a, [S::ONE, S::ZERO, S::ZERO]); // A degenerate triangle: any vertex.
+    }
+    let v = vb / denominator;
+    let w = vc / denominator;
+    (add_scaled(&add_scaled(a, v, &ab), w, &ac), [S::ONE - v - w, v, w])
+}
+
+/// Squared distance from `p` to the box `[min, max]` (0 inside).
+fn box_distance_squared<S: Real, const M: usize>(p: &[S; M], min: &[S; M], max: &[S; M]) -> S {
+    let mut sum = S::ZERO;
+    for i in 0..M {
+        let (x, lo, hi) = match (p.get(i), min.get(i), max.get(i)) {
+            (Some(x), Some(lo), Some(hi)) => (*x, *lo, *hi),
+            _ => continue,
+        };
+        let d = if x < lo {
+            lo - x
+        } else if x > hi {
+            x - hi
+        } else {
+            S::ZERO
+        };
+        sum += d * d;
+    }
+    sum
+}
+
+/// Whether the segment `p + s dir`, `s ∈ [0, length]`, meets the box `[min − r, max + r]`
+/// (slab test).
+pub(crate) fn segment_meets_box<S: Real, const M: usize>(
+    p: &[S; M],
+    dir: &[S; M],
+    length: S,
+    min: &[S; M],
+    max: &[S; M],
+    r: S,
+) -> bool {
+    let mut enter = S::ZERO;
+    let mut exit = length;
+    for i in 0..M {
+        let (x, d, lo, hi) = match (p.get(i), dir.get(i), min.get(i), max.get(i)) {
+            (Some(x), Some(d), Some(lo), Some(hi)) => (*x, *d, *lo - r, *hi + r),
+            _ => continue,
+        };
+        if d.abs() > S::ZERO {
+            let (a, b) = ((lo - x) / d, (hi - x) / d);
+            let (a, b) = if a <= b { (a, b) } else { (b, a) };
+            enter = enter.max(a);
+            exit = exit.min(b);
+            if enter > exit {
+                return false;
+            }
+        } else if x < lo || x > hi {
+            return false;
+        }
+    }
+    true
+}
+
+/// A face's closest point to a query, for [`Mesh::closest`] and the proxy's sweep.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FacePoint<S, const M: usize> {
+    /// Index of the face in the mesh's `faces`.
+    pub face: usize,
+    /// Closest point of the face.
+    pub point: [S; M],
+    /// Barycentric coordinates of `point`.
+    pub barycentric: [S; 3],
+}
+
+impl<'a, S: Real, const M: usize> Mesh<'a, S, M> {
+    /// The three vertices of face `face`; `None` for an index out of range.
+    pub fn triangle(&self, face: usize) -> Option<[[S; M]; 3]> {
+        let [i, j, k] = *self.faces.get(face)?;
+        Some([
+            *self.vertices.get(i as usize)?,
+            *self.vertices.get(j as usize)?,
+            *self.vertices.get(k as usize)?,
+        ])
+    }
+
+    /// Calls `visit(face)` for every face whose leaf box passes `keep(min, max)`, walking the
+    /// BVH from the root (children only of inner nodes that pass). Without a BVH every face is
+    /// visited.
+    pub fn for_each_candidate(
+        &self,
+        mut keep: impl FnMut(&[S; M], &[S; M]) -> bool,
+        mut visit: impl FnMut(usize),
+    ) {
+        if self.nodes.is_empty() {
+            for face in 0..self.faces.len() {
+                visit(face);
+            }
+            return;
+        }
+        let mut stack = [0u32; BVH_STACK];
+        let mut depth = 1;
+        while depth > 0 {
+            depth -= 1;
+            let node = match stack.get(depth).and_then(|&i| self.nodes.get(i as usize)) {
+                Some(node) => node,
+                None => continue,
+            };
+            if !keep(&node.min, &node.max) {
+                continue;
+            }
+            if node.count > 0 {
+                let first = node.first as usize;
+                for face in first..first.saturating_add(node.count as usize).min(self.faces.len()) {
+                    visit(face);
+                }
+            } else if depth + 2 <= BVH_STACK {
+                if let Some(slot) = stack.get_mut(depth) {
+                    *slot = node.first.saturating_add(1);
+                }
+                if let Some(slot) = stack.get_mut(depth + 1) {
+                    *slot = node.first;
+                }
+                depth += 2;
+            }
+        }
+    }
+
+    /// The face point closest to `p`, or `None` for an empty mesh.
+    pub fn closest(&self, p: &[S; M]) -> Option<FacePoint<S, M>> {
+        let mut best: Option<(S, FacePoint<S, M>)> = None;
+        let bound = core::cell::Cell::new(S::from_f64(f64::INFINITY));
+        self.for_each_candidate(
+            |min, max| box_distance_squared(p, min, max) <= bound.get(),
+            |face| {
+                if let Some([a, b, c]) = self.triangle(face) {
+                    let (point, barycentric) = closest_on_triangle(p, &a, &b, &c);
+                    let d = dot(&sub(p, &point), &sub(p, &point));
+                    if best.map_or(true, |(e, _)| d < e) {
+                        best = Some((d, FacePoint { face, point, barycentric }));
+                        bound.set(d);
+                    }
+                }
+            },
+        );
+        best.map(|(_, point)| point)
+    }
+
+    /// The outward normal at a face point: the vertex normals interpolated with its barycentric
+    /// coordinates when the mesh has them (force shading), else the face normal.
+    pub fn normal_at(&self, point: &FacePoint<S, M>) -> Option<[S; M]> {
+        let face = self.faces.get(point.face)?;
+        if !self.vertex_normals.is_empty() {
+            let mut n = [S::ZERO; M];
+            for (index, weight) in face.iter().zip(point.barycentric.iter()) {
+                n = add_scaled(&n, *weight, self.vertex_normals.get(*index as usize)?);
+            }
+            if let Some(n) = unit(&n) {
+                return Some(n);
+            }
+        }
+        self.face_normals.get(point.face).copied()
+    }
+}
+
+/// A shape's geometry in an `M`-dimensional task space.
+#[derive(Clone, Copy, Debug)]
+pub enum Shape<'a, S, const M: usize> {
+    /// The half-space `n · (x − q) < 0`.
+    HalfSpace {
+        /// A point `q` of the boundary plane.
+        point: [S; M],
+        /// Unit outward normal `n` (see [`Shape::half_space`]).
+        normal: [S; M],
+    },
+    /// A ball (a disc in 2-D, a sphere's interior in 3-D).
+    Sphere {
+        /// Centre.
+        center: [S; M],
+        /// Radius, > 0 and finite.
+        radius: S,
+    },
+    /// A box with its own orthonormal axes.
+    Box {
+        /// Centre.
+        center: [S; M],
+        /// Orthonormal axes (rows); the identity for an axis-aligned box.
+        axes: [[S; M]; M],
+        /// Half side lengths along the axes, > 0.
+        half_extents: [S; M],
+    },
+    /// The points within `radius` of the segment `ab`.
+    Capsule {
+        /// One end of the axis.
+        a: [S; M],
+        /// The other end.
+        b: [S; M],
+        /// Radius, > 0.
+        radius: S,
+    },
+    /// The points within `radius` of the line `ab` and between the planes through `a` and `b`
+    /// perpendicular to it (flat caps).
+    Cylinder {
+        /// Centre of one cap.
+        a: [S; M],
+        /// Centre of the other.
+        b: [S; M],
+        /// Radius, > 0.
+        radius: S,
+    },
+    /// The convex polytope `{x : n_i · x ≤ d_i}` (at least one plane).
+    Polytope {
+        /// The bounding planes.
+        planes: &'a [Plane<S, M>],
+    },
+    /// A triangle mesh (a surface: it has no inside).
+    Mesh(&'a Mesh<'a, S, M>),
+}
+
+/// The closest boundary point of a shape to a query point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Closest<S, const M: usize> {
+    /// Closest boundary point.
+    pub point: [S; M],
+    /// Unit outward normal of the boundary at `point` (for a mesh, the side of the query).
+    pub normal: [S; M],
+    /// `true` when the query point is strictly inside the shape (never for a mesh).
+    pub inside: bool,
+}
+
+impl<'a, S: Real, const M: usize> Shape<'a, S, M> {
+    /// A half-space through `point` whose outward normal is along `normal` (normalised here);
+    /// `None` for a zero or non-finite normal.
+    pub fn half_space(point: [S; M], normal: [S; M]) -> Option<Self> {
+        Some(Shape::HalfSpace { point, normal: unit(&normal)? })
+    }
+
+    /// An axis-aligned box.
+    pub fn aligned_box(center: [S; M], half_extents: [S; M]) -> Self {
+        let mut axes = [[S::ZERO; M]; M];
+        for (i, row) in axes.iter_mut().enumerate() {
+            *row = basis(i);
+        }
+        Shape::Box { center, axes, half_extents }
+    }
+
+    /// Closest boundary point to `p` (see the module docs); `None` for a degenerate shape or
+    /// a non-finite result. For a query at a sphere's exact centre the boundary point along
+    /// `+x1` is returned.
+    pub fn closest(&self, p: &[S; M]) -> Option<Closest<S, M>> {
+        let result = match *self {
+            Shape::HalfSpace { point, normal } => {
+                let height = dot(&normal, &sub(p, &point));
+                Closest { point: add_scaled(p, -height, &normal), normal, inside: height < S::ZERO }
+            }
+            Shape::Sphere { center, radius } => sphere(&center, radius, p)?,
+            Shape::Box { center, axes, half_extents } => oriented_box(&center, &axes, &half_extents, p)?,
+            Shape::Capsule { a, b, radius } => {
+                let axis = sub(&b, &a);
+                let length_squared = dot(&axis, &axis);
+                let t = if length_squared > S::ZERO {
+                    (dot(&sub(p, &a), &axis) / length_squared).clamp_to(S::ZERO, S::ONE)
+                } else {
+                    S::ZERO
+                };
+                sphere(&add_scaled(&a, t, &axis), radius, p)?
+            }
+            Shape::Cylinder { a, b, radius } => cylinder(&a, &b, radius, p)?,
+            Shape::Polytope { planes } => {
+                let mut best: Option<(S, &Plane<S, M>)> = None;
+                for plane in planes {
+                    let value = dot(&plane.normal, p) - plane.offset;
+                    if best.map_or(true, |(v, _)| value > v) {
+                        best = Some((value, plane));
+                    }
+                }
+                let (value, plane) = best?;
+                Closest {
+                    point: add_scaled(p, -value, &plane.normal),
+                    normal: plane.normal,
+                    inside: value < S::ZERO,
+                }
+            }
+            Shape::Mesh(mesh) => {
+                let face = mesh.closest(p)?;
+                let shading = mesh.normal_at(&face)?;
+                // The side of the surface the query is on.
+                let normal = if dot(&shading, &sub(p, &face.point)) < S::ZERO {
+                    let mut flipped = shading;
+                    for x in flipped.iter_mut() {
+                        *x = -*x;
+                    }
+                    flipped
+                } else {
+                    shading
+                };
+                Closest { point: face.point, normal, inside: false }
+            }
+        };
+        if finite(&result.point) && finite(&result.normal) {
+            Some(result)
+        } else {
+            None
+        }
+    }
+
+    /// Signed distance from `p` to the boundary: negative inside (for a polytope outside, the
+    /// largest plane distance, a lower bound of the distance; for a mesh, unsigned).
+    pub fn signed_distance(&self, p: &[S; M]) -> Option<S> {
+        let closest = self.closest(p)?;
+        if let Shape::Polytope { .. } = self {
+            return Some(dot(&closest.normal, &sub(p, &closest.point)));
+        }
+        let distance = norm(&sub(p, &closest.point));
+        Some(if closest.inside { -distance } else { distance })
+    }
+
+    /// The point of the shape shrunk by `margin` (its inner parallel body, convex for every
+    /// convex shape) closest to `p`: `p` itself when it is inside it. `None` for a polytope, a
+    /// half-space and a mesh (flat, so the proxy treats them with planes), or when `margin`
+    /// leaves nothing.
+    pub fn project_inside(&self, p: &[S; M], margin: S) -> Option<[S; M]> {
+        let ball = |center: &[S; M], radius: S| {
+            let radius = radius - margin;
+            if !exceeds(radius, S::ZERO) {
+                return None;
+            }
+            let offset = sub(p, center);
+            let length = norm(&offset);
+            if length <= radius {
+                Some(*p)
+            } else {
+                Some(add_scaled(center, radius / length, &offset))
+            }
+        };
+        match *self {
+            Shape::Sphere { center, radius } => ball(&center, radius),
+            Shape::Capsule { a, b, radius } => {
+                let axis = sub(&b, &a);
+                let length_squared = dot(&axis, &axis);
+                let t = if length_squared > S::ZERO {
+                    (dot(&sub(p, &a), &axis) / length_squared).clamp_to(S::ZERO, S::ONE)
+                } else {
+                    S::ZERO
+                };
+                ball(&add_scaled(&a, t, &axis), radius)
+            }
+            Shape::Box { center, axes, half_extents } => {
+                let offset = sub(p, &center);
+                let mut out = center;
+                for (axis, half) in axes.iter().zip(half_extents.iter()) {
+                    let h = *half - margin;
+                    if !exceeds(h, S::ZERO) {
+                        return None;
+                    }
+                    out = add_scaled(&out, dot(axis, &offset).clamp_to(-h, h), axis);
+                }
+                Some(out)
+            }
+            Shape::Cylinder { a, b, radius } => {
+                let axis = sub(&b, &a);
+                let length = norm(&axis);
+                let u = unit(&axis)?;
+                let middle = add_scaled(&a, S::from_f64(0.5), &axis);
+                let (h, r) = (length * S::from_f64(0.5) - margin, radius - margin);
+                if !(h > S::ZERO && r > S::ZERO) {
+                    return None;
+                }
+                let offset = sub(p, &middle);
+                let axial = dot(&offset, &u);
+                let radial = add_scaled(&offset, -axial, &u);
+                let rho = norm(&radial);
+                let radial = if rho > r { add_scaled(&[S::ZERO; M], r / rho, &radial) } else { radial };
+                let mut out = add_scaled(&middle, axial.clamp_to(-h, h), &u);
+                out = add_scaled(&out, S::ONE, &radial);
+                Some(out)
+            }
+            Shape::HalfSpace { .. } | Shape::Polytope { .. } | Shape::Mesh(_) => None,
+        }
+    }
+}
+
+fn sphere<S: Real, const M: usize>(center: &[S; M], radius: S, p: &[S; M]) -> Option<Closest<S, M>> {
+    if !radius.is_finite() || radius <= S::ZERO {
+        return None;
+    }
+    let offset = sub(p, center);
+    let length = dot(&offset, &offset).sqrt();
+    let mut point = *center;
+    let normal = if length > S::ZERO {
+        for (x, o) in point.iter_mut().zip(offset.iter()) {
+            *x += *o * (radius / length);
+        }
+        let mut n = offset;
+        for x in n.iter_mut() {
+            *x = *x / length;
+        }
+        n
+    } else {
+        if let Some(first) = point.first_mut() {
+            *first += radius;
+        }
+        basis(0)
+    };
+    Some(Closest { point, normal, inside: length < radius })
+}
+
+fn oriented_box<S: Real, const M: usize>(
+    center: &[S; M],
+    axes: &[[S; M]; M],
+    half: &[S; M],
+    p: &[S; M],
+) -> Option<Closest<S, M>> {
+    if !half.iter().all(|h| *h > S::ZERO) {
+        return None;
+    }
+    let offset = sub(p, center);
+    let mut local = [S::ZERO; M];
+    for (l, axis) in local.iter_mut().zip(axes.iter()) {
+        *l = dot(axis, &offset);
+    }
+    let inside = local.iter().zip(half.iter()).all(|(l, h)| l.abs() < *h);
+    let mut clamped = local;
+    for (c, h) in clamped.iter_mut().zip(half.iter()) {
+        *c = c.clamp_to(-*h, *h);
+    }
+    let mut face_normal = None;
+    if inside {
+        // Out through the nearest face.
+        let mut best: Option<(S, usize)> = None;
+        for (i, (l, h)) in local.iter().zip(half.iter()).enumerate() {
+            let gap = *h - l.abs();
+            if best.map_or(true, |(g, _)| gap < g) {
+                best = Some((gap, i));
+            }
+        }
+        let (_, i) = best?;
+        let sign = if *local.get(i)? >= S::ZERO { S::ONE } else { -S::ONE };
+        *clamped.get_mut(i)? = sign * *half.get(i)?;
+        face_normal = Some(add_scaled(&[S::ZERO; M], sign, axes.get(i)?));
+    }
+    let mut point = *center;
+    for (c, axis) in clamped.iter().zip(axes.iter()) {
+        point = add_scaled(&point, *c, axis);
+    }
+    let normal = match face_normal {
+        Some(n) => n,
+        None => outward(p, &point, axes, &local, half)?,
+    };
+    Some(Closest { point, normal, inside })
+}
+
+/// The outward normal at `point` of a box for a query `p` outside (or on) it.
+fn outward<S: Real, const M: usize>(
+    p: &[S; M],
+    point: &[S; M],
+    axes: &[[S; M]; M],
+    local: &[S; M],
+    half: &[S; M],
+) -> Option<[S; M]> {
+    if let Some(n) = unit(&sub(p, point)) {
+        return Some(n);
+    }
+    // On the boundary: the face the query is farthest along.
+    let mut best: Option<(S, usize)> = None;
+    for (i, (l, h)) in local.iter().zip(half.iter()).enumerate() {
+        let ratio = l.abs() - *h;
+        if best.map_or(true, |(r, _)| ratio > r) {
+            best = Some((ratio, i));
+        }
+    }
+    let (_, i) = best?;
+    let sign = if *local.get(i)? >= S::ZERO { S::ONE } else { -S::ONE };
+    Some(add_scaled(&[S::ZERO; M], sign, axes.get(i)?))
+}
+
+fn cylinder<S: Real, const M: usize>(a: &[S; M], b: &[S; M], radius: S, p: &[S; M]) -> Option<Closest<S, M>> {
+    if !(radius > S::ZERO && radius.is_finite()) {
+        return None;
+    }
+    let axis = sub(b, a);
+    let u = unit(&axis)?;
+    let half = norm(&axis) * S::from_f64(0.5);
+    let middle = add_scaled(a, S::from_f64(0.5), &axis);
+    let offset = sub(p, &middle);
+    let axial = dot(&offset, &u);
+    let radial = add_scaled(&offset, -axial, &u);
+    let rho = norm(&radial);
+    let e = if rho > S::ZERO { add_scaled(&[S::ZERO; M], S::ONE / rho, &radial) } else { perpendicular(&u) };
+    let axial_sign = if axial >= S::ZERO { S::ONE } else { -S::ONE };
+    let inside = axial.abs() < half && rho < radius;
+    let (along, out, normal) = if inside {
+        if half - axial.abs() < radius - rho {
+            (axial_sign * half, rho, add_scaled(&[S::ZERO; M], axial_sign, &u))
+        } else {
+            (axial, radius, e)
+        }
+    } else {
+        let along = axial.clamp_to(-half, half);
+        let out = rho.min(radius);
+        let point = add_scaled(&add_scaled(&middle, along, &u), out, &e);
+        let normal = match unit(&sub(p, &point)) {
+            Some(n) => n,
+            None if axial.abs() >= half => add_scaled(&[S::ZERO; M], axial_sign, &u),
+            None => e,
+        };
+        (along, out, normal)
+    };
+    let point = add_scaled(&add_scaled(&middle, along, &u), out, &e);
+    Some(Closest { point, normal, inside })
+}
+
+/// What an object feels like in contact.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material<S> {
+    /// `K_d` in contact, N/m.
+    pub stiffness: S,
+    /// `B_d` in contact, N·s/m.
+    pub damping: S,
+    /// Static friction coefficient `μ_s` (the proxy sticks while the device is within the
+    /// cone of half-angle `atan μ_s` about the normal), ≥ 0.
+    pub static_friction: S,
+    /// Dynamic friction coefficient `μ_d` (while sliding, the proxy trails on the cone of
+    /// half-angle `atan μ_d`), `0 ≤ μ_d ≤ μ_s`.
+    pub dynamic_friction: S,
+}
+
+impl<S: Real> Material<S> {
+    /// A frictionless material.
+    pub fn frictionless(stiffness: S, damping: S) -> Self {
+        Self { stiffness, damping, static_friction: S::ZERO, dynamic_friction: S::ZERO }
+    }
+}
+
+/// One virtual object: geometry, solid or cavity, and material.
+#[derive(Clone, Copy, Debug)]
+pub struct Object<'a, S, const M: usize> {
+    /// Geometry.
+    pub shape: Shape<'a, S, M>,
+    /// Solid (keep out) or cavity (keep in); a mesh is a surface whichever is set.
+    pub kind: crate::render::ObjectKind,
+    /// Stiffness, damping and friction.
+    pub material: Material<S>,
+}

@@ -1,0 +1,611 @@
+//! Rendering in 2-D and 3-D (`shape`, `spatial`, `proxy`): closest points and depths of every
+//! shape against closed-form signed distances computed independently here, the god-object
+//! proxy on planes, edges, corners, curved solids and cavities against closed forms, thin
+//! plates, friction's stick and slip, and passivity on a sliding cycle.
+
+use hapticgen_runtime::control::ImpedanceParameters;
+use hapticgen_runtime::proxy::{project_on_planes, GodObject};
+use hapticgen_runtime::render::ObjectKind;
+use hapticgen_runtime::shape::{closest_on_triangle, Material, Object, Plane, Shape};
+use hapticgen_runtime::spatial::MinDistanceScene;
+use hapticgen_runtime::tick::ReferenceSource;
+use rand::rngs::SmallRng;
+use rand::{Rng, SeedableRng};
+
+type V = [f64; 3];
+
+fn sub(a: V, b: V) -> V {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn dot(a: V, b: V) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn norm(a: V) -> f64 {
+    dot(a, a).sqrt()
+}
+fn scale(a: V, s: f64) -> V {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+fn add(a: V, b: V) -> V {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+fn cross(a: V, b: V) -> V {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+fn unit(a: V) -> V {
+    scale(a, 1.0 / norm(a))
+}
+
+/// Inigo Quilez's signed distance of an axis-aligned box (half extents `h`) at local `q`.
+fn box_sdf(q: V, h: V) -> f64 {
+    let d = [q[0].abs() - h[0], q[1].abs() - h[1], q[2].abs() - h[2]];
+    let outside = norm([d[0].max(0.0), d[1].max(0.0), d[2].max(0.0)]);
+    outside + d[0].max(d[1]).max(d[2]).min(0.0)
+}
+
+/// Signed distance of a capped cylinder (axial half length `h`, radius `r`) by its 2-D
+/// (radial, axial) reduction.
+fn cylinder_sdf(radial: f64, axial: f64, r: f64, h: f64) -> f64 {
+    let d = [radial - r, axial.abs() - h];
+    norm([d[0].max(0.0), d[1].max(0.0), 0.0]) + d[0].max(d[1]).min(0.0)
+}
+
+/// Distance to a segment by dense sampling of its parameter (independent of the clamp).
+fn segment_distance(a: V, b: V, p: V) -> f64 {
+    (0..=20_000)
+        .map(|i| norm(sub(p, add(a, scale(sub(b, a), i as f64 / 20_000.0)))))
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn random_point(rng: &mut SmallRng, extent: f64) -> V {
+    [rng.gen_range(-extent..extent), rng.gen_range(-extent..extent), rng.gen_range(-extent..extent)]
+}
+
+/// A rotation from three angles (z–y–x), as orthonormal rows.
+fn rotation(a: f64, b: f64, c: f64) -> [V; 3] {
+    let (sa, ca, sb, cb, sc, cc) = (a.sin(), a.cos(), b.sin(), b.cos(), c.sin(), c.cos());
+    [
+        [ca * cb, ca * sb * sc - sa * cc, ca * sb * cc + sa * sc],
+        [sa * cb, sa * sb * sc + ca * cc, sa * sb * cc - ca * sc],
+        [-sb, cb * sc, cb * cc],
+    ]
+}
+
+/// Checks a shape's closest point against an independent signed distance `sdf`: the
+/// reported point is on the boundary (`sdf ≈ 0`), its distance from `p` is `|sdf(p)|`, the
+/// inside flag is the sign, and the normal is along `p − point` (outward: against it inside).
+fn check_shape(
+    shape: Shape<f64, 3>,
+    sdf: impl Fn(V) -> f64,
+    extent: f64,
+    seed: u64,
+    tolerance: f64,
+    samples: usize,
+) {
+    let mut rng = SmallRng::seed_from_u64(seed);
+    for _ in 0..samples {
+        let p = random_point(&mut rng, extent);
+        let expected = sdf(p);
+        if expected.abs() < 1e-6 {
+            continue;
+        }
+        let closest = shape.closest(&p).unwrap();
+        assert!(sdf(closest.point).abs() < tolerance, "{p:?}: {closest:?} is not on the boundary");
+        let depth = norm(sub(p, closest.point));
+        assert!((depth - expected.abs()).abs() < tolerance, "{p:?}: distance {depth} against {expected}");
+        assert_eq!(closest.inside, expected < 0.0, "{p:?}");
+        let direction = scale(sub(p, closest.point), if expected < 0.0 { -1.0 } else { 1.0 } / depth);
+        assert!(
+            dot(direction, closest.normal) > 1.0 - 1e-6,
+            "{p:?}: normal {:?} against {direction:?}",
+            closest.normal
+        );
+        let signed = shape.signed_distance(&p).unwrap();
+        assert!((signed - expected).abs() < tolerance, "{p:?}: signed {signed} against {expected}");
+    }
+}
+
+#[test]
+fn every_shape_matches_its_closed_form_signed_distance() {
+    let c = [0.1, -0.2, 0.05];
+    check_shape(Shape::Sphere { center: c, radius: 0.3 }, |p| norm(sub(p, c)) - 0.3, 1.0, 1, 1e-12, 2000);
+    let axes = rotation(0.4, -0.7, 1.1);
+    let h = [0.2, 0.3, 0.1];
+    let box_local = |p: V| {
+        let q = sub(p, c);
+        [dot(axes[0], q), dot(axes[1], q), dot(axes[2], q)]
+    };
+    check_shape(
+        Shape::Box { center: c, axes, half_extents: h },
+        |p| box_sdf(box_local(p), h),
+        0.6,
+        2,
+        1e-12,
+        2000,
+    );
+    let (a, b) = ([0.1, 0.2, -0.3], [-0.2, 0.1, 0.4]);
+    check_shape(
+        Shape::Capsule { a, b, radius: 0.15 },
+        |p| segment_distance(a, b, p) - 0.15,
+        0.8,
+        3,
+        1e-7,
+        200,
+    );
+    let axis = unit(sub(b, a));
+    let middle = scale(add(a, b), 0.5);
+    let half = norm(sub(b, a)) / 2.0;
+    let cylinder = |p: V| {
+        let q = sub(p, middle);
+        let axial = dot(q, axis);
+        cylinder_sdf(norm(sub(q, scale(axis, axial))), axial, 0.15, half)
+    };
+    check_shape(Shape::Cylinder { a, b, radius: 0.15 }, cylinder, 0.8, 4, 1e-12, 2000);
+    let normal = unit([1.0, 2.0, -0.5]);
+    let wall = Shape::half_space(c, [2.0, 4.0, -1.0]).unwrap();
+    check_shape(wall, |p| dot(sub(p, c), normal), 1.0, 5, 1e-12, 2000);
+}
+
+#[test]
+fn a_polytope_is_exact_inside_and_on_face_regions_and_a_mesh_is_unsigned() {
+    // The unit cube as six planes and as twelve triangles.
+    let mut planes = [Plane { normal: [0.0; 3], offset: 0.0 }; 6];
+    for i in 0..3 {
+        for (k, sign) in [1.0, -1.0].iter().enumerate() {
+            let mut n = [0.0; 3];
+            n[i] = *sign;
+            planes[2 * i + k] = Plane { normal: n, offset: 0.5 };
+        }
+    }
+    let cube = Shape::Polytope { planes: &planes };
+    let (vertices, faces, face_normals) = cube_mesh(0.5);
+    let mesh = hapticgen_runtime::shape::Mesh {
+        vertices: &vertices,
+        faces: &faces,
+        face_normals: &face_normals,
+        vertex_normals: &[],
+        nodes: &[],
+    };
+    let surface = Shape::Mesh(&mesh);
+    let mut rng = SmallRng::seed_from_u64(6);
+    for _ in 0..2000 {
+        let p = random_point(&mut rng, 1.0);
+        let expected = box_sdf(p, [0.5; 3]);
+        let closest = surface.closest(&p).unwrap();
+        assert!((norm(sub(p, closest.point)) - expected.abs()).abs() < 1e-12, "mesh at {p:?}");
+        assert!(!closest.inside);
+        let face_region = p.iter().filter(|x| x.abs() > 0.5).count() <= 1;
+        if expected < 0.0 || face_region {
+            let signed = cube.signed_distance(&p).unwrap();
+            assert!((signed - expected).abs() < 1e-12, "polytope at {p:?}: {signed} against {expected}");
+        } else {
+            // Outside an edge or corner: the largest plane distance, a lower bound.
+            assert!(cube.signed_distance(&p).unwrap() <= expected + 1e-12);
+        }
+    }
+}
+
+#[test]
+fn the_closest_point_of_a_triangle_beats_every_sampled_point() {
+    let mut rng = SmallRng::seed_from_u64(7);
+    for _ in 0..50 {
+        let [a, b, c] =
+            [random_point(&mut rng, 1.0), random_point(&mut rng, 1.0), random_point(&mut rng, 1.0)];
+        let p = random_point(&mut rng, 1.5);
+        let (q, w) = closest_on_triangle(&p, &a, &b, &c);
+        let from_weights = add(add(scale(a, w[0]), scale(b, w[1])), scale(c, w[2]));
+        assert!(norm(sub(q, from_weights)) < 1e-12);
+        let best = norm(sub(p, q));
+        for i in 0..=60 {
+            for j in 0..=(60 - i) {
+                let (u, v) = (i as f64 / 60.0, j as f64 / 60.0);
+                let s = add(add(scale(a, 1.0 - u - v), scale(b, u)), scale(c, v));
+                assert!(best <= norm(sub(p, s)) + 1e-12);
+            }
+        }
+    }
+}
+
+/// The twelve triangles of the cube of half side `h`, outward normals.
+pub fn cube_mesh(h: f64) -> (Vec<V>, Vec<[u32; 3]>, Vec<V>) {
+    let mut vertices = Vec::new();
+    for i in 0..8 {
+        vertices.push([
+            if i & 1 != 0 { h } else { -h },
+            if i & 2 != 0 { h } else { -h },
+            if i & 4 != 0 { h } else { -h },
+        ]);
+    }
+    let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    let mut faces = Vec::new();
+    let mut normals = Vec::new();
+    for q in quads {
+        for f in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+            let [a, b, c] = f.map(|i: u32| vertices[i as usize]);
+            normals.push(unit(cross(sub(b, a), sub(c, a))));
+            faces.push(f);
+        }
+    }
+    (vertices, faces, normals)
+}
+
+fn solid(shape: Shape<'_, f64, 3>) -> Object<'_, f64, 3> {
+    Object { shape, kind: ObjectKind::Solid, material: Material::frictionless(1500.0, 5.0) }
+}
+
+const R: f64 = 1e-3;
+const SKIN: f64 = 1e-9;
+
+fn close(a: V, b: V, tolerance: f64) -> bool {
+    norm(sub(a, b)) < tolerance
+}
+
+#[test]
+fn the_proxy_rests_on_a_plane_an_edge_and_a_corner_at_the_constrained_closest_point() {
+    // The floor z < 0, the wall x < 0 and the wall y < 0 (three half-spaces, a corner at 0).
+    let floor = Shape::half_space([0.0; 3], [0.0, 0.0, 1.0]).unwrap();
+    let wall_x = Shape::half_space([0.0; 3], [1.0, 0.0, 0.0]).unwrap();
+    let wall_y = Shape::half_space([0.0; 3], [0.0, 1.0, 0.0]).unwrap();
+    let mut scene: GodObject<f64, 3, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    for shape in [floor, wall_x, wall_y] {
+        scene.add(solid(shape)).unwrap();
+    }
+    scene.reset([0.05, 0.05, 0.05]);
+    // Into the floor only.
+    let out = scene.render(&[0.03, 0.04, -0.01]);
+    assert!(close(out.proxy, [0.03, 0.04, R], 1e-8), "{:?}", out.proxy);
+    assert_eq!(out.contact, Some(0));
+    assert_eq!(out.stiffness, 1500.0);
+    // Into the edge of floor and x wall, from the plane.
+    let out = scene.render(&[-0.01, 0.04, -0.02]);
+    assert!(close(out.proxy, [R, 0.04, R], 1e-8), "{:?}", out.proxy);
+    // Into the corner.
+    let out = scene.render(&[-0.01, -0.03, -0.02]);
+    assert!(close(out.proxy, [R, R, R], 1e-8), "{:?}", out.proxy);
+    // Back out: the proxy follows the HIP into free space.
+    let out = scene.render(&[0.02, 0.02, 0.02]);
+    assert_eq!(out.proxy, [0.02, 0.02, 0.02]);
+    assert_eq!(out.contact, None);
+}
+
+#[test]
+fn the_plane_projection_solves_the_quadratic_programme() {
+    // Against a brute-force search over a grid of feasible points.
+    let mut rng = SmallRng::seed_from_u64(8);
+    for _ in 0..100 {
+        let planes: Vec<(V, V)> = (0..3)
+            .map(|_| (unit(random_point(&mut rng, 1.0)), scale(random_point(&mut rng, 1.0), 0.1)))
+            .collect();
+        let x = random_point(&mut rng, 1.0);
+        let y = match project_on_planes(&x, &planes, 1e-12) {
+            Some(y) => y,
+            None => continue,
+        };
+        let feasible = |z: V| planes.iter().all(|(n, c)| dot(*n, sub(z, *c)) >= -1e-9);
+        assert!(feasible(y));
+        for _ in 0..2000 {
+            let z = add(y, scale(random_point(&mut rng, 1.0), 0.5));
+            if feasible(z) {
+                assert!(norm(sub(z, x)) >= norm(sub(y, x)) - 1e-9, "{z:?} beats {y:?}");
+            }
+        }
+    }
+}
+
+/// Renders `hip` repeatedly (a static push) and returns the proxy.
+fn settle(scene: &mut GodObject<'_, f64, 2, 3>, hip: V) -> V {
+    let mut proxy = [0.0; 3];
+    for _ in 0..20 {
+        proxy = scene.render(&hip).proxy;
+    }
+    proxy
+}
+
+#[test]
+fn on_curved_solids_and_in_cavities_the_proxy_settles_at_the_closest_point_offset_by_its_radius() {
+    let c = [0.1, 0.0, -0.1];
+    let mut rng = SmallRng::seed_from_u64(9);
+    let axes = rotation(0.3, 0.2, -0.5);
+    let h = [0.05, 0.04, 0.03];
+    let (a, b) = ([0.05, 0.0, -0.1], [0.15, 0.02, -0.08]);
+    for case in 0..40 {
+        // A start outside along a random direction, a HIP 5 mm inside.
+        let direction = unit(random_point(&mut rng, 1.0));
+        let shapes: [(Shape<f64, 3>, ObjectKind); 5] = [
+            (Shape::Sphere { center: c, radius: 0.05 }, ObjectKind::Solid),
+            (Shape::Sphere { center: c, radius: 0.05 }, ObjectKind::Cavity),
+            (Shape::Box { center: c, axes, half_extents: h }, ObjectKind::Solid),
+            (Shape::Capsule { a, b, radius: 0.03 }, ObjectKind::Solid),
+            (Shape::Cylinder { a, b, radius: 0.03 }, ObjectKind::Solid),
+        ];
+        for (shape, kind) in shapes {
+            let mut scene: GodObject<f64, 2, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+            scene.add(Object { shape, kind, material: Material::frictionless(1500.0, 5.0) }).unwrap();
+            let (start, hip) = match kind {
+                ObjectKind::Solid => (add(c, scale(direction, 0.2)), None),
+                ObjectKind::Cavity => (c, Some(add(c, scale(direction, 0.055)))),
+            };
+            // For solids: the HIP 5 mm under the boundary point the start sees.
+            let hip = hip.unwrap_or_else(|| {
+                let surface = shape.closest(&start).unwrap();
+                sub(surface.point, scale(surface.normal, 0.005))
+            });
+            let surface = shape.closest(&hip).unwrap();
+            // Only where the closest point is unambiguous (not across an edge of a box).
+            if (shape.signed_distance(&hip).unwrap().abs() - 0.005).abs() > 1e-9 && kind == ObjectKind::Solid
+            {
+                continue;
+            }
+            scene.reset(start);
+            scene.render(&start);
+            let proxy = settle(&mut scene, hip);
+            let sign = if kind == ObjectKind::Solid { 1.0 } else { -1.0 };
+            let expected = add(surface.point, scale(surface.normal, sign * R));
+            assert!(
+                close(proxy, expected, 1e-6),
+                "case {case}, {kind:?} {shape:?}: {proxy:?} against {expected:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_thin_plate_pushed_hard_holds_the_proxy_where_the_minimum_distance_rule_lets_go() {
+    // A 2 mm plate at z ∈ [−1, 1] mm; the HIP pushed 1.5 mm into it, then 3 mm (through).
+    let plate = Shape::aligned_box([0.0; 3], [0.1, 0.1, 0.001]);
+    let mut proxy: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    let mut memoryless: MinDistanceScene<f64, 1, 3> = MinDistanceScene::new(0.0, 0.0, 0.0);
+    proxy.add(solid(plate)).unwrap();
+    memoryless.add(solid(plate)).unwrap();
+    proxy.reset([0.0, 0.0, 0.01]);
+    let mut parameters = ImpedanceParameters { stiffness: [0.0; 3], damping: [0.0; 3], mass: [1.0; 3] };
+    for z in [0.0005, -0.0005, -0.0015, -0.003] {
+        let hip = [0.01, 0.0, z];
+        let held = proxy.update_reference(&hip, &mut parameters).position;
+        assert!(held[2] >= 0.001 + R - 1e-8, "the proxy went through at z = {z}: {held:?}");
+        let (min_distance, _, _) = memoryless.render(&hip).unwrap();
+        if z < 0.0 {
+            // The closest point is on the far face: the operator is pulled through.
+            assert!(min_distance[2] < 0.0, "{min_distance:?}");
+        }
+    }
+}
+
+#[test]
+fn in_two_dimensions_the_proxy_holds_a_corner_of_two_walls() {
+    let mut scene: GodObject<f64, 2, 2> = GodObject::new(0.0, 0.0, R, SKIN);
+    for n in [[1.0, 0.0], [0.0, 1.0]] {
+        scene
+            .add(Object {
+                shape: Shape::half_space([0.0; 2], n).unwrap(),
+                kind: ObjectKind::Solid,
+                material: Material::frictionless(1000.0, 1.0),
+            })
+            .unwrap();
+    }
+    scene.reset([0.01, 0.01]);
+    let out = scene.render(&[-0.02, -0.005]);
+    assert!((out.proxy[0] - R).abs() < 1e-8 && (out.proxy[1] - R).abs() < 1e-8, "{:?}", out.proxy);
+}
+
+fn rough_floor() -> GodObject<'static, f64, 1, 3> {
+    let mut scene = GodObject::new(0.0, 0.0, R, SKIN);
+    scene
+        .add(Object {
+            shape: Shape::half_space([0.0; 3], [0.0, 0.0, 1.0]).unwrap(),
+            kind: ObjectKind::Solid,
+            material: Material {
+                stiffness: 1000.0,
+                damping: 0.0,
+                static_friction: 0.6,
+                dynamic_friction: 0.4,
+            },
+        })
+        .unwrap();
+    scene.reset([0.0, 0.0, 0.01]);
+    scene
+}
+
+#[test]
+fn friction_sticks_inside_the_static_cone_and_trails_on_the_dynamic_cone() {
+    let mut scene = rough_floor();
+    let depth = 0.004;
+    let first = scene.render(&[0.0, 0.0, -depth]).proxy;
+    // Tangential offsets within μ_s · (depth + r): stuck.
+    let out = scene.render(&[0.5 * 0.6 * depth, 0.0, -depth]);
+    assert!(out.sticking);
+    assert_eq!(out.proxy, first);
+    // Beyond: it slides and trails on the dynamic cone, μ_d (depth + r) behind.
+    let hip = [0.02, 0.0, -depth];
+    let out = scene.render(&hip);
+    assert!(!out.sticking);
+    let lag = hip[0] - out.proxy[0];
+    assert!((lag - 0.4 * (depth + R)).abs() < 1e-9, "lag {lag}");
+    assert!((out.proxy[2] - R).abs() < 1e-8);
+}
+
+#[test]
+fn friction_only_dissipates_over_a_sliding_cycle() {
+    // The HIP goes round a loop pressed into the floor. With the force f = K (p − x) on the
+    // hand, the hand's work on the spring over one step with p fixed is exactly
+    // ΔV = ½K(|x' − p|² − |x − p|²); the proxy's move then changes V by
+    // ½K(|x' − p'|² − |x' − p|²), which must never be positive.
+    let mut scene = rough_floor();
+    let k = 1000.0;
+    let energy = |x: V, p: V| 0.5 * k * dot(sub(x, p), sub(x, p));
+    let mut x = [0.0, 0.0, 0.005];
+    let mut p = scene.render(&x).proxy;
+    let (mut work, mut dissipated) = (0.0, 0.0);
+    let start = energy(x, p);
+    let steps = 4000;
+    for i in 0..=steps {
+        let t = i as f64 / steps as f64 * 2.0 * std::f64::consts::PI;
+        let next = [0.02 * t.sin(), 0.01 * (1.0 - t.cos()), 0.005 - 0.008 * (t / 2.0).sin()];
+        work += energy(next, p) - energy(x, p);
+        x = next;
+        let moved = scene.render(&x).proxy;
+        let change = energy(x, moved) - energy(x, p);
+        assert!(change <= 1e-12, "step {i}: the proxy's move released {change} J");
+        dissipated -= change;
+        p = moved;
+    }
+    // Back where it started: the hand's net work is what friction dissipated.
+    assert!(dissipated > 1e-4, "friction dissipated only {dissipated} J");
+    assert!((work - dissipated - (energy(x, p) - start)).abs() < 1e-12);
+}
+
+#[test]
+fn a_moving_object_carries_the_proxy_in_contact() {
+    let mut scene = rough_floor();
+    let hip = [0.0, 0.0, -0.002];
+    scene.render(&hip);
+    assert!(scene.translate(0, &[0.0, 0.0, 0.003]));
+    let out = scene.render(&[0.0, 0.0, -0.002]);
+    assert!((out.proxy[2] - (0.003 + R)).abs() < 1e-8, "{:?}", out.proxy);
+    // A NaN HIP keeps the proxy with zero gains.
+    let kept = scene.render(&[f64::NAN, 0.0, 0.0]);
+    assert!(!kept.valid);
+    assert_eq!(kept.proxy, out.proxy);
+    assert_eq!(kept.stiffness, 0.0);
+}
+
+#[test]
+fn the_minimum_distance_scene_pushes_back_along_the_normal_by_the_depth() {
+    // Eq. (16) in 3-D: the force K (x_p − x) of a HIP inside a box is the depth along the
+    // outward normal of the nearest face.
+    let axes = rotation(0.2, 0.4, 0.1);
+    let h = [0.02, 0.03, 0.04];
+    let shape = Shape::Box { center: [0.0; 3], axes, half_extents: h };
+    let mut scene: MinDistanceScene<f64, 1, 3> = MinDistanceScene::new(100.0, 1.0, 0.0);
+    scene.add(solid(shape)).unwrap();
+    let mut rng = SmallRng::seed_from_u64(10);
+    for _ in 0..500 {
+        let local = [rng.gen_range(-0.02..0.02), rng.gen_range(-0.03..0.03), rng.gen_range(-0.04..0.04)];
+        let hip = add(add(scale(axes[0], local[0]), scale(axes[1], local[1])), scale(axes[2], local[2]));
+        let (proxy, stiffness, _) = scene.render(&hip).unwrap();
+        assert_eq!(stiffness, 1500.0);
+        let gaps = [h[0] - local[0].abs(), h[1] - local[1].abs(), h[2] - local[2].abs()];
+        let face = (0..3).min_by(|&i, &j| gaps[i].partial_cmp(&gaps[j]).unwrap()).unwrap();
+        let normal = scale(axes[face], local[face].signum());
+        let force = sub(proxy, hip);
+        assert!((norm(force) - gaps[face]).abs() < 1e-12);
+        assert!(dot(unit(force), normal) > 1.0 - 1e-9);
+    }
+}
+
+// The minimum-distance rule in 3-D as the firmware's sphere_cavity scenario uses it (these
+// were the firmware's own tests when it carried its copy of the renderer).
+
+fn cavity(center: V, radius: f64) -> MinDistanceScene<'static, f64, 2, 3> {
+    let mut scene = MinDistanceScene::new(100.0, 1.0, 1e-3);
+    scene
+        .add(Object {
+            shape: Shape::Sphere { center, radius },
+            kind: ObjectKind::Cavity,
+            material: Material::frictionless(1500.0, 5.0),
+        })
+        .unwrap();
+    scene
+}
+
+#[test]
+fn min_distance_cavity_holds_the_hip_in_with_the_wall_gains() {
+    let mut scene = cavity([0.0; 3], 0.01);
+    let mut parameters = ImpedanceParameters { stiffness: [0.0; 3], damping: [0.0; 3], mass: [1.0; 3] };
+    // Outside, 12 mm along (2, 1, -2)/3: the proxy is on the sphere along the same ray.
+    let hip = [0.008, 0.004, -0.008];
+    let reference = scene.update_reference(&hip, &mut parameters);
+    let length = norm(hip);
+    for (x, h) in reference.position.iter().zip(hip.iter()) {
+        assert!((x - h * 0.01 / length).abs() < 1e-15);
+    }
+    assert_eq!(parameters.stiffness, [1500.0; 3]);
+    assert_eq!(parameters.damping, [5.0; 3]);
+    assert_eq!(scene.contact(), Some(0));
+}
+
+#[test]
+fn min_distance_free_space_grid_moves_only_beyond_one_spacing() {
+    let mut scene = cavity([0.0; 3], 1.0);
+    let mut parameters = ImpedanceParameters { stiffness: [0.0; 3], damping: [0.0; 3], mass: [1.0; 3] };
+    let first = scene.update_reference(&[0.0104, 0.0, -0.0021], &mut parameters).position;
+    assert_eq!(parameters.stiffness, [100.0; 3]);
+    assert_eq!(scene.contact(), None);
+    // Nearest node: every coordinate rounded to a multiple of 1 mm.
+    let expected = [0.010, 0.0, -0.002];
+    for (x, e) in first.iter().zip(expected.iter()) {
+        assert!((x - e).abs() < 1e-15);
+    }
+    // Within one spacing along every axis: the node holds.
+    assert_eq!(scene.update_reference(&[0.0109, 0.0009, -0.0029], &mut parameters).position, first);
+    // Beyond along one axis: it jumps to the new nearest node.
+    let moved = scene.update_reference(&[0.0121, 0.0, -0.002], &mut parameters).position;
+    assert!((moved[0] - 0.012).abs() < 1e-15);
+    // A NaN HIP keeps the last proxy with zero gains.
+    let kept = scene.update_reference(&[f64::NAN, 0.0, 0.0], &mut parameters).position;
+    assert_eq!(kept, moved);
+    assert_eq!(parameters.stiffness, [0.0; 3]);
+}
+
+#[test]
+fn a_degenerate_shape_gives_no_contact() {
+    let p = [0.1, 0.2, 0.3];
+    assert!(Shape::Sphere { center: [0.0; 3], radius: 0.0 }.closest(&p).is_none());
+    assert!(Shape::<f64, 3>::half_space([0.0; 3], [0.0; 3]).is_none());
+    assert!(Shape::Cylinder { a: p, b: p, radius: 0.1 }.closest(&p).is_none());
+    assert!(Shape::aligned_box([0.0; 3], [0.1, 0.0, 0.1]).closest(&p).is_none());
+    assert!(Shape::Polytope::<f64, 3> { planes: &[] }.closest(&p).is_none());
+}
+
+#[test]
+fn on_a_sphere_one_update_nearly_reaches_the_closest_point() {
+    // The tangent plane of the first contact is only a local model: the update starts new
+    // rounds towards the HIP from the plane's goal. From a start 60° off the HIP's direction
+    // one update must land within 1 % of the way.
+    let c = [0.0; 3];
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene.add(solid(Shape::Sphere { center: c, radius: 0.05 })).unwrap();
+    let start = [0.1 * 60f64.to_radians().sin(), 0.0, 0.1 * 60f64.to_radians().cos()];
+    scene.reset(start);
+    let hip = [0.0, 0.0, 0.045];
+    let expected = [0.0, 0.0, 0.05 + R];
+    let proxy = scene.render(&hip).proxy;
+    let first_contact = norm(sub(add(c, scale(unit(start), 0.05 + R)), expected));
+    let error = norm(sub(proxy, expected));
+    assert!(error < 0.01 * first_contact, "{proxy:?}: {error} from {expected:?}");
+}
+
+#[test]
+fn free_space_effects_give_their_closed_form_forces() {
+    use hapticgen_runtime::effects::Effect;
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(400.0, 2.0, R, SKIN);
+    scene.add(solid(Shape::half_space([0.0; 3], [0.0, 0.0, 1.0]).unwrap())).unwrap();
+    let mut parameters = ImpedanceParameters { stiffness: [0.0; 3], damping: [0.0; 3], mass: [1.0; 3] };
+    let hip = [0.01, -0.02, 0.05];
+    let mut force = |scene: &mut GodObject<f64, 1, 3>, hip: V| {
+        let reference = scene.update_reference(&hip, &mut parameters).position;
+        (scale(sub(reference, hip), parameters.stiffness[0]), parameters.damping[0])
+    };
+    let (f, b) = force(&mut scene, hip);
+    assert_eq!((f, b), ([0.0; 3], 2.0));
+    scene.effect = Effect::Spring { anchor: [0.0, 0.0, 0.1], stiffness: 50.0 };
+    let (f, _) = force(&mut scene, hip);
+    assert!(close(f, scale(sub([0.0, 0.0, 0.1], hip), 50.0), 1e-12));
+    scene.effect = Effect::Viscous { damping: 7.0 };
+    assert_eq!(force(&mut scene, hip), ([0.0; 3], 7.0));
+    scene.effect = Effect::Force { force: [0.5, -1.0, 2.0] };
+    assert!(close(force(&mut scene, hip).0, [0.5, -1.0, 2.0], 1e-12));
+    // 50 Hz at 1 kHz: 20 ticks a cycle, F = A sin(2π f t) e.
+    let e = unit([1.0, 1.0, 0.0]);
+    scene.effect = Effect::Vibration { direction: e, amplitude: 0.8, frequency: 50.0, period: 1e-3 };
+    for k in 0..100 {
+        let expected = scale(e, 0.8 * (2.0 * std::f64::consts::PI * 50.0 * k as f64 * 1e-3).sin());
+        let (f, _) = force(&mut scene, hip);
+        assert!(close(f, expected, 1e-9), "tick {k}: {f:?} against {expected:?}");
+        assert!(norm(f) <= 0.8 + 1e-12);
+    }
+    // In contact the object's gains and the proxy apply, not the effect.
+    let (f, b) = force(&mut scene, [0.0, 0.0, -0.002]);
+    assert!(close(f, [0.0, 0.0, 1500.0 * (0.002 + R)], 1e-5));
+    assert_eq!(b, 5.0);
+}
