@@ -239,14 +239,14 @@ where
     ) -> TaskSensing<R::Scalar, M> {
         let mut sensed = TaskSensing::default();
         match self.controller.law {
-            ImpedanceLaw::Controller1ForceSensing => {
+            ImpedanceLaw::ForceFeedback => {
                 let (force, status) = self.force_calibration.force(&inputs.force_readings);
                 if status != EstimationStatus::Ok {
                     self.safety.latch(FaultCode::NonFiniteInput);
                 }
                 sensed.operator_force = force;
             }
-            ImpedanceLaw::Controller2Accel => {
+            ImpedanceLaw::AccelerationFeedback => {
                 let accel = linalg::mat_vec(jacobian, &state.acceleration);
                 for ((slot, &a), &bias) in
                     sensed.acceleration.iter_mut().zip(accel.iter()).zip(jacobian_dot_times_qdot.iter())
@@ -254,7 +254,7 @@ where
                     *slot = a + bias;
                 }
             }
-            ImpedanceLaw::Controller2Mobility | ImpedanceLaw::Controller3 => {}
+            ImpedanceLaw::NaturalInertia | ImpedanceLaw::JacobianTranspose => {}
         }
         sensed
     }
@@ -345,7 +345,7 @@ where
         inputs: &ImpedanceInputs<R::Scalar, N, M>,
     ) -> ImpedanceReport<R::Scalar, N> {
         let (state, estimation_status) = self.estimate(inputs);
-        let (position, sensed) = if self.controller.law == ImpedanceLaw::Controller2Accel {
+        let (position, sensed) = if self.controller.law == ImpedanceLaw::AccelerationFeedback {
             let terms = self.rig.terms(&state.position, &state.velocity);
             let sensed = self.sensed(inputs, &state, &terms.jacobian, &terms.jacobian_dot_times_qdot);
             (terms.position, sensed)

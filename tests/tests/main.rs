@@ -12,6 +12,7 @@ mod numerical;
 mod orientation;
 mod properties;
 mod rebuild;
+mod snapshot_text;
 mod snapshots;
 mod structure;
 mod tick;
