@@ -12,7 +12,7 @@ fn snapshots() -> Vec<(String, String)> {
     let mut out = Vec::new();
     for entry in std::fs::read_dir(&folder).unwrap_or_else(|e| panic!("{}: {e}", folder.display())) {
         let path = entry.expect("directory entry").path();
-        if path.extension().map_or(true, |e| e != "snap") {
+        if path.extension().is_none_or(|e| e != "snap") {
             continue;
         }
         let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));

@@ -225,7 +225,7 @@ impl<'m> BodyEmitter<'m> {
         part: &mut usize,
     ) -> String {
         let is_fallback =
-            |name: &str| name.rsplit_once("_part").map_or(false, |(_, n)| n.parse::<u32>().is_ok());
+            |name: &str| name.rsplit_once("_part").is_some_and(|(_, n)| n.parse::<u32>().is_ok());
         let shared = self.naming.shared.as_ref();
         let registered = shared.and_then(|shared| shared.borrow().name(key).cloned());
         let hint = self.hints.get(&id).cloned();

@@ -86,7 +86,7 @@ impl RigNames {
 
     /// Whether `name` belongs to a value other than `value`.
     pub(crate) fn taken_by_other(&self, name: &str, value: &str) -> bool {
-        self.owners.get(name).map_or(false, |v| v != value)
+        self.owners.get(name).is_some_and(|v| v != value)
     }
 
     /// Records the name of a value; a later, better name (`better`) replaces an earlier one.
