@@ -26,7 +26,7 @@ FUNCTIONS = [
     ("J̇·q̇", "jacobian_dot_times_qdot"),
     ("inverse dynamics", "inverse_dynamics"),
     ("`terms` (one tick's D, C·q̇, g, p, J, J̇·q̇)", "terms"),
-    ("Controller 3 (fused law)", "controller3_torque"),
+    ("Jacobian-transpose law (Controller 3, fused)", "jacobian_transpose_torque"),
 ]
 
 

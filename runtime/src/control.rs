@@ -2,12 +2,12 @@
 //! `a_q = J⁻¹(a_x − J̇ q̇)` from eq. (4), and the outer impedance laws of section 3 that choose
 //! `a_x`, `a_f` (and `a_q`):
 //!
-//! | [`ImpedanceLaw`] | `a_x` | `a_f` | closed loop |
-//! | --- | --- | --- | --- |
-//! | `Controller1ForceSensing` | eq. (7) | `f_l` (sensed) | eq. (6) |
-//! | `Controller2Accel` | eq. (8) | eq. (10), corrected (below) | eq. (6) |
-//! | `Controller2Mobility` | eq. (8) with `M_d = W⁻¹` | `0` | eq. (11) |
-//! | `Controller3` | — (`a_q = 0`) | eq. (12) | eq. (13) |
+//! | [`ImpedanceLaw`] | the paper's name | `a_x` | `a_f` | closed loop |
+//! | --- | --- | --- | --- | --- |
+//! | `ForceFeedback` | Controller 1 | eq. (7) | `f_l` (sensed) | eq. (6) |
+//! | `AccelerationFeedback` | Controller 2, first variant | eq. (8) | eq. (10), corrected (below) | eq. (6) |
+//! | `NaturalInertia` | Controller 2, second variant | eq. (8) with `M_d = W⁻¹` | `0` | eq. (11) |
+//! | `JacobianTranspose` | Controller 3 | — (`a_q = 0`) | eq. (12) | eq. (13) |
 //!
 //! `W = J D⁻¹ Jᵀ` is the mobility tensor of eq. (5); `x̃ = x − x_d`.
 //!
@@ -36,16 +36,20 @@ use crate::{Real, RigModel, RigTerms};
 /// The outer impedance law, selectable at run time (section 3 of the paper).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ImpedanceLaw {
-    /// Controller 1: sensed operator force, `a_f = f_l`, `a_x` from eq. (7). Target eq. (6).
-    Controller1ForceSensing,
-    /// Controller 2, first variant: `a_x` from eq. (8), `a_f` from (corrected) eq. (10) using an
-    /// estimate of the task acceleration `ẍ`. Target eq. (6).
-    Controller2Accel,
-    /// Controller 2, second variant: `M_d = W⁻¹`, `a_f = 0`. Target eq. (11). `M_d` is ignored.
-    Controller2Mobility,
-    /// Controller 3: `a_q = 0`, `a_f` from eq. (12); no `J⁻¹`, no `J̇`. Target eq. (13).
-    /// `M_d` is ignored.
-    Controller3,
+    /// Force feedback (the paper's Controller 1, section 3.1): sensed operator force,
+    /// `a_f = f_l`, `a_x` from eq. (7). Target eq. (6).
+    ForceFeedback,
+    /// Acceleration feedback (the paper's Controller 2, first variant, section 3.2): `a_x` from
+    /// eq. (8), `a_f` from (corrected) eq. (10) using an estimate of the task acceleration `ẍ`.
+    /// Target eq. (6).
+    AccelerationFeedback,
+    /// Natural-inertia impedance (the paper's Controller 2, second variant, section 3.2): the
+    /// displayed mass is the device's own, `M_d = W⁻¹`, `a_f = 0`. Target eq. (11). `M_d` is
+    /// ignored.
+    NaturalInertia,
+    /// Jacobian-transpose impedance (the paper's Controller 3, section 3.3): `a_q = 0`, `a_f`
+    /// from eq. (12) applied through `Jᵀ`; no `J⁻¹`, no `J̇`. Target eq. (13). `M_d` is ignored.
+    JacobianTranspose,
 }
 
 /// The desired impedance of eq. (6): diagonal `K_d`, `B_d`, `M_d`, one entry per task axis.
@@ -202,9 +206,9 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
     {
         let damping = rig.damping();
         let sensed_is_finite = match self.law {
-            ImpedanceLaw::Controller1ForceSensing => linalg::all_finite(&sensed.operator_force),
-            ImpedanceLaw::Controller2Accel => linalg::all_finite(&sensed.acceleration),
-            ImpedanceLaw::Controller2Mobility | ImpedanceLaw::Controller3 => true,
+            ImpedanceLaw::ForceFeedback => linalg::all_finite(&sensed.operator_force),
+            ImpedanceLaw::AccelerationFeedback => linalg::all_finite(&sensed.acceleration),
+            ImpedanceLaw::NaturalInertia | ImpedanceLaw::JacobianTranspose => true,
         };
         if !sensed_is_finite
             || !inputs_are_finite(terms, joint_velocity, &damping, reference)
@@ -235,10 +239,10 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
         }
 
         let output = match self.law {
-            ImpedanceLaw::Controller3 => controller3(terms, bias, &restoring),
-            ImpedanceLaw::Controller1ForceSensing
-            | ImpedanceLaw::Controller2Accel
-            | ImpedanceLaw::Controller2Mobility => {
+            ImpedanceLaw::JacobianTranspose => jacobian_transpose(terms, bias, &restoring),
+            ImpedanceLaw::ForceFeedback
+            | ImpedanceLaw::AccelerationFeedback
+            | ImpedanceLaw::NaturalInertia => {
                 if N != M {
                     return ControlOutput::refused(ControlStatus::NonSquareTask);
                 }
@@ -251,7 +255,7 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
                 let regular = factors.determinant().abs() >= self.options.min_abs_jacobian_determinant
                     && factors.smallest_pivot() > S::ZERO;
                 if !regular {
-                    let mut fallback = controller3(terms, bias, &restoring);
+                    let mut fallback = jacobian_transpose(terms, bias, &restoring);
                     if fallback.status == ControlStatus::Ok {
                         fallback.status = ControlStatus::SingularFallback;
                     }
@@ -277,14 +281,14 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
         sensed: &TaskSensing<S, M>,
         restoring: &[S; M],
     ) -> ControlOutput<S, N> {
-        let needs_mass = !matches!(self.law, ImpedanceLaw::Controller2Mobility);
+        let needs_mass = !matches!(self.law, ImpedanceLaw::NaturalInertia);
         if needs_mass && !self.parameters.mass.iter().all(|&m| m > S::ZERO) {
             return ControlOutput::refused(ControlStatus::InvalidParameters);
         }
         let mut task_accel_command = [S::ZERO; M]; // a_x
         let mut task_force_command = [S::ZERO; M]; // a_f
         match self.law {
-            ImpedanceLaw::Controller1ForceSensing => {
+            ImpedanceLaw::ForceFeedback => {
                 // Eq. (7): a_x = ẍ_d − M_d⁻¹(B_d ẋ̃ + K_d x̃ + f_l); a_f = f_l.
                 for k in 0..M {
                     task_accel_command[k] = reference.acceleration[k]
@@ -292,7 +296,7 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
                     task_force_command[k] = sensed.operator_force[k];
                 }
             }
-            ImpedanceLaw::Controller2Accel => {
+            ImpedanceLaw::AccelerationFeedback => {
                 // Eq. (8), then the corrected eq. (10): a_f = W⁻¹(ẍ − a_x) − M_d ẍ̃ − r.
                 let mut accel_excess = [S::ZERO; N];
                 for k in 0..M {
@@ -312,7 +316,7 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
                     task_force_command[k] = value - self.parameters.mass[k] * accel_error - restoring[k];
                 }
             }
-            ImpedanceLaw::Controller2Mobility => {
+            ImpedanceLaw::NaturalInertia => {
                 // Eq. (8) with M_d⁻¹ = W = J D⁻¹ Jᵀ; a_f = 0.
                 let jt_restoring: [S; N] = linalg::transpose_mul_vec(&terms.jacobian, restoring);
                 let inertia_inverse = match linalg::cholesky_solve(&terms.inertia_matrix, &jt_restoring) {
@@ -324,7 +328,7 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
                     task_accel_command[k] = reference.acceleration[k] - mobility_restoring[k];
                 }
             }
-            ImpedanceLaw::Controller3 => {}
+            ImpedanceLaw::JacobianTranspose => {}
         }
         // Eq. (4): a_q = J⁻¹(a_x − J̇ q̇).
         let mut rhs = [S::ZERO; N];
@@ -348,7 +352,7 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
 }
 
 /// Controller 3, eq. (12) in eq. (3) with `a_q = 0`: `u = C q̇ + B q̇ + g − Jᵀ(B_d ẋ̃ + K_d x̃)`.
-fn controller3<S: Real, const N: usize, const M: usize>(
+fn jacobian_transpose<S: Real, const N: usize, const M: usize>(
     terms: &RigTerms<S, N, M>,
     bias: [S; N],
     restoring: &[S; M],

@@ -27,10 +27,11 @@ pub struct FusedTorque<S, const N: usize> {
 
 /// The impedance laws of section 3, specialised for one rig by codegen.
 ///
-/// The methods taking `J⁻¹` return `None` when the task is not square (`N != M`).
+/// The methods taking `J⁻¹` return `None` when the task is not square (`N != M`) or has no
+/// closed form: that is their default, so a rig implements only the laws it has.
 pub trait FusedImpedance<const N: usize, const M: usize>: RigModel<N, M> {
-    /// Controller 3: `C q̇ + g − Jᵀ(B_d ẋ̃ + K_d x̃)`, eq. (12) in eq. (3) with `a_q = 0`.
-    fn controller3_torque(
+    /// Jacobian-transpose impedance (the paper's Controller 3): `C q̇ + g − Jᵀ(B_d ẋ̃ + K_d x̃)`, eq. (12) in eq. (3) with `a_q = 0`.
+    fn jacobian_transpose_torque(
         &self,
         q: &[Self::Scalar; N],
         qd: &[Self::Scalar; N],
@@ -38,34 +39,43 @@ pub trait FusedImpedance<const N: usize, const M: usize>: RigModel<N, M> {
         parameters: &ImpedanceParameters<Self::Scalar, M>,
     ) -> [Self::Scalar; N];
 
-    /// Controller 1: `a_x` from eq. (7), `a_f = f_l`, `a_q` from eq. (4).
-    fn controller1_torque(
+    /// Force feedback (the paper's Controller 1): `a_x` from eq. (7), `a_f = f_l`, `a_q` from eq. (4).
+    fn force_feedback_torque(
         &self,
         q: &[Self::Scalar; N],
         qd: &[Self::Scalar; N],
         reference: &TaskReference<Self::Scalar, M>,
         parameters: &ImpedanceParameters<Self::Scalar, M>,
         operator_force: &[Self::Scalar; M],
-    ) -> Option<FusedTorque<Self::Scalar, N>>;
+    ) -> Option<FusedTorque<Self::Scalar, N>> {
+        let _ = (q, qd, reference, parameters, operator_force);
+        None
+    }
 
-    /// Controller 2, first variant: `a_x` from eq. (8), `a_f` from the corrected eq. (10).
-    fn controller2_accel_torque(
+    /// Acceleration feedback (the paper's Controller 2, first variant): `a_x` from eq. (8), `a_f` from the corrected eq. (10).
+    fn acceleration_feedback_torque(
         &self,
         q: &[Self::Scalar; N],
         qd: &[Self::Scalar; N],
         reference: &TaskReference<Self::Scalar, M>,
         parameters: &ImpedanceParameters<Self::Scalar, M>,
         task_acceleration: &[Self::Scalar; M],
-    ) -> Option<FusedTorque<Self::Scalar, N>>;
+    ) -> Option<FusedTorque<Self::Scalar, N>> {
+        let _ = (q, qd, reference, parameters, task_acceleration);
+        None
+    }
 
-    /// Controller 2, second variant: `a_x = ẍ_d − W (B_d ẋ̃ + K_d x̃)`, `a_f = 0`, eq. (11).
-    fn controller2_mobility_torque(
+    /// Natural-inertia impedance (the paper's Controller 2, second variant): `a_x = ẍ_d − W (B_d ẋ̃ + K_d x̃)`, `a_f = 0`, eq. (11).
+    fn natural_inertia_torque(
         &self,
         q: &[Self::Scalar; N],
         qd: &[Self::Scalar; N],
         reference: &TaskReference<Self::Scalar, M>,
         parameters: &ImpedanceParameters<Self::Scalar, M>,
-    ) -> Option<FusedTorque<Self::Scalar, N>>;
+    ) -> Option<FusedTorque<Self::Scalar, N>> {
+        let _ = (q, qd, reference, parameters);
+        None
+    }
 }
 
 /// Joint torques of the selected law through the rig's fused functions, with the same
@@ -89,9 +99,9 @@ where
     }
     let p = &parameters;
     let sensed_is_finite = match controller.law {
-        ImpedanceLaw::Controller1ForceSensing => linalg::all_finite(&sensed.operator_force),
-        ImpedanceLaw::Controller2Accel => linalg::all_finite(&sensed.acceleration),
-        ImpedanceLaw::Controller2Mobility | ImpedanceLaw::Controller3 => true,
+        ImpedanceLaw::ForceFeedback => linalg::all_finite(&sensed.operator_force),
+        ImpedanceLaw::AccelerationFeedback => linalg::all_finite(&sensed.acceleration),
+        ImpedanceLaw::NaturalInertia | ImpedanceLaw::JacobianTranspose => true,
     };
     let finite = sensed_is_finite
         && linalg::all_finite(q)
@@ -106,19 +116,21 @@ where
     if !finite {
         return ControlOutput::refused(ControlStatus::NonFiniteInput);
     }
-    let controller3 =
-        |status: ControlStatus| ControlOutput { torque: rig.controller3_torque(q, qd, reference, p), status };
+    let jacobian_transpose = |status: ControlStatus| ControlOutput {
+        torque: rig.jacobian_transpose_torque(q, qd, reference, p),
+        status,
+    };
     let output = match controller.law {
-        ImpedanceLaw::Controller3 => controller3(ControlStatus::Ok),
+        ImpedanceLaw::JacobianTranspose => jacobian_transpose(ControlStatus::Ok),
         law => {
             let fused = match law {
-                ImpedanceLaw::Controller1ForceSensing => {
-                    rig.controller1_torque(q, qd, reference, p, &sensed.operator_force)
+                ImpedanceLaw::ForceFeedback => {
+                    rig.force_feedback_torque(q, qd, reference, p, &sensed.operator_force)
                 }
-                ImpedanceLaw::Controller2Accel => {
-                    rig.controller2_accel_torque(q, qd, reference, p, &sensed.acceleration)
+                ImpedanceLaw::AccelerationFeedback => {
+                    rig.acceleration_feedback_torque(q, qd, reference, p, &sensed.acceleration)
                 }
-                _ => rig.controller2_mobility_torque(q, qd, reference, p),
+                _ => rig.natural_inertia_torque(q, qd, reference, p),
             };
             match fused {
                 None => return ControlOutput::refused(ControlStatus::NonSquareTask),
@@ -128,8 +140,8 @@ where
                     let regular = det.abs() >= controller.options.min_abs_jacobian_determinant
                         && det.abs() > R::Scalar::ZERO;
                     if !regular {
-                        controller3(ControlStatus::SingularFallback)
-                    } else if law != ImpedanceLaw::Controller2Mobility
+                        jacobian_transpose(ControlStatus::SingularFallback)
+                    } else if law != ImpedanceLaw::NaturalInertia
                         && !p.mass.iter().all(|&m| m > R::Scalar::ZERO)
                     {
                         return ControlOutput::refused(ControlStatus::InvalidParameters);

@@ -116,3 +116,59 @@ pub trait RigModel<const N: usize, const M: usize> {
         torque
     }
 }
+
+/// Implements [`RigModel`] for a generated rig by calling the rig's inherent methods of the
+/// same names (generated code emits the arithmetic once, as inherent methods, and this glue
+/// once per rig instead of repeating it in every generated file).
+///
+/// ```ignore
+/// ::hapticgen_runtime::impl_rig_model!(MyRig, f64, 2, 2, "my_rig", 7500, 1000);
+/// ```
+#[macro_export]
+macro_rules! impl_rig_model {
+    ($rig:ty, $s:ty, $n:literal, $m:literal, $name:literal, $current_hz:literal, $impedance_hz:literal) => {
+        impl $crate::RigModel<$n, $m> for $rig {
+            type Scalar = $s;
+            const NAME: &'static str = $name;
+            const CURRENT_LOOP_HZ: u32 = $current_hz;
+            const IMPEDANCE_LOOP_HZ: u32 = $impedance_hz;
+
+            fn inertia_matrix(&self, q: &[$s; $n]) -> [[$s; $n]; $n] {
+                Self::inertia_matrix(self, q)
+            }
+            fn coriolis_matrix(&self, q: &[$s; $n], qd: &[$s; $n]) -> [[$s; $n]; $n] {
+                Self::coriolis_matrix(self, q, qd)
+            }
+            fn coriolis_times_qdot(&self, q: &[$s; $n], qd: &[$s; $n]) -> [$s; $n] {
+                Self::coriolis_times_qdot(self, q, qd)
+            }
+            fn gravity(&self, q: &[$s; $n]) -> [$s; $n] {
+                Self::gravity(self, q)
+            }
+            fn damping(&self) -> [$s; $n] {
+                Self::damping(self)
+            }
+            fn position(&self, q: &[$s; $n]) -> [$s; $m] {
+                Self::position(self, q)
+            }
+            fn jacobian(&self, q: &[$s; $n]) -> [[$s; $n]; $m] {
+                Self::jacobian(self, q)
+            }
+            fn jacobian_dot(&self, q: &[$s; $n], qd: &[$s; $n]) -> [[$s; $n]; $m] {
+                Self::jacobian_dot(self, q, qd)
+            }
+            fn jacobian_dot_times_qdot(&self, q: &[$s; $n], qd: &[$s; $n]) -> [$s; $m] {
+                Self::jacobian_dot_times_qdot(self, q, qd)
+            }
+            fn terms(&self, q: &[$s; $n], qd: &[$s; $n]) -> $crate::RigTerms<$s, $n, $m> {
+                Self::terms(self, q, qd)
+            }
+            fn drives(&self) -> [$crate::DriveTrain<$s>; $n] {
+                Self::DRIVES
+            }
+            fn inverse_dynamics(&self, q: &[$s; $n], qd: &[$s; $n], qdd: &[$s; $n]) -> [$s; $n] {
+                Self::inverse_dynamics(self, q, qd, qdd)
+            }
+        }
+    };
+}

@@ -27,7 +27,7 @@
 //! use rig::ParallelLink2dof;
 //!
 //! let rig = ParallelLink2dof::NOMINAL;
-//! let law = ImpedanceController::new(ImpedanceLaw::Controller3, [200.0; 2], [5.0; 2], [0.2; 2]);
+//! let law = ImpedanceController::new(ImpedanceLaw::JacobianTranspose, [200.0; 2], [5.0; 2], [0.2; 2]);
 //! let settings = HapticLoopSettings::for_rig(&rig, law, ParallelLink2dof::CURRENT_LOOP_GAINS);
 //! let start = RigModel::position(&rig, &settings.zero_offset);
 //! let mut haptic = HapticLoop::new(rig, TaskReference::at_rest(start), &settings).expect("rates");
@@ -155,7 +155,7 @@ impl<S: Real, const N: usize, const M: usize> HapticLoopSettings<S, N, M> {
     /// use hapticgen_runtime::tick::HapticLoopSettings;
     ///
     /// let rig = PlanarArm2dof::NOMINAL;
-    /// let controller = ImpedanceController::new(ImpedanceLaw::Controller3, [200.0; 2], [5.0; 2], [0.2; 2]);
+    /// let controller = ImpedanceController::new(ImpedanceLaw::JacobianTranspose, [200.0; 2], [5.0; 2], [0.2; 2]);
     /// let mut settings = HapticLoopSettings::for_rig(&rig, controller, PlanarArm2dof::CURRENT_LOOP_GAINS);
     /// assert_eq!(settings.estimator.sample_period, 1e-3); // the model's 1 kHz impedance loop
     /// settings.zero_offset = [0.5, 1.2]; // homed at q = (0.5, 1.2) rad
@@ -321,14 +321,14 @@ where
     ) -> TaskSensing<R::Scalar, M> {
         let mut sensed = TaskSensing::default();
         match self.controller.law {
-            ImpedanceLaw::Controller1ForceSensing => {
+            ImpedanceLaw::ForceFeedback => {
                 let (force, status) = self.force_calibration.force(&inputs.force_readings);
                 if status != EstimationStatus::Ok {
                     self.safety.latch(FaultCode::NonFiniteInput);
                 }
                 sensed.operator_force = force;
             }
-            ImpedanceLaw::Controller2Accel => {
+            ImpedanceLaw::AccelerationFeedback => {
                 let accel = linalg::mat_vec(jacobian, &state.acceleration);
                 for ((slot, &a), &bias) in
                     sensed.acceleration.iter_mut().zip(accel.iter()).zip(jacobian_dot_times_qdot.iter())
@@ -336,7 +336,7 @@ where
                     *slot = a + bias;
                 }
             }
-            ImpedanceLaw::Controller2Mobility | ImpedanceLaw::Controller3 => {}
+            ImpedanceLaw::NaturalInertia | ImpedanceLaw::JacobianTranspose => {}
         }
         sensed
     }
@@ -427,7 +427,7 @@ where
         inputs: &ImpedanceInputs<R::Scalar, N, M>,
     ) -> ImpedanceReport<R::Scalar, N> {
         let (state, estimation_status) = self.estimate(inputs);
-        let (position, sensed) = if self.controller.law == ImpedanceLaw::Controller2Accel {
+        let (position, sensed) = if self.controller.law == ImpedanceLaw::AccelerationFeedback {
             let terms = self.rig.terms(&state.position, &state.velocity);
             let sensed = self.sensed(inputs, &state, &terms.jacobian, &terms.jacobian_dot_times_qdot);
             (terms.position, sensed)

@@ -27,10 +27,10 @@ const STATES: usize = 200;
 const TOLERANCE: f64 = 1e-9;
 
 const LAWS: [ImpedanceLaw; 4] = [
-    ImpedanceLaw::Controller1ForceSensing,
-    ImpedanceLaw::Controller2Accel,
-    ImpedanceLaw::Controller2Mobility,
-    ImpedanceLaw::Controller3,
+    ImpedanceLaw::ForceFeedback,
+    ImpedanceLaw::AccelerationFeedback,
+    ImpedanceLaw::NaturalInertia,
+    ImpedanceLaw::JacobianTranspose,
 ];
 
 fn random_array<const K: usize>(rng: &mut SmallRng, low: f64, high: f64) -> [f64; K] {
@@ -113,12 +113,10 @@ fn residuals<R: RigModel<N, N, Scalar = f64>, const N: usize>(
         };
         let (qdd, accel) = match law {
             // Exact force sensing, no accelerometer.
-            ImpedanceLaw::Controller1ForceSensing => {
-                plant(&TaskSensing { operator_force, acceleration: [0.0; N] })
-            }
+            ImpedanceLaw::ForceFeedback => plant(&TaskSensing { operator_force, acceleration: [0.0; N] }),
             // An accelerometer, no force sensor: the plant's own acceleration, the fixed point
             // of a ↦ ẍ(a), found from the plant alone (ẍ(a) is affine in the sensed a).
-            ImpedanceLaw::Controller2Accel => {
+            ImpedanceLaw::AccelerationFeedback => {
                 let sensing = |acceleration: [f64; N]| TaskSensing { operator_force: [0.0; N], acceleration };
                 let (_, at_zero) = plant(&sensing([0.0; N]));
                 let mut system = [[0.0; N]; N]; // I − ∂ẍ/∂a
@@ -161,17 +159,15 @@ fn residuals<R: RigModel<N, N, Scalar = f64>, const N: usize>(
                 (qdd, accel)
             }
             // Neither sensor.
-            ImpedanceLaw::Controller2Mobility | ImpedanceLaw::Controller3 => plant(&TaskSensing::default()),
+            ImpedanceLaw::NaturalInertia | ImpedanceLaw::JacobianTranspose => plant(&TaskSensing::default()),
         };
         let residual: [f64; N] = match law {
             // Eq. (6): M_d ẍ̃ + B_d ẋ̃ + K_d x̃ + f_l = 0.
-            ImpedanceLaw::Controller1ForceSensing | ImpedanceLaw::Controller2Accel => {
-                core::array::from_fn(|k| {
-                    parameters.mass[k] * (accel[k] - reference.acceleration[k]) + restoring_plus_force[k]
-                })
-            }
+            ImpedanceLaw::ForceFeedback | ImpedanceLaw::AccelerationFeedback => core::array::from_fn(|k| {
+                parameters.mass[k] * (accel[k] - reference.acceleration[k]) + restoring_plus_force[k]
+            }),
             // Eq. (11): W⁻¹ ẍ̃ + B_d ẋ̃ + K_d x̃ + f_l = 0, checked as ẍ̃ + W(…) = 0.
-            ImpedanceLaw::Controller2Mobility => {
+            ImpedanceLaw::NaturalInertia => {
                 let jt: [f64; N] = core::array::from_fn(|i| {
                     (0..N).map(|k| terms.jacobian[k][i] * restoring_plus_force[k]).sum()
                 });
@@ -182,13 +178,13 @@ fn residuals<R: RigModel<N, N, Scalar = f64>, const N: usize>(
                 })
             }
             // Eq. (13) times Jᵀ: D q̈ + Jᵀ(B_d ẋ̃ + K_d x̃ + f_l) = 0.
-            ImpedanceLaw::Controller3 => core::array::from_fn(|i| {
+            ImpedanceLaw::JacobianTranspose => core::array::from_fn(|i| {
                 (0..N).map(|j| terms.inertia_matrix[i][j] * qdd[j]).sum::<f64>()
                     + (0..N).map(|k| terms.jacobian[k][i] * restoring_plus_force[k]).sum::<f64>()
             }),
         };
         *slot = residual.iter().fold(0.0f64, |m, r| m.max(r.abs()));
-        if law == ImpedanceLaw::Controller2Accel {
+        if law == ImpedanceLaw::AccelerationFeedback {
             // The acceleration the plant settles at is the target ẍ*, and a sensing error
             // leaves exactly the predicted impedance error.
             for k in 0..N {
@@ -244,7 +240,7 @@ fn omitting_damping_compensation_removes_exactly_b_qdot() {
     let (q, qd) = ([1.0, -0.5], [0.7, -1.3]);
     let terms = rig.terms(&q, &qd);
     let mut controller = ImpedanceController {
-        law: ImpedanceLaw::Controller3,
+        law: ImpedanceLaw::JacobianTranspose,
         parameters: ImpedanceParameters { stiffness: [1500.0; 2], damping: [5.0; 2], mass: [0.1; 2] },
         options: ControlOptions {
             omit_damping_compensation: false,

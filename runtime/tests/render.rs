@@ -193,7 +193,7 @@ fn with_the_grid_and_no_operator_force_the_ihip_never_moves() {
     let rig = Parallelogram;
     let mut scene: Scene<f64, 1, 4> = Scene::new(300.0, 3.0, 0.3e-3);
     let mut controller = ImpedanceController {
-        law: ImpedanceLaw::Controller3,
+        law: ImpedanceLaw::JacobianTranspose,
         parameters: ImpedanceParameters { stiffness: [0.0; 2], damping: [0.0; 2], mass: [0.0; 2] },
         options: ControlOptions {
             omit_damping_compensation: true,

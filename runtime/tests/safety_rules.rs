@@ -25,19 +25,18 @@ fn controller(law: ImpedanceLaw) -> ImpedanceController<f64, 2> {
 }
 
 #[test]
-fn near_singular_pose_falls_back_to_controller3_and_is_reported() {
+fn near_singular_pose_falls_back_to_jacobian_transpose_and_is_reported() {
     let rig = Parallelogram;
     let reference = TaskReference::at_rest([0.09, 0.09]);
     let sensed = TaskSensing { operator_force: [1.0, -1.0], acceleration: [0.5, 0.5] };
     for q in [[0.8, 0.8], [0.8, 0.8 + 0.02], [0.8, 0.8 - std::f64::consts::PI]] {
         let qd = [0.3, -0.2];
         let terms = rig.terms(&q, &qd);
-        let fallback = controller(ImpedanceLaw::Controller3).torque(&rig, &terms, &qd, &reference, &sensed);
-        for law in [
-            ImpedanceLaw::Controller1ForceSensing,
-            ImpedanceLaw::Controller2Accel,
-            ImpedanceLaw::Controller2Mobility,
-        ] {
+        let fallback =
+            controller(ImpedanceLaw::JacobianTranspose).torque(&rig, &terms, &qd, &reference, &sensed);
+        for law in
+            [ImpedanceLaw::ForceFeedback, ImpedanceLaw::AccelerationFeedback, ImpedanceLaw::NaturalInertia]
+        {
             let out = controller(law).torque(&rig, &terms, &qd, &reference, &sensed);
             assert_eq!(out.status, ControlStatus::SingularFallback, "{law:?} at {q:?}");
             assert_eq!(out.torque, fallback.torque);
@@ -46,8 +45,7 @@ fn near_singular_pose_falls_back_to_controller3_and_is_reported() {
     // Away from the boundary the selected law runs again (nothing latched).
     let q = [1.5, -0.5];
     let terms = rig.terms(&q, &[0.0; 2]);
-    let out =
-        controller(ImpedanceLaw::Controller2Mobility).torque(&rig, &terms, &[0.0; 2], &reference, &sensed);
+    let out = controller(ImpedanceLaw::NaturalInertia).torque(&rig, &terms, &[0.0; 2], &reference, &sensed);
     assert_eq!(out.status, ControlStatus::Ok);
 }
 
@@ -60,25 +58,29 @@ fn nan_anywhere_refuses_with_zero_torque() {
     let reference = TaskReference::at_rest([0.09, 0.09]);
     let ok = TaskSensing::default();
     let bad_force = TaskSensing { operator_force: [f64::NAN, 0.0], acceleration: [0.0; 2] };
-    let out =
-        controller(ImpedanceLaw::Controller1ForceSensing).torque(&rig, &terms, &qd, &reference, &bad_force);
+    let out = controller(ImpedanceLaw::ForceFeedback).torque(&rig, &terms, &qd, &reference, &bad_force);
     assert_eq!(out.status, ControlStatus::NonFiniteInput);
     assert_eq!(out.torque, [0.0; 2]);
     // Controller 3 does not use the force sensor, so its NaN does not matter there.
-    let out = controller(ImpedanceLaw::Controller3).torque(&rig, &terms, &qd, &reference, &bad_force);
+    let out = controller(ImpedanceLaw::JacobianTranspose).torque(&rig, &terms, &qd, &reference, &bad_force);
     assert_eq!(out.status, ControlStatus::Ok);
-    let out =
-        controller(ImpedanceLaw::Controller3).torque(&rig, &terms, &[f64::INFINITY, 0.0], &reference, &ok);
+    let out = controller(ImpedanceLaw::JacobianTranspose).torque(
+        &rig,
+        &terms,
+        &[f64::INFINITY, 0.0],
+        &reference,
+        &ok,
+    );
     assert_eq!(out.status, ControlStatus::NonFiniteInput);
     let bad_reference = TaskReference::at_rest([f64::NAN, 0.0]);
-    let out = controller(ImpedanceLaw::Controller2Mobility).torque(&rig, &terms, &qd, &bad_reference, &ok);
+    let out = controller(ImpedanceLaw::NaturalInertia).torque(&rig, &terms, &qd, &bad_reference, &ok);
     assert_eq!(out.status, ControlStatus::NonFiniteInput);
     let mut bad_terms = terms;
     bad_terms.inertia_matrix[0][1] = f64::NAN;
-    let out = controller(ImpedanceLaw::Controller2Accel).torque(&rig, &bad_terms, &qd, &reference, &ok);
+    let out = controller(ImpedanceLaw::AccelerationFeedback).torque(&rig, &bad_terms, &qd, &reference, &ok);
     assert_eq!(out.status, ControlStatus::NonFiniteInput);
     assert_eq!(out.torque, [0.0; 2]);
-    let mut zero_mass = controller(ImpedanceLaw::Controller1ForceSensing);
+    let mut zero_mass = controller(ImpedanceLaw::ForceFeedback);
     zero_mass.parameters.mass = [0.0; 2];
     let out = zero_mass.torque(&rig, &terms, &qd, &reference, &ok);
     assert_eq!(out.status, ControlStatus::InvalidParameters);

@@ -185,7 +185,7 @@ fn full_tick() {
     let mut fused = HapticLoop::new(
         ParallelLink::NOMINAL,
         circle_scene(),
-        &parallel_link_settings(ImpedanceLaw::Controller3),
+        &parallel_link_settings(ImpedanceLaw::JacobianTranspose),
     )
     .expect("settings");
     let mut tick = 0u32;
@@ -198,7 +198,7 @@ fn full_tick() {
     let mut generic = HapticLoop::new(
         ParallelLink::NOMINAL,
         circle_scene(),
-        &parallel_link_settings(ImpedanceLaw::Controller3),
+        &parallel_link_settings(ImpedanceLaw::JacobianTranspose),
     )
     .expect("settings");
     let mut tick = 0u32;
@@ -214,7 +214,7 @@ fn full_tick() {
     let loaded = hapticgen_codegen::load_file(&workspace_root().join(file), file, Some("vertical"))
         .expect("shipped model");
     let baseline = PlanarBaseline::new(&loaded).expect("planar");
-    let s = parallel_link_settings(ImpedanceLaw::Controller3);
+    let s = parallel_link_settings(ImpedanceLaw::JacobianTranspose);
     let drives = ParallelLink::DRIVES;
     let mut estimator = JointStateEstimator::new(&drives, &s.estimator, s.zero_offset, s.initial_counts);
     let mut scene = circle_scene();
@@ -231,7 +231,7 @@ fn full_tick() {
         let qd = DVector::from_column_slice(&state.velocity);
         let terms = baseline.terms(&q, &qd);
         let reference = scene.update_reference(&[terms.position[0], terms.position[1]], &mut parameters);
-        let torque = baseline.controller3(
+        let torque = baseline.jacobian_transpose(
             &terms,
             &qd,
             &DVector::from_column_slice(&reference.position),
@@ -267,7 +267,7 @@ fn serial_tick<R, const N: usize, const M: usize>(
     let reference = TaskReference::at_rest(std::array::from_fn(|i| start_position[i] + 0.01));
     let settings = HapticLoopSettings {
         controller: ImpedanceController {
-            law: ImpedanceLaw::Controller3,
+            law: ImpedanceLaw::JacobianTranspose,
             parameters: ImpedanceParameters { stiffness: [200.0; M], damping: [5.0; M], mass: [0.2; M] },
             options: ControlOptions { min_abs_jacobian_determinant: 1e-4, ..ControlOptions::paper() },
         },
@@ -321,7 +321,7 @@ fn serial_tick<R, const N: usize, const M: usize>(
         let q = DVector::from_column_slice(&state.position);
         let qd = DVector::from_column_slice(&state.velocity);
         let terms = baseline.terms(&q, &qd);
-        let torque = baseline.controller3(
+        let torque = baseline.jacobian_transpose(
             &terms,
             &qd,
             &DVector::from_column_slice(&reference.position),

@@ -62,7 +62,7 @@ fn hold<R, const N: usize, const M: usize>(
     let start = start_degrees.map(f64::to_radians);
     let position = RigModel::position(&rig, &start);
     let reference = TaskReference::at_rest(std::array::from_fn(|i| position[i] + 0.01));
-    let mut s = settings::<N, M>(ImpedanceLaw::Controller3, gains);
+    let mut s = settings::<N, M>(ImpedanceLaw::JacobianTranspose, gains);
     s.zero_offset = start;
     let haptic = HapticLoop::new(rig, reference, &s).expect("settings");
     run(haptic, fused, ticks);
@@ -103,7 +103,7 @@ fn main() {
     let fused = mode == "fused";
     match rig.as_str() {
         "joystick" => {
-            let s = settings::<1, 1>(ImpedanceLaw::Controller2Mobility, Joystick1dof::CURRENT_LOOP_GAINS);
+            let s = settings::<1, 1>(ImpedanceLaw::NaturalInertia, Joystick1dof::CURRENT_LOOP_GAINS);
             let haptic =
                 HapticLoop::new(Joystick1dof::NOMINAL, TaskReference::at_rest([0.0]), &s).expect("settings");
             run(haptic, fused, ticks);
@@ -116,7 +116,7 @@ fn main() {
                 stiffness: 1500.0,
                 damping: 5.0,
             });
-            let s = settings::<2, 2>(ImpedanceLaw::Controller3, ParallelLink2dof::CURRENT_LOOP_GAINS);
+            let s = settings::<2, 2>(ImpedanceLaw::JacobianTranspose, ParallelLink2dof::CURRENT_LOOP_GAINS);
             let haptic = HapticLoop::new(ParallelLink2dof::NOMINAL, scene, &s).expect("settings");
             run(haptic, fused, ticks);
         }

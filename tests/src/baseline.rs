@@ -267,7 +267,7 @@ impl PlanarBaseline {
     }
 
     /// Controller 3 on nalgebra: `u = C q̇ + B q̇ + g − Jᵀ(B_d ẋ̃ + K_d x̃)` (eq. (12) in eq. (3)).
-    pub fn controller3(
+    pub fn jacobian_transpose(
         &self,
         terms: &BaselineTerms,
         qd: &DVector<f64>,
@@ -275,14 +275,14 @@ impl PlanarBaseline {
         stiffness: &DVector<f64>,
         damping: &DVector<f64>,
     ) -> DVector<f64> {
-        controller3(terms, &self.damping, qd, reference, stiffness, damping)
+        jacobian_transpose(terms, &self.damping, qd, reference, stiffness, damping)
     }
 }
 
 /// Controller 3 on nalgebra from one tick's terms and the joints' viscous damping `B`:
 /// `u = C q̇ + B q̇ + g − Jᵀ(B_d ẋ̃ + K_d x̃)` (eq. (12) in eq. (3)), for a reference at rest.
 /// Both baselines' laws are this one.
-pub fn controller3(
+pub fn jacobian_transpose(
     terms: &BaselineTerms,
     joint_damping: &DVector<f64>,
     qd: &DVector<f64>,

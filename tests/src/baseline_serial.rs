@@ -505,7 +505,7 @@ impl SerialBaseline {
 
     /// Controller 3 on nalgebra: `u = C q̇ + B q̇ + g − Jᵀ(B_d ẋ̃ + K_d x̃)` (eq. (12) in
     /// eq. (3)), for a reference at rest.
-    pub fn controller3(
+    pub fn jacobian_transpose(
         &self,
         terms: &BaselineTerms,
         qd: &DVector<f64>,
@@ -513,6 +513,6 @@ impl SerialBaseline {
         stiffness: &DVector<f64>,
         damping: &DVector<f64>,
     ) -> DVector<f64> {
-        crate::baseline::controller3(terms, &self.damping, qd, reference, stiffness, damping)
+        crate::baseline::jacobian_transpose(terms, &self.damping, qd, reference, stiffness, damping)
     }
 }

@@ -13,10 +13,10 @@ use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
 const LAWS: [ImpedanceLaw; 4] = [
-    ImpedanceLaw::Controller1ForceSensing,
-    ImpedanceLaw::Controller2Accel,
-    ImpedanceLaw::Controller2Mobility,
-    ImpedanceLaw::Controller3,
+    ImpedanceLaw::ForceFeedback,
+    ImpedanceLaw::AccelerationFeedback,
+    ImpedanceLaw::NaturalInertia,
+    ImpedanceLaw::JacobianTranspose,
 ];
 
 /// Determinant of a small square matrix by Laplace expansion (N ≤ 3 here).
@@ -99,7 +99,7 @@ impl RigVisitor for FusedEqualsGeneric {
                 let j = rig.jacobian(&q);
                 let norm: f64 = j.iter().flatten().map(|x| x * x).sum::<f64>().sqrt();
                 let det = if N == M { generic_det(&j) } else { 1.0 };
-                let conditioning = if law == ImpedanceLaw::Controller3 || N != M {
+                let conditioning = if law == ImpedanceLaw::JacobianTranspose || N != M {
                     1.0
                 } else {
                     (norm.powi(N as i32) / det.abs()).max(1.0)

@@ -93,13 +93,13 @@ fn scene() -> Scene<f64, 4, 8> {
 
 #[test]
 fn ten_thousand_generated_ticks_rendering_a_scene_allocate_nothing() {
-    let settings = parallel_link_settings(ImpedanceLaw::Controller3);
+    let settings = parallel_link_settings(ImpedanceLaw::JacobianTranspose);
     let mut haptic = HapticLoop::new(ParallelLink2dof::NOMINAL, scene(), &settings).expect("settings");
     let laws = [
-        ImpedanceLaw::Controller3,
-        ImpedanceLaw::Controller2Mobility,
-        ImpedanceLaw::Controller2Accel,
-        ImpedanceLaw::Controller1ForceSensing,
+        ImpedanceLaw::JacobianTranspose,
+        ImpedanceLaw::NaturalInertia,
+        ImpedanceLaw::AccelerationFeedback,
+        ImpedanceLaw::ForceFeedback,
     ];
     let measured = [0.2, -0.1];
     let ((impedance_ticks, current_ticks), allocations) = count_allocations(|| {
@@ -152,7 +152,7 @@ where
     };
     let settings = HapticLoopSettings {
         controller: ImpedanceController {
-            law: ImpedanceLaw::Controller3,
+            law: ImpedanceLaw::JacobianTranspose,
             parameters: ImpedanceParameters {
                 stiffness: [s(200.0); M],
                 damping: [s(2.0); M],
@@ -180,13 +180,13 @@ where
         .unwrap_or_else(|| panic!("{}: unusable loop rates", info.module));
     let laws: &[ImpedanceLaw] = if N == M {
         &[
-            ImpedanceLaw::Controller3,
-            ImpedanceLaw::Controller2Mobility,
-            ImpedanceLaw::Controller2Accel,
-            ImpedanceLaw::Controller1ForceSensing,
+            ImpedanceLaw::JacobianTranspose,
+            ImpedanceLaw::NaturalInertia,
+            ImpedanceLaw::AccelerationFeedback,
+            ImpedanceLaw::ForceFeedback,
         ]
     } else {
-        &[ImpedanceLaw::Controller3]
+        &[ImpedanceLaw::JacobianTranspose]
     };
     let measured = [s(0.1); N];
     let (ticks, allocations) = count_allocations(|| {

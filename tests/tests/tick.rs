@@ -16,10 +16,10 @@ fn haptic_loop(law: ImpedanceLaw) -> HapticLoop<ParallelLink2dof, Scene<f64, 2, 
 #[test]
 fn fused_tick_equals_generic_tick() {
     for law in [
-        ImpedanceLaw::Controller3,
-        ImpedanceLaw::Controller2Mobility,
-        ImpedanceLaw::Controller2Accel,
-        ImpedanceLaw::Controller1ForceSensing,
+        ImpedanceLaw::JacobianTranspose,
+        ImpedanceLaw::NaturalInertia,
+        ImpedanceLaw::AccelerationFeedback,
+        ImpedanceLaw::ForceFeedback,
     ] {
         let (mut generic, mut fused) = (haptic_loop(law), haptic_loop(law));
         let mut compared = 0;
@@ -53,7 +53,7 @@ fn fused_tick_equals_generic_tick() {
 
 #[test]
 fn a_stalled_impedance_task_stops_the_motors_within_a_millisecond() {
-    let mut haptic = haptic_loop(ImpedanceLaw::Controller3);
+    let mut haptic = haptic_loop(ImpedanceLaw::JacobianTranspose);
     let measured = [0.0; 2];
     let (mut tick, mut current_ticks, mut stalled_at) = (0u32, 0u32, None);
     loop {

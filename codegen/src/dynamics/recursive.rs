@@ -86,6 +86,8 @@ type M3 = [[NodeId; 3]; 3];
 
 /// Constant data of one body in its joint frame.
 struct Link {
+    /// The body's name in the model, for the names of its values in the emitted code.
+    name: String,
     parent: Option<usize>,
     /// Rotation from the parent's joint frame to this joint frame, before the joint.
     offset_rotation: [[f64; 3]; 3],
@@ -295,6 +297,7 @@ fn links(model: &Model) -> Vec<Link> {
                 })
             });
             Link {
+                name: body.name.clone(),
                 parent: *parent,
                 offset_rotation,
                 offset,
@@ -315,7 +318,41 @@ struct Builder<'d> {
     dag: &'d mut Dag,
 }
 
+/// The part of a value's name that says which recursive pass built it: none for the full one
+/// (velocities, accelerations and gravity), `_coriolis` for velocities alone (`C q̇`, `J̇ q̇`),
+/// `_gravity` for gravity alone (`g`), `_inertial` for accelerations alone.
+fn pass_label(velocity: bool, acceleration: bool, gravity: bool) -> String {
+    match (velocity, acceleration, gravity) {
+        (true, true, true) => String::new(),
+        (true, false, false) => "_coriolis".into(),
+        (false, false, true) => "_gravity".into(),
+        (false, true, false) => "_inertial".into(),
+        (v, a, g) => {
+            format!("{}{}{}", if v { "_v" } else { "" }, if a { "_a" } else { "" }, if g { "_g" } else { "" })
+        }
+    }
+}
+
+/// The coordinate names of a 3-vector's entries.
+const AXES: [&str; 3] = ["x", "y", "z"];
+
 impl Builder<'_> {
+    /// Names each entry of `v` as `{link}_{quantity}_{x|y|z}` for the emitted code.
+    fn name3(&mut self, v: &V3, link: &str, quantity: &str) {
+        for (&id, axis) in v.iter().zip(AXES) {
+            self.dag.hint(id, || format!("{link}_{quantity}_{axis}"));
+        }
+    }
+
+    /// Names each entry of `m` as `{link}_{quantity}_{row}{column}` for the emitted code.
+    fn name33(&mut self, m: &M3, link: &str, quantity: &str) {
+        for (r, row) in m.iter().enumerate() {
+            for (c, &id) in row.iter().enumerate() {
+                self.dag.hint(id, || format!("{link}_{quantity}_{r}{c}"));
+            }
+        }
+    }
+
     fn zero(&mut self) -> NodeId {
         self.dag.constant(0.0)
     }
@@ -488,6 +525,9 @@ struct Recursion<'d> {
     /// moment `h` (`f = m a + U h`, `n = I_o ω̇ + ω × I_o ω + h × a`). Which is cheaper depends on
     /// the model: principal-axis inertias favour the former, full tensors the latter.
     about_com: bool,
+    /// While frames are built relative to a chain's root body (`in_root_frame`), that body:
+    /// their values are named `…_in_{root}_…`.
+    frames_in: Option<usize>,
 }
 
 impl<'d> Recursion<'d> {
@@ -521,7 +561,16 @@ impl<'d> Recursion<'d> {
             .iter()
             .map(|j| Poly::constant(j.drive.gear_ratio * j.drive.gear_ratio * j.drive.motor.rotor_inertia))
             .collect();
-        Self { b, links, rotations, offsets, rotor, gravity: model.gravity.clone(), about_com }
+        Self {
+            b,
+            links,
+            rotations,
+            offsets,
+            rotor,
+            gravity: model.gravity.clone(),
+            about_com,
+            frames_in: None,
+        }
     }
 
     /// The forward pass: each body's angular velocity and acceleration and its origin's
@@ -584,6 +633,13 @@ impl<'d> Recursion<'d> {
                     }
                 }
             }
+            // Names say which pass a value belongs to when it is not the full one (velocities,
+            // accelerations and gravity): the passes of `C q̇` and `g` share one function.
+            let pass = pass_label(velocity, acceleration, gravity);
+            let link = &self.links[i].name;
+            self.b.name3(&angular_velocity, link, "angular_velocity");
+            self.b.name3(&angular_acceleration, link, &format!("angular_acceleration{pass}"));
+            self.b.name3(&linear, link, &format!("acceleration{pass}"));
             u_matrices.push(self.b.u_matrix(&angular_velocity, &angular_acceleration));
             states.push(Motion3 { angular_velocity, angular_acceleration, linear_acceleration: linear });
         }
@@ -638,6 +694,11 @@ impl<'d> Recursion<'d> {
         }
         let mut torques = vec![self.b.zero(); n_joints];
         for i in (0..self.links.len()).rev() {
+            // Every child has added its share: the force and moment the joint transmits.
+            let pass = pass_label(velocity, acceleration, gravity);
+            let link = &self.links[i].name;
+            self.b.name3(&forces[i], link, &format!("force{pass}"));
+            self.b.name3(&moments[i], link, &format!("moment{pass}"));
             if let Some((j, kind, axis)) = self.links[i].joint {
                 let axis = self.b.const3(axis);
                 let along = match kind {
@@ -691,6 +752,10 @@ impl<'d> Recursion<'d> {
                     (world_rotation, self.b.add3(&parent_origin, &shift))
                 }
             };
+            let relative = self.frames_in.map(|r| format!("_in_{}", self.links[r].name)).unwrap_or_default();
+            let link = &self.links[i].name;
+            self.b.name33(&frame.0, link, &format!("orientation{relative}"));
+            self.b.name3(&frame.1, link, &format!("origin{relative}"));
             frames.push(frame);
         }
         frames
@@ -741,12 +806,14 @@ impl<'d> Recursion<'d> {
             let identity = [identity, self.b.const3([0.0, 1.0, 0.0]), self.b.const3([0.0, 0.0, 1.0])];
             self.rotations[root] = identity;
             self.offsets[root] = self.b.zero3();
+            self.frames_in = Some(root);
         }
         let columns = if local_columns {
             self.local_jacobian_columns(body, &local)
         } else {
             self.jacobian_columns(body, &local)
         };
+        self.frames_in = None;
         (self.rotations[root], self.offsets[root]) = root_frame;
         let mut jacobian = vec![self.b.zero(); dim * n_joints];
         for (j, column) in columns {
@@ -809,8 +876,10 @@ impl<'d> Recursion<'d> {
             self.rotations[root] =
                 [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]].map(|row| self.b.const3(row));
             self.offsets[root] = self.b.zero3();
+            self.frames_in = Some(root);
         }
         let frames = self.world_frames();
+        self.frames_in = None;
         (self.rotations[root], self.offsets[root]) = root_frame;
         let to_base =
             |b: &mut Builder<'_>, v: V3| if in_root_frame { b.mat_vec(&root_frame.0, &v) } else { v };
@@ -942,6 +1011,12 @@ impl<'d> Recursion<'d> {
             mass[p] = self.b.dag.add(mass[p], m);
             moment[p] = self.b.add3(&moment[p], &h_total);
         }
+        for i in 0..count {
+            let link = &self.links[i].name;
+            self.b.dag.hint(mass[i], || format!("{link}_composite_mass"));
+            self.b.name3(&moment[i], link, "composite_first_moment");
+            self.b.name33(&inertia[i], link, "composite_inertia");
+        }
         let mut d = vec![self.b.zero(); n_joints * n_joints];
         for i in 0..count {
             let Some((ji, kind, axis)) = self.links[i].joint else { continue };
@@ -963,6 +1038,7 @@ impl<'d> Recursion<'d> {
             let diagonal = self.b.dot(&axis_nodes, &along(kind, &f, &n));
             let rotor = self.b.poly(&self.rotor[ji]);
             d[ji * n_joints + ji] = self.b.dag.add(diagonal, rotor);
+            self.b.dag.hint(d[ji * n_joints + ji], || format!("inertia_{ji}{ji}"));
             let mut body = i;
             while let Some(p) = self.links[body].parent {
                 let moved = self.moved_to_parent(body, f, n);
@@ -974,6 +1050,8 @@ impl<'d> Recursion<'d> {
                     let value = self.b.dot(&axis_p, &along(kind_p, &f, &n));
                     d[ji * n_joints + jp] = value;
                     d[jp * n_joints + ji] = value;
+                    let (r, c) = (jp.min(ji), jp.max(ji));
+                    self.b.dag.hint(value, || format!("inertia_{r}{c}"));
                 }
             }
         }
@@ -982,7 +1060,9 @@ impl<'d> Recursion<'d> {
 }
 
 /// The partial derivative of each of `roots` with respect to `q_joint`, built in the DAG.
-pub fn derivative(dag: &mut Dag, roots: &[NodeId], joint: u16) -> Vec<NodeId> {
+///
+/// The derivative of a named node is named after it: `d_{name}_d_{joint_name}`.
+pub fn derivative(dag: &mut Dag, roots: &[NodeId], joint: u16, joint_name: &str) -> Vec<NodeId> {
     let order = dag.reachable(roots);
     let mut d: HashMap<NodeId, NodeId> = HashMap::with_capacity_and_hasher(order.len(), Default::default());
     let zero = dag.constant(0.0);
@@ -1018,6 +1098,9 @@ pub fn derivative(dag: &mut Dag, roots: &[NodeId], joint: u16) -> Vec<NodeId> {
                 dag.div(numerator, b)
             }
         };
+        if let Some(name) = dag.hints().get(&id).cloned() {
+            dag.hint(value, || format!("d_{name}_d_{joint_name}"));
+        }
         d.insert(id, value);
     }
     roots.iter().map(|r| d[r]).collect()
@@ -1061,9 +1144,9 @@ pub fn build_with(dag: &mut Dag, model: &Model, quantity: Quantity, formulation:
         }
         Quantity::CoriolisMatrix => {
             let d = recursion.inertia_matrix();
-            let n = model.joints.len();
             drop(recursion);
-            christoffel(dag, &d, n)
+            let names: Vec<String> = model.joints.iter().map(|j| j.name.clone()).collect();
+            christoffel(dag, &d, &names)
         }
     }
 }
@@ -1117,8 +1200,11 @@ pub fn formulation(model: &Model) -> Formulation {
 }
 
 /// `C_kj = Σ_i ½ (∂D_kj/∂q_i + ∂D_ki/∂q_j − ∂D_ij/∂q_k) q̇_i`, row-major.
-pub fn christoffel(dag: &mut Dag, inertia: &[NodeId], n: usize) -> Vec<NodeId> {
-    let partials: Vec<Vec<NodeId>> = (0..n).map(|i| derivative(dag, inertia, i as u16)).collect();
+/// `joint_names` name the derivatives in the emitted code.
+pub fn christoffel(dag: &mut Dag, inertia: &[NodeId], joint_names: &[String]) -> Vec<NodeId> {
+    let n = joint_names.len();
+    let partials: Vec<Vec<NodeId>> =
+        joint_names.iter().enumerate().map(|(i, name)| derivative(dag, inertia, i as u16, name)).collect();
     let half = dag.constant(0.5);
     let mut c = Vec::with_capacity(n * n);
     for k in 0..n {

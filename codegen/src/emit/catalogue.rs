@@ -37,11 +37,35 @@ pub struct FunctionSpec<'a> {
     pub takes_qd: bool,
     /// Takes `qdd` (the inverse dynamics).
     pub takes_qdd: bool,
+    /// The task function with the same outputs (a function of the task's point), which this
+    /// one calls instead of repeating its body.
+    pub same_as: Option<&'static str>,
 }
 
 /// Entries `0..len` of a quantity.
 fn quantity(q: Quantity, len: usize) -> Vec<Output<'static>> {
     (0..len).map(|k| Output::Quantity(q, k)).collect()
+}
+
+/// The names of a function's outputs (row-major) as values: the function's quantity and the
+/// entry's index (`inertia_01`, `gravity_2`, `tool_position_0`).
+pub(crate) fn output_names(function: &str, shape: Shape) -> Vec<String> {
+    let base = match function {
+        "inertia_matrix" => "inertia",
+        "coriolis_matrix" => "coriolis",
+        "coriolis_times_qdot" => "coriolis_torque",
+        "inverse_dynamics" => "torque",
+        "jacobian_dot_times_qdot" => "jacobian_dot_qdot",
+        other => other,
+    };
+    match shape {
+        Shape::Scalar => vec![base.to_string()],
+        Shape::Vector(n) => (0..n).map(|i| format!("{base}_{i}")).collect(),
+        Shape::Matrix(rows, cols) => {
+            let sep = if rows > 10 || cols > 10 { "_" } else { "" };
+            (0..rows).flat_map(|r| (0..cols).map(move |c| format!("{base}_{r}{sep}{c}"))).collect()
+        }
+    }
 }
 
 /// A matrix of polynomials, row-major.
@@ -85,6 +109,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: quantity(Quantity::InertiaMatrix, n * n),
             takes_qd: false,
             takes_qdd: false,
+            same_as: None,
         },
         FunctionSpec {
             name: "coriolis_matrix".into(),
@@ -94,6 +119,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: quantity(Quantity::CoriolisMatrix, n * n),
             takes_qd: true,
             takes_qdd: false,
+            same_as: None,
         },
         FunctionSpec {
             name: "coriolis_times_qdot".into(),
@@ -102,6 +128,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: quantity(Quantity::CoriolisTimesQdot, n),
             takes_qd: true,
             takes_qdd: false,
+            same_as: None,
         },
         FunctionSpec {
             name: "gravity".into(),
@@ -110,6 +137,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: quantity(Quantity::Gravity, n),
             takes_qd: false,
             takes_qdd: false,
+            same_as: None,
         },
         FunctionSpec {
             name: "inverse_dynamics".into(),
@@ -120,6 +148,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: quantity(Quantity::InverseDynamics, n),
             takes_qd: true,
             takes_qdd: true,
+            same_as: None,
         },
         FunctionSpec {
             name: "potential_energy".into(),
@@ -128,6 +157,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: vec![Output::Poly(&mech.potential_energy)],
             takes_qd: false,
             takes_qdd: false,
+            same_as: None,
         },
         FunctionSpec {
             name: "position".into(),
@@ -136,14 +166,16 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: task(mech, PointQuantity::Position),
             takes_qd: false,
             takes_qdd: false,
+            same_as: None,
         },
         FunctionSpec {
             name: "jacobian".into(),
-            doc: " Task Jacobian `J(q) = ∂p/∂q` (eq. (2), eq. (15) for the parallel link).".into(),
+            doc: " Task Jacobian `J(q) = ∂p/∂q` of eq. (2).".into(),
             shape: Shape::Matrix(m, n),
             outputs: task(mech, PointQuantity::Jacobian),
             takes_qd: false,
             takes_qdd: false,
+            same_as: None,
         },
         FunctionSpec {
             name: "jacobian_dot".into(),
@@ -152,6 +184,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: row_major(&mech.task.jacobian_dot),
             takes_qd: true,
             takes_qdd: false,
+            same_as: None,
         },
         FunctionSpec {
             name: "jacobian_dot_times_qdot".into(),
@@ -160,12 +193,17 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: task(mech, PointQuantity::JacobianDotTimesQdot),
             takes_qd: true,
             takes_qdd: false,
+            same_as: None,
         },
     ];
     for (index, (point, kin)) in model.points.iter().zip(&mech.points).enumerate() {
         let d = kin.position.len();
         let point_outputs = |what: PointQuantity, len: usize| quantity(Quantity::Point(index, what), len);
         let what = point.description.clone().unwrap_or_else(|| format!("point `{}`", point.name));
+        // The task's own point: its functions are the task's `position`, `jacobian` and
+        // `jacobian_dot_times_qdot`, which these call.
+        let is_task = matches!(model.task, crate::model::TaskSpec::Point(i) if i == index) && d == m;
+        let task_fn = |name: &'static str| is_task.then_some(name);
         specs.push(FunctionSpec {
             name: format!("{}_position", point.name),
             doc: format!(" Position of {what} in the base frame."),
@@ -173,6 +211,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: point_outputs(PointQuantity::Position, d),
             takes_qd: false,
             takes_qdd: false,
+            same_as: task_fn("position"),
         });
         specs.push(FunctionSpec {
             name: format!("{}_jacobian", point.name),
@@ -181,6 +220,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: point_outputs(PointQuantity::Jacobian, d * n),
             takes_qd: false,
             takes_qdd: false,
+            same_as: task_fn("jacobian"),
         });
         specs.push(FunctionSpec {
             name: format!("{}_jacobian_dot_times_qdot", point.name),
@@ -189,6 +229,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: point_outputs(PointQuantity::JacobianDotTimesQdot, d),
             takes_qd: true,
             takes_qdd: false,
+            same_as: task_fn("jacobian_dot_times_qdot"),
         });
     }
     for (index, frame) in model.frames.iter().enumerate() {
@@ -200,6 +241,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: quantity(Quantity::Frame(index, FrameQuantity::Orientation), 9),
             takes_qd: false,
             takes_qdd: false,
+            same_as: None,
         });
         specs.push(FunctionSpec {
             name: format!("{}_angular_jacobian", frame.name),
@@ -208,6 +250,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: quantity(Quantity::Frame(index, FrameQuantity::AngularJacobian), 3 * n),
             takes_qd: false,
             takes_qdd: false,
+            same_as: None,
         });
     }
     specs

@@ -12,7 +12,7 @@ use crate::sym::dag::OpCounts;
 
 use super::literal::{unsuffixed, Scalar};
 use super::lower::{BodyEmitter, EmitOptions};
-use super::naming::rig_type_name;
+use super::naming::{rig_type_name, SharedNames};
 
 /// Emits the `FusedImpedance` implementation: one straight-line function per law; returns it
 /// with the operation counts of each law that has a closed form, in emission order.
@@ -21,6 +21,7 @@ pub(crate) fn fused_impl(
     mech: &Mechanics,
     scalar: Scalar,
     options: EmitOptions,
+    names: &SharedNames,
 ) -> (TokenStream, Vec<(String, OpCounts)>) {
     use super::laws::{build, External, Law};
     let s = scalar.tokens();
@@ -32,15 +33,16 @@ pub(crate) fn fused_impl(
     let parameters_ty = quote!(::hapticgen_runtime::control::ImpedanceParameters<#s, #m>);
     let fused_ty = quote!(::hapticgen_runtime::fused::FusedTorque<#s, #n>);
     let laws = [
-        (Law::Controller3, "controller3_torque", None),
-        (Law::Controller1, "controller1_torque", Some("operator_force")),
-        (Law::Controller2Accel, "controller2_accel_torque", Some("task_acceleration")),
-        (Law::Controller2Mobility, "controller2_mobility_torque", None),
+        (Law::JacobianTranspose, "jacobian_transpose_torque", None),
+        (Law::ForceFeedback, "force_feedback_torque", Some("operator_force")),
+        (Law::AccelerationFeedback, "acceleration_feedback_torque", Some("task_acceleration")),
+        (Law::NaturalInertia, "natural_inertia_torque", None),
     ];
     let mut methods = TokenStream::new();
     let mut counts_by_law = Vec::new();
     for (law, name, sensed) in laws {
         let mut body = BodyEmitter::new(model, mech, scalar, options);
+        body.share_names(names);
         for kind in External::ALL {
             for k in 0..m_usize {
                 let kk = unsuffixed(k);
@@ -79,7 +81,7 @@ pub(crate) fn fused_impl(
             (prefix("q"), prefix("qd"), prefix("reference"), prefix("parameters"));
         let args = quote!(&self, #q: &[#s; #n], #qd: &[#s; #n], #reference: &#reference_ty, #parameters: &#parameters_ty #sensed_arg);
         let tokens = match (law, nodes) {
-            (Law::Controller3, Some(nodes)) => {
+            (Law::JacobianTranspose, Some(nodes)) => {
                 let (statements, outputs, counts) = body.emit(&nodes.torque, name);
                 counts_by_law.push((name.to_string(), counts));
                 quote! {
@@ -113,13 +115,9 @@ pub(crate) fn fused_impl(
                     }
                 }
             }
-            (_, None) => quote! {
-                /// No closed form for this task: `J` is not square, or larger than 3 × 3.
-                #[inline]
-                fn #fn_name(#args) -> Option<#fused_ty> {
-                    None
-                }
-            },
+            // No closed form for this task (`J` not square, or larger than 3 × 3): the trait's
+            // default returns `None`.
+            (_, None) => TokenStream::new(),
         };
         methods.extend(tokens);
     }

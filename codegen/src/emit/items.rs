@@ -1,7 +1,8 @@
 //! Assembly of a rig's items: the struct (tunable parameters as fields), its constants
 //! (nominal values, drive trains, current-loop gains), its methods, the
 //! `::hapticgen_runtime::RigModel` implementation and the fused control laws' implementation,
-//! with the operation counts of every emitted function.
+//! with the operation counts of every emitted function. The `RigModel` glue is the runtime's
+//! `impl_rig_model!`, which calls the inherent methods.
 
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::{format_ident, quote};
@@ -15,8 +16,8 @@ use super::catalogue::function_specs;
 use super::fused_impl::fused_impl;
 use super::literal::{unsuffixed, Scalar};
 use super::lower::{BodyEmitter, EmitOptions};
-use super::methods::{closure_margin_function, function, terms_function};
-use super::naming::rig_type_name;
+use super::methods::{closure_margin_function, function_sharing, terms_function};
+use super::naming::{rig_type_name, SharedNames};
 
 /// Operation counts of each emitted function and of the fused tick.
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -39,24 +40,27 @@ pub fn items(
     let rig_name = &model.name;
     let mut stats = Stats::default();
 
+    // One name per value across every function of the rig.
+    let names = SharedNames::default();
     let mut methods = TokenStream::new();
     for spec in function_specs(model, mech) {
-        let (tokens, counts) = function(model, mech, scalar, options, &spec);
+        let (tokens, counts) = function_sharing(model, mech, scalar, options, &spec, &names);
         methods.extend(tokens);
         stats.functions.push((spec.name.clone(), counts));
     }
-    let (terms, tick) = terms_function(model, mech, scalar, options);
+    let (terms, tick) = terms_function(model, mech, scalar, options, &names);
     stats.functions.push(("terms".into(), tick));
     methods.extend(terms);
-    if let Some((margin, counts)) = closure_margin_function(model, mech, scalar, options) {
+    if let Some((margin, counts)) = closure_margin_function(model, mech, scalar, options, &names) {
         stats.functions.push(("closure_margin".into(), counts));
         methods.extend(margin);
     }
-    let (fused, fused_counts) = fused_impl(model, mech, scalar, options);
+    let (fused, fused_counts) = fused_impl(model, mech, scalar, options, &names);
     stats.functions.extend(fused_counts);
 
     // Damping depends on tunable parameters at most.
     let mut damping_body = BodyEmitter::new(model, mech, scalar, options);
+    damping_body.share_names(&names);
     let damping_roots: Vec<NodeId> = mech.damping.iter().map(|p| damping_body.dag.polynomial(p)).collect();
     let (damping_statements, damping_values, _) = damping_body.emit(&damping_roots, "damping");
 
@@ -254,49 +258,8 @@ pub fn items(
             #methods
         }
 
-        impl ::hapticgen_runtime::RigModel<#n, #m> for #type_name {
-            type Scalar = #s;
-            const NAME: &'static str = #rig_name;
-            const CURRENT_LOOP_HZ: u32 = #current_hz;
-            const IMPEDANCE_LOOP_HZ: u32 = #impedance_hz;
-
-            fn inertia_matrix(&self, q: &[#s; #n]) -> [[#s; #n]; #n] {
-                Self::inertia_matrix(self, q)
-            }
-            fn coriolis_matrix(&self, q: &[#s; #n], qd: &[#s; #n]) -> [[#s; #n]; #n] {
-                Self::coriolis_matrix(self, q, qd)
-            }
-            fn coriolis_times_qdot(&self, q: &[#s; #n], qd: &[#s; #n]) -> [#s; #n] {
-                Self::coriolis_times_qdot(self, q, qd)
-            }
-            fn gravity(&self, q: &[#s; #n]) -> [#s; #n] {
-                Self::gravity(self, q)
-            }
-            fn damping(&self) -> [#s; #n] {
-                Self::damping(self)
-            }
-            fn position(&self, q: &[#s; #n]) -> [#s; #m] {
-                Self::position(self, q)
-            }
-            fn jacobian(&self, q: &[#s; #n]) -> [[#s; #n]; #m] {
-                Self::jacobian(self, q)
-            }
-            fn jacobian_dot(&self, q: &[#s; #n], qd: &[#s; #n]) -> [[#s; #n]; #m] {
-                Self::jacobian_dot(self, q, qd)
-            }
-            fn jacobian_dot_times_qdot(&self, q: &[#s; #n], qd: &[#s; #n]) -> [#s; #m] {
-                Self::jacobian_dot_times_qdot(self, q, qd)
-            }
-            fn terms(&self, q: &[#s; #n], qd: &[#s; #n]) -> ::hapticgen_runtime::RigTerms<#s, #n, #m> {
-                Self::terms(self, q, qd)
-            }
-            fn drives(&self) -> [::hapticgen_runtime::DriveTrain<#s>; #n] {
-                Self::DRIVES
-            }
-            fn inverse_dynamics(&self, q: &[#s; #n], qd: &[#s; #n], qdd: &[#s; #n]) -> [#s; #n] {
-                Self::inverse_dynamics(self, q, qd, qdd)
-            }
-        }
+        // `RigModel` by the inherent methods above.
+        ::hapticgen_runtime::impl_rig_model!(#type_name, #s, #n, #m, #rig_name, #current_hz, #impedance_hz);
 
         #fused
     };

@@ -16,14 +16,15 @@ use crate::sym::poly::Atom;
 /// Which law to build.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Law {
-    /// Controller 1, eq. (7) with `a_f = f_l`.
-    Controller1,
-    /// Controller 2, first variant, eq. (8) and the corrected eq. (10).
-    Controller2Accel,
-    /// Controller 2, second variant, eq. (8) with `M_d = W⁻¹`, `a_f = 0`.
-    Controller2Mobility,
-    /// Controller 3, eq. (12) with `a_q = 0`.
-    Controller3,
+    /// Force feedback (the paper's Controller 1), eq. (7) with `a_f = f_l`.
+    ForceFeedback,
+    /// Acceleration feedback (Controller 2, first variant), eq. (8) and the corrected eq. (10).
+    AccelerationFeedback,
+    /// Natural-inertia impedance (Controller 2, second variant), eq. (8) with `M_d = W⁻¹`,
+    /// `a_f = 0`.
+    NaturalInertia,
+    /// Jacobian-transpose impedance (Controller 3), eq. (12) with `a_q = 0`.
+    JacobianTranspose,
 }
 
 /// Index layout of the external inputs (`Atom::External`) for a task dimension `m`.
@@ -160,7 +161,7 @@ pub fn build(dag: &mut Dag, model: &Model, mech: &Mechanics, law: Law) -> Option
     let bias: Vec<NodeId> = coriolis.iter().zip(&gravity).map(|(&c, &g)| dag.add(c, g)).collect();
     let jacobian_t = matrix_transpose(&jacobian);
 
-    if law == Law::Controller3 {
+    if law == Law::JacobianTranspose {
         let force = mat_vec(dag, &jacobian_t, &restoring);
         let torque = bias.iter().zip(&force).map(|(&b, &f)| dag.sub(b, f)).collect();
         return Some(LawNodes { torque, jacobian_determinant: None, names });
@@ -181,7 +182,7 @@ pub fn build(dag: &mut Dag, model: &Model, mech: &Mechanics, law: Law) -> Option
     let mut accel_command = Vec::with_capacity(m); // a_x
     let mut force_command: Option<Vec<NodeId>> = None; // a_f
     match law {
-        Law::Controller1 => {
+        Law::ForceFeedback => {
             // Eq. (7): a_x = ẍ_d − M_d⁻¹(r + f_l); a_f = f_l.
             let mut forces = Vec::with_capacity(m);
             for (k, &r) in restoring.iter().enumerate() {
@@ -195,7 +196,7 @@ pub fn build(dag: &mut Dag, model: &Model, mech: &Mechanics, law: Law) -> Option
             }
             force_command = Some(forces);
         }
-        Law::Controller2Accel => {
+        Law::AccelerationFeedback => {
             // Eq. (8), then the corrected eq. (10): a_f = W⁻¹(ẍ − a_x) − M_d ẍ̃ − r.
             let mut excess = Vec::with_capacity(m);
             for (k, &r) in restoring.iter().enumerate() {
@@ -223,7 +224,7 @@ pub fn build(dag: &mut Dag, model: &Model, mech: &Mechanics, law: Law) -> Option
             }
             force_command = Some(forces);
         }
-        Law::Controller2Mobility => {
+        Law::NaturalInertia => {
             // Eq. (8) with M_d⁻¹ = W = J D⁻¹ Jᵀ: a_x = ẍ_d − J D⁻¹ Jᵀ r.
             let (det_d, adj_d) = determinant_and_adjugate(dag, &inertia)?;
             let jt_r = mat_vec(dag, &jacobian_t, &restoring);
@@ -234,7 +235,7 @@ pub fn build(dag: &mut Dag, model: &Model, mech: &Mechanics, law: Law) -> Option
                 accel_command.push(dag.sub(xddot_d, w));
             }
         }
-        Law::Controller3 => unreachable!("handled above"),
+        Law::JacobianTranspose => unreachable!("handled above"),
     }
     // Eq. (4): a_q = J⁻¹(a_x − J̇ q̇); eq. (3): u = D a_q + C q̇ + g + Jᵀ a_f.
     let rhs: Vec<NodeId> = accel_command.iter().zip(&jdot_qd).map(|(&a, &j)| dag.sub(a, j)).collect();

@@ -15,7 +15,7 @@ use crate::sym::dag::{Dag, Fused, Node, NodeId, OpCounts};
 use crate::sym::poly::Atom;
 
 use super::literal::{unsuffixed, Scalar};
-use super::naming::Naming;
+use super::naming::{Naming, SharedNames};
 
 /// Options of the emitted code besides its scalar type. The default is what every front end
 /// emits unless asked otherwise.
@@ -67,12 +67,17 @@ impl<'m> BodyEmitter<'m> {
             crate::dynamics::closure::install(&mut dag, mech.closures.as_ref()).hints.into_iter().collect();
         Self {
             dag,
-            naming: Naming { model, externals: Vec::new() },
+            naming: Naming { model, externals: Vec::new(), shared: None },
             scalar,
             hints,
             options,
             fusions: HashMap::default(),
         }
+    }
+
+    /// Names values as the other functions of the rig `names` belongs to do.
+    pub(crate) fn share_names(&mut self, names: &SharedNames) {
+        self.naming.shared = Some(names.clone());
     }
 
     /// A descriptive name for a node, if a short one exists.
@@ -100,9 +105,11 @@ impl<'m> BodyEmitter<'m> {
             Node::Mul(a, b) if a == b => format!("{}_sq", name_of(a)?),
             Node::Mul(a, b) => {
                 let (ca, cb) = (self.dag.constant_value(a), self.dag.constant_value(b));
+                // A multiple of a multiple is still `scaled_…`, not `scaled_scaled_…`.
+                let scaled = |x: String| if x.starts_with("scaled_") { x } else { format!("scaled_{x}") };
                 match (ca, cb) {
-                    (Some(_), None) => format!("scaled_{}", name_of(b)?),
-                    (None, Some(_)) => format!("scaled_{}", name_of(a)?),
+                    (Some(_), None) => scaled(name_of(b)?),
+                    (None, Some(_)) => scaled(name_of(a)?),
                     _ => format!("{}_{}", name_of(a)?, name_of(b)?),
                 }
             }
@@ -135,6 +142,8 @@ impl<'m> BodyEmitter<'m> {
         let (p1, p2) = (product(a)?, product(b)?);
         let sort = |(x, y): (Atom, Atom)| if x <= y { (x, y) } else { (y, x) };
         let (p1, p2) = (sort(p1), sort(p2));
+        // `s_i s_j + c_i c_j` reads as `c_i c_j + s_i s_j`.
+        let (p1, p2) = if plus && matches!(p1.0, Atom::Sin(_)) { (p2, p1) } else { (p1, p2) };
         use Atom::{Cos, Sin};
         match (p1, p2) {
             // c_i c_j ∓ s_i s_j = cos(q_i ± q_j)
@@ -155,21 +164,42 @@ impl<'m> BodyEmitter<'m> {
     /// form [`Dag::optimised`] finds, with fused multiply-adds ([`Dag::fusions`]) if the options
     /// ask for them.
     pub(crate) fn emit(&self, roots: &[NodeId], context: &str) -> (TokenStream, Vec<TokenStream>, OpCounts) {
+        self.emit_named(roots, context, &[])
+    }
+
+    /// [`BodyEmitter::emit`], naming a shared root after the output it is (`root_names[k]` for
+    /// `roots[k]`, e.g. `inertia_01`) unless the value has a name already.
+    pub(crate) fn emit_named(
+        &self,
+        roots: &[NodeId],
+        context: &str,
+        root_names: &[String],
+    ) -> (TokenStream, Vec<TokenStream>, OpCounts) {
         let fma = self.options.fused_multiply_add;
+        // Names given by the emitter's caller first, then those given where nodes were built.
+        let mut all_hints = self.hints.clone();
+        for (id, name) in self.dag.hints() {
+            all_hints.entry(*id).or_insert_with(|| name.clone());
+        }
         let (dag, roots, hints) = match self.dag.optimised(roots, fma) {
             Some(optimised) => {
                 // A named value computed negated keeps its name, as `minus_…`.
                 let kept =
-                    self.hints.iter().filter_map(|(id, name)| Some((*optimised.kept.get(id)?, name.clone())));
-                let negated = self
-                    .hints
+                    all_hints.iter().filter_map(|(id, name)| Some((*optimised.kept.get(id)?, name.clone())));
+                let negated = all_hints
                     .iter()
                     .filter_map(|(id, name)| Some((*optimised.negated.get(id)?, format!("minus_{name}"))));
-                let hints = kept.chain(negated).collect();
+                let hints: HashMap<NodeId, String> = kept.chain(negated).collect();
                 (optimised.dag, optimised.roots, hints)
             }
-            None => (self.dag.clone(), roots.to_vec(), self.hints.clone()),
+            None => (self.dag.clone(), roots.to_vec(), all_hints),
         };
+        let mut named_roots: HashMap<NodeId, String> = HashMap::default();
+        for (&root, name) in roots.iter().zip(root_names) {
+            if !hints.contains_key(&root) {
+                named_roots.entry(root).or_insert_with(|| name.clone());
+            }
+        }
         let fusions = if fma { dag.fusions(&roots) } else { HashMap::default() };
         let optimised = BodyEmitter {
             dag,
@@ -179,10 +209,60 @@ impl<'m> BodyEmitter<'m> {
             options: self.options,
             fusions,
         };
-        optimised.emit_dag(&roots, context)
+        optimised.emit_dag(&roots, context, &named_roots)
     }
 
-    fn emit_dag(&self, roots: &[NodeId], context: &str) -> (TokenStream, Vec<TokenStream>, OpCounts) {
+    /// The name of a shared intermediate value: the rig-wide name it got in an earlier
+    /// function, else the name it was given (a hint), else the output it is, else one made
+    /// from its operands, else a numbered part of `context`.
+    fn value_name(
+        &self,
+        id: NodeId,
+        key: &str,
+        names: &HashMap<NodeId, String>,
+        named_roots: &HashMap<NodeId, String>,
+        context: &str,
+        part: &mut usize,
+    ) -> String {
+        let is_fallback =
+            |name: &str| name.rsplit_once("_part").is_some_and(|(_, n)| n.parse::<u32>().is_ok());
+        let shared = self.naming.shared.as_ref();
+        let registered = shared.and_then(|shared| shared.borrow().name(key).cloned());
+        let hint = self.hints.get(&id).cloned();
+        let (name, better) = match (registered, hint) {
+            (Some(r), Some(h)) if is_fallback(&r) => (h, true),
+            (Some(r), _) => (r, false),
+            (None, Some(h)) => (h, false),
+            (None, None) => {
+                let base =
+                    named_roots.get(&id).cloned().or_else(|| self.describe(id, names)).unwrap_or_else(|| {
+                        *part += 1;
+                        format!("{context}_part{part}")
+                    });
+                // A made-up name must not be one another value of the rig already has.
+                let mut name = base.clone();
+                if let Some(shared) = shared {
+                    let mut n = 1;
+                    while shared.borrow().taken_by_other(&name, key) {
+                        n += 1;
+                        name = format!("{base}_{n}");
+                    }
+                }
+                (name, false)
+            }
+        };
+        if let Some(shared) = shared {
+            shared.borrow_mut().record(key, &name, better);
+        }
+        name
+    }
+
+    fn emit_dag(
+        &self,
+        roots: &[NodeId],
+        context: &str,
+        named_roots: &HashMap<NodeId, String>,
+    ) -> (TokenStream, Vec<TokenStream>, OpCounts) {
         let order = self.dag.reachable(roots);
         let mut uses: HashMap<NodeId, usize> = HashMap::default();
         for &id in &order {
@@ -271,13 +351,16 @@ impl<'m> BodyEmitter<'m> {
             if !bind {
                 continue;
             }
-            let base = match node {
-                Node::Input(a) => self.naming.atom_name(a),
-                _ => {
-                    self.hints.get(&id).cloned().or_else(|| self.describe(id, &names)).unwrap_or_else(|| {
-                        part += 1;
-                        format!("{context}_part{part}")
-                    })
+            // An intermediate's expression first: its text identifies it across the rig.
+            let expression = match node {
+                Node::Input(_) => None,
+                _ => Some(self.expression(id, &names, true).0),
+            };
+            let base = match (node, &expression) {
+                (Node::Input(a), _) => self.naming.atom_name(a),
+                (_, expression) => {
+                    let key = expression.as_ref().map(ToString::to_string).unwrap_or_default();
+                    self.value_name(id, &key, &names, named_roots, context, &mut part)
                 }
             };
             let count = taken.entry(base.clone()).or_default();
@@ -308,7 +391,7 @@ impl<'m> BodyEmitter<'m> {
                 Node::Input(Atom::External(k)) => {
                     self.naming.externals.get(usize::from(k)).map(|e| e.1.clone()).unwrap_or_default()
                 }
-                _ => self.expression(id, &names, true).0,
+                _ => expression.unwrap_or_default(),
             };
             statements.extend(quote!(let #ident = #value;));
             names.insert(id, name);

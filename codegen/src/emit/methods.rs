@@ -11,9 +11,10 @@ use crate::plan::{cheapest_choice, derivation_note, output_roots, output_roots_w
 use crate::sym::dag::{Dag, Node, NodeId, OpCounts};
 use crate::sym::poly::Atom;
 
-use super::catalogue::{tick_outputs, FunctionSpec, Shape};
+use super::catalogue::{output_names, tick_outputs, FunctionSpec, Shape};
 use super::literal::{unsuffixed, Scalar};
 use super::lower::{BodyEmitter, EmitOptions};
+use super::naming::SharedNames;
 
 /// The Rust type of a result of `shape`.
 fn shape_tokens(shape: Shape, scalar: Scalar) -> TokenStream {
@@ -56,11 +57,25 @@ pub fn function(
     options: EmitOptions,
     spec: &FunctionSpec<'_>,
 ) -> (TokenStream, OpCounts) {
+    function_sharing(model, mech, scalar, options, spec, &SharedNames::default())
+}
+
+/// [`function`], naming its values as the rig's other functions sharing `names` do.
+pub(crate) fn function_sharing(
+    model: &Model,
+    mech: &Mechanics,
+    scalar: Scalar,
+    options: EmitOptions,
+    spec: &FunctionSpec<'_>,
+    names: &SharedNames,
+) -> (TokenStream, OpCounts) {
     let mut body = BodyEmitter::new(model, mech, scalar, options);
+    body.share_names(names);
     let choice = cheapest_choice(model, mech, &spec.outputs, options.fused_multiply_add);
     let roots = output_roots_with(&mut body.dag, model, mech, &spec.outputs, choice);
     let doc = format!("{}{}", spec.doc, derivation_note(&spec.outputs, choice));
-    let (statements, outputs, counts) = body.emit(&roots, &spec.name);
+    let (statements, outputs, counts) =
+        body.emit_named(&roots, &spec.name, &output_names(&spec.name, spec.shape));
     let value = shape_value(spec.shape, &outputs);
     let ret = shape_tokens(spec.shape, scalar);
     let n = unsuffixed(model.joints.len());
@@ -79,13 +94,21 @@ pub fn function(
     } else {
         quote!(&self, #q: &[#s; #n])
     };
+    let body = match spec.same_as {
+        // The same outputs as a task function: call it (same arithmetic, same counts).
+        Some(target) => {
+            let target = format_ident!("{}", target);
+            let call_args = if spec.takes_qd { quote!(self, #q, #qd) } else { quote!(self, #q) };
+            quote!(Self::#target(#call_args))
+        }
+        None => quote!(#statements #value),
+    };
     let tokens = quote! {
         #[doc = #doc]
         #[inline]
         #[must_use]
         pub fn #name(#args) -> #ret {
-            #statements
-            #value
+            #body
         }
     };
     (tokens, counts)
@@ -97,12 +120,25 @@ pub(crate) fn terms_function(
     mech: &Mechanics,
     scalar: Scalar,
     options: EmitOptions,
+    names: &SharedNames,
 ) -> (TokenStream, OpCounts) {
     let mut body = BodyEmitter::new(model, mech, scalar, options);
+    body.share_names(names);
     let roots = output_roots(&mut body.dag, model, mech, &tick_outputs(mech, true));
-    let (statements, values, counts) = body.emit(&roots, "terms");
     let n = mech.joints;
     let m = mech.task_dim;
+    let root_names: Vec<String> = [
+        ("inertia_matrix", Shape::Matrix(n, n)),
+        ("coriolis_times_qdot", Shape::Vector(n)),
+        ("gravity", Shape::Vector(n)),
+        ("position", Shape::Vector(m)),
+        ("jacobian", Shape::Matrix(m, n)),
+        ("jacobian_dot_times_qdot", Shape::Vector(m)),
+    ]
+    .into_iter()
+    .flat_map(|(name, shape)| output_names(name, shape))
+    .collect();
+    let (statements, values, counts) = body.emit_named(&roots, "terms", &root_names);
     let mut rest = values.as_slice();
     let mut take = |k: usize| {
         let (head, tail) = rest.split_at(k);
@@ -147,9 +183,11 @@ pub(crate) fn closure_margin_function(
     mech: &Mechanics,
     scalar: Scalar,
     options: EmitOptions,
+    names: &SharedNames,
 ) -> Option<(TokenStream, OpCounts)> {
     let closures = mech.closures.as_ref()?;
     let mut body = BodyEmitter::new(model, mech, scalar, options);
+    body.share_names(names);
     // Installing again into the same DAG re-interns the same nodes: it only reports them.
     let roots = crate::dynamics::closure::install(&mut body.dag, Some(closures)).margins;
     let (statements, values, counts) = body.emit(&roots, "closure_margin");

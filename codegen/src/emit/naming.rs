@@ -1,7 +1,12 @@
 //! Names in the emitted code: the binding of each input (`q1`, `sin_q1`, `q1_dot`, a tunable
-//! parameter, a fused law's external input) and the rig struct's type name.
+//! parameter, a fused law's external input), the rig-wide names of intermediate values
+//! ([`RigNames`]) and the rig struct's type name.
+
+use std::cell::RefCell;
+use std::rc::Rc;
 
 use proc_macro2::TokenStream;
+use rustc_hash::FxHashMap as HashMap;
 
 use crate::model::Model;
 use crate::sym::poly::Atom;
@@ -13,6 +18,8 @@ pub(crate) struct Naming<'m> {
     pub(crate) model: &'m Model,
     /// Inputs of fused control laws: binding name and how to read the value.
     pub(crate) externals: Vec<(String, TokenStream)>,
+    /// The rig's names across its functions (none for a function emitted on its own).
+    pub(crate) shared: Option<SharedNames>,
 }
 
 impl Naming<'_> {
@@ -58,3 +65,38 @@ fn camel_case(name: &str) -> String {
 pub fn rig_type_name(model: &Model) -> String {
     camel_case(&model.name)
 }
+
+/// The names of a rig's values across all its emitted functions, so that one value has one
+/// name everywhere (`inertia_01` in `inertia_matrix`, `inverse_dynamics` and the fused laws).
+/// A value is identified by the text of its expression over its operands' names: the same
+/// text is the same computation, in whichever function it stands.
+#[derive(Default)]
+pub(crate) struct RigNames {
+    /// The name of each value named so far, by the text of its expression.
+    names: HashMap<String, String>,
+    /// The value (expression text) each name was given to first.
+    owners: HashMap<String, String>,
+}
+
+impl RigNames {
+    /// The name a value got in an earlier function.
+    pub(crate) fn name(&self, value: &str) -> Option<&String> {
+        self.names.get(value)
+    }
+
+    /// Whether `name` belongs to a value other than `value`.
+    pub(crate) fn taken_by_other(&self, name: &str, value: &str) -> bool {
+        self.owners.get(name).is_some_and(|v| v != value)
+    }
+
+    /// Records the name of a value; a later, better name (`better`) replaces an earlier one.
+    pub(crate) fn record(&mut self, value: &str, name: &str, better: bool) {
+        if better || !self.names.contains_key(value) {
+            self.names.insert(value.to_string(), name.to_string());
+        }
+        self.owners.entry(name.to_string()).or_insert_with(|| value.to_string());
+    }
+}
+
+/// The rig-wide names, shared by every function emitted for one rig.
+pub(crate) type SharedNames = Rc<RefCell<RigNames>>;

@@ -110,6 +110,9 @@ pub struct Dag {
     /// Atoms that stand for nodes built from other inputs (a closed chain's passive
     /// coordinates, see `crate::dynamics::closure`): [`Dag::input`] returns the node instead.
     substitutions: HashMap<Atom, NodeId>,
+    /// Names of nodes given where they were built (e.g. `link3_angular_velocity_z` by the
+    /// recursive Newton–Euler pass), for the emitted code: the first name a node gets is kept.
+    hints: HashMap<NodeId, String>,
 }
 
 /// A node id with a pending sign, used while building sums.
@@ -138,6 +141,19 @@ impl Dag {
         self.nodes.push(node);
         self.index.insert(node, id);
         id
+    }
+
+    /// Names the value `id` for the emitted code, unless it has a name already or is an input
+    /// or a constant (those are named by what they are).
+    pub fn hint(&mut self, id: NodeId, name: impl FnOnce() -> String) {
+        if !matches!(self.nodes[id], Node::Input(_) | Node::Const(_)) {
+            self.hints.entry(id).or_insert_with(name);
+        }
+    }
+
+    /// The names given with [`Dag::hint`].
+    pub fn hints(&self) -> &HashMap<NodeId, String> {
+        &self.hints
     }
 
     /// The constant value of a node, if it is one.

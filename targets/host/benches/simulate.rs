@@ -15,7 +15,7 @@ fn setup() -> (Simulation, SimConfig) {
     let model = generated::load_shipped("parallel_link_2dof", Some("vertical")).expect("shipped model");
     let sim = Simulation::from_model(model).expect("simulation");
     let mut cfg = SimConfig::new(sim.home());
-    cfg.law = ImpedanceLaw::Controller3;
+    cfg.law = ImpedanceLaw::JacobianTranspose;
     cfg.stiffness = 1500.0;
     cfg.damping = 5.0;
     sim.apply_scenario(Scenario::TraceCircle, &ScenarioSettings::default(), &mut cfg).expect("scenario");

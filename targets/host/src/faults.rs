@@ -133,7 +133,7 @@ pub fn scenarios(sim: &Simulation) -> Vec<Fault> {
         duration: 0.2,
         reset_at: 0.7,
         total: 1.0,
-        law: ImpedanceLaw::Controller3,
+        law: ImpedanceLaw::JacobianTranspose,
         gains: (300.0, 3.0, 0.05),
         operator: hold(100.0),
         plant_mass_scale: 1.0,
@@ -155,14 +155,14 @@ pub fn scenarios(sim: &Simulation) -> Vec<Fault> {
         Fault {
             name: "force sensor NaN (Controller 1)",
             injection: Injection::ForceNan,
-            law: ImpedanceLaw::Controller1ForceSensing,
+            law: ImpedanceLaw::ForceFeedback,
             detectable: true,
             ..base.clone()
         },
         Fault {
             name: "force sensor railed (Controller 1)",
             injection: Injection::ForceRail(5.0),
-            law: ImpedanceLaw::Controller1ForceSensing,
+            law: ImpedanceLaw::ForceFeedback,
             ..base.clone()
         },
         Fault {
@@ -193,13 +193,13 @@ pub fn scenarios(sim: &Simulation) -> Vec<Fault> {
         },
         Fault {
             name: "plant masses −30 % (Controller 2a)",
-            law: ImpedanceLaw::Controller2Accel,
+            law: ImpedanceLaw::AccelerationFeedback,
             plant_mass_scale: 0.7,
             ..base.clone()
         },
         Fault {
             name: "plant masses +30 % (Controller 2a)",
-            law: ImpedanceLaw::Controller2Accel,
+            law: ImpedanceLaw::AccelerationFeedback,
             plant_mass_scale: 1.3,
             ..base.clone()
         },
@@ -208,8 +208,8 @@ pub fn scenarios(sim: &Simulation) -> Vec<Fault> {
         let (target_x, _) = sim.task_at(&target);
         let beyond: Vec<f64> = x0.iter().zip(&target_x).map(|(a, b)| b + 0.3 * (b - a)).collect();
         for (name, law) in [
-            ("driven into the singular boundary (Controller 2b)", ImpedanceLaw::Controller2Mobility),
-            ("driven into the singular boundary (Controller 3)", ImpedanceLaw::Controller3),
+            ("driven into the singular boundary (Controller 2b)", ImpedanceLaw::NaturalInertia),
+            ("driven into the singular boundary (Controller 3)", ImpedanceLaw::JacobianTranspose),
         ] {
             out.push(Fault {
                 name,

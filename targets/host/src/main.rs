@@ -173,17 +173,20 @@ enum Command {
 
 #[derive(Clone, Copy, ValueEnum)]
 enum ControllerArg {
-    /// Controller 1: force sensing, eq. (7).
-    #[value(name = "1")]
+    /// Force feedback, the paper's Controller 1 (also `1`): sensed force, eq. (7).
+    #[value(name = "force-feedback", alias = "1")]
     One,
-    /// Controller 2, first variant: acceleration estimate, eq. (8) and (10).
-    #[value(name = "2a")]
+    /// Acceleration feedback, the paper's Controller 2, first variant (also `2a`): acceleration
+    /// estimate, eq. (8) and (10).
+    #[value(name = "acceleration-feedback", alias = "2a")]
     TwoA,
-    /// Controller 2, second variant: M_d = W⁻¹, eq. (11).
-    #[value(name = "2b")]
+    /// Natural-inertia impedance, the paper's Controller 2, second variant (also `2b`):
+    /// M_d = W⁻¹, eq. (11).
+    #[value(name = "natural-inertia", alias = "2b")]
     TwoB,
-    /// Controller 3: no J⁻¹, no J̇, eq. (12)–(13).
-    #[value(name = "3")]
+    /// Jacobian-transpose impedance, the paper's Controller 3 (also `3`): no J⁻¹, no J̇,
+    /// eq. (12)–(13).
+    #[value(name = "jacobian-transpose", alias = "3")]
     Three,
 }
 
@@ -488,10 +491,10 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     };
     let mut cfg = hapticgen_host::sim::SimConfig::new(start.clone());
     cfg.law = match args.controller {
-        ControllerArg::One => ImpedanceLaw::Controller1ForceSensing,
-        ControllerArg::TwoA => ImpedanceLaw::Controller2Accel,
-        ControllerArg::TwoB => ImpedanceLaw::Controller2Mobility,
-        ControllerArg::Three => ImpedanceLaw::Controller3,
+        ControllerArg::One => ImpedanceLaw::ForceFeedback,
+        ControllerArg::TwoA => ImpedanceLaw::AccelerationFeedback,
+        ControllerArg::TwoB => ImpedanceLaw::NaturalInertia,
+        ControllerArg::Three => ImpedanceLaw::JacobianTranspose,
     };
     cfg.stiffness = args.kd.unwrap_or(kd);
     cfg.damping = args.bd.unwrap_or(bd);

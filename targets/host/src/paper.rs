@@ -199,7 +199,7 @@ fn figure4(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
     let z_pred = bd / (2.0 * (kd * inertia).sqrt());
     let base = StepRun::new(
         sim,
-        ImpedanceLaw::Controller2Mobility,
+        ImpedanceLaw::NaturalInertia,
         (kd, bd, inertia),
         force,
         Effects { friction: false, ..Effects::ALL },
@@ -346,8 +346,14 @@ fn figure5(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
     let mut torque_series = Vec::new();
     let mut text = String::new();
     for &md in &DESIRED_MASSES {
-        let ideal_run =
-            StepRun::new(sim, ImpedanceLaw::Controller2Accel, (kd, bd, md), force, Effects::IDEAL, d.step);
+        let ideal_run = StepRun::new(
+            sim,
+            ImpedanceLaw::AccelerationFeedback,
+            (kd, bd, md),
+            force,
+            Effects::IDEAL,
+            d.step,
+        );
         let (ideal, fit) = ideal_run.run(report)?;
         let quantised_effects = Effects { encoder_quantisation: true, ..Effects::IDEAL };
         let (quantised, qfit) = StepRun { effects: quantised_effects, ..ideal_run }.run(report)?;
@@ -460,14 +466,8 @@ fn figure6(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
     let mut noisy_series = Vec::new();
     let mut text = String::new();
     for &md in &DESIRED_MASSES {
-        let ideal_run = StepRun::new(
-            sim,
-            ImpedanceLaw::Controller1ForceSensing,
-            (kd, bd, md),
-            force,
-            Effects::IDEAL,
-            d.step,
-        );
+        let ideal_run =
+            StepRun::new(sim, ImpedanceLaw::ForceFeedback, (kd, bd, md), force, Effects::IDEAL, d.step);
         let (ideal, fit) = ideal_run.run(report)?;
         let noisy_effects = Effects { sensor_noise: true, encoder_quantisation: true, ..Effects::IDEAL };
         let (noisy, nfit) = StepRun { effects: noisy_effects, ..ideal_run }.run(report)?;
@@ -590,7 +590,7 @@ fn singularity(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) 
     };
     let mut runs = Vec::new();
     for (law, label) in
-        [(ImpedanceLaw::Controller2Mobility, "Controller 2"), (ImpedanceLaw::Controller3, "Controller 3")]
+        [(ImpedanceLaw::NaturalInertia, "Controller 2"), (ImpedanceLaw::JacobianTranspose, "Controller 3")]
     {
         let mut cfg = SimConfig::new(q0.clone());
         cfg.law = law;
@@ -730,7 +730,7 @@ fn figure7(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
         [(Scenario::TraceSquare, "square", "fig7a-square"), (Scenario::TraceCircle, "circle", "fig7b-circle")]
     {
         let mut cfg = SimConfig::new(sim.home());
-        cfg.law = ImpedanceLaw::Controller3;
+        cfg.law = ImpedanceLaw::JacobianTranspose;
         cfg.stiffness = kd;
         cfg.damping = bd;
         cfg.duration = 0.0;
@@ -867,7 +867,7 @@ fn free_space(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -
     let mut drifts = Vec::new();
     for (spacing, label) in [(grid, "with the grid"), (0.0, "without the grid")] {
         let mut cfg = SimConfig::new(sim.home());
-        cfg.law = ImpedanceLaw::Controller3;
+        cfg.law = ImpedanceLaw::JacobianTranspose;
         cfg.stiffness = kd;
         cfg.damping = bd;
         cfg.duration = d.drift;

@@ -191,7 +191,7 @@ impl SimConfig {
     /// no operator, reference at the initial position.
     pub fn new(initial_q: Vec<f64>) -> SimConfig {
         SimConfig {
-            law: ImpedanceLaw::Controller3,
+            law: ImpedanceLaw::JacobianTranspose,
             stiffness: 1.0,
             damping: 0.01,
             mass: 0.01,

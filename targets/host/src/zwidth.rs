@@ -102,7 +102,7 @@ pub fn is_stable(sim: &Simulation, stiffness: f64, damping: f64, duration: f64) 
         return Err("error: zwidth renders a planar wall and needs a 2-D task".into());
     };
     let mut cfg = SimConfig::new(home);
-    cfg.law = ImpedanceLaw::Controller3;
+    cfg.law = ImpedanceLaw::JacobianTranspose;
     cfg.stiffness = 0.0;
     cfg.damping = 0.0;
     cfg.duration = duration;

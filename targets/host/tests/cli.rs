@@ -52,7 +52,7 @@ fn joystick_step_writes_a_trace_and_figures() {
         "simulate",
         "models/joystick_1dof.yaml",
         "--controller",
-        "2b",
+        "natural-inertia",
         "--scenario",
         "step",
         "--duration",
@@ -128,6 +128,17 @@ fn bad_input_gives_the_right_exit_codes() {
         hapticgen(&["simulate", "models/nope.yaml", "--controller", "3", "--scenario", "step", "-o", out]);
     assert_eq!(missing.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&missing.stderr).contains("models/nope.yaml:1:1"));
+    // The paper's numbering names the laws too, and the help says which is which.
+    let help = hapticgen(&["simulate", "--help"]);
+    let help = String::from_utf8_lossy(&help.stdout);
+    for (name, paper) in [
+        ("force-feedback", "Controller 1"),
+        ("acceleration-feedback", "Controller 2, first variant"),
+        ("natural-inertia", "Controller 2, second variant"),
+        ("jacobian-transpose", "Controller 3"),
+    ] {
+        assert!(help.contains(name) && help.contains(paper), "{name} / {paper} in\n{help}");
+    }
     let no_2d = hapticgen(&[
         "simulate",
         "models/joystick_1dof.yaml",

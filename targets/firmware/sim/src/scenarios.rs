@@ -29,13 +29,13 @@ fn rendering<S: Real, const N: usize>(setup: &Setup<S, N>) -> [S; 3] {
 }
 
 /// Controller 3 (`a_q = 0`, no `J⁻¹`: any `N`, `M`) with `K_d`, `B_d` on every task axis.
-fn controller3<S: Real, const M: usize>(
+fn jacobian_transpose<S: Real, const M: usize>(
     stiffness: S,
     damping: S,
     omit_damping_compensation: bool,
 ) -> ImpedanceController<S, M> {
     ImpedanceController {
-        law: ImpedanceLaw::Controller3,
+        law: ImpedanceLaw::JacobianTranspose,
         parameters: ImpedanceParameters {
             stiffness: [stiffness; M],
             damping: [damping; M],
@@ -117,7 +117,7 @@ pub mod fig4_step {
         profile: bool,
     ) -> Option<Run<R, 1, 1>> {
         let law = ImpedanceController {
-            law: ImpedanceLaw::Controller2Mobility,
+            law: ImpedanceLaw::NaturalInertia,
             parameters: ImpedanceParameters {
                 stiffness: [s(1.0)],
                 damping: [s(0.01)],
@@ -225,7 +225,7 @@ pub mod wall_contact {
         let board = board(&rig, setup, sense_time_constant);
         let force = push(&rig, &setup.start);
         let controller =
-            controller(rig, scene, controller3(wall_stiffness, wall_damping, false), setup, profile)?;
+            controller(rig, scene, jacobian_transpose(wall_stiffness, wall_damping, false), setup, profile)?;
         let load = Load { start: fast / 10, end: fast, force: [force, R::Scalar::ZERO] };
         // Two grid spacings: on the rebound after the operator lets go, each run snaps the
         // proxy through its own sequence of grid nodes (a discontinuous, path-dependent map),
@@ -285,7 +285,7 @@ pub mod sphere_cavity {
         let fast = R::CURRENT_LOOP_HZ;
         let board = board(&rig, setup, sense_time_constant);
         let controller =
-            controller(rig, scene, controller3(wall_stiffness, wall_damping, false), setup, profile)?;
+            controller(rig, scene, jacobian_transpose(wall_stiffness, wall_damping, false), setup, profile)?;
         let third = FORCE / 3.0;
         let load = Load { start: fast / 10, end: fast, force: [s(2.0 * third), s(third), s(2.0 * third)] };
         // As for the wall: the free-space proxy may rest one node apart in each run.
@@ -334,7 +334,7 @@ pub mod hold_pose {
         let fast = R::CURRENT_LOOP_HZ;
         let board = board(&rig, setup, sense_time_constant);
         let reference = TaskReference::at_rest(rig.position(&setup.start));
-        let law = controller3(s(STIFFNESS), s(DAMPING), true);
+        let law = jacobian_transpose(s(STIFFNESS), s(DAMPING), true);
         let controller = controller(rig, reference, law, setup, profile)?;
         let mut force = [R::Scalar::ZERO; M];
         *force.last_mut()? = s(-FORCE);

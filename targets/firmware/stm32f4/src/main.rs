@@ -59,7 +59,7 @@ fn main() -> ! {
     let q0 = setup.start;
     let settings = HapticLoopSettings {
         controller: ImpedanceController {
-            law: ImpedanceLaw::Controller3,
+            law: ImpedanceLaw::JacobianTranspose,
             parameters: ImpedanceParameters {
                 stiffness: [stiffness; 2],
                 damping: [damping; 2],

@@ -1,0 +1,195 @@
+//! Checks on the text of every snapshot of generated code (`tests/snapshots/`), which users
+//! review as product: no doc line names another rig, no two functions have identical bodies,
+//! one value is bound under one name, and every float literal has the fewest significant
+//! digits that give its value's bits.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::PathBuf;
+
+/// Every snapshot: its file name and the generated code (without insta's header).
+fn snapshots() -> Vec<(String, String)> {
+    let folder = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/snapshots");
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(&folder).unwrap_or_else(|e| panic!("{}: {e}", folder.display())) {
+        let path = entry.expect("directory entry").path();
+        if path.extension().is_none_or(|e| e != "snap") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        // insta's header is the first `---` … `---` block.
+        let code = text.splitn(3, "---\n").nth(2).unwrap_or(&text).to_string();
+        out.push((path.file_name().unwrap().to_string_lossy().into_owned(), code));
+    }
+    assert!(!out.is_empty(), "no snapshots in {}", folder.display());
+    out.sort();
+    out
+}
+
+/// The rig a snapshot was generated from: the model name on its `@generated` line.
+fn rig_of(code: &str) -> String {
+    let line = code.lines().find(|l| l.contains("@generated")).expect("an @generated line");
+    let file = line.split("models/").nth(1).expect("a model path").split(".yaml").next().unwrap();
+    file.to_string()
+}
+
+/// How a text would name a rig: its model name's words without those holding digits, and
+/// trailing digits dropped (`parallel_link_2dof` → "parallel link", `puma560` → "puma").
+fn rig_phrase(model: &str) -> String {
+    model
+        .split('_')
+        .map(|w| w.trim_end_matches(|c: char| c.is_ascii_digit()))
+        .filter(|w| !w.is_empty() && !w.contains(|c: char| c.is_ascii_digit()))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+#[test]
+fn no_snapshot_names_another_rig() {
+    let snapshots = snapshots();
+    let rigs: BTreeSet<String> = snapshots.iter().map(|(_, code)| rig_of(code)).collect();
+    let mut failures = Vec::new();
+    for (file, code) in &snapshots {
+        let own = rig_of(code);
+        let lower = code.to_lowercase().replace('_', " ");
+        for other in rigs.iter().filter(|r| **r != own) {
+            for phrase in [other.replace('_', " "), rig_phrase(other)] {
+                if let Some(at) = lower.find(&phrase) {
+                    let line = code[..at].lines().count();
+                    failures.push(format!("{file}:{line}: names the rig `{other}` (\"{phrase}\")"));
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "generated text about another rig:\n{}", failures.join("\n"));
+}
+
+/// Each function of a generated file: its name and its body, whitespace removed.
+fn functions(code: &str) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    let mut rest = code;
+    while let Some(at) = rest.find("fn ") {
+        let after = &rest[at + 3..];
+        let name: String = after.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+        // The body: from the first `{` after the signature to its matching `}`.
+        let Some(open) = after.find('{') else { break };
+        let mut depth = 0usize;
+        let mut end = open;
+        for (i, c) in after[open..].char_indices() {
+            match c {
+                '{' => depth += 1,
+                '}' => {
+                    depth -= 1;
+                    if depth == 0 {
+                        end = open + i;
+                        break;
+                    }
+                }
+                _ => {}
+            }
+        }
+        let body: String = after[open + 1..end].chars().filter(|c| !c.is_whitespace()).collect();
+        if !name.is_empty() {
+            out.push((name, body));
+        }
+        rest = &after[end..];
+    }
+    out
+}
+
+#[test]
+fn no_snapshot_has_two_functions_with_identical_bodies() {
+    let mut failures = Vec::new();
+    for (file, code) in snapshots() {
+        let mut by_body: BTreeMap<String, Vec<String>> = BTreeMap::new();
+        for (name, body) in functions(&code) {
+            // A constant result (`[0.0_f64, 0.0_f64]` for gravity and damping of a horizontal
+            // rig) is no repeated computation.
+            let constant = body.split(['_', '[', ']', ',', '-', '.']).all(|w| {
+                w.is_empty() || w == "f32" || w == "f64" || w.chars().all(|c| c.is_ascii_digit() || c == 'e')
+            });
+            if !constant {
+                by_body.entry(body).or_default().push(name);
+            }
+        }
+        for names in by_body.values().filter(|names| names.len() > 1) {
+            failures.push(format!("{file}: {} have the same body", names.join(", ")));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "duplicate functions (emit one and let the other call it, or drop it):\n{}",
+        failures.join("\n")
+    );
+}
+
+#[test]
+fn one_value_has_one_name_in_each_snapshot() {
+    let mut failures = Vec::new();
+    for (file, code) in snapshots() {
+        // `let name = value;` with the value's text as the key.
+        let mut by_value: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+        for statement in code.split("let ").skip(1) {
+            let Some((name, rest)) = statement.split_once(" = ") else { continue };
+            if !name.chars().all(|c| c.is_alphanumeric() || c == '_') {
+                continue;
+            }
+            let value: String =
+                rest.split(';').next().unwrap_or_default().chars().filter(|c| !c.is_whitespace()).collect();
+            by_value.entry(value).or_default().insert(name.to_string());
+        }
+        for (value, names) in by_value.iter().filter(|(_, names)| names.len() > 1) {
+            let names: Vec<&str> = names.iter().map(String::as_str).collect();
+            failures.push(format!("{file}: {value} is named {}", names.join(" and ")));
+        }
+    }
+    assert!(failures.is_empty(), "one value under several names:\n{}", failures.join("\n"));
+}
+
+/// The significant digits of a decimal literal (`0.00120` → 2, `1.5e-3` → 2).
+fn significant_digits(text: &str) -> usize {
+    let mantissa = text.split(['e', 'E']).next().unwrap_or_default();
+    let digits: String = mantissa.chars().filter(char::is_ascii_digit).collect();
+    digits.trim_start_matches('0').trim_end_matches('0').len().max(1)
+}
+
+/// The fewest significant digits a literal with `value`'s bits needs (Rust's shortest
+/// round-trip formatting).
+fn shortest_f64(value: f64) -> usize {
+    significant_digits(&format!("{value:e}"))
+}
+
+fn shortest_f32(value: f32) -> usize {
+    significant_digits(&format!("{value:e}"))
+}
+
+#[test]
+fn every_float_literal_has_the_fewest_digits_with_its_bits() {
+    let mut failures = Vec::new();
+    for (file, code) in snapshots() {
+        for (suffix, f32_literal) in [("_f64", false), ("_f32", true)] {
+            for (at, _) in code.match_indices(suffix) {
+                let start = code[..at]
+                    .rfind(|c: char| !(c.is_ascii_digit() || matches!(c, '.' | 'e' | '-' | '+')))
+                    .map_or(0, |i| i + 1);
+                // A leading sign belongs to the expression, not the literal.
+                let text = code[start..at].trim_start_matches(['-', '+']);
+                if text.is_empty() || !text.starts_with(|c: char| c.is_ascii_digit()) {
+                    continue;
+                }
+                let shortest = if f32_literal {
+                    text.parse::<f32>().map(shortest_f32)
+                } else {
+                    text.parse::<f64>().map(shortest_f64)
+                };
+                match shortest {
+                    Ok(n) if significant_digits(text) > n => failures.push(format!(
+                        "{file}: {text}{suffix} has the same bits with {n} significant digits"
+                    )),
+                    Ok(_) => {}
+                    Err(e) => failures.push(format!("{file}: {text}{suffix}: {e}")),
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "float literals longer than they need be:\n{}", failures.join("\n"));
+}
