@@ -121,7 +121,7 @@ pub trait RigModel<const N: usize, const M: usize> {
 /// same names (generated code emits the arithmetic once, as inherent methods, and this glue
 /// once per rig instead of repeating it in every generated file).
 ///
-/// ```ignore
+/// ```text
 /// ::hapticgen_runtime::impl_rig_model!(MyRig, f64, 2, 2, "my_rig", 7500, 1000);
 /// ```
 #[macro_export]

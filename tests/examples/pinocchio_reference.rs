@@ -66,7 +66,7 @@ fn write_reference(
     m: &hapticgen_codegen::CheckedModel,
     links: PointLinks,
 ) {
-    let mech = hapticgen_codegen::derive(&m);
+    let mech = hapticgen_codegen::derive(m);
     let params = m.nominal_parameters();
     let gravity: Vec<f64> =
         m.gravity.iter().map(|p| p.eval(&hapticgen_codegen::eval::NominalAtoms(&params))).collect();
@@ -86,7 +86,7 @@ fn write_reference(
     );
     let mut rng = SmallRng::seed_from_u64(0x9170_c410);
     for s in 0..STATES {
-        let (q, qd) = random_state(&m, &mut rng);
+        let (q, qd) = random_state(m, &mut rng);
         let state = State { q: &q, qd: &qd, parameters: &params };
         let e = evaluate(&mech, &state, None);
         let nle: Vec<f64> = e.coriolis_times_qdot.iter().zip(&e.g).map(|(c, g)| c + g).collect();
