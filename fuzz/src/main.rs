@@ -337,19 +337,11 @@ fn fuzz(options: &Options) -> ExitCode {
                     }
                 }
                 Verdict::Panic(message) => {
-                    let list = if hapticgen_fuzz::known_finding(&message).is_some() {
-                        &mut known
-                    } else {
-                        &mut findings
-                    };
+                    let list = if is_known(&message) { &mut known } else { &mut findings };
                     record(&options.out, list, "panic", &message, &text, variant.as_deref());
                 }
                 Verdict::Violation(message) => {
-                    let list = if hapticgen_fuzz::known_finding(&message).is_some() {
-                        &mut known
-                    } else {
-                        &mut findings
-                    };
+                    let list = if is_known(&message) { &mut known } else { &mut findings };
                     record(&options.out, list, "violation", &message, &text, variant.as_deref());
                 }
                 Verdict::Slow(outcome, took) => {
@@ -363,11 +355,7 @@ fn fuzz(options: &Options) -> ExitCode {
                         took.as_millis(),
                         options.timeout.as_millis()
                     );
-                    let list = if hapticgen_fuzz::known_finding(&message).is_some() {
-                        &mut known
-                    } else {
-                        &mut findings
-                    };
+                    let list = if is_known(&message) { &mut known } else { &mut findings };
                     record(&options.out, list, "slow", &message, &text, variant.as_deref());
                     if took > slowest.0 {
                         slowest = (took, text);
@@ -438,6 +426,11 @@ fn fuzz(options: &Options) -> ExitCode {
         return ExitCode::FAILURE;
     }
     ExitCode::SUCCESS
+}
+
+/// Whether a finding's message is a known one (counted and saved, not failing the run).
+fn is_known(message: &str) -> bool {
+    hapticgen_fuzz::known_finding(message).is_some()
 }
 
 /// Saves a finding (once per distinct message).

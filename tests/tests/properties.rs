@@ -26,7 +26,7 @@ use hapticgen_codegen::Source;
 use hapticgen_tests::dense::{is_positive_definite, solve};
 use proptest::prelude::*;
 
-use crate::random_chain::{chain, model_text, Chain};
+use crate::random_chain::{chain, check_ddot_minus_two_c_skew, model_text, Chain};
 
 fn load(c: &Chain) -> Result<(Model, Mechanics), TestCaseError> {
     let text = model_text(c);
@@ -118,22 +118,11 @@ proptest! {
     #[test]
     fn ddot_minus_two_c_is_skew_symmetric(c in chain(1..=4, 0.5)) {
         let (_, mech) = load(&c)?;
-        let h = 1e-6;
         let along = |t: f64| {
             let q: Vec<f64> = c.q.iter().zip(&c.qd).map(|(a, b)| a + t * b).collect();
             matrix(&mech.inertia_matrix, &q, &c.qd)
         };
-        let (plus, minus) = (along(h), along(-h));
-        let cm = matrix(&mech.coriolis_matrix, &c.q, &c.qd);
-        let n = cm.len();
-        let scale = plus.iter().flatten().fold(1e-3f64, |m, v| m.max(v.abs())) * c.qd.iter().fold(1.0f64, |m, v| m.max(v.abs()));
-        for i in 0..n {
-            for j in 0..n {
-                let nij = (plus[i][j] - minus[i][j]) / (2.0 * h) - 2.0 * cm[i][j];
-                let nji = (plus[j][i] - minus[j][i]) / (2.0 * h) - 2.0 * cm[j][i];
-                prop_assert!((nij + nji).abs() < 1e-6 * scale, "N[{}][{}] + N[{}][{}] = {}", i, j, j, i, nij + nji);
-            }
-        }
+        check_ddot_minus_two_c_skew(&c, along, &matrix(&mech.coriolis_matrix, &c.q, &c.qd))?;
     }
 
     #[test]

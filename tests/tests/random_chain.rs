@@ -7,6 +7,7 @@
 use std::ops::RangeInclusive;
 
 use proptest::prelude::*;
+use proptest::test_runner::TestCaseError;
 
 /// One joint and the body it moves.
 #[derive(Clone, Debug)]
@@ -148,4 +149,34 @@ pub fn model_text(c: &Chain) -> String {
          current_loop: {bandwidth_hz: 700.0, damping_ratio: 1.05, anti_alias_cutoff_hz: 2500.0}\n",
     );
     t
+}
+
+/// Checks that `Ḋ − 2C` is skew-symmetric at the chain's state, `Ḋ` by the central difference
+/// of `D` along `q̇` (`inertia_along(t)` is `D(q + t q̇)`), to 1e-6 of `D`'s size times `|q̇|`.
+pub fn check_ddot_minus_two_c_skew(
+    c: &Chain,
+    inertia_along: impl Fn(f64) -> Vec<Vec<f64>>,
+    coriolis_matrix: &[Vec<f64>],
+) -> Result<(), TestCaseError> {
+    let h = 1e-6;
+    let (plus, minus) = (inertia_along(h), inertia_along(-h));
+    let scale = plus.iter().flatten().fold(1e-3f64, |m, v| m.max(v.abs()))
+        * c.qd.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+    let n = coriolis_matrix.len();
+    for i in 0..n {
+        for j in 0..n {
+            let nij = (plus[i][j] - minus[i][j]) / (2.0 * h) - 2.0 * coriolis_matrix[i][j];
+            let nji = (plus[j][i] - minus[j][i]) / (2.0 * h) - 2.0 * coriolis_matrix[j][i];
+            prop_assert!(
+                (nij + nji).abs() < 1e-6 * scale,
+                "N[{}][{}] + N[{}][{}] = {}",
+                i,
+                j,
+                j,
+                i,
+                nij + nji
+            );
+        }
+    }
+    Ok(())
 }
