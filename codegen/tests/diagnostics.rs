@@ -1106,3 +1106,25 @@ fn frame_whose_methods_clash_with_a_point() {
     );
     assert_eq!(d.0.len(), 1, "{d}");
 }
+
+/// Deep flow nesting (a fuzz finding: 28,000 `[` took the YAML scanner 2.9 s to reject) is
+/// refused before parsing, at the bracket that goes one level too deep; brackets in comments
+/// do not count, and the shipped models' nesting stays far below the limit.
+#[test]
+fn deep_flow_nesting_is_refused_at_the_bracket_before_parsing() {
+    let limit = hapticgen_codegen::model::MAX_FLOW_NESTING;
+    let text = format!("# {}\nname: deep\ngravity: {}\n", "[".repeat(10 * limit), "[".repeat(30_000));
+    let diagnostics = match load(&Source { name: "deep.yaml", text: &text }, None) {
+        Ok(_) => panic!("30,000 nested sequences were accepted"),
+        Err(d) => d,
+    };
+    let d = &diagnostics.0[0];
+    assert!(d.message.contains("nested deeper than"), "{d}");
+    // Line 3, column 10 (after `gravity: `) is the first `[`; the one past the limit is `limit` further.
+    assert_eq!((d.line, d.column), (3, 10 + limit), "{d}");
+    // Nesting within the limit goes on to the parser's own verdict.
+    let shallow = format!("name: ok\ngravity: {}0{}\n", "[".repeat(limit), "]".repeat(limit));
+    if let Err(d) = load(&Source { name: "shallow.yaml", text: &shallow }, None) {
+        assert!(!d.0[0].message.contains("nested deeper than"), "{}", d.0[0]);
+    }
+}

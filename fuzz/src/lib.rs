@@ -410,6 +410,7 @@ mod tests {
             ("f32-overflow-inf-literal.yaml", Scalar::F32),
             ("eof-past-last-line.yaml", Scalar::F64),
             ("slow-4-joint-spatial.yaml", Scalar::F64),
+            ("slow-deep-flow-nesting.yaml", Scalar::F64),
         ] {
             let text = std::fs::read_to_string(format!("{dir}/{file}")).unwrap();
             let verdict = runner.run(Input {
