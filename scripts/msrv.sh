@@ -44,11 +44,17 @@ mkdir -p "$OUT/fma"
     "$ROOT/runtime/src/lib.rs" --extern libm="$OUT/liblibm.rlib" -L "$OUT" --out-dir "$OUT/fma"
 echo "msrv: generated code"
 # The tests crate's build script generates every shipped model, variant and scalar.
-cargo build -q -p hapticgen-tests
-GENERATED=$(ls -td "$TARGET_DIR"/debug/build/hapticgen-tests-*/out 2>/dev/null | while read -r d; do
-    [ -f "$d/registry.rs" ] && echo "$d" && break
-done)
-[ -n "$GENERATED" ] || { echo "msrv: no generated rigs found" >&2; exit 1; }
+# Its output directory is the one cargo reports for this build (the target directory holds
+# others, from builds with other settings, possibly older: never guess it from their dates).
+GENERATED=$(cargo build -q -p hapticgen-tests --message-format=json | python3 -c '
+import json, sys
+for line in sys.stdin:
+    message = json.loads(line)
+    if message.get("reason") == "build-script-executed" and "#hapticgen-tests@" in message.get("package_id", ""):
+        print(message["out_dir"])
+' | tail -n 1)
+[ -n "$GENERATED" ] && [ -f "$GENERATED/registry.rs" ] \
+    || { echo "msrv: cargo reported no generated rigs for hapticgen-tests (got '$GENERATED')" >&2; exit 1; }
 LIB=$OUT/generated/lib.rs
 {
     echo "//! Every shipped model's generated code, compiled with Rust 1.63."
