@@ -146,9 +146,8 @@ fn stub_type_name(text: &str) -> Option<Ident> {
     if !name.bytes().all(|b| b == b'_' || b.is_ascii_lowercase() || b.is_ascii_digit()) {
         return None;
     }
-    let words = name.split('_').filter(|w| !w.is_empty());
-    let camel: String = words.map(|w| w[..1].to_ascii_uppercase() + &w[1..]).collect();
-    syn::parse_str::<Ident>(&camel).ok()
+    // The same type name the generator gives the rig (`emit::naming::rig_type_name`).
+    syn::parse_str::<Ident>(&crate::emit::camel_case(name)).ok()
 }
 
 fn error_tokens(

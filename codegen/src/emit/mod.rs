@@ -29,6 +29,8 @@ mod lower;
 mod methods;
 mod naming;
 
+pub(crate) use naming::camel_case;
+
 pub use crate::plan::Output;
 pub use catalogue::{function_specs, tick_counts, tick_counts_with, FunctionSpec, Shape};
 pub use items::{items, Stats};

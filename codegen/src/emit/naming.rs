@@ -48,7 +48,7 @@ impl Naming<'_> {
 }
 
 /// `snake_case` → `CamelCase`.
-fn camel_case(name: &str) -> String {
+pub(crate) fn camel_case(name: &str) -> String {
     name.split('_')
         .filter(|p| !p.is_empty())
         .map(|p| {
