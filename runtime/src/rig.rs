@@ -6,6 +6,7 @@
 //! viscous damping `B` (diagonal), gravity `g(q)`, task position `p(q)`, Jacobian `J(q)` and
 //! `J̇(q, q̇)`. Matrices are row-major `[[S; cols]; rows]`.
 
+use crate::current_loop::CurrentLoopGains;
 use crate::Real;
 
 /// Everything the control laws need at one state, computed in one pass so that common
@@ -94,6 +95,9 @@ pub trait RigModel<const N: usize, const M: usize> {
     fn terms(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N]) -> RigTerms<Self::Scalar, N, M>;
     /// The drive train of each joint.
     fn drives(&self) -> [DriveTrain<Self::Scalar>; N];
+    /// Each motor's current-loop gains, in the order of `q`: for a generated rig its
+    /// `CURRENT_LOOP_GAINS`, designed per joint from the model's motor, rates and filter.
+    fn current_loop_gains(&self) -> [CurrentLoopGains<Self::Scalar>; N];
     /// Inverse dynamics of eq. (1) without damping and friction:
     /// `τ = D(q) q̈ + C(q, q̇) q̇ + g(q)`. The default evaluates the three terms; generated rigs
     /// override it with one straight-line function (the recursive Newton–Euler algorithm for
@@ -165,6 +169,9 @@ macro_rules! impl_rig_model {
             }
             fn drives(&self) -> [$crate::DriveTrain<$s>; $n] {
                 Self::DRIVES
+            }
+            fn current_loop_gains(&self) -> [$crate::current_loop::CurrentLoopGains<$s>; $n] {
+                Self::CURRENT_LOOP_GAINS
             }
             fn inverse_dynamics(&self, q: &[$s; $n], qd: &[$s; $n], qdd: &[$s; $n]) -> [$s; $n] {
                 Self::inverse_dynamics(self, q, qd, qdd)

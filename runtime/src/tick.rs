@@ -28,7 +28,7 @@
 //!
 //! let rig = ParallelLink2dof::NOMINAL;
 //! let law = ImpedanceController::new(ImpedanceLaw::JacobianTranspose, [200.0; 2], [5.0; 2], [0.2; 2]);
-//! let settings = HapticLoopSettings::for_rig(&rig, law, ParallelLink2dof::CURRENT_LOOP_GAINS);
+//! let settings = HapticLoopSettings::for_rig(&rig, law);
 //! let start = RigModel::position(&rig, &settings.zero_offset);
 //! let mut haptic = HapticLoop::new(rig, TaskReference::at_rest(start), &settings).expect("rates");
 //!
@@ -130,8 +130,8 @@ pub struct HapticLoopSettings<S, const N: usize, const M: usize> {
     pub initial_counts: [i32; N],
     /// Force-sensor calibration.
     pub force_calibration: ForceSensorCalibration<S, M>,
-    /// Each motor's current-loop gains, in the order of `q`: the generated
-    /// `CURRENT_LOOP_GAINS` (designed per joint from the model's motor, rates and filter).
+    /// Each motor's current-loop gains, in the order of `q` ([`RigModel::current_loop_gains`]:
+    /// designed per joint from the model's motor, rates and filter).
     pub current_gains: [CurrentLoopGains<S>; N],
     /// Impedance periods allowed between ticks before the watchdog trips.
     pub max_tick_gap: u32,
@@ -141,8 +141,8 @@ impl<S: Real, const N: usize, const M: usize> HapticLoopSettings<S, N, M> {
     /// Everything the rig determines, in one call: the estimator at the rig's impedance rate
     /// ([`EstimatorSettings::at_rate`]: 50 Hz velocity and 20 Hz acceleration filters), the
     /// joints' start pose in the middle of each joint's limits (as `hapticgen simulate` starts),
-    /// counters reading zero there, each motor's own current-loop gains (pass the rig's
-    /// generated `CURRENT_LOOP_GAINS`), an identity force calibration (`f = reading`) and a
+    /// counters reading zero there, each motor's own current-loop gains
+    /// ([`RigModel::current_loop_gains`]), an identity force calibration (`f = reading`) and a
     /// watchdog that trips when one impedance tick is skipped.
     ///
     /// Change the fields that differ on your rig afterwards — the start pose (`zero_offset`,
@@ -156,15 +156,11 @@ impl<S: Real, const N: usize, const M: usize> HapticLoopSettings<S, N, M> {
     ///
     /// let rig = PlanarArm2dof::NOMINAL;
     /// let controller = ImpedanceController::new(ImpedanceLaw::JacobianTranspose, [200.0; 2], [5.0; 2], [0.2; 2]);
-    /// let mut settings = HapticLoopSettings::for_rig(&rig, controller, PlanarArm2dof::CURRENT_LOOP_GAINS);
+    /// let mut settings = HapticLoopSettings::for_rig(&rig, controller);
     /// assert_eq!(settings.estimator.sample_period, 1e-3); // the model's 1 kHz impedance loop
     /// settings.zero_offset = [0.5, 1.2]; // homed at q = (0.5, 1.2) rad
     /// ```
-    pub fn for_rig<R: RigModel<N, M, Scalar = S>>(
-        rig: &R,
-        controller: ImpedanceController<S, M>,
-        current_gains: [CurrentLoopGains<S>; N],
-    ) -> Self {
+    pub fn for_rig<R: RigModel<N, M, Scalar = S>>(rig: &R, controller: ImpedanceController<S, M>) -> Self {
         let drives = rig.drives();
         let half = S::from_f64(0.5);
         let mut zero_offset = [S::ZERO; N];
@@ -177,7 +173,7 @@ impl<S: Real, const N: usize, const M: usize> HapticLoopSettings<S, N, M> {
             zero_offset,
             initial_counts: [0; N],
             force_calibration: ForceSensorCalibration { scale: [S::ONE; M], offset: [S::ZERO; M] },
-            current_gains,
+            current_gains: rig.current_loop_gains(),
             max_tick_gap: 1,
         }
     }

@@ -316,7 +316,7 @@ pub mod stack {
     use hapticgen_runtime::control::{
         ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters,
     };
-    use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
+    use hapticgen_runtime::estimation::ForceSensorCalibration;
     use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
     use hapticgen_runtime::tick::HapticLoopSettings;
 
@@ -334,25 +334,19 @@ pub mod stack {
         scene
     }
 
-    /// Settings of the parallel link's loop with the given law (1 kHz, the generated gains).
+    /// Settings of the parallel link's loop with the given law: built from the rig
+    /// ([`HapticLoopSettings::for_rig`]: 1 kHz filters, the generated current-loop gains), then
+    /// the homing pose and the force sensor's calibration of this bench.
     pub fn parallel_link_settings(law: ImpedanceLaw) -> HapticLoopSettings<f64, 2, 2> {
-        HapticLoopSettings {
-            controller: ImpedanceController {
-                law,
-                parameters: ImpedanceParameters { stiffness: [0.0; 2], damping: [5.0; 2], mass: [0.2; 2] },
-                options: ControlOptions { min_abs_jacobian_determinant: 1e-4, ..ControlOptions::paper() },
-            },
-            estimator: EstimatorSettings {
-                sample_period: 1e-3,
-                velocity_cutoff_hz: 50.0,
-                acceleration_cutoff_hz: 20.0,
-            },
-            zero_offset: [1.4, 0.1],
-            initial_counts: [0; 2],
-            force_calibration: ForceSensorCalibration { scale: [5.0; 2], offset: [2.5; 2] },
-            current_gains: ParallelLink2dof::CURRENT_LOOP_GAINS,
-            max_tick_gap: 1,
-        }
+        let controller = ImpedanceController {
+            law,
+            parameters: ImpedanceParameters { stiffness: [0.0; 2], damping: [5.0; 2], mass: [0.2; 2] },
+            options: ControlOptions { min_abs_jacobian_determinant: 1e-4, ..ControlOptions::paper() },
+        };
+        let mut settings = HapticLoopSettings::for_rig(&ParallelLink2dof::NOMINAL, controller);
+        settings.zero_offset = [1.4, 0.1];
+        settings.force_calibration = ForceSensorCalibration { scale: [5.0; 2], offset: [2.5; 2] };
+        settings
     }
 
     /// Encoder counts of the parallel link moving on a slow loop through the cavity's wall

@@ -117,3 +117,24 @@ fn emitted_current_loop_gains_meet_the_paper_specification() {
         assert!(os < 0.01, "{name}: overshoot {:.3} %", os * 100.0);
     }
 }
+
+/// `HapticLoopSettings::for_rig` gives each motor the gains designed for it: on the PUMA 560,
+/// whose wrist motors differ from its arm motors, the settings hold the rig's per-joint
+/// design in joint order, not one motor's gains for all.
+#[test]
+fn settings_built_from_the_rig_carry_each_motors_own_gains() {
+    use hapticgen_runtime::control::{ImpedanceController, ImpedanceLaw};
+    use hapticgen_runtime::tick::HapticLoopSettings;
+    use hapticgen_tests::puma560_f64::Puma560;
+
+    let controller =
+        ImpedanceController::new(ImpedanceLaw::JacobianTranspose, [100.0; 3], [5.0; 3], [0.2; 3]);
+    let settings = HapticLoopSettings::for_rig(&Puma560::NOMINAL, controller);
+    assert_eq!(settings.current_gains, Puma560::CURRENT_LOOP_GAINS);
+    let first = settings.current_gains[0];
+    assert!(
+        settings.current_gains.iter().any(|gains| *gains != first),
+        "the PUMA's motors differ, so must their gains: {:?}",
+        settings.current_gains
+    );
+}

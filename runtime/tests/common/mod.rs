@@ -2,6 +2,7 @@
 //! the 1-DOF joystick (inverted pendulum, x = q) and the vertical 2-DOF parallelogram.
 #![allow(dead_code, clippy::needless_range_loop)]
 
+use hapticgen_runtime::current_loop::CurrentLoopGains;
 use hapticgen_runtime::{DriveTrain, RigModel, RigTerms};
 
 pub const GRAVITY: f64 = 9.81;
@@ -25,6 +26,20 @@ pub fn re40_drive() -> DriveTrain<f64> {
         encoder_counts_per_turn: 2000,
         position_lower: -3.2,
         position_upper: 3.2,
+    }
+}
+
+/// The RE 40's PI current loop designed by hand for these rigs, independently of the
+/// generator: the controller's zero cancels the armature's pole (`ki/kp = R/L`) and the
+/// closed loop is first order at a tenth of the 7.5 kHz sample rate (`kp = ω_c L`).
+pub fn re40_current_gains() -> CurrentLoopGains<f64> {
+    let drive = re40_drive();
+    let crossover = 2.0 * std::f64::consts::PI * 750.0;
+    CurrentLoopGains {
+        kp: crossover * drive.inductance,
+        ki: crossover * drive.resistance,
+        sample_period: 1.0 / 7500.0,
+        proportional_setpoint_weight: 0.0,
     }
 }
 
@@ -83,6 +98,9 @@ impl RigModel<1, 1> for Joystick {
     }
     fn drives(&self) -> [DriveTrain<f64>; 1] {
         [re40_drive()]
+    }
+    fn current_loop_gains(&self) -> [CurrentLoopGains<f64>; 1] {
+        [re40_current_gains()]
     }
 }
 
@@ -174,6 +192,9 @@ impl RigModel<2, 2> for Parallelogram {
     }
     fn drives(&self) -> [DriveTrain<f64>; 2] {
         [re40_drive(); 2]
+    }
+    fn current_loop_gains(&self) -> [CurrentLoopGains<f64>; 2] {
+        [re40_current_gains(); 2]
     }
 }
 

@@ -253,9 +253,15 @@ pub fn run(sim: &Simulation, fault: &Fault) -> Result<FaultResult, String> {
             .unwrap_or_else(|| Err("error: inconsistent rig registry".into()));
     }
     match (sim.joints(), sim.task_dim()) {
-        (1, 1) => visitor.visit(TapeRig::<1, 1>::new(sim.nominal.clone()).ok_or("error: bad model")?),
-        (2, 2) => visitor.visit(TapeRig::<2, 2>::new(sim.nominal.clone()).ok_or("error: bad model")?),
-        (3, 3) => visitor.visit(TapeRig::<3, 3>::new(sim.nominal.clone()).ok_or("error: bad model")?),
+        (1, 1) => visitor.visit(
+            TapeRig::<1, 1>::new(sim.nominal.clone(), &sim.data.current_gains).ok_or("error: bad model")?,
+        ),
+        (2, 2) => visitor.visit(
+            TapeRig::<2, 2>::new(sim.nominal.clone(), &sim.data.current_gains).ok_or("error: bad model")?,
+        ),
+        (3, 3) => visitor.visit(
+            TapeRig::<3, 3>::new(sim.nominal.clone(), &sim.data.current_gains).ok_or("error: bad model")?,
+        ),
         (n, m) => Err(format!("error: fault injection supports square tasks of 1–3 joints, not {n}×{m}")),
     }
 }
@@ -307,7 +313,7 @@ where
         zero_offset,
         initial_counts,
         force_calibration: ForceSensorCalibration { scale: [scale; M], offset: [offset; M] },
-        current_gains: [data.gains; N],
+        current_gains: rig.current_loop_gains(),
         max_tick_gap: 1,
     };
     let reference = TaskReference::at_rest(start.position);

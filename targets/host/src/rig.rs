@@ -15,6 +15,7 @@ use std::sync::Arc;
 
 use hapticgen_codegen::sym::poly::Poly;
 use hapticgen_codegen::CheckedModel;
+use hapticgen_runtime::current_loop::CurrentLoopGains;
 use hapticgen_runtime::{DriveTrain, RigModel, RigTerms};
 
 use crate::tape::Tape;
@@ -168,22 +169,25 @@ fn matrix<const R: usize, const C: usize>(values: &[f64]) -> [[f64; C]; R] {
 /// loops from the model's own `rates` and does not read them.
 pub struct TapeRig<const N: usize, const M: usize> {
     model: Arc<CompiledModel>,
+    current_gains: [CurrentLoopGains<f64>; N],
     scratch: RefCell<[Vec<f64>; 4]>,
 }
 
 impl<const N: usize, const M: usize> TapeRig<N, M> {
-    /// A rig on `model`; `None` unless the model has `N` joints and `M` task coordinates.
-    pub fn new(model: Arc<CompiledModel>) -> Option<Self> {
+    /// A rig on `model` whose motors have the PI current-loop gains `current_gains` (one per
+    /// joint); `None` unless the model has `N` joints and `M` task coordinates and `N` gains.
+    pub fn new(model: Arc<CompiledModel>, current_gains: &[CurrentLoopGains<f64>]) -> Option<Self> {
         if model.joints != N || model.task_dim != M {
             return None;
         }
+        let current_gains: [CurrentLoopGains<f64>; N] = current_gains.try_into().ok()?;
         let scratch = RefCell::new([
             model.dynamics.scratch(),
             model.kinematics.scratch(),
             model.coriolis.scratch(),
             model.jacobian_dot.scratch(),
         ]);
-        Some(Self { model, scratch })
+        Some(Self { model, current_gains, scratch })
     }
 
     fn run(&self, which: usize, q: &[f64; N], qd: &[f64; N], out: &mut [f64]) {
@@ -266,6 +270,9 @@ impl<const N: usize, const M: usize> RigModel<N, M> for TapeRig<N, M> {
         }
         out
     }
+    fn current_loop_gains(&self) -> [CurrentLoopGains<f64>; N] {
+        self.current_gains
+    }
 }
 
 /// A rig whose drive trains are replaced (everything else is `R`'s).
@@ -318,5 +325,8 @@ where
     }
     fn drives(&self) -> [DriveTrain<f64>; N] {
         self.drives
+    }
+    fn current_loop_gains(&self) -> [CurrentLoopGains<f64>; N] {
+        self.inner.current_loop_gains()
     }
 }

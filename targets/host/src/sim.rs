@@ -220,8 +220,8 @@ pub struct LoopData {
     pub current_loop_hz: u32,
     /// Impedance-loop rate, Hz.
     pub impedance_loop_hz: u32,
-    /// The designed PI gains.
-    pub gains: CurrentLoopGains<f64>,
+    /// The PI current-loop gains of each joint, designed for its own motor.
+    pub current_gains: Vec<CurrentLoopGains<f64>>,
     /// Time constant of the current-sense filter lag, s.
     pub filter_time_constant: f64,
     /// Force sensors, one per task axis (the last one repeated when there are fewer).
@@ -424,7 +424,7 @@ where
             scale: std::array::from_fn(|k| sensors[k].scale),
             offset: std::array::from_fn(|k| sensors[k].offset),
         },
-        current_gains: [data.gains; N],
+        current_gains: rig.current_loop_gains(),
         max_tick_gap: 1,
     };
     let mut haptic = HapticLoop::new(rig, source, &settings)

@@ -32,7 +32,8 @@ pub struct Simulation {
     pub shipped: Option<usize>,
     /// Rates, current-loop gains and sensors.
     pub data: LoopData,
-    /// The current-loop design.
+    /// The first joint's current-loop design (its delay and bandwidth are reported; the
+    /// filter and the bandwidth target are the model's, common to all joints).
     pub design: CurrentLoopDesign,
 }
 
@@ -150,27 +151,38 @@ impl Simulation {
                 model.file
             ));
         }
-        let motor = &model.joints[0].drive.motor;
+        // Each joint's PI current loop designed for its own motor, as the generator designs
+        // the `CURRENT_LOOP_GAINS` of the generated code (the motors of a rig may differ).
         let spec = &model.current_loop;
-        let design = design_current_loop(&CurrentLoopDesignInput {
-            resistance: motor.resistance,
-            inductance: motor.inductance,
-            sample_rate_hz: f64::from(model.rates.current_loop_hz),
-            bandwidth_hz: spec.bandwidth_hz,
-            damping_ratio: spec.damping_ratio,
-            filter_cutoff_hz: spec.anti_alias_cutoff_hz,
-            filter_order: spec.anti_alias_filter_order,
-        })
-        .map_err(|e| format!("error: {}: current_loop: {e}", model.file))?;
+        let designs = model
+            .joints
+            .iter()
+            .map(|joint| {
+                design_current_loop(&CurrentLoopDesignInput {
+                    resistance: joint.drive.motor.resistance,
+                    inductance: joint.drive.motor.inductance,
+                    sample_rate_hz: f64::from(model.rates.current_loop_hz),
+                    bandwidth_hz: spec.bandwidth_hz,
+                    damping_ratio: spec.damping_ratio,
+                    filter_cutoff_hz: spec.anti_alias_cutoff_hz,
+                    filter_order: spec.anti_alias_filter_order,
+                })
+                .map_err(|e| format!("error: {}: current_loop of joint `{}`: {e}", model.file, joint.name))
+            })
+            .collect::<Result<Vec<CurrentLoopDesign>, String>>()?;
+        let design = designs[0];
         let data = LoopData {
             current_loop_hz: model.rates.current_loop_hz,
             impedance_loop_hz: model.rates.impedance_loop_hz,
-            gains: CurrentLoopGains {
-                kp: design.kp,
-                ki: design.ki,
-                sample_period: design.sample_period,
-                proportional_setpoint_weight: design.proportional_setpoint_weight,
-            },
+            current_gains: designs
+                .iter()
+                .map(|design| CurrentLoopGains {
+                    kp: design.kp,
+                    ki: design.ki,
+                    sample_period: design.sample_period,
+                    proportional_setpoint_weight: design.proportional_setpoint_weight,
+                })
+                .collect(),
             filter_time_constant: design.filter_time_constant,
             sensors: model
                 .sensors
@@ -248,7 +260,7 @@ impl Simulation {
         macro_rules! dispatch {
             ($(($n:literal, $m:literal)),*) => {
                 match (self.joints(), self.task_dim()) {
-                    $(($n, $m) => match TapeRig::<$n, $m>::new(model) {
+                    $(($n, $m) => match TapeRig::<$n, $m>::new(model, &self.data.current_gains) {
                         Some(rig) => visitor.visit::<TapeRig<$n, $m>, $n, $m>(rig),
                         None => Err("error: model dimensions changed".into()),
                     },)*

@@ -5,6 +5,7 @@
 
 mod check;
 mod cli;
+mod current_gains;
 mod faults;
 mod paper;
 mod zwidth;
