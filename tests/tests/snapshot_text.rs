@@ -1,7 +1,7 @@
 //! Checks on the text of every snapshot of generated code (`tests/snapshots/`), which users
 //! review as product: no doc line names another rig, no two functions have identical bodies,
-//! one value is bound under one name, and every float literal has the fewest significant
-//! digits that give its value's bits.
+//! one value is bound under one name, every float literal has the fewest significant
+//! digits that give its value's bits, and no sign is written twice (`x - -c`).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
@@ -192,4 +192,21 @@ fn every_float_literal_has_the_fewest_digits_with_its_bits() {
         }
     }
     assert!(failures.is_empty(), "float literals longer than they need be:\n{}", failures.join("\n"));
+}
+
+/// `x - -c * y` and `x + -c` read as a sign puzzle: the emitter writes `x + c * y` and `x - c`.
+#[test]
+fn no_snapshot_writes_a_sign_twice() {
+    let mut failures = Vec::new();
+    for (file, code) in snapshots() {
+        for (number, line) in code.lines().enumerate() {
+            // Collapse line breaks inside expressions: the formatter may break before `-`.
+            let trimmed = line.trim_start();
+            let starts_with_operator = trimmed.starts_with("- -") || trimmed.starts_with("+ -");
+            if starts_with_operator || line.contains(" - -") || line.contains(" + -") {
+                failures.push(format!("{file}:{}: {}", number + 1, trimmed));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "a sign written twice:\n{}", failures.join("\n"));
 }

@@ -503,6 +503,17 @@ impl<'m> BodyEmitter<'m> {
                 (quote!(#x + #y), Precedence::Sum)
             }
             Node::Sub(a, b) => {
+                // `x − (−c)` reads as `x + c` and `x − (−c)·y` as `x + c·y`, not `x - -c * y`
+                // (negation is exact, so the value is the same bit for bit).
+                if let Some(k) = self.dag.constant_value(b).filter(|k| *k < 0.0) {
+                    let x = wrap(self.expression(a, names, false), Precedence::Sum);
+                    let c = self.scalar.literal(-k);
+                    return (quote!(#x + #c), Precedence::Sum);
+                }
+                if let Some(y) = self.negated_product(b, names) {
+                    let x = wrap(self.expression(a, names, false), Precedence::Sum);
+                    return (quote!(#x + #y), Precedence::Sum);
+                }
                 let x = wrap(self.expression(a, names, false), Precedence::Sum);
                 let y = wrap(self.expression(b, names, false), Precedence::Product);
                 (quote!(#x - #y), Precedence::Sum)
