@@ -32,7 +32,7 @@ FUNCTIONS = [
 
 def main():
     fma = "--fma" in sys.argv[1:]
-    binary = "target/release/hapticgen"
+    binary = os.path.join(os.environ.get("CARGO_TARGET_DIR", "target"), "release", "hapticgen")
     if not os.path.exists(binary):
         sys.exit(f"{binary} not found: run `cargo build --release -p hapticgen` first")
     print("| model | variant | " + " | ".join(label for label, _ in FUNCTIONS) + " |")

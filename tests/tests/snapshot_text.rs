@@ -210,3 +210,41 @@ fn no_snapshot_writes_a_sign_twice() {
     }
     assert!(failures.is_empty(), "a sign written twice:\n{}", failures.join("\n"));
 }
+
+/// docs/generated-code.md counts, per snapshot, the `let` bindings and those still named
+/// `<function>_partN`; the table must be the snapshots' own counts.
+#[test]
+fn the_docs_count_the_numbered_names_of_every_snapshot() {
+    let docs = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../docs/generated-code.md");
+    let text = std::fs::read_to_string(&docs).unwrap_or_else(|e| panic!("{}: {e}", docs.display()));
+    let table: BTreeMap<String, (usize, usize)> = text
+        .lines()
+        .filter_map(|line| {
+            let cells: Vec<&str> = line.trim().trim_matches('|').split('|').map(str::trim).collect();
+            let [name, lets, parts] = cells[..] else { return None };
+            Some((name.to_string(), (lets.parse().ok()?, parts.parse().ok()?)))
+        })
+        .collect();
+    let mut counted = BTreeMap::new();
+    for (file, code) in snapshots() {
+        let name = file.trim_start_matches("snapshots__").trim_end_matches(".snap").to_string();
+        let bindings: Vec<&str> = code
+            .match_indices("let ")
+            .filter(|(at, _)| *at == 0 || !code[..*at].ends_with(|c: char| c.is_alphanumeric() || c == '_'))
+            .map(|(at, _)| {
+                code[at + 4..].split(|c: char| !(c.is_alphanumeric() || c == '_')).next().unwrap_or("")
+            })
+            .filter(|ident| !ident.is_empty())
+            .collect();
+        let numbered = bindings
+            .iter()
+            .filter(|ident| {
+                ident
+                    .rsplit_once("_part")
+                    .is_some_and(|(_, n)| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+            })
+            .count();
+        counted.insert(name, (bindings.len(), numbered));
+    }
+    assert_eq!(table, counted, "docs/generated-code.md's table (left) against the snapshots (right)");
+}
