@@ -59,4 +59,31 @@ fn main() {
     )
     .unwrap();
     std::fs::write(out.join("registry.rs"), registry).expect("OUT_DIR is writable");
+    write_doc_examples(&out);
+}
+
+/// The README's and the runtime guide's text for their doc tests (`hapticgen_tests::docs`).
+/// Their `rig!` calls name `models/…` as a user's crate would; this crate sits one level below
+/// the workspace's `models/`, so the paths inside their Rust blocks are rewritten to
+/// `../models/…` (and nothing else is changed).
+fn write_doc_examples(out: &Path) {
+    for (source, target) in [("../README.md", "readme.md"), ("../docs/runtime-guide.md", "runtime-guide.md")]
+    {
+        println!("cargo:rerun-if-changed={source}");
+        let text = std::fs::read_to_string(source).unwrap_or_else(|e| panic!("{source}: {e}"));
+        let mut rewritten = String::with_capacity(text.len());
+        let mut in_rust_block = false;
+        for line in text.split_inclusive('\n') {
+            if line.trim_start().starts_with("```") {
+                in_rust_block =
+                    !in_rust_block && line.trim_start().trim_start_matches('`').trim().starts_with("rust");
+            }
+            if in_rust_block && line.contains("rig!(") {
+                rewritten.push_str(&line.replace("= \"models/", "= \"../models/"));
+            } else {
+                rewritten.push_str(line);
+            }
+        }
+        std::fs::write(out.join(target), rewritten).expect("OUT_DIR is writable");
+    }
 }

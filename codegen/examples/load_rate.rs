@@ -22,6 +22,9 @@ fn main() {
             let _ = yaml_rust2::YamlLoader::load_from_str(&text);
         }
         let yr = t.elapsed().as_secs_f64() / f64::from(rounds) * 1e6;
-        println!("{path}: {} bytes, load {per:.0} µs (ok {ok}), serde_yaml {serde:.0} µs, yaml-rust2 {yr:.0} µs", text.len());
+        println!(
+            "{path}: {} bytes, load {per:.0} µs (ok {ok}), serde_yaml {serde:.0} µs, yaml-rust2 {yr:.0} µs",
+            text.len()
+        );
     }
 }

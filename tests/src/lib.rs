@@ -8,14 +8,13 @@ pub mod nested_builds;
 
 pub use nested_builds::target_dir;
 
-/// The README's and the runtime guide's examples, compiled and run as doc tests (their
-/// `rig!` paths resolve against this crate's directory, where `tests/models` links to the
-/// workspace's `models/`).
+/// The README's and the runtime guide's examples, compiled and run as doc tests (the build
+/// script copies both files with their `rig!` paths made relative to this crate).
 #[doc(hidden)]
 pub mod docs {
-    #[doc = include_str!("../../README.md")]
+    #[doc = include_str!(concat!(env!("OUT_DIR"), "/readme.md"))]
     pub mod readme {}
-    #[doc = include_str!("../../docs/runtime-guide.md")]
+    #[doc = include_str!(concat!(env!("OUT_DIR"), "/runtime-guide.md"))]
     pub mod runtime_guide {}
 }
 
