@@ -1,0 +1,468 @@
+//! The messages of the link and the fixed-point state stream.
+//!
+//! Arrays are sized for the largest rig ([`MAX_JOINTS`] joints, [`MAX_TASK`] task axes); a
+//! rig uses the first `joints` / `task_dim` entries its [`DeviceInfo`] announces. The state
+//! stream is compact instead: each of its channels is a 16-bit integer in a unit the device
+//! announces once ([`ChannelScales`]), the joint positions are the encoders' counts modulo
+//! 2¹⁶ (exact; the host unwraps them with [`CountUnwrapper`], which holds as long as a joint
+//! turns less than 32,767 counts between two frames it receives), and a value that does not
+//! fit its channel is sent at the channel's limit with [`StateFrame::SATURATED`] set, never
+//! clamped silently; a NaN is sent as [`StateFrame::NOT_A_NUMBER`] and comes back as NaN.
+
+use serde::{Deserialize, Serialize};
+
+/// The protocol version both sides must speak (exchanged in the handshake).
+pub const PROTOCOL_VERSION: u16 = 1;
+
+/// The most joints a rig on the link may have.
+pub const MAX_JOINTS: usize = 6;
+
+/// The most task coordinates a rig on the link may have.
+pub const MAX_TASK: usize = 3;
+
+/// Channels of a state frame: encoder counts, joint velocities, joint torques and motor
+/// currents per joint, task position and velocity per task axis.
+const MAX_CHANNELS: usize = 4 * MAX_JOINTS + 2 * MAX_TASK;
+
+/// The unit of one step of each kind of state channel (SI units per count).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ChannelScales {
+    /// Joint velocity, rad/s (or m/s) per step.
+    pub joint_velocity: f32,
+    /// Task position, m per step.
+    pub task_position: f32,
+    /// Task velocity, m/s per step.
+    pub task_velocity: f32,
+    /// Commanded joint torque, N·m (or N) per step.
+    pub joint_torque: f32,
+    /// Commanded motor current, A per step.
+    pub motor_current: f32,
+}
+
+impl ChannelScales {
+    /// Scales whose ranges (±32,767 steps) cover a desktop device: ±32.8 rad/s, ±0.655 m,
+    /// ±6.55 m/s, ±32.8 N·m, ±32.8 A.
+    pub const DESKTOP: Self = Self {
+        joint_velocity: 1e-3,
+        task_position: 2e-5,
+        task_velocity: 2e-4,
+        joint_torque: 1e-3,
+        motor_current: 1e-3,
+    };
+}
+
+/// What the device tells the host first (and again on every host `Hello`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DeviceInfo {
+    /// The device's [`PROTOCOL_VERSION`].
+    pub version: u16,
+    /// FNV-1a hash of the rig's model name, so the host can check it drives the rig it loaded.
+    pub rig_name_hash: u32,
+    /// Joints of the rig (≤ [`MAX_JOINTS`]).
+    pub joints: u8,
+    /// Task coordinates (≤ [`MAX_TASK`]).
+    pub task_dim: u8,
+    /// Impedance-loop rate, Hz.
+    pub impedance_loop_hz: u16,
+    /// Units of the state stream's channels.
+    pub scales: ChannelScales,
+}
+
+/// Target impedance of the task space (the runtime's `ImpedanceParameters`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ImpedanceSettings {
+    /// `K_d` per task axis, N/m.
+    pub stiffness: [f32; MAX_TASK],
+    /// `B_d` per task axis, N·s/m.
+    pub damping: [f32; MAX_TASK],
+    /// `M_d` per task axis, kg.
+    pub mass: [f32; MAX_TASK],
+}
+
+/// A virtual object sent to the device's scene (positions in the task frame, m).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum SceneObject {
+    /// The slot is empty.
+    Empty,
+    /// A sphere, solid (pushes out) or a cavity (keeps the point inside).
+    Sphere {
+        /// Centre.
+        centre: [f32; MAX_TASK],
+        /// Radius.
+        radius: f32,
+        /// `true`: the point is kept inside.
+        cavity: bool,
+        /// Surface stiffness, N/m.
+        stiffness: f32,
+        /// Surface damping, N·s/m.
+        damping: f32,
+    },
+    /// The half-space behind a plane.
+    HalfSpace {
+        /// A point on the plane.
+        point: [f32; MAX_TASK],
+        /// The outward normal (unit length).
+        normal: [f32; MAX_TASK],
+        /// Surface stiffness, N/m.
+        stiffness: f32,
+        /// Surface damping, N·s/m.
+        damping: f32,
+    },
+    /// An axis-aligned box.
+    Box {
+        /// Centre.
+        centre: [f32; MAX_TASK],
+        /// Half the edge lengths.
+        half_extents: [f32; MAX_TASK],
+        /// Surface stiffness, N/m.
+        stiffness: f32,
+        /// Surface damping, N·s/m.
+        damping: f32,
+    },
+}
+
+/// Processor-in-the-loop sensor frame: what the device's peripherals would read this tick.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SensorFrame {
+    /// The tick this frame is for (wrapping).
+    pub tick: u16,
+    /// Encoder counts per joint.
+    pub encoder_counts: [i32; MAX_JOINTS],
+    /// Measured motor currents, A.
+    pub motor_current: [f32; MAX_JOINTS],
+    /// Force-sensor readings per task axis (raw units).
+    pub force_readings: [f32; MAX_TASK],
+}
+
+/// Host → device.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum HostMessage {
+    /// Opens the link; the device answers with its [`DeviceInfo`].
+    Hello {
+        /// The host's [`PROTOCOL_VERSION`].
+        version: u16,
+    },
+    /// Keeps the device enabled; without one for the device's timeout it goes to its safe
+    /// state.
+    Heartbeat {
+        /// Increments by one per heartbeat (wrapping).
+        sequence: u16,
+    },
+    /// Enables the bridges (only from a fault-free, disabled state).
+    Enable,
+    /// Disables the bridges.
+    Disable,
+    /// Clears a latched fault (the device stays disabled until `Enable`).
+    ResetFault,
+    /// New target impedance.
+    SetImpedance(ImpedanceSettings),
+    /// Replaces one slot of the device's scene.
+    SetObject {
+        /// The slot.
+        slot: u8,
+        /// Its new object.
+        object: SceneObject,
+    },
+    /// Processor-in-the-loop: the sensors for the next tick.
+    Sensors(SensorFrame),
+}
+
+/// Device → host.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum DeviceMessage {
+    /// The device's identity, rates and channel units.
+    Hello(DeviceInfo),
+    /// One impedance tick's state.
+    State(StateFrame),
+    /// Processor-in-the-loop: the armature voltages this tick commands.
+    Actuators {
+        /// The tick of the sensor frame these answer (wrapping).
+        tick: u16,
+        /// Armature voltage per joint, V.
+        voltage: [f32; MAX_JOINTS],
+    },
+    /// The device's receive counters.
+    Link(crate::frame::LinkCounters),
+}
+
+/// One impedance tick's state in SI units, as the device has it (the input of
+/// [`StateFrame::quantise`]). Slices hold one entry per joint or task axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StateSample<'a> {
+    /// Impedance ticks since start.
+    pub tick: u32,
+    /// The bridges are enabled.
+    pub enabled: bool,
+    /// The latched fault's code (0: none).
+    pub fault: u8,
+    /// Encoder counts per joint.
+    pub encoder_counts: &'a [i32],
+    /// Joint velocities, rad/s.
+    pub joint_velocity: &'a [f32],
+    /// Task position, m.
+    pub task_position: &'a [f32],
+    /// Task velocity, m/s.
+    pub task_velocity: &'a [f32],
+    /// Commanded joint torques, N·m.
+    pub joint_torque: &'a [f32],
+    /// Commanded motor currents, A.
+    pub motor_current: &'a [f32],
+    /// Instructions (or cycles) the last impedance tick took.
+    pub tick_instructions: u32,
+}
+
+/// One impedance tick's state on the wire: every channel 16 bits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StateFrame {
+    /// Impedance ticks since start, modulo 2¹⁶.
+    #[serde(with = "two_bytes")]
+    pub tick: u16,
+    /// [`StateFrame::ENABLED`], [`StateFrame::SATURATED`].
+    pub status: u8,
+    /// The latched fault's code (0: none).
+    pub fault: u8,
+    /// Instructions the last impedance tick took (65,535 and [`StateFrame::SATURATED`] if more).
+    #[serde(with = "two_bytes")]
+    pub tick_instructions: u16,
+    /// Channels present: joints in the low nibble, task axes in the high nibble.
+    pub shape: u8,
+    /// The channels, little-endian `i16`: encoder counts mod 2¹⁶, joint velocities, task
+    /// position, task velocity, joint torques, motor currents, each present entry in turn.
+    pub channels: Channels,
+}
+
+/// A `u16` as two little-endian bytes: postcard's variable-length integer would take three
+/// for values from 2¹⁴, and the state frame is sized for its worst case.
+mod two_bytes {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(value: &u16, serializer: S) -> Result<S::Ok, S::Error> {
+        value.to_le_bytes().serialize(serializer)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(deserializer: D) -> Result<u16, D::Error> {
+        <[u8; 2]>::deserialize(deserializer).map(u16::from_le_bytes)
+    }
+}
+
+/// The state frame's channel bytes: only the present ones are sent (postcard writes a byte
+/// array as its length and its bytes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Channels {
+    bytes: [u8; 2 * MAX_CHANNELS],
+    length: u8,
+}
+
+impl Channels {
+    fn new() -> Self {
+        Self { bytes: [0; 2 * MAX_CHANNELS], length: 0 }
+    }
+
+    fn push(&mut self, value: i16) {
+        let at = usize::from(self.length);
+        if let Some(slot) = self.bytes.get_mut(at..at + 2) {
+            slot.copy_from_slice(&value.to_le_bytes());
+            self.length += 2;
+        }
+    }
+
+    /// The `index`-th channel, if present.
+    pub fn get(&self, index: usize) -> Option<i16> {
+        let bytes = self.as_bytes().get(2 * index..2 * index + 2)?;
+        Some(i16::from_le_bytes(bytes.try_into().ok()?))
+    }
+
+    /// The bytes sent.
+    pub fn as_bytes(&self) -> &[u8] {
+        self.bytes.get(..usize::from(self.length)).unwrap_or(&[])
+    }
+}
+
+impl Serialize for Channels {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_bytes(self.as_bytes())
+    }
+}
+
+impl<'de> Deserialize<'de> for Channels {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct ChannelBytes;
+        impl<'de> serde::de::Visitor<'de> for ChannelBytes {
+            type Value = Channels;
+            fn expecting(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                write!(f, "an even number of at most {} bytes", 2 * MAX_CHANNELS)
+            }
+            fn visit_bytes<E: serde::de::Error>(self, v: &[u8]) -> Result<Channels, E> {
+                if !v.len().is_multiple_of(2) || v.len() > 2 * MAX_CHANNELS {
+                    return Err(E::invalid_length(v.len(), &self));
+                }
+                let mut channels = Channels::new();
+                channels.bytes[..v.len()].copy_from_slice(v);
+                channels.length = v.len() as u8;
+                Ok(channels)
+            }
+        }
+        deserializer.deserialize_bytes(ChannelBytes)
+    }
+}
+
+impl StateFrame {
+    /// Status bit: the bridges are enabled.
+    pub const ENABLED: u8 = 1;
+    /// Status bit: a channel (or the instruction count) did not fit and was sent at its limit.
+    pub const SATURATED: u8 = 2;
+    /// A channel's value for NaN (a finite value never quantises to it).
+    pub const NOT_A_NUMBER: i16 = i16::MIN;
+
+    /// The frame of `sample` in the units `scales`; `None` if the sample has more than
+    /// [`MAX_JOINTS`] joints or [`MAX_TASK`] task axes, or its per-joint slices differ in length.
+    pub fn quantise(sample: &StateSample<'_>, scales: &ChannelScales) -> Option<Self> {
+        let joints = sample.encoder_counts.len();
+        let task = sample.task_position.len();
+        let per_joint = [sample.joint_velocity.len(), sample.joint_torque.len(), sample.motor_current.len()];
+        if joints > MAX_JOINTS || task > MAX_TASK || per_joint.iter().any(|&n| n != joints) {
+            return None;
+        }
+        if sample.task_velocity.len() != task {
+            return None;
+        }
+        let mut saturated = false;
+        let mut channels = Channels::new();
+        for &count in sample.encoder_counts {
+            // Modulo 2¹⁶: the low 16 bits, exactly.
+            channels.push(count as i16);
+        }
+        let mut push_scaled = |values: &[f32], unit: f32| {
+            for &value in values {
+                let (step, clipped) = to_step(value, unit);
+                saturated |= clipped;
+                channels.push(step);
+            }
+        };
+        push_scaled(sample.joint_velocity, scales.joint_velocity);
+        push_scaled(sample.task_position, scales.task_position);
+        push_scaled(sample.task_velocity, scales.task_velocity);
+        push_scaled(sample.joint_torque, scales.joint_torque);
+        push_scaled(sample.motor_current, scales.motor_current);
+        let tick_instructions = u16::try_from(sample.tick_instructions).unwrap_or_else(|_| {
+            saturated = true;
+            u16::MAX
+        });
+        let status =
+            if sample.enabled { Self::ENABLED } else { 0 } | if saturated { Self::SATURATED } else { 0 };
+        Some(Self {
+            tick: sample.tick as u16,
+            status,
+            fault: sample.fault,
+            tick_instructions,
+            shape: (joints as u8) | ((task as u8) << 4),
+            channels,
+        })
+    }
+
+    /// Joints in the frame.
+    pub fn joints(&self) -> usize {
+        usize::from(self.shape & 0x0f)
+    }
+
+    /// Task axes in the frame.
+    pub fn task_dim(&self) -> usize {
+        usize::from(self.shape >> 4)
+    }
+
+    /// `true` if the channels hold exactly what [`StateFrame::shape`] says.
+    pub fn is_consistent(&self) -> bool {
+        let (n, m) = (self.joints(), self.task_dim());
+        n <= MAX_JOINTS && m <= MAX_TASK && self.channels.as_bytes().len() == 2 * (4 * n + 2 * m)
+    }
+
+    /// Encoder counts modulo 2¹⁶ of joint `j`.
+    pub fn encoder_count_low_bits(&self, j: usize) -> Option<i16> {
+        (j < self.joints()).then(|| self.channels.get(j)).flatten()
+    }
+
+    /// Joint velocity of joint `j`, rad/s.
+    pub fn joint_velocity(&self, j: usize, scales: &ChannelScales) -> Option<f32> {
+        self.scaled(j, self.joints(), self.joints(), scales.joint_velocity)
+    }
+
+    /// Task position along axis `k`, m.
+    pub fn task_position(&self, k: usize, scales: &ChannelScales) -> Option<f32> {
+        self.scaled(k, self.task_dim(), 2 * self.joints(), scales.task_position)
+    }
+
+    /// Task velocity along axis `k`, m/s.
+    pub fn task_velocity(&self, k: usize, scales: &ChannelScales) -> Option<f32> {
+        self.scaled(k, self.task_dim(), 2 * self.joints() + self.task_dim(), scales.task_velocity)
+    }
+
+    /// Commanded torque of joint `j`, N·m.
+    pub fn joint_torque(&self, j: usize, scales: &ChannelScales) -> Option<f32> {
+        self.scaled(j, self.joints(), 2 * self.joints() + 2 * self.task_dim(), scales.joint_torque)
+    }
+
+    /// Commanded current of joint `j`'s motor, A.
+    pub fn motor_current(&self, j: usize, scales: &ChannelScales) -> Option<f32> {
+        self.scaled(j, self.joints(), 3 * self.joints() + 2 * self.task_dim(), scales.motor_current)
+    }
+
+    fn scaled(&self, index: usize, count: usize, first: usize, unit: f32) -> Option<f32> {
+        if index >= count {
+            return None;
+        }
+        let step = self.channels.get(first + index)?;
+        Some(if step == Self::NOT_A_NUMBER { f32::NAN } else { f32::from(step) * unit })
+    }
+}
+
+/// `value / unit` rounded to the nearest step, and whether it had to be clipped to ±32,767.
+fn to_step(value: f32, unit: f32) -> (i16, bool) {
+    if value.is_nan() || unit.is_nan() || unit <= 0.0 {
+        return (StateFrame::NOT_A_NUMBER, true);
+    }
+    let steps = value / unit;
+    let limit = f32::from(i16::MAX);
+    if steps > limit {
+        (i16::MAX, true)
+    } else if steps < -limit {
+        (-i16::MAX, true)
+    } else {
+        // |steps| ≤ 32,767, so the rounded value fits (`as` on a finite, in-range float is exact).
+        let rounded = if steps >= 0.0 { steps + 0.5 } else { steps - 0.5 };
+        (rounded as i16, false)
+    }
+}
+
+/// Recovers full encoder counts from their low 16 bits, frame after frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CountUnwrapper {
+    last: Option<i32>,
+}
+
+impl Default for CountUnwrapper {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl CountUnwrapper {
+    /// Starts at the first frame's count, taken as its low 16 bits sign-extended (start the
+    /// device with its counters near zero, as `HapticLoopSettings::initial_counts` does).
+    pub const fn new() -> Self {
+        Self { last: None }
+    }
+
+    /// The full count whose low 16 bits are `low`, nearest the previous one.
+    pub fn unwrap(&mut self, low: i16) -> i32 {
+        let full = match self.last {
+            None => i32::from(low),
+            Some(last) => {
+                // The signed 16-bit difference is the change, as long as it is below 2¹⁵.
+                let delta = low.wrapping_sub(last as i16);
+                last.wrapping_add(i32::from(delta))
+            }
+        };
+        self.last = Some(full);
+        full
+    }
+}

@@ -1,0 +1,398 @@
+//! The link's framing and state stream: every valid frame is accepted and gives back its
+//! message, everything else is counted and dropped; corruption, garbage, truncation and
+//! oversized input never stall or panic the receiver; the state frame's size and precision.
+
+use hapticgen_protocol::message::Channels;
+use hapticgen_protocol::{
+    encode, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, FrameDecoder, HostMessage,
+    ImpedanceSettings, LinkCounters, SceneObject, SensorFrame, StateFrame, StateSample, MAX_FRAME_BYTES,
+};
+use proptest::prelude::*;
+
+fn frame_of<T: serde::Serialize>(message: &T) -> Vec<u8> {
+    let mut out = [0u8; MAX_FRAME_BYTES];
+    let length = encode(message, &mut out).expect("every message fits a frame");
+    out[..length].to_vec()
+}
+
+/// Feeds `bytes` one at a time; the messages that come out.
+fn receive<T: serde::de::DeserializeOwned>(decoder: &mut FrameDecoder, bytes: &[u8]) -> Vec<T> {
+    bytes.iter().filter_map(|&b| decoder.push::<T>(b)).collect()
+}
+
+fn finite() -> impl Strategy<Value = f32> {
+    -1e6f32..1e6f32
+}
+
+fn task_vector() -> impl Strategy<Value = [f32; 3]> {
+    [finite(), finite(), finite()]
+}
+
+fn scene_object() -> impl Strategy<Value = SceneObject> {
+    prop_oneof![
+        Just(SceneObject::Empty),
+        (task_vector(), finite(), any::<bool>(), finite(), finite()).prop_map(
+            |(centre, radius, cavity, stiffness, damping)| SceneObject::Sphere {
+                centre,
+                radius,
+                cavity,
+                stiffness,
+                damping
+            }
+        ),
+        (task_vector(), task_vector(), finite(), finite()).prop_map(|(point, normal, stiffness, damping)| {
+            SceneObject::HalfSpace { point, normal, stiffness, damping }
+        }),
+        (task_vector(), task_vector(), finite(), finite()).prop_map(
+            |(centre, half_extents, stiffness, damping)| SceneObject::Box {
+                centre,
+                half_extents,
+                stiffness,
+                damping
+            }
+        ),
+    ]
+}
+
+fn host_message() -> impl Strategy<Value = HostMessage> {
+    prop_oneof![
+        any::<u16>().prop_map(|version| HostMessage::Hello { version }),
+        any::<u16>().prop_map(|sequence| HostMessage::Heartbeat { sequence }),
+        Just(HostMessage::Enable),
+        Just(HostMessage::Disable),
+        Just(HostMessage::ResetFault),
+        (task_vector(), task_vector(), task_vector()).prop_map(|(stiffness, damping, mass)| {
+            HostMessage::SetImpedance(ImpedanceSettings { stiffness, damping, mass })
+        }),
+        (any::<u8>(), scene_object()).prop_map(|(slot, object)| HostMessage::SetObject { slot, object }),
+        (
+            any::<u16>(),
+            any::<[i32; 6]>(),
+            [finite(), finite(), finite(), finite(), finite(), finite()],
+            task_vector()
+        )
+            .prop_map(|(tick, encoder_counts, motor_current, force_readings)| {
+                HostMessage::Sensors(SensorFrame { tick, encoder_counts, motor_current, force_readings })
+            }),
+    ]
+}
+
+/// A state sample of `joints` joints and `task` axes with values inside the desktop scales.
+fn state_frame(joints: usize, task: usize) -> impl Strategy<Value = StateFrame> {
+    (
+        any::<u32>(),
+        any::<bool>(),
+        any::<u8>(),
+        proptest::collection::vec(any::<i32>(), joints),
+        proptest::collection::vec(-30.0f32..30.0, 3 * joints),
+        proptest::collection::vec(-0.6f32..0.6, 2 * task),
+        any::<u32>(),
+    )
+        .prop_map(move |(tick, enabled, fault, counts, per_joint, per_axis, tick_instructions)| {
+            let sample = StateSample {
+                tick,
+                enabled,
+                fault,
+                encoder_counts: &counts,
+                joint_velocity: &per_joint[..joints],
+                task_position: &per_axis[..task],
+                task_velocity: &per_axis[task..],
+                joint_torque: &per_joint[joints..2 * joints],
+                motor_current: &per_joint[2 * joints..],
+                tick_instructions,
+            };
+            StateFrame::quantise(&sample, &ChannelScales::DESKTOP).expect("a valid shape")
+        })
+}
+
+fn device_message() -> impl Strategy<Value = DeviceMessage> {
+    prop_oneof![
+        (any::<u16>(), any::<u32>(), 1u8..=6, 1u8..=3, any::<u16>()).prop_map(
+            |(version, rig_name_hash, joints, task_dim, impedance_loop_hz)| {
+                DeviceMessage::Hello(DeviceInfo {
+                    version,
+                    rig_name_hash,
+                    joints,
+                    task_dim,
+                    impedance_loop_hz,
+                    scales: ChannelScales::DESKTOP,
+                })
+            }
+        ),
+        (1usize..=6, 1usize..=3).prop_flat_map(|(n, m)| state_frame(n, m)).prop_map(DeviceMessage::State),
+        (any::<u16>(), [finite(), finite(), finite(), finite(), finite(), finite()])
+            .prop_map(|(tick, voltage)| DeviceMessage::Actuators { tick, voltage }),
+        any::<[u32; 5]>().prop_map(|[frames, oversized, bad_stuffing, bad_crc, not_a_message]| {
+            DeviceMessage::Link(LinkCounters { frames, oversized, bad_stuffing, bad_crc, not_a_message })
+        }),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
+
+    /// Every message, framed and received a byte at a time, comes back equal, after any
+    /// garbage that ends in a zero byte (the receiver is back in step).
+    #[test]
+    fn every_valid_frame_is_accepted(
+        host in host_message(),
+        device in device_message(),
+        garbage in proptest::collection::vec(any::<u8>(), 0..300),
+    ) {
+        let mut decoder = FrameDecoder::new();
+        let mut stream = garbage.clone();
+        stream.push(0);
+        let before = receive::<HostMessage>(&mut decoder, &stream).len();
+        let frames_before = decoder.counters().frames;
+        prop_assert_eq!(receive::<HostMessage>(&mut decoder, &frame_of(&host)), vec![host]);
+        prop_assert_eq!(decoder.counters().frames, frames_before + 1);
+        prop_assert!(before <= 1);
+
+        let mut decoder = FrameDecoder::new();
+        let frame = frame_of(&device);
+        prop_assert!(!frame[..frame.len() - 1].contains(&0), "a zero inside the frame");
+        prop_assert_eq!(receive::<DeviceMessage>(&mut decoder, &frame), vec![device]);
+        prop_assert_eq!(decoder.counters(), LinkCounters { frames: 1, ..LinkCounters::default() });
+    }
+
+    /// Whatever the bytes, what the receiver accepts is a valid frame: re-encoding the message
+    /// gives exactly the bytes it came from. Nothing panics, and every closed non-empty frame
+    /// is either accepted or counted.
+    #[test]
+    fn random_bytes_are_accepted_only_as_valid_frames(bytes in proptest::collection::vec(any::<u8>(), 0..2000)) {
+        let mut decoder = FrameDecoder::new();
+        let mut current: Vec<u8> = Vec::new();
+        let mut closed = 0u32;
+        for &b in &bytes {
+            current.push(b);
+            if let Some(message) = decoder.push::<HostMessage>(b) {
+                prop_assert_eq!(frame_of(&message), current.clone());
+            }
+            if b == 0 {
+                closed += u32::from(current.len() > 1);
+                current.clear();
+            }
+        }
+        let c = decoder.counters();
+        prop_assert_eq!(c.frames + c.dropped(), closed);
+    }
+}
+
+/// CRC-16/IBM-3740 detects every error of one or two bits: flipping any bit, or any two bits,
+/// of a frame's stuffed body is never accepted as a message (exhaustive over one state frame
+/// and one link-counter message).
+#[test]
+fn every_one_and_two_bit_error_is_rejected() {
+    let sample = StateSample {
+        tick: 70_000,
+        enabled: true,
+        fault: 0,
+        encoder_counts: &[12_000, -5, 40_000],
+        joint_velocity: &[0.5, -1.25, 3.0],
+        task_position: &[0.1, -0.05, 0.2],
+        task_velocity: &[0.01, 0.0, -0.3],
+        joint_torque: &[0.25, -0.5, 1.0],
+        motor_current: &[0.7, -1.4, 2.8],
+        tick_instructions: 1394,
+    };
+    let state = DeviceMessage::State(StateFrame::quantise(&sample, &ChannelScales::DESKTOP).unwrap());
+    let counters = DeviceMessage::Link(LinkCounters {
+        frames: 1,
+        oversized: 2,
+        bad_stuffing: 3,
+        bad_crc: 4,
+        not_a_message: 5,
+    });
+    let mut checked = 0u64;
+    for message in [state, counters] {
+        let frame = frame_of(&message);
+        let body_bits = 8 * (frame.len() - 1);
+        for first in 0..body_bits {
+            for second in first..body_bits {
+                let mut corrupted = frame.clone();
+                corrupted[first / 8] ^= 1 << (first % 8);
+                if second != first {
+                    corrupted[second / 8] ^= 1 << (second % 8);
+                }
+                // A flip that makes a zero byte splits the frame: feed it all the same.
+                let mut decoder = FrameDecoder::new();
+                let accepted = receive::<DeviceMessage>(&mut decoder, &corrupted);
+                assert!(accepted.is_empty(), "bits {first} and {second} flipped: accepted {accepted:?}");
+                assert!(decoder.counters().dropped() >= 1);
+                checked += 1;
+            }
+        }
+    }
+    println!("{checked} corrupted frames, none accepted");
+    assert!(checked > 10_000, "{checked} corruptions checked");
+}
+
+/// A truncated frame costs at most the frame after it; an endless stream without a zero byte
+/// is counted once as oversized when it ends, and the next frame is received.
+#[test]
+fn truncation_and_oversized_input_cost_at_most_one_more_frame() {
+    let heartbeat = |sequence| HostMessage::Heartbeat { sequence };
+    let mut decoder = FrameDecoder::new();
+    let first = frame_of(&heartbeat(1));
+    let mut stream = first[..first.len() / 2].to_vec();
+    for sequence in 2..6 {
+        stream.extend(frame_of(&heartbeat(sequence)));
+    }
+    let received = receive::<HostMessage>(&mut decoder, &stream);
+    assert_eq!(received, vec![heartbeat(3), heartbeat(4), heartbeat(5)]);
+    assert_eq!(decoder.counters().dropped(), 1);
+
+    let mut flood = vec![0x55u8; 100_000];
+    flood.push(0);
+    flood.extend(frame_of(&heartbeat(9)));
+    let received = receive::<HostMessage>(&mut decoder, &flood);
+    assert_eq!(received, vec![heartbeat(9)]);
+    assert_eq!(decoder.counters().oversized, 1);
+}
+
+/// A frame of another protocol's message with a correct CRC (an unknown message kind) is
+/// counted as not a message, not acted on.
+#[test]
+fn an_unknown_message_kind_is_counted_and_dropped() {
+    // Variant index 200 of `HostMessage` does not exist.
+    #[derive(serde::Serialize)]
+    struct Unknown {
+        kind: u8,
+        payload: [u8; 3],
+    }
+    let frame = frame_of(&Unknown { kind: 200, payload: [1, 2, 3] });
+    let mut decoder = FrameDecoder::new();
+    assert!(receive::<HostMessage>(&mut decoder, &frame).is_empty());
+    assert_eq!(decoder.counters().not_a_message, 1);
+    // A valid message with a byte left over is not accepted either.
+    let mut body = postcard::to_allocvec(&HostMessage::Enable).unwrap();
+    body.push(7);
+    let crc = crc::Crc::<u16>::new(&crc::CRC_16_IBM_3740).checksum(&body).to_le_bytes();
+    body.extend(crc);
+    let mut stuffed = vec![0u8; body.len() + 2];
+    let n = cobs::encode(&body, &mut stuffed);
+    stuffed.truncate(n);
+    stuffed.push(0);
+    assert!(receive::<HostMessage>(&mut decoder, &stuffed).is_empty());
+    assert_eq!(decoder.counters().not_a_message, 2);
+}
+
+/// The state stream's size: a 3-joint, 3-axis device's frame with every field at its widest
+/// is at most 50 bytes (0.5 Mbit/s at 1 kHz on an 8N1 UART: half of 1 Mbit/s); a 6-joint
+/// one's at most 74.
+#[test]
+fn state_frames_fit_a_megabit_uart_at_one_kilohertz() {
+    for (joints, task, limit) in [(1, 1, 50), (2, 2, 50), (3, 3, 50), (6, 3, 74)] {
+        let counts = vec![i32::MIN; joints];
+        let widest = vec![-1e9f32; joints];
+        let axis = vec![1e9f32; task];
+        let sample = StateSample {
+            tick: u32::MAX,
+            enabled: true,
+            fault: u8::MAX,
+            encoder_counts: &counts,
+            joint_velocity: &widest,
+            task_position: &axis,
+            task_velocity: &axis,
+            joint_torque: &widest,
+            motor_current: &widest,
+            tick_instructions: u32::MAX,
+        };
+        let frame = StateFrame::quantise(&sample, &ChannelScales::DESKTOP).unwrap();
+        assert!(frame.status & StateFrame::SATURATED != 0);
+        let bytes = frame_of(&DeviceMessage::State(frame)).len();
+        println!(
+            "state frame, {joints} joints, {task} axes: {bytes} bytes, {} kbit/s at 1 kHz (8N1)",
+            bytes * 10
+        );
+        assert!(bytes <= limit, "{joints}×{task}: {bytes} bytes");
+    }
+}
+
+/// Quantisation: within half a step of the value; beyond the channel's range sent at the
+/// limit with the saturation flag; NaN sent as NaN; counts exact modulo 2¹⁶ and unwrapped.
+#[test]
+fn state_channels_round_to_the_nearest_step_and_flag_what_does_not_fit() {
+    let scales = ChannelScales::DESKTOP;
+    fn with_velocity(joint_velocity: &[f32]) -> StateSample<'_> {
+        StateSample {
+            tick: 3,
+            enabled: false,
+            fault: 0,
+            encoder_counts: &[123_456, -7],
+            joint_velocity,
+            task_position: &[0.123_456_7, -0.5],
+            task_velocity: &[1.0, -1.0],
+            joint_torque: &[0.001_49, 0.0],
+            motor_current: &[-2.5, 32.0],
+            tick_instructions: 900,
+        }
+    }
+    let sample = |velocity: f32| [velocity, -0.0004];
+    let frame = StateFrame::quantise(&with_velocity(&sample(12.345_6)), &scales).unwrap();
+    assert!(frame.is_consistent());
+    assert_eq!(frame.status, 0, "nothing saturated, disabled");
+    let close = |got: Option<f32>, want: f32, unit: f32| {
+        let got = got.expect("present");
+        assert!((got - want).abs() <= 0.5 * unit * (1.0 + 1e-5), "{got} for {want} (unit {unit})");
+    };
+    close(frame.joint_velocity(0, &scales), 12.345_6, scales.joint_velocity);
+    close(frame.joint_velocity(1, &scales), -0.0004, scales.joint_velocity);
+    close(frame.task_position(0, &scales), 0.123_456_7, scales.task_position);
+    close(frame.task_position(1, &scales), -0.5, scales.task_position);
+    close(frame.task_velocity(1, &scales), -1.0, scales.task_velocity);
+    close(frame.joint_torque(0, &scales), 0.001_49, scales.joint_torque);
+    close(frame.motor_current(0, &scales), -2.5, scales.motor_current);
+    close(frame.motor_current(1, &scales), 32.0, scales.motor_current);
+    assert_eq!(frame.joint_velocity(2, &scales), None);
+    assert_eq!(frame.encoder_count_low_bits(0), Some(123_456_i32 as i16));
+
+    let fast = StateFrame::quantise(&with_velocity(&sample(40.0)), &scales).unwrap();
+    assert_eq!(fast.status & StateFrame::SATURATED, StateFrame::SATURATED);
+    close(fast.joint_velocity(0, &scales), 32.767, scales.joint_velocity);
+    let broken = StateFrame::quantise(&with_velocity(&sample(f32::NAN)), &scales).unwrap();
+    assert!(broken.joint_velocity(0, &scales).unwrap().is_nan());
+    assert_eq!(broken.status & StateFrame::SATURATED, StateFrame::SATURATED);
+
+    // A shape the protocol cannot carry is refused, not truncated.
+    let seven = [0; 7];
+    let zero = sample(0.0);
+    let too_many = StateSample { encoder_counts: &seven, ..with_velocity(&zero) };
+    assert_eq!(StateFrame::quantise(&too_many, &scales), None);
+
+    // Counts: a joint turning 24,000 counts per frame for 50 frames either way.
+    let mut unwrapper = CountUnwrapper::new();
+    let mut count: i32 = 5;
+    for step in [24_000, -24_000] {
+        for _ in 0..50 {
+            count += step;
+            assert_eq!(unwrapper.unwrap(count as i16), count);
+        }
+    }
+}
+
+/// The channel bytes a peer sends must match the frame's shape before it is used: odd or
+/// oversized byte strings are not a message, and `is_consistent` tells a shape mismatch.
+#[test]
+fn channel_bytes_are_checked() {
+    let sample = StateSample {
+        tick: 0,
+        enabled: true,
+        fault: 0,
+        encoder_counts: &[1],
+        joint_velocity: &[0.0],
+        task_position: &[0.0],
+        task_velocity: &[0.0],
+        joint_torque: &[0.0],
+        motor_current: &[0.0],
+        tick_instructions: 0,
+    };
+    let mut frame = StateFrame::quantise(&sample, &ChannelScales::DESKTOP).unwrap();
+    assert!(frame.is_consistent());
+    frame.shape = 0x12; // claims 2 joints, 1 axis
+    assert!(!frame.is_consistent());
+    let odd: Result<Channels, _> = postcard::from_bytes(&[3, 1, 2, 3]);
+    assert!(odd.is_err());
+    let too_long: Vec<u8> = std::iter::once(62u8).chain(std::iter::repeat_n(1, 62)).collect();
+    assert!(postcard::from_bytes::<Channels>(&too_long).is_err());
+}
