@@ -8,6 +8,8 @@
 //!   impedance tick (estimation → rig terms → reference/rendering → impedance law → safety).
 //!   It times both with the board's cycle counter, and optionally times the sub-steps of
 //!   the impedance tick on a copy of the state ([`app::Profile`]).
+//! * [`link`]: the device's end of the host link (`hapticgen-protocol`): handshake,
+//!   heartbeat watchdog that disables the bridges ([`link::Gated`]), commands, counters.
 //! * [`setup`]: [`Setup`], what an image takes from its model file (each joint's current-loop
 //!   gains, the start pose, the rendering parameters), as the build script computes it.
 //! * [`probe`]: the parts of a control-path probe, a binary linked (never run) to show that no
@@ -20,6 +22,7 @@
 
 pub mod app;
 pub mod board;
+pub mod link;
 pub mod probe;
 pub mod report;
 pub mod setup;

@@ -1,0 +1,255 @@
+//! The device's end of the host link (issue 19; the protocol is `hapticgen-protocol`, see
+//! docs/link.md): received bytes in, commands applied, state frames out, and the link's
+//! safety rules.
+//!
+//! * **Handshake**: nothing from the host but `Disable` is acted on before a `Hello` of this
+//!   protocol version; every `Hello` is answered with the device's [`DeviceInfo`].
+//! * **Heartbeat**: while the bridges are enabled, a heartbeat must arrive at least every
+//!   [`LinkSettings::heartbeat_timeout_ticks`] current-loop periods; when none does, the link
+//!   latches [`LinkFault::HeartbeatLost`] and the bridges are disabled ([`Gated`]) in the same
+//!   period. Only a `ResetFault` followed by an `Enable` (with fresh heartbeats) turns them on
+//!   again: a host that reappears does not re-enable a device by itself.
+//! * **Bounded work**: [`DeviceLink::receive`] takes one byte (the frame decoder's constant
+//!   time per byte, one decoding per zero byte); unknown, corrupt or premature messages are
+//!   counted and dropped.
+
+use hapticgen_protocol::{
+    encode, DeviceInfo, DeviceMessage, EncodeError, FrameDecoder, HostMessage, ImpedanceSettings,
+    LinkCounters, SceneObject, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION,
+};
+use hapticgen_runtime::control::ImpedanceParameters;
+use hapticgen_runtime::Real;
+
+use crate::board::{CurrentSense, Encoders, ForceSense, VoltageOutput};
+
+/// How the device's link behaves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LinkSettings {
+    /// Current-loop periods without a heartbeat after which the bridges are disabled.
+    pub heartbeat_timeout_ticks: u32,
+}
+
+impl LinkSettings {
+    /// A heartbeat timeout of `timeout_ms` at `current_loop_hz` (rounded down, at least one
+    /// period): the bridges are off within `timeout_ms` of the last heartbeat.
+    pub fn with_timeout_ms(timeout_ms: u32, current_loop_hz: u32) -> Self {
+        let ticks = u64::from(timeout_ms) * u64::from(current_loop_hz) / 1000;
+        Self { heartbeat_timeout_ticks: u32::try_from(ticks).unwrap_or(u32::MAX).max(1) }
+    }
+}
+
+/// Why the link holds the bridges off until a reset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkFault {
+    /// The heartbeat stopped while the bridges were enabled.
+    HeartbeatLost,
+}
+
+/// What a received message asks of the rest of the firmware (the link has already applied
+/// what concerns itself: handshake, enable, heartbeat, reset).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LinkEvent<S> {
+    /// The host opened the link: send [`DeviceLink::hello`].
+    Hello,
+    /// New target impedance (checked: finite, stiffness and damping ≥ 0, mass > 0).
+    Impedance(ImpedanceParameters<S, MAX_TASK>),
+    /// A scene slot's new object.
+    Object {
+        /// The slot.
+        slot: u8,
+        /// The object.
+        object: SceneObject,
+    },
+}
+
+/// Counts of what the link refused, besides the frame decoder's [`LinkCounters`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RefusedCounters {
+    /// Valid messages before a handshake of this protocol version.
+    pub before_handshake: u32,
+    /// `Enable` while a link fault is latched or without a fresh heartbeat.
+    pub enable_refused: u32,
+    /// Impedance settings with a non-finite or out-of-range value.
+    pub bad_settings: u32,
+}
+
+/// The device's link state.
+#[derive(Clone, Debug)]
+pub struct DeviceLink {
+    decoder: FrameDecoder,
+    info: DeviceInfo,
+    settings: LinkSettings,
+    handshake: bool,
+    enabled: bool,
+    ticks_since_heartbeat: u32,
+    fault: Option<LinkFault>,
+    refused: RefusedCounters,
+}
+
+impl DeviceLink {
+    /// A link that announces `info` (its `version` is set to this protocol's), disabled,
+    /// waiting for the host's `Hello`.
+    pub fn new(info: DeviceInfo, settings: LinkSettings) -> Self {
+        Self {
+            decoder: FrameDecoder::new(),
+            info: DeviceInfo { version: PROTOCOL_VERSION, ..info },
+            settings,
+            handshake: false,
+            enabled: false,
+            ticks_since_heartbeat: u32::MAX,
+            fault: None,
+            refused: RefusedCounters::default(),
+        }
+    }
+
+    /// Takes one received byte; returns what a completed message asks of the firmware.
+    pub fn receive<S: Real>(&mut self, byte: u8) -> Option<LinkEvent<S>> {
+        let message = self.decoder.push::<HostMessage>(byte)?;
+        match message {
+            HostMessage::Hello { version } => {
+                self.handshake = version == PROTOCOL_VERSION;
+                return Some(LinkEvent::Hello);
+            }
+            // Turning the bridges off is honoured from anyone, handshake or not.
+            HostMessage::Disable => {
+                self.enabled = false;
+                return None;
+            }
+            _ => {}
+        }
+        if !self.handshake {
+            bump(&mut self.refused.before_handshake);
+            return None;
+        }
+        match message {
+            HostMessage::Hello { .. } | HostMessage::Disable | HostMessage::Sensors(_) => None,
+            HostMessage::Heartbeat { .. } => {
+                self.ticks_since_heartbeat = 0;
+                None
+            }
+            HostMessage::Enable => {
+                if self.fault.is_none() && self.heartbeat_fresh() {
+                    self.enabled = true;
+                } else {
+                    bump(&mut self.refused.enable_refused);
+                }
+                None
+            }
+            HostMessage::ResetFault => {
+                self.fault = None;
+                None
+            }
+            HostMessage::SetImpedance(settings) => match checked_impedance(&settings) {
+                Some(parameters) => Some(LinkEvent::Impedance(parameters)),
+                None => {
+                    bump(&mut self.refused.bad_settings);
+                    None
+                }
+            },
+            HostMessage::SetObject { slot, object } => Some(LinkEvent::Object { slot, object }),
+        }
+    }
+
+    /// Once per current-loop period: advances the heartbeat watchdog. Returns `true` when the
+    /// bridges may be driven this period.
+    pub fn on_current_tick(&mut self) -> bool {
+        self.ticks_since_heartbeat = self.ticks_since_heartbeat.saturating_add(1);
+        if self.enabled && !self.heartbeat_fresh() {
+            self.enabled = false;
+            self.fault = Some(LinkFault::HeartbeatLost);
+        }
+        self.outputs_allowed()
+    }
+
+    fn heartbeat_fresh(&self) -> bool {
+        self.ticks_since_heartbeat <= self.settings.heartbeat_timeout_ticks
+    }
+
+    /// `true` when the host has enabled the bridges and no link fault is latched.
+    pub fn outputs_allowed(&self) -> bool {
+        self.enabled && self.fault.is_none()
+    }
+
+    /// The latched link fault, if any.
+    pub fn fault(&self) -> Option<LinkFault> {
+        self.fault
+    }
+
+    /// The frame decoder's counts.
+    pub fn counters(&self) -> LinkCounters {
+        self.decoder.counters()
+    }
+
+    /// What the link refused.
+    pub fn refused(&self) -> RefusedCounters {
+        self.refused
+    }
+
+    /// Frames the answer to a `Hello` into `out`; returns its length.
+    pub fn hello(&self, out: &mut [u8; MAX_FRAME_BYTES]) -> Result<usize, EncodeError> {
+        encode(&DeviceMessage::Hello(self.info), out)
+    }
+}
+
+/// Impedance settings as the runtime's parameters, if every value is finite, the stiffness
+/// and damping are not negative and the mass is positive.
+fn checked_impedance<S: Real>(settings: &ImpedanceSettings) -> Option<ImpedanceParameters<S, MAX_TASK>> {
+    let finite = |v: &f32| v.is_finite();
+    let all = settings.stiffness.iter().chain(&settings.damping).chain(&settings.mass);
+    if !all.clone().all(finite)
+        || settings.stiffness.iter().chain(&settings.damping).any(|v| *v < 0.0)
+        || settings.mass.iter().any(|v| *v <= 0.0)
+    {
+        return None;
+    }
+    let convert = |values: &[f32; MAX_TASK]| values.map(|v| S::from_f64(f64::from(v)));
+    Some(ImpedanceParameters {
+        stiffness: convert(&settings.stiffness),
+        damping: convert(&settings.damping),
+        mass: convert(&settings.mass),
+    })
+}
+
+fn bump(count: &mut u32) {
+    *count = count.saturating_add(1);
+}
+
+/// A board whose bridges the link may hold off: with `open == false`, every voltage command
+/// becomes [`VoltageOutput::disable`]; the sensors are read as usual.
+pub struct Gated<'a, B> {
+    /// The board.
+    pub board: &'a mut B,
+    /// Whether the bridges may be driven this period ([`DeviceLink::on_current_tick`]).
+    pub open: bool,
+}
+
+impl<B: Encoders<N>, const N: usize> Encoders<N> for Gated<'_, B> {
+    fn counts(&mut self) -> [i32; N] {
+        self.board.counts()
+    }
+}
+
+impl<S, B: CurrentSense<S, N>, const N: usize> CurrentSense<S, N> for Gated<'_, B> {
+    fn currents(&mut self) -> [S; N] {
+        self.board.currents()
+    }
+}
+
+impl<S, B: ForceSense<S, M>, const M: usize> ForceSense<S, M> for Gated<'_, B> {
+    fn force_readings(&mut self) -> [S; M] {
+        self.board.force_readings()
+    }
+}
+
+impl<S, B: VoltageOutput<S, N>, const N: usize> VoltageOutput<S, N> for Gated<'_, B> {
+    fn set_voltages(&mut self, volts: &[S; N]) {
+        if self.open {
+            self.board.set_voltages(volts);
+        } else {
+            self.board.disable();
+        }
+    }
+    fn disable(&mut self) {
+        self.board.disable();
+    }
+}
