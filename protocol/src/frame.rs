@@ -18,7 +18,8 @@ pub const MAX_MESSAGE_BYTES: usize = 120;
 pub const MAX_FRAME_BYTES: usize = cobs::max_encoding_length(MAX_MESSAGE_BYTES + CRC_BYTES) + 1;
 
 const CRC_BYTES: usize = 2;
-const FRAME_CRC: Crc<u16> = Crc::<u16>::new(&CRC_16_IBM_3740);
+// A `static`, not a `const`: a `const` would build its 512-byte table at every use.
+static FRAME_CRC: Crc<u16> = Crc::<u16>::new(&CRC_16_IBM_3740);
 
 /// Why a message could not be framed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

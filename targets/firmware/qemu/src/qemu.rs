@@ -100,11 +100,11 @@ pub fn exit(code: u32) -> ! {
 }
 
 /// Instructions executed by [`known_instructions`].
-const KNOWN_INSTRUCTIONS: i64 = 1 + 2 * 500;
+pub const KNOWN_INSTRUCTIONS: i64 = 1 + 2 * 500;
 
 /// Executes exactly [`KNOWN_INSTRUCTIONS`] instructions: `movw`, then 500 × (`subs`, `bne`).
 #[inline(always)]
-fn known_instructions() {
+pub fn known_instructions() {
     // SAFETY: a counted loop on a scratch register.
     unsafe {
         core::arch::asm!(

@@ -9,12 +9,14 @@
 //! * [`check`]: a QEMU run against the host runs of the same scenario, and the image's limits.
 //! * [`elf`]: `size`-style accounting and the symbol table of an image.
 //! * [`panics`]: the panic paths left in a linked control-path probe.
+//! * [`link_stream`]: the state frames the link-cost image wrote to its UART.
 #![deny(missing_docs)]
 
 use hapticgen_fw_control::board::NoClock;
 use hapticgen_fw_control::report::Sink;
 
 pub mod elf;
+pub mod link_stream;
 pub mod panics;
 
 /// Every image of `variants.txt`: `VARIANTS` (names and limits), `SCENARIOS`, `rendering`,

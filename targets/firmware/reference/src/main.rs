@@ -8,6 +8,7 @@
 //! hapticgen-fw-reference check <image> <qemu-output> <elf> [--limits=warn]
 //! hapticgen-fw-reference panics <probe-elf>         the panic paths left in a control-path probe
 //! hapticgen-fw-reference generated                  the directory of pre-generated images
+//! hapticgen-fw-reference link-stream <uart> <qemu-output>   the link-cost image's UART frames
 //! ```
 //!
 //! `check` compares the QEMU run with the host runs of the same scenario and enforces the
@@ -17,7 +18,7 @@
 
 use std::process::ExitCode;
 
-use hapticgen_fw_reference::{check, elf, panics, variants, Stdout, GENERATED_IMAGES};
+use hapticgen_fw_reference::{check, elf, link_stream, panics, variants, Stdout, GENERATED_IMAGES};
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -84,8 +85,32 @@ fn main() -> ExitCode {
                 }
             }
         }
+        ["link-stream", uart, output] => {
+            let read = std::fs::read(uart).map_err(|e| format!("{uart}: {e}"));
+            let text = std::fs::read_to_string(output).map_err(|e| format!("{output}: {e}"));
+            match (read, text) {
+                (Ok(bytes), Ok(text)) => match link_stream::check(&bytes, &text) {
+                    Ok(shapes) => {
+                        for (joints, task, frames) in shapes {
+                            println!("link stream: {frames} state frames of {joints} joints, {task} axes, all valid");
+                        }
+                        ExitCode::SUCCESS
+                    }
+                    Err(errors) => {
+                        for e in errors {
+                            eprintln!("FAIL {uart}: {e}");
+                        }
+                        ExitCode::FAILURE
+                    }
+                },
+                (Err(e), _) | (_, Err(e)) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
         _ => {
-            eprintln!("usage: hapticgen-fw-reference list | run <image> <f32|f64> | size <elf> | push <image> | check <image> <qemu-output> <elf> [--limits=warn] | panics <probe-elf> | generated");
+            eprintln!("usage: hapticgen-fw-reference list | run <image> <f32|f64> | size <elf> | push <image> | check <image> <qemu-output> <elf> [--limits=warn] | panics <probe-elf> | generated | link-stream <uart> <qemu-output>");
             ExitCode::from(2)
         }
     }

@@ -1,0 +1,195 @@
+//! The host link's cost on the Cortex-M4F (issue 19): for rigs of 1–6 joints, each
+//! impedance tick's state frame is quantised, framed and written to UART0 (the CMSDK UART of
+//! the MPS2-AN386, which QEMU connects to a file), and a command frame (a heartbeat, or new
+//! impedance settings) is fed to the device's [`DeviceLink`] byte by byte, as the UART would
+//! deliver it. Each part is timed with the APB timer (`-icount shift=10`: exact, repeatable)
+//! and printed in instructions:
+//!
+//! `LINK joints=3 task=3 part=state frames=200 state_bytes=49 min=… max=…` (parts: `state`,
+//! the state frame quantised and framed; `heartbeat` and `impedance`, a command frame received).
+//!
+//! `scripts/firmware.sh` checks the limit (encode + decode ≤ 1,000 instructions) and decodes
+//! the UART file on the host (`hapticgen-fw-reference link-stream`): every frame must decode.
+#![no_std]
+#![no_main]
+
+// The board support of the images (timer, semihosting, exit, panic handler), shared as source:
+// the image crate is a binary whose build script needs an image variant.
+#[allow(dead_code)]
+#[path = "../qemu.rs"]
+mod qemu;
+
+use core::hint::black_box;
+use core::ptr::{read_volatile, write_volatile};
+
+use cortex_m_rt::entry;
+use hapticgen_fw_control::board::CycleCounter;
+use hapticgen_fw_control::link::{DeviceLink, LinkSettings};
+use hapticgen_fw_control::report::Line;
+use hapticgen_fw_control::CostStats;
+use hapticgen_protocol::{
+    encode, ChannelScales, DeviceInfo, DeviceMessage, HostMessage, ImpedanceSettings, StateFrame,
+    StateSample, MAX_FRAME_BYTES, PROTOCOL_VERSION,
+};
+
+/// State frames per rig shape.
+const FRAMES: u32 = 200;
+
+/// CMSDK APB UART0 of the MPS2-AN386: data, state (bit 0: transmit buffer full), control
+/// (bit 0: transmit enable, bit 1: receive enable), baud divider (≥ 16).
+const UART0: usize = 0x4000_4000;
+const DATA: usize = 0x00;
+const STATE: usize = 0x04;
+const CTRL: usize = 0x08;
+const BAUDDIV: usize = 0x10;
+
+/// Polled UART0 transmitter.
+struct Uart0;
+
+impl Uart0 {
+    fn start() -> Self {
+        // SAFETY: UART0's registers; nothing else uses it.
+        unsafe {
+            write_volatile((UART0 + BAUDDIV) as *mut u32, 16);
+            write_volatile((UART0 + CTRL) as *mut u32, 0b11);
+        }
+        Uart0
+    }
+
+    /// Writes `bytes`, waiting at most a bounded number of polls per byte; returns how many
+    /// bytes were dropped because the transmitter stayed full.
+    fn write(&mut self, bytes: &[u8]) -> u32 {
+        let mut dropped = 0;
+        for &byte in bytes {
+            let mut polls = 0u32;
+            // SAFETY: reads of UART0's state register.
+            while unsafe { read_volatile((UART0 + STATE) as *const u32) } & 1 != 0 && polls < 10_000 {
+                polls += 1;
+            }
+            if polls == 10_000 {
+                dropped += 1;
+                continue;
+            }
+            // SAFETY: a write of one byte to UART0's data register.
+            unsafe { write_volatile((UART0 + DATA) as *mut u32, u32::from(byte)) };
+        }
+        dropped
+    }
+}
+
+/// Counter ticks as instructions, from the ticks of [`qemu::KNOWN_INSTRUCTIONS`] instructions.
+fn instructions(ticks: u32, cal_ticks: u32) -> i64 {
+    (i64::from(ticks) * qemu::KNOWN_INSTRUCTIONS + i64::from(cal_ticks.max(1)) / 2)
+        / i64::from(cal_ticks.max(1))
+}
+
+fn frame_of(message: &HostMessage) -> ([u8; MAX_FRAME_BYTES], usize) {
+    let mut out = [0u8; MAX_FRAME_BYTES];
+    match encode(message, &mut out) {
+        Ok(n) => (out, n),
+        Err(_) => qemu::exit(4),
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    let counter = qemu::ApbCounter::start();
+    let mut out = qemu::Semihosting::new();
+    // Ticks of 1001 known instructions, to print instructions.
+    let calibration = {
+        let mut overhead = u32::MAX;
+        for _ in 0..16 {
+            let a = counter.now();
+            let b = counter.now();
+            overhead = overhead.min(b.wrapping_sub(a));
+        }
+        overhead
+    };
+    qemu::calibrate(&counter, &mut out);
+    let cal_ticks = {
+        let a = counter.now();
+        qemu::known_instructions();
+        counter.now().wrapping_sub(a).saturating_sub(calibration)
+    };
+    let mut uart = Uart0::start();
+    let info = |joints: u8, task_dim: u8| DeviceInfo {
+        version: PROTOCOL_VERSION,
+        rig_name_hash: 0,
+        joints,
+        task_dim,
+        impedance_loop_hz: 1000,
+        scales: ChannelScales::DESKTOP,
+    };
+    let (hello, hello_length) = frame_of(&HostMessage::Hello { version: PROTOCOL_VERSION });
+    let (heartbeat, heartbeat_length) = frame_of(&HostMessage::Heartbeat { sequence: 7 });
+    let settings = ImpedanceSettings { stiffness: [300.0, 250.0, 200.0], damping: [2.0; 3], mass: [0.1; 3] };
+    let (impedance, impedance_length) = frame_of(&HostMessage::SetImpedance(settings));
+    let mut dropped = 0u32;
+    for (joints, task) in [(1usize, 1usize), (2, 2), (3, 3), (6, 3)] {
+        let mut link =
+            DeviceLink::new(info(joints as u8, task as u8), LinkSettings::with_timeout_ms(5, 7500));
+        for &byte in &hello[..hello_length] {
+            let _ = link.receive::<f32>(byte);
+        }
+        let (mut encode_cost, mut heartbeat_cost, mut impedance_cost) =
+            (CostStats::EMPTY, CostStats::EMPTY, CostStats::EMPTY);
+        let mut frame_bytes = 0;
+        for tick in 0..FRAMES {
+            // Values that change from tick to tick, out of the optimiser's sight.
+            let t = black_box(tick as f32 * 1e-3);
+            let counts = [black_box(tick as i32 * 37 - 4000); 6];
+            let per_joint = [t, -0.5 * t, 2.0 * t, 0.25, -1.5 * t, 3.0 * t];
+            let per_axis = [0.01 * t, -0.02, 0.03 * t];
+            let sample = StateSample {
+                tick,
+                enabled: true,
+                fault: 0,
+                encoder_counts: &counts[..joints],
+                joint_velocity: &per_joint[..joints],
+                task_position: &per_axis[..task],
+                task_velocity: &per_axis[..task],
+                joint_torque: &per_joint[..joints],
+                motor_current: &per_joint[..joints],
+                tick_instructions: 1000 + tick,
+            };
+            let mut buffer = [0u8; MAX_FRAME_BYTES];
+            let t0 = counter.now();
+            let length = StateFrame::quantise(black_box(&sample), &ChannelScales::DESKTOP)
+                .and_then(|frame| encode(&DeviceMessage::State(frame), &mut buffer).ok());
+            let t1 = counter.now();
+            let Some(length) = length else { qemu::exit(5) };
+            frame_bytes = length;
+            encode_cost.record(t1.wrapping_sub(t0).saturating_sub(calibration));
+            dropped += uart.write(&buffer[..length]);
+
+            let t2 = counter.now();
+            for &byte in black_box(&heartbeat[..heartbeat_length]) {
+                let _ = black_box(link.receive::<f32>(byte));
+            }
+            let t3 = counter.now();
+            heartbeat_cost.record(t3.wrapping_sub(t2).saturating_sub(calibration));
+            let t4 = counter.now();
+            for &byte in black_box(&impedance[..impedance_length]) {
+                let _ = black_box(link.receive::<f32>(byte));
+            }
+            let t5 = counter.now();
+            impedance_cost.record(t5.wrapping_sub(t4).saturating_sub(calibration));
+        }
+        if link.counters().frames != 1 + 2 * FRAMES {
+            qemu::exit(6);
+        }
+        for (part, cost) in
+            [("state", encode_cost), ("heartbeat", heartbeat_cost), ("impedance", impedance_cost)]
+        {
+            let mut line = Line::new();
+            line.str("LINK").kv("joints", joints as i64).kv("task", task as i64).str(" part=").str(part);
+            line.kv("frames", i64::from(FRAMES)).kv("state_bytes", frame_bytes as i64);
+            line.kv("min", instructions(cost.min, cal_ticks)).kv("max", instructions(cost.max, cal_ticks));
+            line.emit(&mut out);
+        }
+    }
+    let mut line = Line::new();
+    line.str("LINK_DONE").kv("uart_dropped", i64::from(dropped));
+    line.emit(&mut out);
+    qemu::exit(0)
+}
