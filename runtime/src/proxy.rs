@@ -56,7 +56,7 @@
 use crate::control::{ImpedanceParameters, TaskReference};
 use crate::effects::{Effect, EffectState};
 use crate::render::ObjectKind;
-use crate::shape::{add_scaled, dot, exceeds, finite, norm, segment_meets_box, sub, unit, Object, Shape};
+use crate::shape::{add_scaled, dot, exceeds, finite, norm, segment_box_entry, sub, unit, Object, Shape};
 use crate::tick::ReferenceSource;
 use crate::Real;
 
@@ -399,28 +399,33 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         let solid = object.kind == ObjectKind::Solid;
         match object.shape {
             Shape::Mesh(mesh) => {
+                // Nearest first along the segment: a box the segment enters beyond the best
+                // step so far cannot limit it.
                 let mut best: Option<(S, [S; M])> = None;
-                let bound = core::cell::Cell::new(limit);
-                mesh.for_each_candidate(
-                    |min, max| segment_meets_box(y, d, bound.get(), min, max, margin),
+                let infinity = S::from_f64(f64::INFINITY);
+                mesh.nearest_first(
+                    limit,
+                    |min, max| segment_box_entry(y, d, limit, min, max, margin).unwrap_or(infinity),
                     |face| {
                         if let Some([a, b, c]) = mesh.triangle(face) {
                             let (q, _) = crate::shape::closest_on_triangle(y, &a, &b, &c);
                             let offset = sub(y, &q);
                             let normal = match unit(&offset) {
-                                Some(n) => n,
+                                Some(n) => Some(n),
                                 None => match mesh.face_normals.get(face) {
-                                    Some(n) if dot(n, d) <= S::ZERO => *n,
-                                    Some(n) => add_scaled(&[S::ZERO; M], -S::ONE, n),
-                                    None => return,
+                                    Some(n) if dot(n, d) <= S::ZERO => Some(*n),
+                                    Some(n) => Some(add_scaled(&[S::ZERO; M], -S::ONE, n)),
+                                    None => None,
                                 },
                             };
-                            let step = convex_step(norm(&offset) - margin, dot(d, &normal), limit);
-                            if step < bound.get() {
-                                bound.set(step);
-                                best = Some((step, normal));
+                            if let Some(normal) = normal {
+                                let step = convex_step(norm(&offset) - margin, dot(d, &normal), limit);
+                                if best.map_or(step < limit, |(b, _)| step < b) {
+                                    best = Some((step, normal));
+                                }
                             }
                         }
+                        best.map_or(limit, |(b, _)| b)
                     },
                 );
                 best

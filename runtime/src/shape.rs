@@ -223,16 +223,16 @@ fn box_distance_squared<S: Real, const M: usize>(p: &[S; M], min: &[S; M], max: 
     sum
 }
 
-/// Whether the segment `p + s dir`, `s ∈ [0, length]`, meets the box `[min − r, max + r]`
-/// (slab test).
-pub(crate) fn segment_meets_box<S: Real, const M: usize>(
+/// Where the segment `p + s dir`, `s ∈ [0, length]`, enters the box `[min − r, max + r]`
+/// (slab test): the smallest such `s`, or `None` when the segment misses the box.
+pub(crate) fn segment_box_entry<S: Real, const M: usize>(
     p: &[S; M],
     dir: &[S; M],
     length: S,
     min: &[S; M],
     max: &[S; M],
     r: S,
-) -> bool {
+) -> Option<S> {
     let mut enter = S::ZERO;
     let mut exit = length;
     for i in 0..M {
@@ -246,13 +246,13 @@ pub(crate) fn segment_meets_box<S: Real, const M: usize>(
             enter = enter.max(a);
             exit = exit.min(b);
             if enter > exit {
-                return false;
+                return None;
             }
         } else if x < lo || x > hi {
-            return false;
+            return None;
         }
     }
-    true
+    Some(enter)
 }
 
 /// A face's closest point to a query, for [`Mesh::closest`] and the proxy's sweep.
@@ -277,63 +277,88 @@ impl<'a, S: Real, const M: usize> Mesh<'a, S, M> {
         ])
     }
 
-    /// Calls `visit(face)` for every face whose leaf box passes `keep(min, max)`, walking the
-    /// BVH from the root (children only of inner nodes that pass). Without a BVH every face is
-    /// visited.
-    pub fn for_each_candidate(
+    /// Visits the faces nearest first, for a search that keeps a best value and stops where no
+    /// box can beat it (branch and bound). `lower_bound(min, max)` bounds from below what any
+    /// face in the box can give (infinite: nothing); `visit(face)` considers one face and
+    /// returns the best value so far; a node whose lower bound exceeds the best is skipped,
+    /// also when it is popped (the best may have improved since it was pushed), and of two
+    /// children the one with the smaller lower bound is visited first. Without a BVH every
+    /// face is visited.
+    pub fn nearest_first(
         &self,
-        mut keep: impl FnMut(&[S; M], &[S; M]) -> bool,
-        mut visit: impl FnMut(usize),
+        initial_best: S,
+        mut lower_bound: impl FnMut(&[S; M], &[S; M]) -> S,
+        mut visit: impl FnMut(usize) -> S,
     ) {
         if self.nodes.is_empty() {
             for face in 0..self.faces.len() {
-                visit(face);
+                let _ = visit(face);
             }
             return;
         }
-        let mut stack = [0u32; BVH_STACK];
+        let mut best = initial_best;
+        // Each entry: a node and the lower bound of its box.
+        let mut stack = [(0u32, S::ZERO); BVH_STACK];
+        if let (Some(slot), Some(root)) = (stack.get_mut(0), self.nodes.first()) {
+            *slot = (0, lower_bound(&root.min, &root.max));
+        }
         let mut depth = 1;
         while depth > 0 {
             depth -= 1;
-            let node = match stack.get(depth).and_then(|&i| self.nodes.get(i as usize)) {
+            // (`match`, not `let … else`: the runtime builds with Rust 1.63.)
+            let (index, bound) = match stack.get(depth) {
+                Some(&entry) => entry,
+                None => break,
+            };
+            let node = match self.nodes.get(index as usize) {
                 Some(node) => node,
                 None => continue,
             };
-            if !keep(&node.min, &node.max) {
+            if bound > best {
                 continue;
             }
             if node.count > 0 {
                 let first = node.first as usize;
                 for face in first..first.saturating_add(node.count as usize).min(self.faces.len()) {
-                    visit(face);
+                    best = visit(face);
                 }
-            } else if depth + 2 <= BVH_STACK {
-                if let Some(slot) = stack.get_mut(depth) {
-                    *slot = node.first.saturating_add(1);
+                continue;
+            }
+            let children = [node.first, node.first.saturating_add(1)];
+            let bounds = children.map(|child| {
+                self.nodes
+                    .get(child as usize)
+                    .map_or(S::from_f64(f64::INFINITY), |n| lower_bound(&n.min, &n.max))
+            });
+            // The farther child below the nearer one, so that the nearer is popped first.
+            let order = if bounds[0] <= bounds[1] { [1, 0] } else { [0, 1] };
+            for k in order {
+                if bounds[k] <= best && depth < BVH_STACK {
+                    if let Some(slot) = stack.get_mut(depth) {
+                        *slot = (children[k], bounds[k]);
+                        depth += 1;
+                    }
                 }
-                if let Some(slot) = stack.get_mut(depth + 1) {
-                    *slot = node.first;
-                }
-                depth += 2;
             }
         }
     }
 
-    /// The face point closest to `p`, or `None` for an empty mesh.
+    /// The face point closest to `p`, or `None` for an empty mesh ([`Mesh::nearest_first`]
+    /// on the squared distance to each box).
     pub fn closest(&self, p: &[S; M]) -> Option<FacePoint<S, M>> {
         let mut best: Option<(S, FacePoint<S, M>)> = None;
-        let bound = core::cell::Cell::new(S::from_f64(f64::INFINITY));
-        self.for_each_candidate(
-            |min, max| box_distance_squared(p, min, max) <= bound.get(),
+        self.nearest_first(
+            S::from_f64(f64::INFINITY),
+            |min, max| box_distance_squared(p, min, max),
             |face| {
                 if let Some([a, b, c]) = self.triangle(face) {
                     let (point, barycentric) = closest_on_triangle(p, &a, &b, &c);
                     let d = dot(&sub(p, &point), &sub(p, &point));
                     if best.map_or(true, |(e, _)| d < e) {
                         best = Some((d, FacePoint { face, point, barycentric }));
-                        bound.set(d);
                     }
                 }
+                best.map_or(S::from_f64(f64::INFINITY), |(d, _)| d)
             },
         );
         best.map(|(_, point)| point)

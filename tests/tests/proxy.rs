@@ -153,3 +153,37 @@ fn the_bvh_covers_every_face_and_the_emitted_source_names_the_arrays() {
         assert!(text.contains(name), "{name} missing from\n{text}");
     }
 }
+
+/// The BVH's nearest-first search finds the closest face: on a soup of 300 random triangles
+/// (with the mesh helper's BVH, leaves of 4), the closest point of 2,000 random points is at
+/// the distance a scan of every triangle finds.
+#[test]
+fn the_bvh_search_finds_the_closest_face_of_a_triangle_soup() {
+    use rand::rngs::SmallRng;
+    use rand::{Rng, SeedableRng};
+    let mut rng = SmallRng::seed_from_u64(18);
+    let mut point = |scale: f64| [0.0; 3].map(|_: f64| rng.gen_range(-scale..scale));
+    let mut vertices = Vec::new();
+    let mut faces = Vec::new();
+    for t in 0..300u32 {
+        let centre = point(1.0);
+        for _ in 0..3 {
+            let offset = point(0.1);
+            vertices.push([centre[0] + offset[0], centre[1] + offset[1], centre[2] + offset[2]]);
+        }
+        faces.push([3 * t, 3 * t + 1, 3 * t + 2]);
+    }
+    let soup = Arrays::new(&TriangleMesh::new(vertices, faces).unwrap().with_bvh(4));
+    let with_bvh = soup.mesh();
+    let every_face = Mesh { nodes: &[], ..with_bvh };
+    assert!(!with_bvh.nodes.is_empty());
+    let distance = |mesh: &Mesh<'_, f64, 3>, p: &[f64; 3]| {
+        let q = mesh.closest(p).expect("a non-empty mesh").point;
+        ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+    };
+    for _ in 0..2000 {
+        let p = point(1.5);
+        let (searched, scanned) = (distance(&with_bvh, &p), distance(&every_face, &p));
+        assert!((searched - scanned).abs() <= 1e-15, "{p:?}: BVH {searched}, every face {scanned}");
+    }
+}
