@@ -1,4 +1,11 @@
-//! Time of `model::load` (parse, variant, resolve, validate) per model file, best of rounds.
+//! Time of `model::load` (parse, variant, resolve, validate) per model file, against a parse
+//! with serde_yaml alone and with yaml-rust2 alone (the loader runs both: see
+//! docs/reliability.md, "Fuzzing at two rates"). `ROUNDS` (default 200) loads per file:
+//!
+//! ```sh
+//! cargo run --release -p hapticgen-codegen --example load_rate -- models/*.yaml
+//! ROUNDS=5 valgrind --tool=callgrind target/release/examples/load_rate models/puma560.yaml
+//! ```
 use std::time::Instant;
 
 fn main() {

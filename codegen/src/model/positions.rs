@@ -43,8 +43,9 @@ pub type Position = (usize, usize);
 /// Positions of values and of keys, by path.
 #[derive(Debug, Default)]
 pub struct PositionIndex {
-    values: HashMap<KeyPath, Position>,
-    keys: HashMap<KeyPath, Position>,
+    /// Each node's value position and, for a mapping entry, its key's (one map, so that a
+    /// node costs one path and one insertion: the index is built for every model loaded).
+    nodes: HashMap<KeyPath, (Position, Option<Position>)>,
     /// The first key that repeats a key of the same mapping, and where the repetition is.
     duplicate: Option<(KeyPath, Position)>,
 }
@@ -64,7 +65,7 @@ impl PositionIndex {
     /// The position of the value at `path`, or of its nearest indexed ancestor.
     pub fn value(&self, path: &[Segment]) -> Position {
         for len in (0..=path.len()).rev() {
-            if let Some(p) = self.values.get(&path[..len]) {
+            if let Some((p, _)) = self.nodes.get(&path[..len]) {
                 return *p;
             }
         }
@@ -73,7 +74,7 @@ impl PositionIndex {
 
     /// The position of the key that introduces `path` (falls back to the value).
     pub fn key(&self, path: &[Segment]) -> Position {
-        self.keys.get(path).copied().unwrap_or_else(|| self.value(path))
+        self.nodes.get(path).and_then(|(_, key)| *key).unwrap_or_else(|| self.value(path))
     }
 
     /// The first repeated key of a mapping (its path and the position of the repetition).
@@ -83,14 +84,14 @@ impl PositionIndex {
 
     /// `true` if the path is indexed.
     pub fn contains(&self, path: &[Segment]) -> bool {
-        self.values.contains_key(path)
+        self.nodes.contains_key(path)
     }
 }
 
-/// A collection being read; `unplaced` is its own path until its first entry is seen.
+/// A collection being read; `unplaced` until its first entry is seen.
 enum Frame {
-    Mapping { pending_key: Option<(String, Position)>, unplaced: Option<KeyPath> },
-    Sequence { next: usize, unplaced: Option<KeyPath> },
+    Mapping { pending_key: Option<(String, Position)>, unplaced: bool },
+    Sequence { next: usize, unplaced: bool },
 }
 
 #[derive(Default)]
@@ -106,11 +107,14 @@ impl Builder {
     fn begin_node(&mut self, scalar_key: Option<&str>, pos: Position) -> bool {
         // yaml-rust2 marks the start of a block collection late (a block mapping at its first
         // key's `:`); the collection begins no later than its first entry.
+        // `self.path` is still the collection's own here.
         if let Some(Frame::Mapping { unplaced, .. } | Frame::Sequence { unplaced, .. }) =
             self.stack.last_mut()
         {
-            if let Some(start) = unplaced.take().and_then(|path| self.index.values.get_mut(&path)) {
-                *start = (*start).min(pos);
+            if std::mem::take(unplaced) {
+                if let Some((start, _)) = self.index.nodes.get_mut(&self.path) {
+                    *start = (*start).min(pos);
+                }
             }
         }
         match self.stack.last_mut() {
@@ -123,11 +127,20 @@ impl Builder {
                 }
                 let (key, key_pos) = pending_key.take().unwrap_or_default();
                 self.path.push(Segment::Key(key));
-                if self.index.keys.insert(self.path.clone(), key_pos).is_some()
-                    && self.index.duplicate.is_none()
-                {
-                    self.index.duplicate = Some((self.path.clone(), key_pos));
+                match self.index.nodes.get_mut(&self.path) {
+                    // A repeated key: the first repetition is reported; the later entry's
+                    // positions are kept.
+                    Some(entry) => {
+                        *entry = (pos, Some(key_pos));
+                        if self.index.duplicate.is_none() {
+                            self.index.duplicate = Some((self.path.clone(), key_pos));
+                        }
+                    }
+                    None => {
+                        self.index.nodes.insert(self.path.clone(), (pos, Some(key_pos)));
+                    }
                 }
+                return true;
             }
             Some(Frame::Sequence { next, .. }) => {
                 let i = *next;
@@ -136,7 +149,7 @@ impl Builder {
             }
             None => {}
         }
-        self.index.values.insert(self.path.clone(), pos);
+        self.index.nodes.insert(self.path.clone(), (pos, None));
         true
     }
 
@@ -159,14 +172,14 @@ impl MarkedEventReceiver for Builder {
                     // A complex (mapping) key: index nothing inside it.
                     self.path.push(Segment::Key("<complex key>".into()));
                 }
-                self.stack.push(Frame::Mapping { pending_key: None, unplaced: Some(self.path.clone()) });
+                self.stack.push(Frame::Mapping { pending_key: None, unplaced: true });
             }
             Event::SequenceStart(..) => {
                 let is_value = self.begin_node(None, pos);
                 if !is_value {
                     self.path.push(Segment::Key("<complex key>".into()));
                 }
-                self.stack.push(Frame::Sequence { next: 0, unplaced: Some(self.path.clone()) });
+                self.stack.push(Frame::Sequence { next: 0, unplaced: true });
             }
             Event::MappingEnd | Event::SequenceEnd => {
                 self.stack.pop();
