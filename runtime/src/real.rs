@@ -416,6 +416,22 @@ mod tests {
     }
 
     #[test]
+    fn double_precision_sine_and_cosine_match_the_platform() {
+        // `f64::sin_cos` of the runtime (libm) against std's (the platform's libm): both
+        // within an ulp or two of the exact values.
+        for i in -2000..=2000 {
+            let x = f64::from(i) * 3.7e-3;
+            let (s, c) = Real::sin_cos(x);
+            assert!((s - x.sin()).abs() <= 4.0 * f64::EPSILON, "sin {x}");
+            assert!((c - x.cos()).abs() <= 4.0 * f64::EPSILON, "cos {x}");
+            assert_eq!((s, c), (Real::sin(x), Real::cos(x)));
+        }
+        // sin²+cos² = 1 at an angle where neither is near 0 or ±1.
+        let (s, c) = Real::sin_cos(0.9f64);
+        assert!((s * s + c * c - 1.0).abs() < 1e-15 && s > 0.78 && c > 0.62);
+    }
+
+    #[test]
     fn single_precision_sine_and_cosine_are_accurate() {
         let mut worst = 0.0f64;
         let mut check = |x: f32| {
