@@ -317,6 +317,20 @@ mod tests {
     }
 
     #[test]
+    fn feedforward_adds_to_the_voltage_before_saturation() {
+        let mut pi = CurrentController::new(GAINS, 24.0);
+        // kp·(0·r − y) + v_ff = 0.5·(−0.5) + 2 = 1.75 V with no integral yet.
+        let out = pi.step_with_feedforward(1.0, 0.5, 2.0);
+        assert_eq!(out.voltage, 1.75);
+        assert_eq!(out.status, CurrentLoopStatus::Ok);
+        // A feedforward that saturates alone: +30 V on a 24 V supply.
+        let mut pi = CurrentController::new(GAINS, 24.0);
+        let out = pi.step_with_feedforward(0.0, 0.0, 30.0);
+        assert_eq!(out.voltage, 24.0);
+        assert_eq!(out.status, CurrentLoopStatus::Saturated);
+    }
+
+    #[test]
     fn finite_inputs_whose_sum_overflows_are_refused() {
         // Each input is finite, but reference + measured + feedforward overflows to +inf: the
         // documented single finiteness test refuses it (zero volts) rather than saturating.

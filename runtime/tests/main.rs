@@ -8,3 +8,4 @@ mod laws;
 mod proxy;
 mod render;
 mod safety_rules;
+mod tick;

@@ -883,3 +883,29 @@ fn shape_corner_cases_have_their_documented_closest_points_and_inner_bodies() {
     assert!(!on_side.inside);
     assert_eq!(on_side.normal, [1.0, 0.0, 0.0]);
 }
+
+#[test]
+fn min_distance_contact_is_the_deepest_of_two_overlapping_solids() {
+    // Written to kill a mutant that survived `cargo mutants` (docs/reliability.md). Two solid
+    // spheres of radius 5 cm, centres 6 cm apart on x; the HIP at x = 4 cm is 1 cm inside the
+    // first and 3 cm inside the second: the second (deeper) one is in contact, the IHIP on its
+    // surface along −x from its centre.
+    let mut scene: MinDistanceScene<f64, 2, 3> = MinDistanceScene::new(0.0, 0.0, 0.0);
+    for (center, stiffness) in [([0.0, 0.0, 0.0], 1000.0), ([0.06, 0.0, 0.0], 2000.0)] {
+        scene
+            .add(Object {
+                shape: Shape::Sphere { center, radius: 0.05 },
+                kind: ObjectKind::Solid,
+                material: Material::frictionless(stiffness, 5.0),
+            })
+            .unwrap();
+    }
+    let (proxy, stiffness, _) = scene.render(&[0.04, 0.0, 0.0]).unwrap();
+    assert_eq!(scene.contact(), Some(1));
+    assert_eq!(stiffness, 2000.0);
+    assert!(close(proxy, [0.01, 0.0, 0.0], 1e-15), "{proxy:?}");
+    // At x = 1 cm the first is the deeper (4 cm against 0).
+    let (proxy, _, _) = scene.render(&[0.01, 0.0, 0.0]).unwrap();
+    assert_eq!(scene.contact(), Some(0));
+    assert!(close(proxy, [0.05, 0.0, 0.0], 1e-15), "{proxy:?}");
+}
