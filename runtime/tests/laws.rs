@@ -297,3 +297,22 @@ fn default_inverse_dynamics_is_d_qdd_plus_c_qd_plus_g() {
     }
     assert!(d[0][1].abs() > 1e-4, "the coupling must not vanish at this state");
 }
+
+#[test]
+fn acceleration_feedback_at_the_reference_is_finite() {
+    // At rest exactly at the reference, r = 0: a_x = ẍ_d, and (a_x cancels from the torque,
+    // D J⁻¹ a_x − Jᵀ W⁻¹ a_x = 0) u = g + D ẍ − M_d (ẍ − ẍ_d) + B q̇ with q̇ = 0.
+    let mut c = case();
+    c.q = c.reference.position[0];
+    c.qd = 0.0;
+    c.reference.velocity = [0.0];
+    for xdd_d in [1.5, 0.0] {
+        c.reference.acceleration = [xdd_d];
+        let controller = controller(ImpedanceLaw::AccelerationFeedback, &c);
+        let terms = Joystick.terms(&[c.q], &[c.qd]);
+        let output = controller.torque(&Joystick, &terms, &[c.qd], &c.reference, &c.sensed);
+        let xdd = c.sensed.acceleration[0];
+        let expected = gravity(c.q) + Joystick::inertia() * xdd - c.mass * (xdd - xdd_d);
+        assert_torque(output, ControlStatus::Ok, expected, &format!("ẍ_d = {xdd_d}"));
+    }
+}
