@@ -416,6 +416,17 @@ mod tests {
     }
 
     #[test]
+    fn single_precision_square_root_is_correctly_rounded() {
+        // Against std's `f32::sqrt` (IEEE 754, correctly rounded), bit for bit.
+        for i in 0..5000u32 {
+            let x = i as f32 * 0.37 + 1e-3;
+            assert_eq!(Real::sqrt(x).to_bits(), x.sqrt().to_bits(), "{x}");
+        }
+        assert_eq!(Real::sqrt(4.0f32), 2.0);
+        assert!(Real::sqrt(-1.0f32).is_nan());
+    }
+
+    #[test]
     fn double_precision_sine_and_cosine_match_the_platform() {
         // `f64::sin_cos` of the runtime (libm) against std's (the platform's libm): both
         // within an ulp or two of the exact values.
