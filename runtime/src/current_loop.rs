@@ -296,6 +296,52 @@ mod tests {
     }
 
     #[test]
+    fn reset_clears_the_integral() {
+        let mut pi = CurrentController::new(GAINS, 24.0);
+        for _ in 0..5 {
+            pi.step(2.0, 0.5);
+        }
+        // Five samples of ki·T·e = 1500/7500·1.5 = 0.3 V.
+        assert!((pi.integral() - 1.5).abs() < 1e-12);
+        pi.reset();
+        assert_eq!(pi.integral(), 0.0);
+        // With no integral the output is the proportional term alone: kp·(0·r − y).
+        assert_eq!(pi.step(2.0, 0.5).voltage, -0.25);
+
+        let mut bank = CurrentLoopBank::new(GAINS, &[24.0, 24.0]);
+        bank.step(&[2.0, 1.0], &[0.5, 0.0]);
+        assert!(bank.controllers[0].integral() > 0.0 && bank.controllers[1].integral() > 0.0);
+        bank.reset();
+        assert_eq!(bank.controllers[0].integral(), 0.0);
+        assert_eq!(bank.controllers[1].integral(), 0.0);
+    }
+
+    #[test]
+    fn feedforward_adds_to_the_voltage_before_saturation() {
+        let mut pi = CurrentController::new(GAINS, 24.0);
+        // kp·(0·r − y) + v_ff = 0.5·(−0.5) + 2 = 1.75 V with no integral yet.
+        let out = pi.step_with_feedforward(1.0, 0.5, 2.0);
+        assert_eq!(out.voltage, 1.75);
+        assert_eq!(out.status, CurrentLoopStatus::Ok);
+        // A feedforward that saturates alone: +30 V on a 24 V supply.
+        let mut pi = CurrentController::new(GAINS, 24.0);
+        let out = pi.step_with_feedforward(0.0, 0.0, 30.0);
+        assert_eq!(out.voltage, 24.0);
+        assert_eq!(out.status, CurrentLoopStatus::Saturated);
+    }
+
+    #[test]
+    fn finite_inputs_whose_sum_overflows_are_refused() {
+        // Each input is finite, but reference + measured + feedforward overflows to +inf: the
+        // documented single finiteness test refuses it (zero volts) rather than saturating.
+        let mut pi = CurrentController::new(GAINS, 24.0);
+        let out = pi.step_with_feedforward(f64::MAX, 0.0, f64::MAX);
+        assert_eq!(out.status, CurrentLoopStatus::NonFiniteInput);
+        assert_eq!(out.voltage, 0.0);
+        assert_eq!(pi.integral(), 0.0);
+    }
+
+    #[test]
     fn bank_steps_each_motor_with_its_supply() {
         let mut bank = CurrentLoopBank::new(GAINS, &[24.0, 12.0]);
         let out = bank.step(&[0.0, 0.0], &[100.0, 100.0]);

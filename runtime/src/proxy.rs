@@ -436,16 +436,15 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 Some((convex_step(gap, dot(d, &n), limit), n))
             }
             Shape::Polytope { planes } if solid => {
-                // Free while outside any one plane: the longest step any plane allows.
+                // Free while outside any one plane: the longest step any plane allows. A plane
+                // the proxy is inside of (beyond the skin) allows nothing, whatever the
+                // direction: moving along or away from it does not take the proxy outside it
+                // now, and only being outside a plane keeps it out of the polytope.
                 let mut best: Option<(S, [S; M])> = None;
                 for plane in planes {
                     let gap = dot(&plane.normal, y) - plane.offset - margin;
                     let rate = dot(d, &plane.normal);
-                    let step = if gap > -self.skin && rate > S::ZERO {
-                        limit
-                    } else {
-                        convex_step(gap, rate, limit)
-                    };
+                    let step = if gap > -self.skin { convex_step(gap, rate, limit) } else { S::ZERO };
                     if best.map_or(true, |(b, _)| step > b) {
                         best = Some((step, plane.normal));
                     }

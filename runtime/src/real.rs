@@ -416,6 +416,33 @@ mod tests {
     }
 
     #[test]
+    fn single_precision_square_root_is_correctly_rounded() {
+        // Against std's `f32::sqrt` (IEEE 754, correctly rounded), bit for bit.
+        for i in 0..5000u32 {
+            let x = i as f32 * 0.37 + 1e-3;
+            assert_eq!(Real::sqrt(x).to_bits(), x.sqrt().to_bits(), "{x}");
+        }
+        assert_eq!(Real::sqrt(4.0f32), 2.0);
+        assert!(Real::sqrt(-1.0f32).is_nan());
+    }
+
+    #[test]
+    fn double_precision_sine_and_cosine_match_the_platform() {
+        // `f64::sin_cos` of the runtime (libm) against std's (the platform's libm): both
+        // within an ulp or two of the exact values.
+        for i in -2000..=2000 {
+            let x = f64::from(i) * 3.7e-3;
+            let (s, c) = Real::sin_cos(x);
+            assert!((s - x.sin()).abs() <= 4.0 * f64::EPSILON, "sin {x}");
+            assert!((c - x.cos()).abs() <= 4.0 * f64::EPSILON, "cos {x}");
+            assert_eq!((s, c), (Real::sin(x), Real::cos(x)));
+        }
+        // sin²+cos² = 1 at an angle where neither is near 0 or ±1.
+        let (s, c) = Real::sin_cos(0.9f64);
+        assert!((s * s + c * c - 1.0).abs() < 1e-15 && s > 0.78 && c > 0.62);
+    }
+
+    #[test]
     fn single_precision_sine_and_cosine_are_accurate() {
         let mut worst = 0.0f64;
         let mut check = |x: f32| {

@@ -185,6 +185,21 @@ mod tests {
     }
 
     #[test]
+    fn check_finite_passes_finite_values_and_latches_on_nan_or_infinity() {
+        let mut monitor = SafetyMonitor::new(&[drive(3.0, 20.0)], 1);
+        assert!(monitor.check_finite(&[1.0, -2.5, 0.0]));
+        assert_eq!(monitor.fault(), None);
+        assert!(!monitor.check_finite(&[1.0, f64::INFINITY]));
+        assert_eq!(monitor.fault(), Some(FaultCode::NonFiniteInput));
+        // Latched: finite values now pass the check, the fault stays until reset.
+        assert!(monitor.check_finite(&[1.0]));
+        assert_eq!(monitor.fault(), Some(FaultCode::NonFiniteInput));
+        monitor.reset();
+        assert!(!monitor.check_finite(&[f64::NAN]));
+        assert_eq!(monitor.fault(), Some(FaultCode::NonFiniteInput));
+    }
+
+    #[test]
     fn torque_is_clamped_to_torque_and_current_limits_and_reported() {
         // Joint 0: 3 N·m torque limit binds (current limit allows 12·0.8·0.0302·20 = 5.8 N·m).
         // Joint 1: current limit binds: 12·0.8·0.0302·5 = 1.4496 N·m < 3 N·m.

@@ -4,6 +4,8 @@
 
 mod closed_loop;
 mod common;
+mod laws;
 mod proxy;
 mod render;
 mod safety_rules;
+mod tick;

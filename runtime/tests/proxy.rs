@@ -609,3 +609,303 @@ fn free_space_effects_give_their_closed_form_forces() {
     assert!(close(f, [0.0, 0.0, 1500.0 * (0.002 + R)], 1e-5));
     assert_eq!(b, 5.0);
 }
+
+// The tests below were written to kill mutants that survived `cargo mutants`
+// (docs/reliability.md, "Mutation testing"); each expected value is worked out by hand.
+
+#[test]
+fn the_plane_projection_is_exact_at_a_corner_and_with_unnormalised_normals() {
+    let origin = [0.0; 3];
+    // The corner of x ≥ 0, y ≥ 0, z ≥ 0 is the closest feasible point to a point below all three
+    // planes: only the three-plane equality system gives it.
+    let corner = [([1.0, 0.0, 0.0], origin), ([0.0, 1.0, 0.0], origin), ([0.0, 0.0, 1.0], origin)];
+    let y = project_on_planes(&[-1.0, -2.0, -3.0], &corner, 1e-12).unwrap();
+    assert!(close(y, origin, 1e-12), "{y:?}");
+    // The same with normals of lengths 2, 3 and 0.5 (the constraint n·(y − c) ≥ 0 does not need
+    // unit normals): the closest point is still the corner.
+    let scaled = [([2.0, 0.0, 0.0], origin), ([0.0, 3.0, 0.0], origin), ([0.0, 0.0, 0.5], origin)];
+    let y = project_on_planes(&[-1.0, -2.0, -3.0], &scaled, 1e-12).unwrap();
+    assert!(close(y, origin, 1e-12), "{y:?}");
+    // One plane x ≥ 1 written with the normal (2, 0, 0): the projection moves x only.
+    let y = project_on_planes(&[-1.0, 1.0, 0.5], &[([2.0, 0.0, 0.0], [1.0, 0.0, 0.0])], 1e-12).unwrap();
+    assert!(close(y, [1.0, 1.0, 0.5], 1e-12), "{y:?}");
+    // Two planes x ≥ 0, y ≥ 0 with normals of lengths 2 and 3: the edge point (0, 0, z).
+    let edge = [([2.0, 0.0, 0.0], origin), ([0.0, 3.0, 0.0], origin)];
+    let y = project_on_planes(&[-1.0, -1.0, 0.7], &edge, 1e-12).unwrap();
+    assert!(close(y, [0.0, 0.0, 0.7], 1e-12), "{y:?}");
+}
+
+#[test]
+fn in_free_space_the_proxy_reaches_a_hip_closer_than_the_skin() {
+    // A move of half the contact tolerance: nothing to sweep, but the proxy is still the HIP.
+    let skin = 1e-6;
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, skin);
+    scene.add(solid(Shape::half_space([0.0; 3], [0.0, 0.0, 1.0]).unwrap())).unwrap();
+    scene.reset([0.0, 0.0, 0.01]);
+    let hip = [0.0, 0.0, 0.01 + 0.5 * skin];
+    let out = scene.render(&hip);
+    assert_eq!(out.proxy, hip);
+    assert_eq!(out.contact, None);
+}
+
+#[test]
+fn moving_an_object_leaves_a_proxy_it_does_not_touch() {
+    let mut scene = rough_floor();
+    // The proxy at 10 mm in free space; the floor is raised 3 mm without touching it.
+    scene.render(&[0.0, 0.0, 0.01]);
+    assert!(scene.translate(0, &[0.0, 0.0, 0.003]));
+    assert_eq!(scene.proxy(), Some([0.0, 0.0, 0.01]));
+    // A polytope cannot be moved in place: `false`, and the proxy resting on it stays.
+    let planes = cube_planes(0.05);
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene.add(solid(Shape::Polytope { planes: &planes })).unwrap();
+    scene.reset([0.0, 0.0, 0.1]);
+    let resting = scene.render(&[0.0, 0.0, 0.04]);
+    assert_eq!(resting.contact, Some(0));
+    assert!(!scene.translate(0, &[0.0, 0.0, 0.003]));
+    assert_eq!(scene.proxy(), Some(resting.proxy));
+}
+
+/// The cube of half side `h` about the origin as six outward planes.
+fn cube_planes(h: f64) -> [Plane<f64, 3>; 6] {
+    let mut planes = [Plane { normal: [0.0; 3], offset: 0.0 }; 6];
+    for i in 0..3 {
+        for (k, sign) in [1.0, -1.0].iter().enumerate() {
+            let mut n = [0.0; 3];
+            n[i] = *sign;
+            planes[2 * i + k] = Plane { normal: n, offset: h };
+        }
+    }
+    planes
+}
+
+#[test]
+fn on_a_solid_polytope_and_a_mesh_the_proxy_rests_on_the_face_pushed() {
+    // A cube of half side 5 cm, as planes and as triangles; the HIP 2 cm into its top face,
+    // off centre, approached from above: the proxy rests a radius above the face, over the HIP.
+    let h = 0.05;
+    let planes = cube_planes(h);
+    let (vertices, faces, face_normals) = cube_mesh(h);
+    let mesh = hapticgen_runtime::shape::Mesh {
+        vertices: &vertices,
+        faces: &faces,
+        face_normals: &face_normals,
+        vertex_normals: &[],
+        nodes: &[],
+    };
+    // The same mesh with a bounding-volume hierarchy: a root and two leaves of six faces, each
+    // leaf's box the cube's.
+    let cube = |first: u32, count: u32| hapticgen_runtime::shape::BvhNode {
+        min: [-h; 3],
+        max: [h; 3],
+        first,
+        count,
+    };
+    let nodes = [cube(1, 0), cube(0, 6), cube(6, 6)];
+    let tree = hapticgen_runtime::shape::Mesh { nodes: &nodes, ..mesh };
+    for shape in [Shape::Polytope { planes: &planes }, Shape::Mesh(&mesh), Shape::Mesh(&tree)] {
+        let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+        scene.add(solid(shape)).unwrap();
+        scene.reset([0.01, 0.02, 0.1]);
+        let out = scene.render(&[0.01, 0.02, 0.03]);
+        assert_eq!(out.contact, Some(0), "{shape:?}");
+        assert!(close(out.proxy, [0.01, 0.02, h + R], 1e-8), "{shape:?}: {:?}", out.proxy);
+        // Pushed deeper and sideways: the proxy slides on the face to over the HIP.
+        let out = settle_one(&mut scene, [-0.03, 0.04, 0.0]);
+        assert!(close(out, [-0.03, 0.04, h + R], 1e-7), "{shape:?}: {out:?}");
+        // Back into free space beside the cube (x > h): the proxy follows the HIP.
+        let hip = [0.08, 0.02, 0.0];
+        let mut out = scene.render(&hip);
+        for _ in 0..5 {
+            out = scene.render(&hip);
+        }
+        assert_eq!(out.contact, None, "{shape:?}");
+        assert!(close(out.proxy, hip, 1e-12), "{shape:?}: {:?}", out.proxy);
+    }
+}
+
+fn settle_one(scene: &mut GodObject<'_, f64, 1, 3>, hip: V) -> V {
+    let mut proxy = [0.0; 3];
+    for _ in 0..20 {
+        proxy = scene.render(&hip).proxy;
+    }
+    proxy
+}
+
+#[test]
+fn in_a_polytope_cavity_the_proxy_stays_a_radius_inside_the_wall() {
+    // A room: the inside of the cube of half side 5 cm. The HIP 2 cm beyond the +x wall.
+    let planes = cube_planes(0.05);
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene
+        .add(Object {
+            shape: Shape::Polytope { planes: &planes },
+            kind: ObjectKind::Cavity,
+            material: Material::frictionless(1500.0, 5.0),
+        })
+        .unwrap();
+    scene.reset([0.0, 0.0, 0.0]);
+    let out = scene.render(&[0.07, 0.01, -0.02]);
+    assert_eq!(out.contact, Some(0));
+    assert!(close(out.proxy, [0.05 - R, 0.01, -0.02], 1e-8), "{:?}", out.proxy);
+    // Into the corner of the +x, +y and −z walls.
+    let out = settle_one(&mut scene, [0.07, 0.09, -0.08]);
+    assert!(close(out, [0.05 - R, 0.05 - R, -0.05 + R], 1e-7), "{out:?}");
+}
+
+#[test]
+fn in_a_spherical_cavity_the_proxy_slides_along_the_wall_to_the_closest_point() {
+    // A sphere cavity of radius 5 cm; the proxy starts off centre and the HIP is outside in
+    // another direction: the first sweep meets the wall elsewhere, and only sliding along it
+    // brings the proxy to the point a radius inside the wall towards the HIP.
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene
+        .add(Object {
+            shape: Shape::Sphere { center: [0.0; 3], radius: 0.05 },
+            kind: ObjectKind::Cavity,
+            material: Material::frictionless(1500.0, 5.0),
+        })
+        .unwrap();
+    scene.reset([0.03, 0.0, 0.0]);
+    let hip = [0.0, 0.06, 0.0];
+    let out = settle_one(&mut scene, hip);
+    assert!(close(out, [0.0, 0.05 - R, 0.0], 1e-6), "{out:?}");
+}
+
+#[test]
+fn a_proxy_left_inside_a_solid_does_not_move_deeper() {
+    // A sphere placed over the proxy (it was in free space): the proxy, 1 cm inside, may leave
+    // but not go further in.
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene.add(solid(Shape::Sphere { center: [0.0; 3], radius: 0.05 })).unwrap();
+    scene.reset([0.04, 0.0, 0.0]);
+    let out = scene.render(&[0.0, 0.0, 0.0]);
+    assert_eq!(out.proxy, [0.04, 0.0, 0.0]);
+}
+
+#[test]
+fn from_a_point_on_its_axis_a_cylinder_is_closest_on_its_side_perpendicular_to_the_axis() {
+    // Written to kill a mutant that survived `cargo mutants` (docs/reliability.md). On the axis
+    // the radial direction is undefined; any direction perpendicular to the axis will do, but it
+    // must be perpendicular. Axis along x (the first basis vector), then along y and z.
+    for axis in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] {
+        let shape: Shape<f64, 3> =
+            Shape::Cylinder { a: scale(axis, -0.1), b: scale(axis, 0.1), radius: 0.03 };
+        let closest = shape.closest(&[0.0; 3]).unwrap();
+        assert!(closest.inside);
+        // On the side: 3 cm from the axis, in the middle plane; the normal radial.
+        assert!(dot(closest.point, axis).abs() < 1e-15, "{axis:?}: {:?}", closest.point);
+        assert!((norm(closest.point) - 0.03).abs() < 1e-15, "{axis:?}: {:?}", closest.point);
+        assert!(dot(closest.normal, axis).abs() < 1e-15 && (norm(closest.normal) - 1.0).abs() < 1e-15);
+    }
+}
+
+#[test]
+fn the_bounding_volume_hierarchy_finds_the_closest_face_after_a_farther_one() {
+    // Written to kill mutants that survived `cargo mutants` (docs/reliability.md). Two
+    // triangles over the origin, in the planes z = 1 and z = 0.6, each in its own leaf; the
+    // farther one's leaf is visited first. Its squared distance, 1, bounds the search; the
+    // nearer leaf's box is 0.6 away (0.36 squared) and must not be pruned.
+    use hapticgen_runtime::shape::{BvhNode, Mesh};
+    let vertices = [
+        [-1.0, -1.0, 1.0],
+        [2.0, -1.0, 1.0],
+        [-1.0, 2.0, 1.0],
+        [-1.0, -1.0, 0.6],
+        [2.0, -1.0, 0.6],
+        [-1.0, 2.0, 0.6],
+    ];
+    let faces = [[0, 1, 2], [3, 4, 5]];
+    let face_normals = [[0.0, 0.0, 1.0]; 2];
+    let leaf = |first: u32, z: f64| BvhNode { min: [-1.0, -1.0, z], max: [2.0, 2.0, z], first, count: 1 };
+    let nodes = [
+        BvhNode { min: [-1.0, -1.0, 0.6], max: [2.0, 2.0, 1.0], first: 1, count: 0 },
+        leaf(0, 1.0),
+        leaf(1, 0.6),
+    ];
+    let mesh = Mesh {
+        vertices: &vertices,
+        faces: &faces,
+        face_normals: &face_normals,
+        vertex_normals: &[],
+        nodes: &nodes,
+    };
+    let closest = mesh.closest(&[0.0; 3]).unwrap();
+    assert_eq!(closest.face, 1);
+    assert!(close(closest.point, [0.0, 0.0, 0.6], 1e-15), "{:?}", closest.point);
+    // Below both, the nearer is the lower one too; above both, the upper one.
+    assert_eq!(mesh.closest(&[0.2, 0.3, -0.5]).unwrap().face, 1);
+    assert_eq!(mesh.closest(&[0.2, 0.3, 1.5]).unwrap().face, 0);
+}
+
+#[test]
+fn shape_corner_cases_have_their_documented_closest_points_and_inner_bodies() {
+    // Written to kill mutants that survived `cargo mutants` (docs/reliability.md).
+    // A sphere queried at its exact centre: the boundary point along +x1, normal +x1.
+    let sphere = Shape::Sphere { center: [0.1, 0.2, 0.3], radius: 0.05 };
+    let at_centre = sphere.closest(&[0.1, 0.2, 0.3]).unwrap();
+    assert!(close(at_centre.point, [0.15, 0.2, 0.3], 1e-15), "{:?}", at_centre.point);
+    assert_eq!(at_centre.normal, [1.0, 0.0, 0.0]);
+    assert!(at_centre.inside);
+    // A polytope's inside flag: the cube of half side 5 cm.
+    let planes = cube_planes(0.05);
+    let cube = Shape::Polytope { planes: &planes };
+    assert!(cube.closest(&[0.01, -0.02, 0.03]).unwrap().inside);
+    assert!(!cube.closest(&[0.01, -0.02, 0.07]).unwrap().inside);
+    // A box queried exactly on its −x face: the outward normal there is −x.
+    let aligned = Shape::aligned_box([0.0; 3], [0.05, 0.04, 0.03]);
+    let on_face = aligned.closest(&[-0.05, 0.01, 0.01]).unwrap();
+    assert!(close(on_face.point, [-0.05, 0.01, 0.01], 1e-15));
+    assert_eq!(on_face.normal, [-1.0, 0.0, 0.0]);
+    // Inner parallel bodies (margin 1 cm) of a box and a cylinder, from points outside: each
+    // coordinate clamped to the shrunk extent.
+    let margin = 0.01;
+    let inner = aligned.project_inside(&[0.2, -0.2, 0.01], margin).unwrap();
+    assert!(close(inner, [0.04, -0.03, 0.01], 1e-15), "{inner:?}");
+    let cylinder = Shape::Cylinder { a: [0.0, 0.0, -0.1], b: [0.0, 0.0, 0.1], radius: 0.03 };
+    // Beyond the cap and radially out along +y: on the shrunk rim, z = 0.09, ρ = 0.02.
+    let inner = cylinder.project_inside(&[0.0, 0.5, 0.3], margin).unwrap();
+    assert!(close(inner, [0.0, 0.02, 0.09], 1e-15), "{inner:?}");
+    // Inside the shrunk body: unchanged.
+    assert_eq!(cylinder.project_inside(&[0.01, 0.0, -0.05], margin), Some([0.01, 0.0, -0.05]));
+    // A margin equal to the radius leaves nothing.
+    assert_eq!(cylinder.project_inside(&[0.0; 3], 0.03), None);
+    // Inside the cylinder 5 mm under its top cap (nearer than its side, 3 cm away): the cap.
+    let near_cap = cylinder.closest(&[0.01, 0.0, 0.095]).unwrap();
+    assert!(near_cap.inside);
+    assert!(close(near_cap.point, [0.01, 0.0, 0.1], 1e-15), "{:?}", near_cap.point);
+    assert_eq!(near_cap.normal, [0.0, 0.0, 1.0]);
+    let near_cap = cylinder.closest(&[0.01, 0.0, -0.095]).unwrap();
+    assert!(close(near_cap.point, [0.01, 0.0, -0.1], 1e-15), "{:?}", near_cap.point);
+    assert_eq!(near_cap.normal, [0.0, 0.0, -1.0]);
+    // Exactly on the side: on the boundary, not inside.
+    let on_side = cylinder.closest(&[0.03, 0.0, 0.02]).unwrap();
+    assert!(!on_side.inside);
+    assert_eq!(on_side.normal, [1.0, 0.0, 0.0]);
+}
+
+#[test]
+fn min_distance_contact_is_the_deepest_of_two_overlapping_solids() {
+    // Written to kill a mutant that survived `cargo mutants` (docs/reliability.md). Two solid
+    // spheres of radius 5 cm, centres 6 cm apart on x; the HIP at x = 4 cm is 1 cm inside the
+    // first and 3 cm inside the second: the second (deeper) one is in contact, the IHIP on its
+    // surface along −x from its centre.
+    let mut scene: MinDistanceScene<f64, 2, 3> = MinDistanceScene::new(0.0, 0.0, 0.0);
+    for (center, stiffness) in [([0.0, 0.0, 0.0], 1000.0), ([0.06, 0.0, 0.0], 2000.0)] {
+        scene
+            .add(Object {
+                shape: Shape::Sphere { center, radius: 0.05 },
+                kind: ObjectKind::Solid,
+                material: Material::frictionless(stiffness, 5.0),
+            })
+            .unwrap();
+    }
+    let (proxy, stiffness, _) = scene.render(&[0.04, 0.0, 0.0]).unwrap();
+    assert_eq!(scene.contact(), Some(1));
+    assert_eq!(stiffness, 2000.0);
+    assert!(close(proxy, [0.01, 0.0, 0.0], 1e-15), "{proxy:?}");
+    // At x = 1 cm the first is the deeper (4 cm against 0).
+    let (proxy, _, _) = scene.render(&[0.01, 0.0, 0.0]).unwrap();
+    assert_eq!(scene.contact(), Some(0));
+    assert!(close(proxy, [0.05, 0.0, 0.0], 1e-15), "{proxy:?}");
+}

@@ -8,7 +8,7 @@ use crate::common::{forward_dynamics, Parallelogram};
 use hapticgen_runtime::control::{
     ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskSensing,
 };
-use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
+use hapticgen_runtime::render::{AntiDriftGrid, ObjectKind, Scene, Shape, VirtualObject};
 use hapticgen_runtime::RigModel;
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
@@ -224,4 +224,75 @@ fn with_the_grid_and_no_operator_force_the_ihip_never_moves() {
     println!("start {:?} node {:?} end {:?}, |end − node| = {:.3e} m", start, node, end, distance(end, node));
     assert!(!moved, "the IHIP moved");
     assert!(distance(end, node) < 1e-5);
+}
+
+/// The contour `x2 = x1` over `[0, 1]`: the closest point to `(x, y)` is `t = (x + y)/2` on the
+/// line, clamped to the range (an end point when the foot of the perpendicular is outside).
+fn diagonal(t: f64) -> f64 {
+    t
+}
+fn diagonal_slope(_: f64) -> f64 {
+    1.0
+}
+
+#[test]
+fn a_contour_function_is_closest_at_the_perpendicular_foot_or_an_end_and_acts_only_in_range() {
+    // Written to kill mutants that survived `cargo mutants` (docs/reliability.md).
+    let contour: Shape<f64, 4> =
+        Shape::ContourFunction { function: diagonal, slope: diagonal_slope, x1_range: [0.0, 1.0] };
+    // Interior: the foot of the perpendicular from (0.6, 0.2) is t = 0.4; the point is below.
+    let out = contour.closest_surface_point(&[0.6, 0.2]).unwrap();
+    assert!(distance(out.point, [0.4, 0.4]) < 1e-12, "{:?}", out.point);
+    assert!(out.inside);
+    // The foot at t = −0.2495 is left of the range: the end point (0, 0); the search starts
+    // at the first sample there.
+    let out = contour.closest_surface_point(&[0.001, -0.5]).unwrap();
+    assert!(distance(out.point, [0.0, 0.0]) < 1e-12, "{:?}", out.point);
+    // The foot at t = 1.3 is right of it: the other end; above the curve, so outside.
+    let out = contour.closest_surface_point(&[0.9, 1.7]).unwrap();
+    assert!(distance(out.point, [1.0, 1.0]) < 1e-12, "{:?}", out.point);
+    assert!(!out.inside);
+    // Outside the x1 range, or an empty range: the contour does not act.
+    for p in [[-0.01, -0.5], [1.01, 0.0]] {
+        assert!(contour.closest_surface_point(&p).is_none(), "{p:?}");
+    }
+    let empty: Shape<f64, 4> =
+        Shape::ContourFunction { function: diagonal, slope: diagonal_slope, x1_range: [1.0, 0.0] };
+    assert!(empty.closest_surface_point(&[0.5, 0.0]).is_none());
+}
+
+#[test]
+fn a_contour_table_interpolates_the_height_that_decides_inside() {
+    // Written to kill mutants that survived `cargo mutants` (docs/reliability.md).
+    // Three samples over [0, 1] (spacing 0.5) of x2 = x1, heights 0, 0.5, 1: at x1 = 0.75 the
+    // interpolated height is 0.75, so 0.7 is inside (below) and 0.8 outside.
+    let mut samples = [0.0; 4];
+    samples[..3].copy_from_slice(&[0.0, 0.5, 1.0]);
+    let table: Shape<f64, 4> = Shape::ContourTable { samples, count: 3, x1_range: [0.0, 1.0] };
+    let below = table.closest_surface_point(&[0.75, 0.7]).unwrap();
+    assert!(below.inside);
+    assert!(distance(below.point, [0.725, 0.725]) < 1e-12, "{:?}", below.point);
+    let above = table.closest_surface_point(&[0.75, 0.8]).unwrap();
+    assert!(!above.inside);
+    assert!(distance(above.point, [0.775, 0.775]) < 1e-12, "{:?}", above.point);
+    // Outside the x1 range the table does not act.
+    for p in [[-0.01, -0.5], [1.01, 0.0]] {
+        assert!(table.closest_surface_point(&p).is_none(), "{p:?}");
+    }
+}
+
+#[test]
+fn the_anti_drift_grid_holds_its_node_within_one_spacing_and_snaps_beyond() {
+    // Written to kill mutants that survived `cargo mutants` (docs/reliability.md).
+    let mut grid = AntiDriftGrid::new(0.01);
+    assert_eq!(grid.update(&[0.001, -0.002]), [0.0, 0.0]);
+    // Within one spacing of the node on both axes: held.
+    assert_eq!(grid.update(&[0.009, -0.0095]), [0.0, 0.0]);
+    assert_eq!(grid.node(), Some([0.0, 0.0]));
+    // Beyond on one axis: snapped to the nearest node, 0.0151 → 0.02 and −0.0095 → −0.01.
+    let node = grid.update(&[0.0151, -0.0095]);
+    assert!(distance(node, [0.02, -0.01]) < 1e-15, "{node:?}");
+    // Disabled by a zero spacing: the IHIP is the HIP.
+    let mut off = AntiDriftGrid::new(0.0);
+    assert_eq!(off.update(&[0.0151, -0.0095]), [0.0151, -0.0095]);
 }

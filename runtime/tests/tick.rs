@@ -1,0 +1,132 @@
+//! The haptic loop (`tick`) on the 1-DOF joystick: the start pose `for_rig` chooses, the
+//! force Controller 1 senses reaching the torque, and the current loop's watchdog on a skipped
+//! impedance tick. Written to kill mutants that survived `cargo mutants`
+//! (docs/reliability.md, "Mutation testing").
+
+use crate::common::{Joystick, GEAR};
+use hapticgen_runtime::control::{ImpedanceController, ImpedanceLaw, TaskReference};
+use hapticgen_runtime::current_loop::CurrentLoopGains;
+use hapticgen_runtime::safety::FaultCode;
+use hapticgen_runtime::tick::{HapticLoop, HapticLoopSettings, ImpedanceInputs};
+
+const GAINS: [CurrentLoopGains<f64>; 1] = [CurrentLoopGains {
+    kp: 0.5,
+    ki: 1500.0,
+    sample_period: 1.0 / 7500.0,
+    proportional_setpoint_weight: 0.0,
+}];
+
+fn settings(law: ImpedanceLaw, mass: f64) -> HapticLoopSettings<f64, 1, 1> {
+    HapticLoopSettings::for_rig(&Joystick, ImpedanceController::new(law, [50.0], [0.5], [mass]), GAINS)
+}
+
+#[test]
+fn for_rig_starts_in_the_middle_of_the_joint_range() {
+    // The joystick's drive allows q ∈ [−3.2, 3.2] rad; move the range to [0.2, 1.0] to see the
+    // midpoint 0.6 (not a product or a bound).
+    let s = settings(ImpedanceLaw::JacobianTranspose, 0.01);
+    assert_eq!(s.zero_offset, [0.0]);
+    struct Shifted;
+    impl hapticgen_runtime::RigModel<1, 1> for Shifted {
+        type Scalar = f64;
+        const NAME: &'static str = "shifted";
+        const CURRENT_LOOP_HZ: u32 = 7500;
+        const IMPEDANCE_LOOP_HZ: u32 = 1000;
+        fn inertia_matrix(&self, q: &[f64; 1]) -> [[f64; 1]; 1] {
+            Joystick.inertia_matrix(q)
+        }
+        fn coriolis_matrix(&self, q: &[f64; 1], qd: &[f64; 1]) -> [[f64; 1]; 1] {
+            Joystick.coriolis_matrix(q, qd)
+        }
+        fn coriolis_times_qdot(&self, q: &[f64; 1], qd: &[f64; 1]) -> [f64; 1] {
+            Joystick.coriolis_times_qdot(q, qd)
+        }
+        fn gravity(&self, q: &[f64; 1]) -> [f64; 1] {
+            Joystick.gravity(q)
+        }
+        fn damping(&self) -> [f64; 1] {
+            Joystick.damping()
+        }
+        fn position(&self, q: &[f64; 1]) -> [f64; 1] {
+            *q
+        }
+        fn jacobian(&self, _q: &[f64; 1]) -> [[f64; 1]; 1] {
+            [[1.0]]
+        }
+        fn jacobian_dot(&self, _q: &[f64; 1], _qd: &[f64; 1]) -> [[f64; 1]; 1] {
+            [[0.0]]
+        }
+        fn jacobian_dot_times_qdot(&self, _q: &[f64; 1], _qd: &[f64; 1]) -> [f64; 1] {
+            [0.0]
+        }
+        fn terms(&self, q: &[f64; 1], qd: &[f64; 1]) -> hapticgen_runtime::RigTerms<f64, 1, 1> {
+            Joystick.terms(q, qd)
+        }
+        fn drives(&self) -> [hapticgen_runtime::DriveTrain<f64>; 1] {
+            let mut drive = crate::common::re40_drive();
+            drive.position_lower = 0.2;
+            drive.position_upper = 1.0;
+            [drive]
+        }
+    }
+    let controller = ImpedanceController::new(ImpedanceLaw::JacobianTranspose, [50.0], [0.5], [0.01]);
+    let s = HapticLoopSettings::for_rig(&Shifted, controller, GAINS);
+    assert!((s.zero_offset[0] - 0.6).abs() < 1e-15, "{:?}", s.zero_offset);
+}
+
+#[test]
+fn controller_1_feels_the_force_reading() {
+    // At rest at the reference (q = 0: x̃ = 0, ẋ̃ = 0, g(0) = 0), Controller 1 gives
+    // u = D(−f/M_d) + f = f (1 − D/M_d) for a force reading f (identity calibration).
+    let (force, mass) = (0.5, 0.01);
+    let s = settings(ImpedanceLaw::ForceFeedback, mass);
+    let mut haptic = HapticLoop::new(Joystick, TaskReference::at_rest([0.0]), &s).unwrap();
+    let inputs = ImpedanceInputs { encoder_counts: [0], force_readings: [force], tick: 1 };
+    let report = haptic.impedance_tick(&inputs);
+    let expected = force * (1.0 - Joystick::inertia() / mass);
+    assert_eq!(report.command.fault, None);
+    assert!(
+        (report.command.torque[0] - expected).abs() < 1e-12,
+        "{} against {expected}",
+        report.command.torque[0]
+    );
+    assert!(expected.abs() > 0.1, "the force must matter at this state");
+    // The current setpoint is that torque over the drive's torque per amp (N η k_t).
+    let per_amp = GEAR * 1.0 * 30.2e-3;
+    assert!((haptic.current_setpoints()[0] - expected / per_amp).abs() < 1e-12);
+}
+
+#[test]
+fn a_skipped_impedance_tick_trips_the_current_loop_watchdog() {
+    let s = settings(ImpedanceLaw::JacobianTranspose, 0.01);
+    // Every due impedance tick run: no fault over 100 current ticks.
+    let mut haptic = HapticLoop::new(Joystick, TaskReference::at_rest([0.0]), &s).unwrap();
+    let mut tick = 0;
+    for _ in 0..100 {
+        let (_, due) = haptic.current_tick(&[0.0]);
+        if due {
+            tick += 1;
+            haptic.impedance_tick(&ImpedanceInputs { encoder_counts: [0], force_readings: [0.0], tick });
+        }
+    }
+    assert!(tick > 10);
+    assert_eq!(haptic.safety().fault(), None);
+    // The first due tick skipped: the watchdog trips within about half an impedance period
+    // (7.5 current ticks per impedance tick here), before the next one is due.
+    let mut haptic = HapticLoop::new(Joystick, TaskReference::at_rest([0.0]), &s).unwrap();
+    let mut ticks_after_due = None;
+    for _ in 0..20 {
+        let (_, due) = haptic.current_tick(&[0.0]);
+        if let Some(n) = ticks_after_due.as_mut() {
+            *n += 1;
+        } else if due {
+            ticks_after_due = Some(0);
+        }
+        if haptic.safety().fault().is_some() {
+            break;
+        }
+    }
+    assert_eq!(haptic.safety().fault(), Some(FaultCode::MissedTicks));
+    let n = ticks_after_due.unwrap();
+    assert!((3..=6).contains(&n), "tripped {n} current ticks after the due one");
+}
