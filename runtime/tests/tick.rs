@@ -17,7 +17,10 @@ const GAINS: [CurrentLoopGains<f64>; 1] = [CurrentLoopGains {
 }];
 
 fn settings(law: ImpedanceLaw, mass: f64) -> HapticLoopSettings<f64, 1, 1> {
-    HapticLoopSettings::for_rig(&Joystick, ImpedanceController::new(law, [50.0], [0.5], [mass]), GAINS)
+    let mut settings =
+        HapticLoopSettings::for_rig(&Joystick, ImpedanceController::new(law, [50.0], [0.5], [mass]));
+    settings.current_gains = GAINS;
+    settings
 }
 
 #[test]
@@ -68,10 +71,14 @@ fn for_rig_starts_in_the_middle_of_the_joint_range() {
             drive.position_upper = 1.0;
             [drive]
         }
+        fn current_loop_gains(&self) -> [CurrentLoopGains<f64>; 1] {
+            GAINS
+        }
     }
     let controller = ImpedanceController::new(ImpedanceLaw::JacobianTranspose, [50.0], [0.5], [0.01]);
-    let s = HapticLoopSettings::for_rig(&Shifted, controller, GAINS);
+    let s = HapticLoopSettings::for_rig(&Shifted, controller);
     assert!((s.zero_offset[0] - 0.6).abs() < 1e-15, "{:?}", s.zero_offset);
+    assert_eq!(s.current_gains, GAINS, "the rig's own current-loop gains");
 }
 
 #[test]
