@@ -99,6 +99,39 @@ impl TriangleMesh {
         Ok(Self { vertices, faces, face_normals, vertex_normals, nodes: Vec::new() })
     }
 
+    /// A UV sphere of `radius` about the origin: `rings` (≥ 2) bands of latitude, `segments`
+    /// (≥ 3) of longitude, `2 × segments × (rings − 1)` triangles, outward normals. The test
+    /// and benchmark mesh of the renderer (`targets/host/examples/render_bench.rs`,
+    /// `bench/parry`); `Err` for too few rings or segments.
+    pub fn uv_sphere(radius: f64, rings: usize, segments: usize) -> Result<Self, String> {
+        if rings < 2 || segments < 3 {
+            return Err(format!("a UV sphere needs ≥ 2 rings and ≥ 3 segments, not {rings} and {segments}"));
+        }
+        let mut vertices = vec![[0.0, 0.0, radius], [0.0, 0.0, -radius]];
+        for i in 1..rings {
+            let theta = std::f64::consts::PI * i as f64 / rings as f64;
+            for j in 0..segments {
+                let phi = 2.0 * std::f64::consts::PI * j as f64 / segments as f64;
+                vertices.push([
+                    radius * theta.sin() * phi.cos(),
+                    radius * theta.sin() * phi.sin(),
+                    radius * theta.cos(),
+                ]);
+            }
+        }
+        let ring = |i: usize, j: usize| (2 + (i - 1) * segments + j % segments) as u32;
+        let mut faces = Vec::new();
+        for j in 0..segments {
+            faces.push([0, ring(1, j), ring(1, j + 1)]);
+            faces.push([1, ring(rings - 1, j + 1), ring(rings - 1, j)]);
+            for i in 1..rings - 1 {
+                faces.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
+                faces.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
+            }
+        }
+        Self::new(vertices, faces)
+    }
+
     /// The mesh with a BVH of leaves of at most `leaf_size` (≥ 1) triangles; the faces (and
     /// their normals) are reordered.
     pub fn with_bvh(mut self, leaf_size: usize) -> Self {

@@ -187,3 +187,33 @@ fn the_bvh_search_finds_the_closest_face_of_a_triangle_soup() {
         assert!((searched - scanned).abs() <= 1e-15, "{p:?}: BVH {searched}, every face {scanned}");
     }
 }
+
+/// The mesh helper's UV sphere: every vertex on the sphere, `2 × segments × (rings − 1)`
+/// triangles, each face's normal pointing away from the centre, every edge shared by two
+/// faces (closed); too few rings or segments refused.
+#[test]
+fn the_uv_sphere_is_a_closed_outward_sphere() {
+    let (radius, rings, segments) = (0.05, 7, 11);
+    let sphere = TriangleMesh::uv_sphere(radius, rings, segments).unwrap();
+    assert_eq!(sphere.faces.len(), 2 * segments * (rings - 1));
+    for v in &sphere.vertices {
+        let r = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        assert!((r - radius).abs() < 1e-15, "{v:?}");
+    }
+    let mut edges = std::collections::HashMap::new();
+    for (face, normal) in sphere.faces.iter().zip(&sphere.face_normals) {
+        let centroid: Vec<f64> =
+            (0..3).map(|k| face.iter().map(|&i| sphere.vertices[i as usize][k]).sum::<f64>() / 3.0).collect();
+        assert!(
+            normal.iter().zip(&centroid).map(|(n, c)| n * c).sum::<f64>() > 0.0,
+            "{face:?} faces inwards"
+        );
+        for k in 0..3 {
+            let (a, b) = (face[k], face[(k + 1) % 3]);
+            *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    assert!(edges.values().all(|&n| n == 2), "an edge not shared by exactly two faces");
+    assert!(TriangleMesh::uv_sphere(radius, 1, segments).is_err());
+    assert!(TriangleMesh::uv_sphere(radius, rings, 2).is_err());
+}

@@ -26,28 +26,6 @@ use parry3d_f64::shape::TriMesh;
 
 const RADIUS: f64 = 0.05;
 
-/// A UV sphere of radius [`RADIUS`] with about `2 × rings × segments` triangles.
-fn uv_sphere(rings: usize, segments: usize) -> TriangleMesh {
-    let mut vertices = vec![[0.0, 0.0, RADIUS], [0.0, 0.0, -RADIUS]];
-    for i in 1..rings {
-        let theta = std::f64::consts::PI * i as f64 / rings as f64;
-        for j in 0..segments {
-            let phi = 2.0 * std::f64::consts::PI * j as f64 / segments as f64;
-            vertices.push([RADIUS * theta.sin() * phi.cos(), RADIUS * theta.sin() * phi.sin(), RADIUS * theta.cos()]);
-        }
-    }
-    let ring = |i: usize, j: usize| (2 + (i - 1) * segments + j % segments) as u32;
-    let mut faces = Vec::new();
-    for j in 0..segments {
-        faces.push([0, ring(1, j), ring(1, j + 1)]);
-        faces.push([1, ring(rings - 1, j + 1), ring(rings - 1, j)]);
-        for i in 1..rings - 1 {
-            faces.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
-            faces.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
-        }
-    }
-    TriangleMesh::new(vertices, faces).expect("indices in range").with_bvh(4)
-}
 
 /// The HIP's path: a circle 2 mm inside the sphere's surface.
 fn hip(k: usize) -> [f64; 3] {
@@ -82,7 +60,7 @@ fn main() {
     println!("| triangles | proxy update (ns) | closest point, hapticgen BVH (ns) | point projection, parry3d (ns) | parry3d / proxy update | parry3d / closest point |");
     println!("| --- | --- | --- | --- | --- | --- |");
     for (rings, segments) in [(16, 32), (50, 100), (158, 316)] {
-        let built = uv_sphere(rings, segments);
+        let built = TriangleMesh::uv_sphere(RADIUS, rings, segments).expect("a valid sphere").with_bvh(4);
         let nodes: Vec<BvhNode<f64, 3>> =
             built.nodes.iter().map(|n| BvhNode { min: n.min, max: n.max, first: n.first, count: n.count }).collect();
         let mesh = Mesh {

@@ -1,5 +1,5 @@
 //! Time per god-object proxy update on triangle meshes of about 1k, 10k and 100k triangles
-//! (UV spheres built with the build-time mesh helper, with their BVH), the HIP circling 2 mm
+//! (UV spheres from the build-time mesh helper, `TriangleMesh::uv_sphere`, with their BVH), the HIP circling 2 mm
 //! deep into the surface; and, as the reference the BVH is for, the same closest-point query
 //! by brute force over every triangle. Ratios, not asserted timings:
 //!
@@ -14,38 +14,11 @@ use hapticgen_runtime::proxy::GodObject;
 use hapticgen_runtime::render::ObjectKind;
 use hapticgen_runtime::shape::{BvhNode, Material, Mesh, Object, Shape};
 
-/// A UV sphere of radius `radius` with `rings × segments × 2` triangles (about).
-fn uv_sphere(radius: f64, rings: usize, segments: usize) -> TriangleMesh {
-    let mut vertices = vec![[0.0, 0.0, radius], [0.0, 0.0, -radius]];
-    for i in 1..rings {
-        let theta = std::f64::consts::PI * i as f64 / rings as f64;
-        for j in 0..segments {
-            let phi = 2.0 * std::f64::consts::PI * j as f64 / segments as f64;
-            vertices.push([
-                radius * theta.sin() * phi.cos(),
-                radius * theta.sin() * phi.sin(),
-                radius * theta.cos(),
-            ]);
-        }
-    }
-    let ring = |i: usize, j: usize| (2 + (i - 1) * segments + j % segments) as u32;
-    let mut faces = Vec::new();
-    for j in 0..segments {
-        faces.push([0, ring(1, j), ring(1, j + 1)]);
-        faces.push([1, ring(rings - 1, j + 1), ring(rings - 1, j)]);
-        for i in 1..rings - 1 {
-            faces.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
-            faces.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
-        }
-    }
-    TriangleMesh::new(vertices, faces).expect("indices in range").with_bvh(4)
-}
-
 fn main() {
     println!("| triangles | BVH nodes | proxy update (ns) | closest point, BVH (ns) | closest point, every triangle (ns) | brute force / BVH |");
     println!("| --- | --- | --- | --- | --- | --- |");
     for (rings, segments) in [(16, 32), (50, 100), (158, 316)] {
-        let built = uv_sphere(0.05, rings, segments);
+        let built = TriangleMesh::uv_sphere(0.05, rings, segments).expect("a valid sphere").with_bvh(4);
         let nodes: Vec<BvhNode<f64, 3>> = built
             .nodes
             .iter()
