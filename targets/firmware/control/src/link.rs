@@ -194,10 +194,9 @@ impl DeviceLink {
 /// Impedance settings as the runtime's parameters, if every value is finite, the stiffness
 /// and damping are not negative and the mass is positive.
 fn checked_impedance<S: Real>(settings: &ImpedanceSettings) -> Option<ImpedanceParameters<S, MAX_TASK>> {
-    let finite = |v: &f32| v.is_finite();
-    let all = settings.stiffness.iter().chain(&settings.damping).chain(&settings.mass);
-    if !all.clone().all(finite)
-        || settings.stiffness.iter().chain(&settings.damping).any(|v| *v < 0.0)
+    let gains = || settings.stiffness.iter().chain(&settings.damping);
+    if !gains().chain(&settings.mass).all(|v| v.is_finite())
+        || gains().any(|v| *v < 0.0)
         || settings.mass.iter().any(|v| *v <= 0.0)
     {
         return None;

@@ -177,9 +177,11 @@ fn nothing_but_disable_is_acted_on_before_the_handshake() {
     device.send(&HostMessage::SetImpedance(bad));
     let negative = ImpedanceSettings { stiffness: [1.0; 3], damping: [-1.0, 0.0, 0.0], mass: [0.1; 3] };
     device.send(&HostMessage::SetImpedance(negative));
+    let massless = ImpedanceSettings { stiffness: [1.0; 3], damping: [1.0; 3], mass: [0.1, 0.0, 0.1] };
+    device.send(&HostMessage::SetImpedance(massless));
     device.run(30, true, &mut sequence);
     assert_eq!(device.impedance, None);
-    assert_eq!(device.link.refused().bad_settings, 2);
+    assert_eq!(device.link.refused().bad_settings, 3);
     let good = ImpedanceSettings { stiffness: [300.0, 200.0, 100.0], damping: [1.0; 3], mass: [0.1; 3] };
     device.send(&HostMessage::SetImpedance(good));
     device.run(30, true, &mut sequence);
