@@ -35,14 +35,33 @@ pub struct Source<'a> {
 
 /// Where diagnostics point: the position index plus the variant's overrides, so that a value
 /// a variant replaced is reported at the variant's line.
+///
+/// The index needs a second parse of the text (by `yaml-rust2`, whose events carry
+/// positions; serde_yaml's values do not), so it is built on the first diagnostic only: a
+/// model that loads without one is parsed once.
 pub(crate) struct Locator<'a> {
     file: &'a str,
-    index: PositionIndex,
+    text: &'a str,
+    index: std::cell::OnceCell<PositionIndex>,
     /// Path in the merged document → path in the source document.
     overrides: Vec<(KeyPath, KeyPath)>,
 }
 
-impl Locator<'_> {
+impl<'a> Locator<'a> {
+    fn new(source: &Source<'a>) -> Self {
+        Locator {
+            file: source.name,
+            text: source.text,
+            index: std::cell::OnceCell::new(),
+            overrides: Vec::new(),
+        }
+    }
+
+    /// The position index, built on first use.
+    fn index(&self) -> &PositionIndex {
+        self.index.get_or_init(|| PositionIndex::build(self.text))
+    }
+
     fn source_path(&self, path: &[Segment]) -> KeyPath {
         let best = self
             .overrides
@@ -61,12 +80,12 @@ impl Locator<'_> {
 
     /// A diagnostic at the value found at `path`.
     pub(crate) fn at(&self, path: &[Segment], message: impl Into<String>) -> Diagnostic {
-        self.diagnostic(self.index.value(&self.source_path(path)), path, message.into())
+        self.diagnostic(self.index().value(&self.source_path(path)), path, message.into())
     }
 
     /// A diagnostic at the key that introduces `path`.
     pub(crate) fn at_key(&self, path: &[Segment], message: impl Into<String>) -> Diagnostic {
-        self.diagnostic(self.index.key(&self.source_path(path)), path, message.into())
+        self.diagnostic(self.index().key(&self.source_path(path)), path, message.into())
     }
 
     fn diagnostic(&self, (line, column): (usize, usize), path: &[Segment], message: String) -> Diagnostic {
@@ -239,12 +258,12 @@ fn load_unclamped<T>(
         }
         .into());
     }
-    let index = PositionIndex::build(source.text);
+    let mut locator = Locator::new(source);
     let document: serde_yaml::Value = serde_yaml::from_str(source.text).map_err(|e| {
         let message = strip_location(&e.to_string());
         // serde_yaml reports a repeated key at the mapping, with the path inside the message.
         if let (true, Some((path, (line, column)))) =
-            (message.contains("duplicate entry with key"), index.duplicate_key())
+            (message.contains("duplicate entry with key"), locator.index().duplicate_key())
         {
             let key = match path.last() {
                 Some(Segment::Key(k)) => k.as_str(),
@@ -269,7 +288,6 @@ fn load_unclamped<T>(
             hint: None,
         }
     })?;
-    let mut locator = Locator { file: source.name, index, overrides: Vec::new() };
     check_literals(&document, &mut Vec::new(), &locator)?;
     let base: ModelFile = typed(&document, &locator)?;
 
@@ -291,7 +309,10 @@ fn load_unclamped<T>(
         Some(v) => Some(v.to_string()),
         None => base.default_variant.clone(),
     };
-    let mut merged = document.clone();
+    // Sorted like `known`; taken now, since `base` becomes the model when no variant applies.
+    let variants: Vec<String> = known.iter().map(|name| name.to_string()).collect();
+    // The variant is applied to the document itself: it is not needed unmerged any more.
+    let mut merged = document;
     if let Some(name) = &chosen {
         let Some(spec) = base.variants.get(name) else {
             let d = if variant.is_none() {
@@ -336,14 +357,6 @@ fn load_unclamped<T>(
         }
     }
     let file: ModelFile = if chosen.is_some() { typed(&merged, &locator)? } else { base };
-    let variants: Vec<String> = {
-        let mut v: Vec<String> = match typed::<ModelFile>(&document, &locator) {
-            Ok(f) => f.variants.keys().cloned().collect(),
-            Err(_) => Vec::new(),
-        };
-        v.sort();
-        v
-    };
     let model = resolve::resolve(file, &locator, chosen, variants)?;
     then(model, &locator)
 }
@@ -396,7 +409,7 @@ fn check_literals(
 
 /// Deserialises with the key path of any failure, mapped to a position.
 fn typed<T: DeserializeOwned>(value: &serde_yaml::Value, locator: &Locator<'_>) -> Result<T, Diagnostic> {
-    serde_path_to_error::deserialize(value.clone()).map_err(|error| {
+    serde_path_to_error::deserialize(value).map_err(|error| {
         let mut path: KeyPath = Vec::new();
         for segment in error.path().iter() {
             match segment {
