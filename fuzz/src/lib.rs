@@ -249,13 +249,28 @@ impl Runner {
     /// A hang is one [`Verdict::Hang`] for the whole batch, after which the runner is
     /// unusable.
     pub fn run_batch(&mut self, inputs: Vec<Input>) -> Vec<Verdict> {
-        let Some(jobs) = &self.jobs else {
-            return vec![Verdict::Violation("the runner's worker is gone".into())];
-        };
+        let pending = self.submit(inputs);
+        self.collect(pending)
+    }
+
+    /// Hands a batch to the worker and returns at once, so that the caller can draw the next
+    /// batch while this one runs (the fuzzer then keeps both cores busy); [`Runner::collect`]
+    /// waits for its verdicts.
+    pub fn submit(&mut self, inputs: Vec<Input>) -> PendingBatch {
+        let Some(jobs) = &self.jobs else { return PendingBatch(None) };
         let (reply, answers) = mpsc::channel();
         if jobs.send((inputs, reply)).is_err() {
-            return vec![Verdict::Violation("the runner's worker is gone".into())];
+            return PendingBatch(None);
         }
+        PendingBatch(Some(answers))
+    }
+
+    /// The verdicts of a submitted batch, as [`Runner::run_batch`] describes them. The time
+    /// limit for the whole batch runs from this call.
+    pub fn collect(&mut self, pending: PendingBatch) -> Vec<Verdict> {
+        let Some(answers) = pending.0 else {
+            return vec![Verdict::Violation("the runner's worker is gone".into())];
+        };
         match answers.recv_timeout(self.timeout * 10) {
             Ok(answers) => answers
                 .into_iter()
@@ -274,6 +289,9 @@ impl Runner {
         }
     }
 }
+
+/// A batch the worker is running ([`Runner::submit`]); `None` when it could not be handed over.
+pub struct PendingBatch(Option<Receiver<Vec<Answer>>>);
 
 /// The seed corpus: every `*.yaml` file under `dirs` (deduplicated by content, sorted by
 /// path for reproducibility).

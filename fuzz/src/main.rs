@@ -272,6 +272,8 @@ fn fuzz(options: &Options) -> ExitCode {
     let start = Instant::now();
     let deadline = Duration::from_secs_f64(options.seconds.max(0.0));
     let (mut executions, mut generated, mut rejected, mut structured_count) = (0u64, 0u64, 0u64, 0u64);
+    // Total length of the inputs run, bytes: the stage's time per input grows with it.
+    let mut input_bytes = 0u64;
     let mut slowest = (Duration::ZERO, String::new());
     let mut findings: Vec<String> = Vec::new();
     let mut known: Vec<String> = Vec::new();
@@ -279,51 +281,23 @@ fn fuzz(options: &Options) -> ExitCode {
     // CPU time inside the stage (on the worker), against the run's wall time: the rest is
     // drawing inputs and bookkeeping.
     let mut checking = Duration::ZERO;
+    // Batches are drawn while the worker runs the previous one: drawing takes about as long
+    // as loading, so the two cores share the work.
+    let mut next_batch = draw_batch(&mut rng, &corpus, &mut bytes, batch_size, options.stage);
     'fuzzing: while start.elapsed() < deadline {
-        let mut batch = Vec::with_capacity(batch_size);
-        let mut structured_flags = Vec::with_capacity(batch_size);
-        while batch.len() < batch_size {
-            let from_structured = rng.gen_bool(0.5);
-            let input = if from_structured {
-                rng.fill_bytes(&mut bytes);
-                let mut u = Unstructured::new(&bytes);
-                let Ok(doc) = structured::document(&mut u) else { continue };
-                Input {
-                    text: doc.text,
-                    variant: doc.variant,
-                    scalar: scalar_of(&mut rng),
-                    fused_multiply_add: rng.gen_bool(0.5),
-                    stage: options.stage,
-                }
-            } else {
-                let seed = &corpus[rng.gen_range(0..corpus.len())].1;
-                let other = &corpus[rng.gen_range(0..corpus.len())].1;
-                let data = mutate::mutate(seed, other, &mut rng);
-                let variant = match rng.gen_range(0..6) {
-                    0 => Some("horizontal".to_string()),
-                    1 => Some("vertical".to_string()),
-                    _ => None,
-                };
-                Input {
-                    text: String::from_utf8_lossy(&data).into_owned(),
-                    variant,
-                    scalar: scalar_of(&mut rng),
-                    fused_multiply_add: rng.gen_bool(0.5),
-                    stage: options.stage,
-                }
-            };
-            batch.push(input);
-            structured_flags.push(from_structured);
-        }
+        let (batch, structured_flags) = next_batch;
         let _ = write_batch(&mut current, &batch);
         let texts: Vec<(String, Option<String>)> =
             batch.iter().map(|i| (i.text.clone(), i.variant.clone())).collect();
         let structured_inputs = structured_flags;
-        let verdicts = runner.run_batch(batch);
+        let pending = runner.submit(batch);
+        next_batch = draw_batch(&mut rng, &corpus, &mut bytes, batch_size, options.stage);
+        let verdicts = runner.collect(pending);
         for ((verdict, (text, variant)), from_structured) in
             verdicts.into_iter().zip(texts).zip(structured_inputs)
         {
             executions += 1;
+            input_bytes += text.len() as u64;
             structured_count += u64::from(from_structured);
             match verdict {
                 Verdict::Ok(outcome, elapsed) => {
@@ -396,7 +370,7 @@ fn fuzz(options: &Options) -> ExitCode {
     println!(
         "fuzz: {executions} executions in {seconds:.1} s ({:.0} executions/s; {structured_count} structured, {} \
          mutated) at the {}: {generated} {}, {rejected} rejected with a diagnostic; slowest input {:.1} ms \
-         (limit {} ms), {:.1} s of CPU time in the {}; {} findings, {} known findings (not failing: see \
+         (limit {} ms), {:.1} s of CPU time in the {}; inputs of {:.0} bytes on average; {} findings, {} known findings (not failing: see \
          docs/reliability.md)",
         executions as f64 / seconds.max(1e-9),
         executions - structured_count,
@@ -409,6 +383,7 @@ fn fuzz(options: &Options) -> ExitCode {
         options.timeout.as_millis(),
         checking.as_secs_f64(),
         options.stage.name(),
+        input_bytes as f64 / executions.max(1) as f64,
         findings.len(),
         known.len()
     );
@@ -426,6 +401,53 @@ fn fuzz(options: &Options) -> ExitCode {
         return ExitCode::FAILURE;
     }
     ExitCode::SUCCESS
+}
+
+/// A batch of `size` inputs, half drawn by the structured generator, half mutated from the
+/// seed corpus, with a flag per input saying which (`true`: structured).
+fn draw_batch(
+    rng: &mut SmallRng,
+    corpus: &[(PathBuf, Vec<u8>)],
+    bytes: &mut [u8],
+    batch_size: usize,
+    stage: Stage,
+) -> (Vec<Input>, Vec<bool>) {
+    let mut batch = Vec::with_capacity(batch_size);
+    let mut structured_flags = Vec::with_capacity(batch_size);
+    while batch.len() < batch_size {
+        let from_structured = rng.gen_bool(0.5);
+        let input = if from_structured {
+            rng.fill_bytes(bytes);
+            let mut u = Unstructured::new(bytes);
+            let Ok(doc) = structured::document(&mut u) else { continue };
+            Input {
+                text: doc.text,
+                variant: doc.variant,
+                scalar: scalar_of(rng),
+                fused_multiply_add: rng.gen_bool(0.5),
+                stage,
+            }
+        } else {
+            let seed = &corpus[rng.gen_range(0..corpus.len())].1;
+            let other = &corpus[rng.gen_range(0..corpus.len())].1;
+            let data = mutate::mutate(seed, other, rng);
+            let variant = match rng.gen_range(0..6) {
+                0 => Some("horizontal".to_string()),
+                1 => Some("vertical".to_string()),
+                _ => None,
+            };
+            Input {
+                text: String::from_utf8_lossy(&data).into_owned(),
+                variant,
+                scalar: scalar_of(rng),
+                fused_multiply_add: rng.gen_bool(0.5),
+                stage,
+            }
+        };
+        batch.push(input);
+        structured_flags.push(from_structured);
+    }
+    (batch, structured_flags)
 }
 
 /// Whether a finding's message is a known one (counted and saved, not failing the run).

@@ -52,8 +52,19 @@ fn position(data: &[u8], rng: &mut SmallRng) -> usize {
     }
 }
 
+/// How often a drawn deep-nesting mutation (flow or block) is kept: one time in this many,
+/// else a cheap mutation is drawn instead. Each makes an input of up to [`MAX_INPUT_BYTES`],
+/// and drawn as often as the others they made half the inputs that large (10 kB on average,
+/// a tenth at the limit), which the time per input follows; kept rare, they are still in a
+/// few percent of the inputs.
+const DEEP_NESTING_ODDS: u32 = 8;
+
 fn mutate_once(data: &mut Vec<u8>, other: &[u8], rng: &mut SmallRng) {
-    match rng.gen_range(0..14) {
+    let mut kind = rng.gen_range(0..14);
+    if matches!(kind, 8 | 9) && !rng.gen_ratio(1, DEEP_NESTING_ODDS) {
+        kind = rng.gen_range(0..8);
+    }
+    match kind {
         0 if !data.is_empty() => {
             let i = rng.gen_range(0..data.len());
             data[i] ^= 1 << rng.gen_range(0..8);
@@ -112,8 +123,10 @@ fn mutate_once(data: &mut Vec<u8>, other: &[u8], rng: &mut SmallRng) {
             }
         }
         8 => {
-            // Deeply nested flow collections.
-            let depth = rng.gen_range(100..20_000);
+            // Deeply nested flow collections, the depth drawn log-uniformly from 100 to
+            // 20,000: every order of magnitude as often, where a uniform draw made most of
+            // these inputs ten thousand brackets long and the mutator's time went into them.
+            let depth = (100.0_f64 * 200.0_f64.powf(rng.gen::<f64>())) as usize;
             let open = if rng.gen_bool(0.5) { b'[' } else { b'{' };
             let at = position(data, rng);
             let mut nest = vec![open; depth];
@@ -124,9 +137,12 @@ fn mutate_once(data: &mut Vec<u8>, other: &[u8], rng: &mut SmallRng) {
         }
         9 => {
             // Deeply nested block sequences / mappings.
-            let depth = rng.gen_range(50..3_000);
+            // Level `l` is indented by `l` spaces, so the text grows with the square of the
+            // depth: it stops at the input size limit (about 360 levels), which the result is
+            // cut to anyway, instead of building megabytes to throw away.
+            let depth = (50.0_f64 * 60.0_f64.powf(rng.gen::<f64>())) as usize;
             let mut text = String::from("\nbodies:\n");
-            for level in 0..depth {
+            for level in (0..depth).take_while(|level| level * level / 2 < MAX_INPUT_BYTES) {
                 text.push_str(&" ".repeat(level));
                 text.push_str(if level % 2 == 0 { "- " } else { "k:\n" });
                 text.push('\n');
@@ -169,5 +185,38 @@ fn mutate_once(data: &mut Vec<u8>, other: &[u8], rng: &mut SmallRng) {
             let cut = position(data, rng);
             data.truncate(cut);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    /// The loader stage's rate follows the size of its inputs: mutation must keep them near
+    /// the seeds' size, with the deep-nesting inputs (up to [`MAX_INPUT_BYTES`]) a small
+    /// share. When those were drawn as often as the other mutations, mutated inputs averaged
+    /// five times the seeds' size and a tenth of them were at the limit.
+    #[test]
+    fn mutated_inputs_stay_near_the_seeds_size() {
+        let workspace = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let corpus = crate::load_corpus(&crate::corpus_dirs(&workspace));
+        assert!(corpus.len() >= 10, "the seed corpus is missing ({} files)", corpus.len());
+        let seed_mean = corpus.iter().map(|(_, s)| s.len()).sum::<usize>() as f64 / corpus.len() as f64;
+        let mut rng = SmallRng::seed_from_u64(7);
+        let draws = 2000;
+        let (mut total, mut at_limit) = (0usize, 0usize);
+        for i in 0..draws {
+            let seed = &corpus[i % corpus.len()].1;
+            let other = &corpus[(i * 7 + 3) % corpus.len()].1;
+            let input = mutate(seed, other, &mut rng);
+            total += input.len();
+            at_limit += usize::from(input.len() >= MAX_INPUT_BYTES / 2);
+        }
+        let mean = total as f64 / draws as f64;
+        assert!(mean < 2.0 * seed_mean, "mutated inputs average {mean:.0} bytes, seeds {seed_mean:.0}");
+        assert!(at_limit * 100 < draws * 3, "{at_limit} of {draws} inputs are over half the size limit");
+        // The deep inputs are still drawn.
+        assert!(at_limit > 0, "no deep-nesting input in {draws} draws");
     }
 }
