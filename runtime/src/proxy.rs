@@ -162,7 +162,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
     /// Moves object `index` rigidly by `displacement` (a moving object, updated each tick
     /// before [`GodObject::render`]); a proxy in contact with it is carried along, as if the
     /// object pushed or dragged it. `false` for an empty slot, a non-finite displacement or a
-    /// shape that cannot be moved in place (a borrowed polytope or mesh).
+    /// shape that cannot be moved in place (a borrowed polytope; a mesh becomes a [`Shape::MeshAt`]).
     pub fn translate(&mut self, index: usize, displacement: &[S; M]) -> bool {
         if !finite(displacement) {
             return false;
@@ -185,7 +185,15 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 *b = add_scaled(b, S::ONE, displacement);
                 true
             }
-            Shape::Polytope { .. } | Shape::Mesh(_) => false,
+            Shape::Mesh(mesh) => {
+                object.shape = Shape::MeshAt { mesh: *mesh, offset: *displacement };
+                true
+            }
+            Shape::MeshAt { offset, .. } => {
+                *offset = add_scaled(offset, S::ONE, displacement);
+                true
+            }
+            Shape::Polytope { .. } => false,
         };
         if moved && self.contact == Some(index) {
             if let Some(p) = self.proxy.as_mut() {
@@ -398,7 +406,11 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         let margin = self.radius + self.skin;
         let solid = object.kind == ObjectKind::Solid;
         match object.shape {
-            Shape::Mesh(mesh) => {
+            Shape::Mesh(_) | Shape::MeshAt { .. } => {
+                let (mesh, offset) = object.shape.placed_mesh()?;
+                // The sweep in the mesh's frame (a translation: directions and normals are
+                // the same in both frames).
+                let y = &sub(y, &offset);
                 // Nearest first along the segment: a box the segment enters beyond the best
                 // step so far cannot limit it.
                 let mut best: Option<(S, [S; M])> = None;

@@ -433,6 +433,26 @@ pub enum Shape<'a, S, const M: usize> {
     },
     /// A triangle mesh (a surface: it has no inside).
     Mesh(&'a Mesh<'a, S, M>),
+    /// A triangle mesh translated by `offset`: a mesh placed or moved at run time
+    /// ([`crate::proxy::GodObject::translate`] turns a [`Shape::Mesh`] into one), while its
+    /// vertices, normals and BVH stay where they are (in flash, in the mesh's own frame).
+    MeshAt {
+        /// The mesh, in its own frame.
+        mesh: &'a Mesh<'a, S, M>,
+        /// Where the mesh's origin is.
+        offset: [S; M],
+    },
+}
+
+impl<'a, S: Real, const M: usize> Shape<'a, S, M> {
+    /// The mesh of a [`Shape::Mesh`] or [`Shape::MeshAt`] and where its origin is.
+    pub fn placed_mesh(&self) -> Option<(&'a Mesh<'a, S, M>, [S; M])> {
+        match *self {
+            Shape::Mesh(mesh) => Some((mesh, [S::ZERO; M])),
+            Shape::MeshAt { mesh, offset } => Some((mesh, offset)),
+            _ => None,
+        }
+    }
 }
 
 /// The closest boundary point of a shape to a query point.
@@ -499,9 +519,13 @@ impl<'a, S: Real, const M: usize> Shape<'a, S, M> {
                     inside: value < S::ZERO,
                 }
             }
-            Shape::Mesh(mesh) => {
-                let face = mesh.closest(p)?;
+            Shape::Mesh(_) | Shape::MeshAt { .. } => {
+                let (mesh, offset) = self.placed_mesh()?;
+                // The query in the mesh's frame; the point found back in the task frame.
+                let local = sub(p, &offset);
+                let mut face = mesh.closest(&local)?;
                 let shading = mesh.normal_at(&face)?;
+                face.point = add_scaled(&face.point, S::ONE, &offset);
                 // The side of the surface the query is on.
                 let normal = if dot(&shading, &sub(p, &face.point)) < S::ZERO {
                     let mut flipped = shading;
@@ -593,7 +617,7 @@ impl<'a, S: Real, const M: usize> Shape<'a, S, M> {
                 out = add_scaled(&out, S::ONE, &radial);
                 Some(out)
             }
-            Shape::HalfSpace { .. } | Shape::Polytope { .. } | Shape::Mesh(_) => None,
+            Shape::HalfSpace { .. } | Shape::Polytope { .. } | Shape::Mesh(_) | Shape::MeshAt { .. } => None,
         }
     }
 }

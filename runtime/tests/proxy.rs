@@ -909,3 +909,62 @@ fn min_distance_contact_is_the_deepest_of_two_overlapping_solids() {
     assert_eq!(scene.contact(), Some(0));
     assert!(close(proxy, [0.05, 0.0, 0.0], 1e-15), "{proxy:?}");
 }
+
+/// A mesh and its offset: `Shape::MeshAt` answers as the same mesh with its vertices moved
+/// (built here by moving them, so the two share nothing but the triangle code).
+#[test]
+fn a_translated_mesh_answers_as_the_mesh_with_moved_vertices() {
+    let offset = [0.013, -0.021, 0.007];
+    let (vertices, faces, face_normals) = cube_mesh(0.05);
+    let moved_vertices: Vec<V> = vertices.iter().map(|v| add(*v, offset)).collect();
+    let mesh = |vertices: &'static [V]| hapticgen_runtime::shape::Mesh {
+        vertices,
+        faces: Vec::leak(faces.clone()),
+        face_normals: Vec::leak(face_normals.clone()),
+        vertex_normals: &[],
+        nodes: &[],
+    };
+    let at_origin = mesh(Vec::leak(vertices.clone()));
+    let moved = mesh(Vec::leak(moved_vertices));
+    let placed = Shape::MeshAt { mesh: &at_origin, offset };
+    let expected = Shape::Mesh(&moved);
+    let mut rng = SmallRng::seed_from_u64(11);
+    for _ in 0..500 {
+        let p = add(random_point(&mut rng, 0.1), offset);
+        let (got, want) = (placed.closest(&p).unwrap(), expected.closest(&p).unwrap());
+        assert!(close(got.point, want.point, 1e-14), "at {p:?}: {:?} against {:?}", got.point, want.point);
+        assert!(
+            close(got.normal, want.normal, 1e-12),
+            "at {p:?}: {:?} against {:?}",
+            got.normal,
+            want.normal
+        );
+    }
+}
+
+/// `translate` moves a mesh (as a `Shape::MeshAt`) and carries the proxy resting on it, and
+/// the sweep sees the mesh where it now is: pressed into the raised cube, the proxy stays on
+/// its new top face.
+#[test]
+fn a_moving_mesh_carries_the_proxy_in_contact() {
+    let (vertices, faces, face_normals) = cube_mesh(0.05);
+    let cube = hapticgen_runtime::shape::Mesh {
+        vertices: &vertices,
+        faces: &faces,
+        face_normals: &face_normals,
+        vertex_normals: &[],
+        nodes: &[],
+    };
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene.add(solid(Shape::Mesh(&cube))).unwrap();
+    scene.reset([0.0, 0.0, 0.1]);
+    let resting = scene.render(&[0.0, 0.0, 0.04]);
+    assert_eq!(resting.contact, Some(0));
+    assert!((resting.proxy[2] - (0.05 + R)).abs() < 1e-8, "{:?}", resting.proxy);
+    assert!(scene.translate(0, &[0.0, 0.0, 0.003]));
+    assert_eq!(scene.proxy().map(|p| p[2]), Some(resting.proxy[2] + 0.003));
+    assert!(scene.translate(0, &[0.0, 0.0, 0.002]));
+    let out = scene.render(&[0.001, 0.0, 0.04]);
+    assert_eq!(out.contact, Some(0));
+    assert!((out.proxy[2] - (0.055 + R)).abs() < 1e-8, "{:?}", out.proxy);
+}
