@@ -56,7 +56,9 @@
 use crate::control::{ImpedanceParameters, TaskReference};
 use crate::effects::{Effect, EffectState};
 use crate::render::ObjectKind;
-use crate::shape::{add_scaled, dot, exceeds, finite, norm, segment_box_entry, sub, unit, Object, Shape};
+use crate::shape::{
+    add_scaled, dot, exceeds, finite, norm, segment_box_entry, sub, triangle_entry, unit, Object, Shape,
+};
 use crate::tick::ReferenceSource;
 use crate::Real;
 
@@ -420,20 +422,47 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                     |min, max| segment_box_entry(y, d, limit, min, max, margin).unwrap_or(infinity),
                     |face| {
                         if let Some([a, b, c]) = mesh.triangle(face) {
+                            let bound = best.map_or(limit, |(b, _)| b);
                             let (q, _) = crate::shape::closest_on_triangle(y, &a, &b, &c);
                             let offset = sub(y, &q);
-                            let normal = match unit(&offset) {
-                                Some(n) => Some(n),
-                                None => match mesh.face_normals.get(face) {
-                                    Some(n) if dot(n, d) <= S::ZERO => Some(*n),
-                                    Some(n) => Some(add_scaled(&[S::ZERO; M], -S::ONE, n)),
-                                    None => None,
-                                },
+                            let gap = norm(&offset) - margin;
+                            // The supporting plane's step is a lower bound of the entry: a face
+                            // it puts at or beyond the best so far cannot limit the sweep, and
+                            // a face within the margin limits it now (or never, receding). Only
+                            // the faces left get the exact entry into the triangle grown by the
+                            // margin (one query where conservative advancement approaches a
+                            // surface met at a grazing angle in many).
+                            let step = match unit(&offset) {
+                                Some(n) if gap > S::ZERO => {
+                                    if convex_step(gap, dot(d, &n), bound) >= bound {
+                                        None
+                                    } else {
+                                        triangle_entry(y, d, bound, margin, [&a, &b, &c])
+                                    }
+                                }
+                                Some(n) => (dot(d, &n) < S::ZERO).then_some(S::ZERO),
+                                None => Some(S::ZERO),
                             };
-                            if let Some(normal) = normal {
-                                let step = convex_step(norm(&offset) - margin, dot(d, &normal), limit);
-                                if best.map_or(step < limit, |(b, _)| step < b) {
-                                    best = Some((step, normal));
+                            if let Some(step) = step {
+                                // The normal where the proxy enters (at `y` for step 0).
+                                let entered = if step > S::ZERO {
+                                    let z = add_scaled(y, step, d);
+                                    sub(&z, &crate::shape::closest_on_triangle(&z, &a, &b, &c).0)
+                                } else {
+                                    offset
+                                };
+                                let normal = match unit(&entered) {
+                                    Some(n) => Some(n),
+                                    None => match mesh.face_normals.get(face) {
+                                        Some(n) if dot(n, d) <= S::ZERO => Some(*n),
+                                        Some(n) => Some(add_scaled(&[S::ZERO; M], -S::ONE, n)),
+                                        None => None,
+                                    },
+                                };
+                                if let Some(normal) = normal {
+                                    if best.map_or(step < limit, |(b, _)| step < b) {
+                                        best = Some((step, normal));
+                                    }
                                 }
                             }
                         }

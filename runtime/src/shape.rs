@@ -203,6 +203,101 @@ pub fn closest_on_triangle<S: Real, const M: usize>(
     (add_scaled(&add_scaled(a, v, &ab), w, &ac), [S::ONE - v - w, v, w])
 }
 
+/// The first `t` in `[0, limit]` at which the point `y + t d` (`d` a unit vector) comes
+/// within `margin` (> 0) of the triangle `abc`: the entry of the swept point into the triangle
+/// grown by `margin` (a slab over the face, a capsule about each edge, a ball about each
+/// vertex; the first entry into their union is the first into one of them). `None` when it
+/// stays farther than `margin` up to `limit`; `Some(0)` when `y` is within `margin` already.
+///
+/// Exact, where conservative advancement (a step to the supporting plane, repeated) takes many
+/// steps to reach a surface it approaches at a grazing angle: each piece is the smallest root
+/// of `|u + t v|² = margin²` (the distance to the face's plane, an edge's line or a vertex),
+/// kept when the point of entry projects onto the piece's own part of the triangle.
+pub fn triangle_entry<S: Real, const M: usize>(
+    y: &[S; M],
+    d: &[S; M],
+    limit: S,
+    margin: S,
+    [a, b, c]: [&[S; M]; 3],
+) -> Option<S> {
+    let squared_margin = margin * margin;
+    // The smallest root in [0, limit] of |u + t v|² = margin², `u` the offset at t = 0.
+    let entry = |u: &[S; M], v: &[S; M]| -> Option<S> {
+        let quadratic = dot(v, v);
+        let half_linear = dot(u, v);
+        let constant = dot(u, u) - squared_margin;
+        if constant <= S::ZERO {
+            return Some(S::ZERO);
+        }
+        if half_linear >= S::ZERO || quadratic <= S::ZERO {
+            return None; // Not approaching.
+        }
+        let discriminant = half_linear * half_linear - quadratic * constant;
+        if discriminant < S::ZERO {
+            return None;
+        }
+        // The entering root, in the form that does not cancel (half_linear < 0).
+        let t = constant / (-half_linear + discriminant.sqrt());
+        if t <= limit {
+            Some(t)
+        } else {
+            None
+        }
+    };
+    let mut first: Option<S> = None;
+    let mut keep = |t: S| {
+        if first.map_or(true, |f| t < f) {
+            first = Some(t);
+        }
+    };
+    // The face: the offset from the triangle's plane, the in-plane part removed with the
+    // Gram matrix of the edges (any dimension; none for a degenerate triangle).
+    let (e1, e2) = (sub(b, a), sub(c, a));
+    let (g11, g12, g22) = (dot(&e1, &e1), dot(&e1, &e2), dot(&e2, &e2));
+    let determinant = g11 * g22 - g12 * g12;
+    if determinant > S::ZERO {
+        let in_plane = |w: &[S; M]| -> (S, S) {
+            let (r1, r2) = (dot(&e1, w), dot(&e2, w));
+            ((g22 * r1 - g12 * r2) / determinant, (g11 * r2 - g12 * r1) / determinant)
+        };
+        let normal_part = |w: &[S; M]| -> [S; M] {
+            let (alpha, beta) = in_plane(w);
+            add_scaled(&add_scaled(w, -alpha, &e1), -beta, &e2)
+        };
+        let from_a = sub(y, a);
+        if let Some(t) = entry(&normal_part(&from_a), &normal_part(d)) {
+            let (alpha, beta) = in_plane(&add_scaled(&from_a, t, d));
+            if alpha >= S::ZERO && beta >= S::ZERO && alpha + beta <= S::ONE {
+                keep(t);
+            }
+        }
+    }
+    // The edges' capsules: the offset from the edge's line, entered where the point projects
+    // onto the segment.
+    for (start, end) in [(a, b), (b, c), (c, a)] {
+        let edge = sub(end, start);
+        let length_squared = dot(&edge, &edge);
+        if length_squared <= S::ZERO {
+            continue;
+        }
+        let across = |w: &[S; M]| add_scaled(w, -dot(w, &edge) / length_squared, &edge);
+        let from_start = sub(y, start);
+        if let Some(t) = entry(&across(&from_start), &across(d)) {
+            let along = dot(&add_scaled(&from_start, t, d), &edge) / length_squared;
+            if along >= S::ZERO && along <= S::ONE {
+                keep(t);
+            }
+        }
+    }
+    // The vertices' balls.
+    for vertex in [a, b, c] {
+        if let Some(t) = entry(&sub(y, vertex), d) {
+            keep(t);
+        }
+    }
+    first
+}
+
 /// Squared distance from `p` to the box `[min, max]` (0 inside).
 fn box_distance_squared<S: Real, const M: usize>(p: &[S; M], min: &[S; M], max: &[S; M]) -> S {
     let mut sum = S::ZERO;

@@ -6,7 +6,7 @@
 use hapticgen_runtime::control::ImpedanceParameters;
 use hapticgen_runtime::proxy::{project_on_planes, GodObject};
 use hapticgen_runtime::render::ObjectKind;
-use hapticgen_runtime::shape::{closest_on_triangle, Material, Object, Plane, Shape};
+use hapticgen_runtime::shape::{closest_on_triangle, triangle_entry, Material, Object, Plane, Shape};
 use hapticgen_runtime::spatial::MinDistanceScene;
 use hapticgen_runtime::tick::ReferenceSource;
 use rand::rngs::SmallRng;
@@ -967,4 +967,86 @@ fn a_moving_mesh_carries_the_proxy_in_contact() {
     let out = scene.render(&[0.001, 0.0, 0.04]);
     assert_eq!(out.contact, Some(0));
     assert!((out.proxy[2] - (0.055 + R)).abs() < 1e-8, "{:?}", out.proxy);
+}
+
+/// `triangle_entry` against bisection on the distance (convex along the segment) computed by
+/// `closest_on_triangle`: random triangles (some slivers), starts and directions, including
+/// grazing approaches, where conservative advancement needs many steps.
+#[test]
+fn the_entry_into_a_grown_triangle_is_where_the_distance_reaches_the_margin() {
+    let mut rng = SmallRng::seed_from_u64(12);
+    let distance = |p: V, [a, b, c]: [V; 3]| norm(sub(p, closest_on_triangle(&p, &a, &b, &c).0));
+    let (mut entered, mut missed) = (0, 0);
+    for case in 0..4000 {
+        let mut triangle =
+            [random_point(&mut rng, 1.0), random_point(&mut rng, 1.0), random_point(&mut rng, 1.0)];
+        if case % 10 == 0 {
+            // A sliver: the third vertex almost on the first edge.
+            triangle[2] =
+                add(scale(add(triangle[0], triangle[1]), 0.5), scale(random_point(&mut rng, 1.0), 1e-6));
+        }
+        let y = random_point(&mut rng, 2.0);
+        let mut d = unit(random_point(&mut rng, 1.0));
+        if case % 4 == 1 || case % 4 == 2 {
+            // Towards a point near the triangle.
+            let (u, v) = (rng.gen_range(0.0..1.0), rng.gen_range(0.0..1.0));
+            let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+            let on = add(
+                add(triangle[0], scale(sub(triangle[1], triangle[0]), u)),
+                scale(sub(triangle[2], triangle[0]), v),
+            );
+            d = unit(sub(add(on, scale(random_point(&mut rng, 1.0), 0.3)), y));
+        }
+        if case % 4 == 0 {
+            // Grazing: along the triangle's plane, slightly towards it.
+            let n = unit(cross(sub(triangle[1], triangle[0]), sub(triangle[2], triangle[0])));
+            d = unit(add(
+                sub(d, scale(n, dot(d, n))),
+                scale(n, -0.01 * dot(n, sub(y, triangle[0])).signum()),
+            ));
+        }
+        let (limit, margin) = (3.0, rng.gen_range(1e-3..0.2));
+        let along = |t: f64| add(y, scale(d, t));
+        let [a, b, c] = triangle;
+        let got = triangle_entry(&y, &d, limit, margin, [&a, &b, &c]);
+        if distance(y, triangle) <= margin {
+            assert_eq!(got, Some(0.0), "case {case}: starts within the margin");
+            continue;
+        }
+        // The smallest distance on [0, limit] by golden-section search (convex), then the first
+        // crossing of the margin by bisection before it.
+        let (mut low, mut high) = (0.0, limit);
+        for _ in 0..200 {
+            let (m1, m2) = (low + (high - low) * 0.382, low + (high - low) * 0.618);
+            if distance(along(m1), triangle) < distance(along(m2), triangle) {
+                high = m2;
+            } else {
+                low = m1;
+            }
+        }
+        let nearest = 0.5 * (low + high);
+        if distance(along(nearest), triangle) > margin {
+            assert_eq!(
+                got,
+                None,
+                "case {case}: never within the margin (closest {})",
+                distance(along(nearest), triangle)
+            );
+            missed += 1;
+            continue;
+        }
+        let (mut outside, mut inside) = (0.0, nearest);
+        for _ in 0..200 {
+            let middle = 0.5 * (outside + inside);
+            if distance(along(middle), triangle) > margin {
+                outside = middle;
+            } else {
+                inside = middle;
+            }
+        }
+        let t = got.unwrap_or_else(|| panic!("case {case}: no entry found, bisection says {inside}"));
+        assert!((t - inside).abs() < 1e-9, "case {case}: entry {t}, bisection {inside}");
+        entered += 1;
+    }
+    assert!(entered > 500 && missed > 500, "{entered} entries, {missed} misses: the cases do not cover both");
 }

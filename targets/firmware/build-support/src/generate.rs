@@ -57,6 +57,8 @@ pub struct GeneratedRig {
     start: Vec<String>,
     rendering: String,
     sense_time_constant: f64,
+    /// The scenario's mesh as Rust source (`static` arrays), for the scenarios that render one.
+    mesh: Option<String>,
 }
 
 /// Generates the rig of `v` in `scalar` into `rig_file`; its glue modules come from
@@ -137,6 +139,7 @@ pub fn generate_rig(
         .collect();
     // Every joint has the same anti-aliasing filter: its time constant from the first design.
     let tau = designs[0].filter_time_constant;
+    let mesh = scenario_mesh(&v.scenario, scalar)?;
     Ok(GeneratedRig {
         name: v.name.clone(),
         description: format!(
@@ -156,7 +159,31 @@ pub fn generate_rig(
         start,
         rendering,
         sense_time_constant: tau,
+        mesh,
     })
+}
+
+/// The mesh a scenario renders, as the Rust source of `static SPHERE: Mesh<'static, S, 3>` and
+/// its arrays (`hapticgen_codegen::mesh::emit`), for the scenarios whose `new` takes one;
+/// `None` for the others. The dimensions are the scenario's own constants.
+fn scenario_mesh(scenario: &str, scalar: Scalar) -> Result<Option<String>, String> {
+    match scenario {
+        "mesh_contact" => {
+            use hapticgen_fw_sim::scenarios::mesh_contact as contact;
+            let sphere =
+                hapticgen_codegen::mesh::TriangleMesh::uv_sphere(contact::RADIUS, contact::RINGS, contact::SEGMENTS)?
+                    .with_bvh(contact::LEAF_SIZE);
+            if sphere.faces.len() != contact::TRIANGLES {
+                return Err(format!(
+                    "scenario `{scenario}`: the sphere has {} triangles, the scenario says {}",
+                    sphere.faces.len(),
+                    contact::TRIANGLES
+                ));
+            }
+            Ok(Some(hapticgen_codegen::mesh::emit(&sphere, "SPHERE", scalar)))
+        }
+        _ => Ok(None),
+    }
 }
 
 impl GeneratedRig {
@@ -221,12 +248,21 @@ impl GeneratedRig {
                  \x20   }}\n\
                  \x20   /// The scenario, ready to run.\n\
                  \x20   pub fn new(profile: bool) -> Option<Run> {{\n\
-                 \x20       ::hapticgen_fw_sim::scenarios::{scenario}::new(NAME, Rig::NOMINAL, &setup(), sense_time_constant(), profile)\n\
+                 \x20       ::hapticgen_fw_sim::scenarios::{scenario}::new(NAME, Rig::NOMINAL, &setup(), sense_time_constant(), profile{mesh_argument})\n\
                  \x20   }}",
                 scenario = self.scenario,
                 s = self.scalar,
                 tau = literal(self.sense_time_constant),
+                mesh_argument = if self.mesh.is_some() { ", &mesh::SPHERE" } else { "" },
             );
+            if let Some(mesh) = &self.mesh {
+                let _ = writeln!(
+                    glue,
+                    "\x20   /// The scenario's mesh: `static` arrays, in flash on the target.\n\
+                     \x20   #[allow(clippy::all)]\n\
+                     \x20   pub mod mesh {{\n{mesh}\x20   }}"
+                );
+            }
         }
         glue.push_str("}\n");
         glue

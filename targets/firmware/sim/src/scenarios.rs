@@ -297,6 +297,81 @@ pub mod sphere_cavity {
     }
 }
 
+/// The inside of a closed triangle mesh touched through the god-object proxy (`M = 3`, any `N`;
+/// the PHANToM-like arm): the runtime's [`GodObject`](hapticgen_runtime::proxy::GodObject) with
+/// one mesh, a UV sphere of [`RADIUS`](mesh_contact::RADIUS) with
+/// [`TRIANGLES`](mesh_contact::TRIANGLES) triangles and its BVH, which the image's glue emits as
+/// `static` arrays (the mesh is in flash) in the sphere's own frame; the scenario places it
+/// about the start's task point (`Shape::MeshAt`). `sphere_cavity` with a mesh instead of the
+/// analytic sphere: the Jacobian-transpose law with the rendering's wall `K_d`, `B_d`; the
+/// operator pushes with [`FORCE`](mesh_contact::FORCE) along `(2, 1, 2)/3` from 0.1 s to 1.0 s,
+/// the proxy stops on the facet it reaches and the HIP rests `F/K_d` beyond it; 1.5 s in all.
+/// (From inside, the surface is concave and the rest stable; pushed from outside onto a
+/// frictionless sphere, the HIP would slide off it, and an `f32` and an `f64` run would slide
+/// off differently.)
+pub mod mesh_contact {
+    use super::*;
+    use hapticgen_runtime::proxy::GodObject;
+    use hapticgen_runtime::render::ObjectKind;
+    use hapticgen_runtime::shape::{Material, Mesh, Object, Shape};
+
+    /// Radius of the sphere, m.
+    pub const RADIUS: f64 = 0.010;
+    /// Bands of latitude of the UV sphere.
+    pub const RINGS: usize = 21;
+    /// Bands of longitude.
+    pub const SEGMENTS: usize = 25;
+    /// Triangles: `2 × SEGMENTS × (RINGS − 1)`.
+    pub const TRIANGLES: usize = 2 * SEGMENTS * (RINGS - 1);
+    /// Most triangles in a leaf of the mesh's BVH.
+    pub const LEAF_SIZE: usize = 4;
+    /// Operator force, N, along `(2, 1, 2)/3`.
+    pub const FORCE: f64 = 1.0;
+    /// Radius of the proxy, m (a point).
+    pub const PROXY_RADIUS: f64 = 0.0;
+    /// The proxy's contact tolerance, m (1 µm suits metres in `f32` and `f64` alike).
+    pub const SKIN: f64 = 1e-6;
+
+    /// The reference source: the god-object renderer with one object.
+    pub type Source<R, const N: usize, const M: usize> =
+        GodObject<'static, <R as RigModel<N, M>>::Scalar, 1, M>;
+
+    /// The scenario type for a rig `R` (`M = 3`).
+    pub type Run<R, const N: usize, const M: usize> = Scenario<R, Source<R, N, M>, N, M>;
+
+    /// Builds the run on `mesh` (the UV sphere above, about the origin); `None` if the rig's
+    /// rates are unusable.
+    pub fn new<R: FusedImpedance<N, 3> + Clone, const N: usize>(
+        name: &'static str,
+        rig: R,
+        setup: &Setup<R::Scalar, N>,
+        sense_time_constant: R::Scalar,
+        profile: bool,
+        mesh: &'static Mesh<'static, R::Scalar, 3>,
+    ) -> Option<Run<R, N, 3>> {
+        let [_, wall_stiffness, wall_damping] = rendering(setup);
+        let start = rig.position(&setup.start);
+        let mut scene = GodObject::new(wall_stiffness, wall_damping, s(PROXY_RADIUS), s(SKIN));
+        scene.add(Object {
+            shape: Shape::MeshAt { mesh, offset: start },
+            kind: ObjectKind::Cavity,
+            material: Material::frictionless(wall_stiffness, wall_damping),
+        })?;
+        let fast = R::CURRENT_LOOP_HZ;
+        let board = board(&rig, setup, sense_time_constant);
+        let controller =
+            controller(rig, scene, jacobian_transpose(wall_stiffness, wall_damping, false), setup, profile)?;
+        let third = FORCE / 3.0;
+        let load = Load { start: fast / 10, end: fast, force: [s(2.0 * third), s(third), s(2.0 * third)] };
+        // The proxy has no grid: the two runs differ by rounding and the skin.
+        let tolerance = trace_tolerance(board.rig(), &setup.start, s(4.0 * SKIN));
+        let mut run = Scenario::new(name, controller, board, load, 3 * fast / 2, fast / 100);
+        run.task_tolerance = tolerance;
+        run.current_tolerance = current_tolerance(run.board.rig(), &setup.start, wall_stiffness, tolerance);
+        Some(run)
+    }
+}
+
 /// Holding a pose against gravity and a push, for any rig (`N` joints, `M` task coordinates,
 /// redundant ones included): Controller 3 with a fixed reference at the start pose's task
 /// point, `K_d` = [`STIFFNESS`](hold_pose::STIFFNESS), `B_d` = [`DAMPING`](hold_pose::DAMPING)
