@@ -72,6 +72,17 @@ pub const ADVANCE_STEPS: usize = 32;
 /// Bisection steps for the exit from a curved cavity.
 const BISECTIONS: usize = 48;
 
+/// The most faces of one mesh an update keeps as its candidates (see [`GodObject::render`]);
+/// with more faces near the HIP, the update searches the mesh's BVH at every step instead.
+pub const CANDIDATE_FACES: usize = 32;
+
+/// The faces of one mesh that can limit this update's sweeps.
+#[derive(Clone, Copy, Debug)]
+struct Candidates {
+    faces: [u32; CANDIDATE_FACES],
+    count: usize,
+}
+
 #[derive(Clone, Copy, Debug)]
 enum Constraint<S, const M: usize> {
     Plane { normal: [S; M], point: [S; M] },
@@ -114,6 +125,8 @@ pub struct GodObject<'a, S, const K: usize, const M: usize> {
     proxy: Option<[S; M]>,
     contact: Option<usize>,
     sticking: bool,
+    /// Per object, this update's candidate faces (meshes only; `None`: search the BVH).
+    candidates: [Option<Candidates>; K],
 }
 
 impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
@@ -132,6 +145,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             proxy: None,
             contact: None,
             sticking: false,
+            candidates: [None; K],
         }
     }
 
@@ -213,6 +227,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             None if finite(hip) => *hip,
             None => return self.invalid([S::ZERO; M]),
         };
+        self.gather_candidates(&previous, hip);
         let (frictionless, contact) = self.constrained_proxy(&previous, hip);
         let mut proxy = frictionless;
         let mut sticking = false;
@@ -247,6 +262,37 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             None => (self.free_space_stiffness, self.free_space_damping),
         };
         ProxyOutput { proxy, stiffness, damping, contact, sticking, valid: true }
+    }
+
+    /// The faces of each mesh that this update's sweeps can meet, found with one BVH walk per
+    /// mesh instead of one per sweep step. Every point the proxy moves through in an update is
+    /// within `ρ = |x − p₀|` of the HIP `x` (each goal is the point nearest `x` on constraints
+    /// the proxy satisfies, a friction slide ends between the frictionless proxy and `p₀`, and
+    /// the ball is convex), so only faces within `ρ + r + ε` of `x` can stop a sweep. Not used
+    /// with a curved cavity in the scene (its projected goal is not bound to that ball), nor
+    /// for a mesh with more such faces than [`CANDIDATE_FACES`].
+    fn gather_candidates(&mut self, previous: &[S; M], hip: &[S; M]) {
+        self.candidates = [None; K];
+        let curved_cavity = self.objects.iter().flatten().any(|o| {
+            o.kind == ObjectKind::Cavity
+                && matches!(
+                    o.shape,
+                    Shape::Sphere { .. } | Shape::Box { .. } | Shape::Capsule { .. } | Shape::Cylinder { .. }
+                )
+        });
+        if curved_cavity {
+            return;
+        }
+        // The skin once more: rounding in the sweeps' arithmetic.
+        let reach = norm(&sub(hip, previous)) + self.radius + self.skin + self.skin;
+        for (slot, candidates) in self.objects.iter().zip(self.candidates.iter_mut()) {
+            if let Some((mesh, offset)) = slot.as_ref().and_then(|o| o.shape.placed_mesh()) {
+                let mut faces = [0u32; CANDIDATE_FACES];
+                if let Some(count) = mesh.faces_near(&sub(hip, &offset), reach, &mut faces) {
+                    *candidates = Some(Candidates { faces, count });
+                }
+            }
+        }
     }
 
     fn invalid(&mut self, proxy: [S; M]) -> ProxyOutput<S, M> {
@@ -381,7 +427,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             let mut hit = None;
             for (index, slot) in self.objects.iter().enumerate() {
                 if let Some(object) = slot {
-                    if let Some((safe, normal)) = self.safe_step(object, &y, direction, step) {
+                    if let Some((safe, normal)) = self.safe_step(index, object, &y, direction, step) {
                         if safe < step {
                             step = safe;
                             hit = Some((index, normal));
@@ -404,7 +450,14 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
     /// How far the proxy can certainly move from `y` along `d` (up to `limit`) without
     /// coming within `r + ε` of `object`, with the free-side normal there; `None` when the
     /// object does not limit it (or is degenerate).
-    fn safe_step(&self, object: &Object<'a, S, M>, y: &[S; M], d: &[S; M], limit: S) -> Option<(S, [S; M])> {
+    fn safe_step(
+        &self,
+        index: usize,
+        object: &Object<'a, S, M>,
+        y: &[S; M],
+        d: &[S; M],
+        limit: S,
+    ) -> Option<(S, [S; M])> {
         let margin = self.radius + self.skin;
         let solid = object.kind == ObjectKind::Solid;
         match object.shape {
@@ -417,58 +470,67 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 // step so far cannot limit it.
                 let mut best: Option<(S, [S; M])> = None;
                 let infinity = S::from_f64(f64::INFINITY);
-                mesh.nearest_first(
-                    limit,
-                    |min, max| segment_box_entry(y, d, limit, min, max, margin).unwrap_or(infinity),
-                    |face| {
-                        if let Some([a, b, c]) = mesh.triangle(face) {
-                            let bound = best.map_or(limit, |(b, _)| b);
-                            let (q, _) = crate::shape::closest_on_triangle(y, &a, &b, &c);
-                            let offset = sub(y, &q);
-                            let gap = norm(&offset) - margin;
-                            // The supporting plane's step is a lower bound of the entry: a face
-                            // it puts at or beyond the best so far cannot limit the sweep, and
-                            // a face within the margin limits it now (or never, receding). Only
-                            // the faces left get the exact entry into the triangle grown by the
-                            // margin (one query where conservative advancement approaches a
-                            // surface met at a grazing angle in many).
-                            let step = match unit(&offset) {
-                                Some(n) if gap > S::ZERO => {
-                                    if convex_step(gap, dot(d, &n), bound) >= bound {
-                                        None
-                                    } else {
-                                        triangle_entry(y, d, bound, margin, [&a, &b, &c])
-                                    }
-                                }
-                                Some(n) => (dot(d, &n) < S::ZERO).then_some(S::ZERO),
-                                None => Some(S::ZERO),
-                            };
-                            if let Some(step) = step {
-                                // The normal where the proxy enters (at `y` for step 0).
-                                let entered = if step > S::ZERO {
-                                    let z = add_scaled(y, step, d);
-                                    sub(&z, &crate::shape::closest_on_triangle(&z, &a, &b, &c).0)
+                let mut consider = |face: usize| {
+                    if let Some([a, b, c]) = mesh.triangle(face) {
+                        let bound = best.map_or(limit, |(b, _)| b);
+                        let (q, _) = crate::shape::closest_on_triangle(y, &a, &b, &c);
+                        let offset = sub(y, &q);
+                        let gap = norm(&offset) - margin;
+                        // The supporting plane's step is a lower bound of the entry: a face
+                        // it puts at or beyond the best so far cannot limit the sweep, and
+                        // a face within the margin limits it now (or never, receding). Only
+                        // the faces left get the exact entry into the triangle grown by the
+                        // margin (one query where conservative advancement approaches a
+                        // surface met at a grazing angle in many).
+                        let step = match unit(&offset) {
+                            Some(n) if gap > S::ZERO => {
+                                if convex_step(gap, dot(d, &n), bound) >= bound {
+                                    None
                                 } else {
-                                    offset
-                                };
-                                let normal = match unit(&entered) {
-                                    Some(n) => Some(n),
-                                    None => match mesh.face_normals.get(face) {
-                                        Some(n) if dot(n, d) <= S::ZERO => Some(*n),
-                                        Some(n) => Some(add_scaled(&[S::ZERO; M], -S::ONE, n)),
-                                        None => None,
-                                    },
-                                };
-                                if let Some(normal) = normal {
-                                    if best.map_or(step < limit, |(b, _)| step < b) {
-                                        best = Some((step, normal));
-                                    }
+                                    triangle_entry(y, d, bound, margin, [&a, &b, &c])
+                                }
+                            }
+                            Some(n) => (dot(d, &n) < S::ZERO).then_some(S::ZERO),
+                            None => Some(S::ZERO),
+                        };
+                        if let Some(step) = step {
+                            // The normal where the proxy enters (at `y` for step 0).
+                            let entered = if step > S::ZERO {
+                                let z = add_scaled(y, step, d);
+                                sub(&z, &crate::shape::closest_on_triangle(&z, &a, &b, &c).0)
+                            } else {
+                                offset
+                            };
+                            let normal = match unit(&entered) {
+                                Some(n) => Some(n),
+                                None => match mesh.face_normals.get(face) {
+                                    Some(n) if dot(n, d) <= S::ZERO => Some(*n),
+                                    Some(n) => Some(add_scaled(&[S::ZERO; M], -S::ONE, n)),
+                                    None => None,
+                                },
+                            };
+                            if let Some(normal) = normal {
+                                if best.map_or(step < limit, |(b, _)| step < b) {
+                                    best = Some((step, normal));
                                 }
                             }
                         }
-                        best.map_or(limit, |(b, _)| b)
-                    },
-                );
+                    }
+                    best.map_or(limit, |(b, _)| b)
+                };
+                match self.candidates.get(index).copied().flatten() {
+                    // This update's candidates (see `gather_candidates`).
+                    Some(set) => {
+                        for &face in set.faces.iter().take(set.count) {
+                            consider(face as usize);
+                        }
+                    }
+                    None => mesh.nearest_first(
+                        limit,
+                        |min, max| segment_box_entry(y, d, limit, min, max, margin).unwrap_or(infinity),
+                        &mut consider,
+                    ),
+                }
                 best
             }
             Shape::HalfSpace { point, normal } => {

@@ -372,6 +372,40 @@ impl<'a, S: Real, const M: usize> Mesh<'a, S, M> {
         ])
     }
 
+    /// The faces within `radius` of `p` (`radius` ≥ 0), written to the start of `out`: their
+    /// number, or `None` when more than `out` holds (the caller then searches the whole mesh).
+    /// One walk of the BVH, pruned by the distance to each box.
+    pub fn faces_near(&self, p: &[S; M], radius: S, out: &mut [u32]) -> Option<usize> {
+        let squared_radius = radius * radius;
+        let mut count = 0usize;
+        let mut overflow = false;
+        self.nearest_first(
+            squared_radius,
+            |min, max| box_distance_squared(p, min, max),
+            |face| {
+                if let Some([a, b, c]) = self.triangle(face) {
+                    let (q, _) = closest_on_triangle(p, &a, &b, &c);
+                    let offset = sub(p, &q);
+                    if dot(&offset, &offset) <= squared_radius {
+                        match out.get_mut(count) {
+                            Some(slot) => {
+                                *slot = face as u32;
+                                count += 1;
+                            }
+                            None => overflow = true,
+                        }
+                    }
+                }
+                squared_radius
+            },
+        );
+        if overflow {
+            None
+        } else {
+            Some(count)
+        }
+    }
+
     /// Visits the faces nearest first, for a search that keeps a best value and stops where no
     /// box can beat it (branch and bound). `lower_bound(min, max)` bounds from below what any
     /// face in the box can give (infinite: nothing); `visit(face)` considers one face and

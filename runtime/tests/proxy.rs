@@ -1050,3 +1050,80 @@ fn the_entry_into_a_grown_triangle_is_where_the_distance_reaches_the_margin() {
     }
     assert!(entered > 500 && missed > 500, "{entered} entries, {missed} misses: the cases do not cover both");
 }
+
+/// An update's candidate faces (the faces within reach of the HIP, gathered once) change
+/// nothing: the same fast random motion against a mesh gives the same proxy, tick by tick, as
+/// with the candidates switched off (a far, never-touched curved cavity in the scene turns them
+/// off: every sweep step then searches the whole mesh).
+#[test]
+fn candidate_faces_leave_the_proxy_where_a_search_of_every_face_puts_it() {
+    let (vertices, faces, face_normals) = cube_mesh(0.05);
+    let cube = hapticgen_runtime::shape::Mesh {
+        vertices: &vertices,
+        faces: &faces,
+        face_normals: &face_normals,
+        vertex_normals: &[],
+        nodes: &[],
+    };
+    let mut with_candidates: GodObject<f64, 2, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    let mut every_face: GodObject<f64, 2, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    for scene in [&mut with_candidates, &mut every_face] {
+        scene.add(solid(Shape::Mesh(&cube))).unwrap();
+        scene.reset([0.0, 0.0, 0.2]);
+    }
+    every_face
+        .add(Object {
+            shape: Shape::Sphere { center: [0.0; 3], radius: 100.0 },
+            kind: ObjectKind::Cavity,
+            material: Material::frictionless(1500.0, 5.0),
+        })
+        .unwrap();
+    let mut rng = SmallRng::seed_from_u64(13);
+    let mut hip = [0.0, 0.0, 0.2];
+    let mut contacts = 0;
+    for tick in 0..20_000 {
+        // Mostly small moves (sliding on faces, edges, corners), now and then a jump.
+        let size = if tick % 50 == 0 { 0.1 } else { 0.004 };
+        hip = add(hip, random_point(&mut rng, size));
+        hip = hip.map(|x| x.clamp(-0.07, 0.07));
+        let (a, b) = (with_candidates.render(&hip), every_face.render(&hip));
+        assert_eq!(a.proxy, b.proxy, "tick {tick}: HIP {hip:?}");
+        assert_eq!(a.contact, b.contact, "tick {tick}");
+        contacts += usize::from(a.contact.is_some());
+    }
+    assert!(contacts > 2000, "only {contacts} ticks in contact");
+}
+
+/// `Mesh::faces_near` against a scan of every face, and its overflow.
+#[test]
+fn faces_near_finds_every_face_within_the_radius() {
+    let (vertices, faces, face_normals) = cube_mesh(0.05);
+    let cube = hapticgen_runtime::shape::Mesh {
+        vertices: &vertices,
+        faces: &faces,
+        face_normals: &face_normals,
+        vertex_normals: &[],
+        nodes: &[],
+    };
+    let mut rng = SmallRng::seed_from_u64(14);
+    for _ in 0..2000 {
+        let p = random_point(&mut rng, 0.1);
+        let radius = rng.gen_range(0.0..0.08);
+        let mut found = [0u32; 12];
+        let count = cube.faces_near(&p, radius, &mut found).unwrap();
+        let mut got: Vec<u32> = found[..count].to_vec();
+        got.sort_unstable();
+        let expected: Vec<u32> = (0..12u32)
+            .filter(|&f| {
+                let [i, j, k] = faces[f as usize];
+                let (a, b, c) = (vertices[i as usize], vertices[j as usize], vertices[k as usize]);
+                norm(sub(p, closest_on_triangle(&p, &a, &b, &c).0)) <= radius
+            })
+            .collect();
+        assert_eq!(got, expected, "at {p:?}, radius {radius}");
+        if expected.len() > 1 {
+            let mut small = [0u32; 1];
+            assert_eq!(cube.faces_near(&p, radius, &mut small), None);
+        }
+    }
+}
