@@ -74,7 +74,7 @@ const BISECTIONS: usize = 48;
 
 /// The most faces of one mesh an update keeps as its candidates (see [`GodObject::render`]);
 /// with more faces near the HIP, the update searches the mesh's BVH at every step instead.
-pub const CANDIDATE_FACES: usize = 32;
+pub const CANDIDATE_FACES: usize = 8;
 
 /// The faces of one mesh that can limit this update's sweeps.
 #[derive(Clone, Copy, Debug)]

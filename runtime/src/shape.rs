@@ -396,7 +396,12 @@ impl<'a, S: Real, const M: usize> Mesh<'a, S, M> {
                         }
                     }
                 }
-                squared_radius
+                // Once `out` is full the answer is `None`: a negative best prunes every box left.
+                if overflow {
+                    -S::ONE
+                } else {
+                    squared_radius
+                }
             },
         );
         if overflow {
