@@ -18,6 +18,7 @@ use hapticgen_runtime::render::{ObjectKind, Shape, VirtualObject};
 use hapticgen_runtime::RigModel;
 
 use crate::generated::{self, RigVisitor};
+use crate::pil::{Pil, PilReport};
 use crate::rig::{CompiledModel, TapeRig};
 use crate::sim::{self, LoopData, Operator, Path as HandPath, Reference, SensorSpec, SimConfig, Trace};
 use crate::tape::Tape;
@@ -133,6 +134,54 @@ impl RigVisitor for RunVisitor<'_> {
     }
 }
 
+/// Where a processor-in-the-loop run finds its firmware, and how it runs
+/// ([`Simulation::run_pil`]).
+#[derive(Clone, Debug)]
+pub struct PilTarget {
+    /// `qemu-system-arm`.
+    pub qemu: std::path::PathBuf,
+    /// The PIL image (`hapticgen-fw-qemu-pil` built for the rig's line of `variants.txt`).
+    pub image: std::path::PathBuf,
+    /// The image's name (its line of `variants.txt`).
+    pub name: String,
+    /// Where QEMU's output (the image's semihosting lines) goes.
+    pub log: std::path::PathBuf,
+    /// Stop sending sensor frames after this many current-loop periods (fault test).
+    pub stop_after: Option<u64>,
+}
+
+struct PilVisitor<'a> {
+    plant: Arc<CompiledModel>,
+    data: &'a LoopData,
+    cfg: &'a SimConfig,
+    target: &'a PilTarget,
+}
+
+impl RigVisitor for PilVisitor<'_> {
+    type Output = Result<(Trace, PilReport), String>;
+    fn visit<R: RigModel<N, M, Scalar = f64>, const N: usize, const M: usize>(self, rig: R) -> Self::Output {
+        let target = self.target;
+        let (trace, pil) = sim::run_with::<R, Pil<N, M>, _, N, M>(
+            rig,
+            self.plant,
+            self.data,
+            self.cfg,
+            |_, source, settings| {
+                let reference = source.fixed_position().ok_or_else(|| {
+                "error: hapticgen pil runs a fixed reference only (step, singularity); a rendered scene is not \
+                 supported yet"
+                    .to_string()
+            })?;
+                let mut pil =
+                    Pil::start(&target.qemu, &target.image, &target.name, &target.log, settings, reference)?;
+                pil.stop_after = target.stop_after;
+                Ok(pil)
+            },
+        )?;
+        Ok((trace, pil.finish()?))
+    }
+}
+
 impl Simulation {
     /// Loads a model file; errors are the code generator's diagnostics.
     pub fn load(path: &Path, variant: Option<&str>) -> Result<Simulation, String> {
@@ -242,14 +291,28 @@ impl Simulation {
         (position, det)
     }
 
-    /// Runs one simulation.
-    pub fn run(&self, cfg: &SimConfig) -> Result<Trace, String> {
-        let plant = if cfg.plant_mass_scale == 1.0 {
+    fn plant(&self, cfg: &SimConfig) -> Arc<CompiledModel> {
+        if cfg.plant_mass_scale == 1.0 {
             self.nominal.clone()
         } else {
             Arc::new(CompiledModel::new(&self.model, cfg.plant_mass_scale))
-        };
-        let visitor = RunVisitor { plant, data: &self.data, cfg };
+        }
+    }
+
+    /// Runs one simulation.
+    pub fn run(&self, cfg: &SimConfig) -> Result<Trace, String> {
+        self.dispatch(RunVisitor { plant: self.plant(cfg), data: &self.data, cfg })
+    }
+
+    /// Runs one processor-in-the-loop run: the same plant, operator, sensors and trace as
+    /// [`Simulation::run`], the controller the firmware image under QEMU (`crate::pil`).
+    pub fn run_pil(&self, cfg: &SimConfig, target: &PilTarget) -> Result<(Trace, PilReport), String> {
+        self.dispatch(PilVisitor { plant: self.plant(cfg), data: &self.data, cfg, target })
+    }
+
+    /// Calls `visitor` with the controller's rig: the generated code of a shipped model, else
+    /// the model's tapes.
+    fn dispatch<T, V: RigVisitor<Output = Result<T, String>>>(&self, visitor: V) -> Result<T, String> {
         if let Some(index) = self.shipped {
             if let Some(result) = generated::visit(index, visitor) {
                 return result;

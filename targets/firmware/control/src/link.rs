@@ -9,13 +9,17 @@
 //!   latches [`LinkFault::HeartbeatLost`] and the bridges are disabled ([`Gated`]) in the same
 //!   period. Only a `ResetFault` followed by an `Enable` (with fresh heartbeats) turns them on
 //!   again: a host that reappears does not re-enable a device by itself.
+//! * **Processor in the loop**: a [`HostMessage::Sensors`] frame is handed on
+//!   ([`LinkEvent::Sensors`]) and counts as a heartbeat (the host that computes the plant is
+//!   alive); [`HostMessage::PilSetup`] is handed on as [`LinkEvent::PilSetup`]; `Disable` is
+//!   reported ([`LinkEvent::Disabled`]) so that a PIL image can end its run.
 //! * **Bounded work**: [`DeviceLink::receive`] takes one byte (the frame decoder's constant
 //!   time per byte, one decoding per zero byte); unknown, corrupt or premature messages are
 //!   counted and dropped.
 
 use hapticgen_protocol::{
     encode, DeviceInfo, DeviceMessage, EncodeError, FrameDecoder, HostMessage, ImpedanceSettings,
-    LinkCounters, SceneObject, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION,
+    LinkCounters, PilSetup, SceneObject, SensorFrame, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION,
 };
 use hapticgen_runtime::control::ImpedanceParameters;
 use hapticgen_runtime::Real;
@@ -60,6 +64,12 @@ pub enum LinkEvent<S> {
         /// The object.
         object: SceneObject,
     },
+    /// Processor in the loop: the sensors of the next current-loop period.
+    Sensors(SensorFrame),
+    /// Processor in the loop: the controller's configuration.
+    PilSetup(PilSetup),
+    /// The host disabled the bridges (honoured before and after the handshake).
+    Disabled,
 }
 
 /// Counts of what the link refused, besides the frame decoder's [`LinkCounters`].
@@ -113,7 +123,7 @@ impl DeviceLink {
             // Turning the bridges off is honoured from anyone, handshake or not.
             HostMessage::Disable => {
                 self.enabled = false;
-                return None;
+                return Some(LinkEvent::Disabled);
             }
             _ => {}
         }
@@ -122,7 +132,12 @@ impl DeviceLink {
             return None;
         }
         match message {
-            HostMessage::Hello { .. } | HostMessage::Disable | HostMessage::Sensors(_) => None,
+            HostMessage::Hello { .. } | HostMessage::Disable => None,
+            HostMessage::Sensors(frame) => {
+                self.ticks_since_heartbeat = 0;
+                Some(LinkEvent::Sensors(frame))
+            }
+            HostMessage::PilSetup(setup) => Some(LinkEvent::PilSetup(setup)),
             HostMessage::Heartbeat { .. } => {
                 self.ticks_since_heartbeat = 0;
                 None
