@@ -8,7 +8,9 @@
 #   scripts/firmware.sh                  everything, limits enforced
 #   scripts/firmware.sh --limits=warn    limit violations reported but not fatal
 #   scripts/firmware.sh --only NAME      one image (repeatable; `stm32f4` is the board image, `link` the
-#                                        host link's cost image: state frames to UART0, checked on the host)
+#                                        host link's cost image: state frames to UART0, checked on the host;
+#                                        `pil` the joystick's processor-in-the-loop image, run by `hapticgen pil`
+#                                        against the host's plant and compared with `hapticgen simulate`)
 #   HAPTICGEN_FW_OPT_LEVEL=s scripts/firmware.sh   another opt-level (the measurement in the docs)
 #   HAPTICGEN_FW_FMA=1 scripts/firmware.sh         generated code with fused multiply-adds (vfma.f32)
 #
@@ -27,6 +29,9 @@ TARGET=thumbv7em-none-eabihf
 BOARD=stm32f4                 # the board image's name for --only
 BOARD_VARIANT=horizontal      # the variants.txt line it is built for (its wiring has two joints)
 LINK=link                     # the host link's cost image, for --only (docs/link.md)
+PIL=pil                       # the processor-in-the-loop run, for --only (docs/link.md)
+PIL_VARIANT=joystick          # the variants.txt line it is built for
+PIL_MAX_COUNTS=4              # PIL vs simulate: largest joint difference, encoder counts (docs/link.md)
 QEMU_TIMEOUT=${HAPTICGEN_FW_QEMU_TIMEOUT:-300}
 LIMITS=()
 ONLY=()
@@ -48,7 +53,7 @@ die() { printf 'FAIL %s\n' "$*" >&2; exit 1; }
 # The images: every line of variants.txt, and the board image.
 TABLE=$(awk '{ sub(/#.*/, "") } NF { print $1 }' "$FW/variants.txt")
 [ -n "$TABLE" ] || die "$FW/variants.txt lists no image"
-KNOWN=$(printf '%s\n%s\n%s\n' "$TABLE" "$BOARD" "$LINK")
+KNOWN=$(printf '%s\n%s\n%s\n%s\n' "$TABLE" "$BOARD" "$LINK" "$PIL")
 SELECTED=()
 if [ ${#ONLY[@]} -eq 0 ]; then
     mapfile -t SELECTED <<<"$KNOWN"
@@ -223,6 +228,37 @@ for NAME in "${SELECTED[@]}"; do
             continue
         fi
         CHECKED+=("$LINK")
+        continue
+    fi
+    if [ "$NAME" = "$PIL" ]; then
+        step "PIL image ($PIL_VARIANT): lint and build (the control path against sensor frames from UART0)"
+        HAPTICGEN_FW_VARIANT=$PIL_VARIANT cargo clippy --locked --release --target "$TARGET" \
+            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil -- -D warnings
+        HAPTICGEN_FW_VARIANT=$PIL_VARIANT cargo build --locked --release --target "$TARGET" \
+            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil
+        cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-pil" "$OUT/$PIL_VARIANT.pil.elf"
+        "$REF" size "$OUT/$PIL_VARIANT.pil.elf"
+        step "PIL: the host side (hapticgen, root workspace)"
+        HOST_TARGET_DIR=$(cd "$ROOT" && cargo metadata --locked --format-version 1 --no-deps \
+            | sed -n 's/.*"target_directory":"\([^"]*\)".*/\1/p')
+        [ -n "$HOST_TARGET_DIR" ] || die "cargo metadata did not name the root workspace's target directory"
+        (cd "$ROOT" && cargo build --locked -p hapticgen) || die "building hapticgen failed"
+        HAPTICGEN=$HOST_TARGET_DIR/debug/hapticgen
+        [ -x "$HAPTICGEN" ] || die "hapticgen was built but is not at $HAPTICGEN"
+        step "PIL: Fig. 4 on the joystick under QEMU vs hapticgen simulate (bound: $PIL_MAX_COUNTS encoder counts)"
+        if ! "$HAPTICGEN" pil "$ROOT/models/joystick_1dof.yaml" --controller natural-inertia --scenario step \
+            --duration 2 --compare --max-counts "$PIL_MAX_COUNTS" --image "$OUT/$PIL_VARIANT.pil.elf" \
+            -o "$OUT/pil-fig4"; then
+            FAILED+=("$PIL: Fig. 4 run or comparison (see above)")
+            continue
+        fi
+        step "PIL: fault test (the host goes silent at 0.25 s: safe state within 10 ms of the image's periods)"
+        if ! "$HAPTICGEN" pil "$ROOT/models/joystick_1dof.yaml" --controller natural-inertia --scenario step \
+            --duration 0.3 --stop-after 0.25 --image "$OUT/$PIL_VARIANT.pil.elf" -o "$OUT/pil-fault"; then
+            FAILED+=("$PIL: fault test (see above)")
+            continue
+        fi
+        CHECKED+=("$PIL")
         continue
     fi
     if [ "$NAME" = "$BOARD" ]; then

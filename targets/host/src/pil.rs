@@ -31,6 +31,10 @@ use crate::sim::{DeviceController, ImpedanceOutcome, PeriodCommand, PeriodSensor
 /// How long the host waits for QEMU to connect, and for any one answer of the firmware.
 pub const ANSWER_TIMEOUT: Duration = Duration::from_secs(20);
 
+/// How long the host waits, once silent (fault test), for the image to reach its safe state
+/// and exit.
+pub const SAFE_STATE_TIMEOUT: Duration = Duration::from_secs(300);
+
 /// The firmware workspace's table of images (`targets/firmware/variants.txt`).
 pub fn variants_file() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware/variants.txt")
@@ -389,13 +393,14 @@ impl<const N: usize, const M: usize> Pil<N, M> {
         if self.stop_after.is_none() {
             self.send(&HostMessage::Disable)?;
         }
+        // Silent host: the image first waits out its watchdog's periods (each a bounded wait for
+        // a sensor frame, a fraction of a second of real time), then reports and exits.
+        let patience = if self.stop_after.is_some() { SAFE_STATE_TIMEOUT } else { ANSWER_TIMEOUT };
         let started = Instant::now();
         let status = loop {
             match self.qemu.try_wait() {
                 Ok(Some(status)) => break status,
-                Ok(None) if started.elapsed() < ANSWER_TIMEOUT => {
-                    std::thread::sleep(Duration::from_millis(10))
-                }
+                Ok(None) if started.elapsed() < patience => std::thread::sleep(Duration::from_millis(10)),
                 _ => return Err(self.died("QEMU did not exit after the run")),
             }
         };

@@ -70,13 +70,13 @@ type Rig = image::Rig;
 type Control = Controller<Rig, TaskReference<f32, M>, N, M>;
 
 /// How long a period of a started run waits for its sensor frame, in ticks of the 25 MHz APB
-/// timer (virtual time: 10⁹ ticks = 40 s, about 39 million instructions under
-/// `-icount shift=10`, a fraction of a second of real time while the core polls the UART).
-/// The host computes the plant between two frames, and QEMU's virtual clock runs on while the
-/// core polls, so this bounds the host's latency in emulated time; it is not the control's
-/// deadline: the control's time is the count of periods, and the link's watchdog counts
-/// periods without a sensor frame.
-const WAIT_TICKS: u32 = 1_000_000_000;
+/// timer: 2.5 × 10⁸ ticks = 10 s of virtual time. The host computes the plant between two
+/// frames while QEMU's virtual clock runs on as the core polls the UART (measured: about 9 s
+/// of virtual time per second of real time, so this is about 1.1 s of real time, far above the
+/// host's latency of about 10 ms per period), so it bounds the host's latency in emulated time;
+/// it is not the control's deadline: the control's time is the count of periods, and the
+/// link's watchdog counts periods without a sensor frame.
+const WAIT_TICKS: u32 = 250_000_000;
 
 /// The heartbeat timeout of the link (the 10 ms bound, with a margin), ms.
 const LINK_TIMEOUT_MS: u32 = 5;
