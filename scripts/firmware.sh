@@ -231,13 +231,17 @@ for NAME in "${SELECTED[@]}"; do
         continue
     fi
     if [ "$NAME" = "$PIL" ]; then
-        step "PIL image ($PIL_VARIANT): lint and build (the control path against sensor frames from UART0)"
+        step "PIL image ($PIL_VARIANT): lint and build (the control path against sensor frames from UART0, and its probe)"
         HAPTICGEN_FW_VARIANT=$PIL_VARIANT cargo clippy --locked --release --target "$TARGET" \
-            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil -- -D warnings
+            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil \
+            --bin hapticgen-fw-qemu-pil-path -- -D warnings
         HAPTICGEN_FW_VARIANT=$PIL_VARIANT cargo build --locked --release --target "$TARGET" \
-            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil
+            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil --bin hapticgen-fw-qemu-pil-path
         cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-pil" "$OUT/$PIL_VARIANT.pil.elf"
+        cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-pil-path" "$OUT/$PIL_VARIANT.pil-path.elf"
         "$REF" size "$OUT/$PIL_VARIANT.pil.elf"
+        step "PIL image: no panic reachable from a received byte, the period's control and the answer's framing"
+        panic_check "$PIL" "$OUT/$PIL_VARIANT.pil-path.elf"
         step "PIL: the host side (hapticgen, root workspace)"
         HOST_TARGET_DIR=$(cd "$ROOT" && cargo metadata --locked --format-version 1 --no-deps \
             | sed -n 's/.*"target_directory":"\([^"]*\)".*/\1/p')

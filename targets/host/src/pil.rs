@@ -484,3 +484,42 @@ impl<const N: usize, const M: usize> Drop for Pil<N, M> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The image of a model is the line of `variants.txt` with its file and variant; a model
+    /// whose lines all have variants needs one.
+    #[test]
+    fn image_names_come_from_the_table() {
+        assert_eq!(image_name(Path::new("models/joystick_1dof.yaml"), None), Ok("joystick".to_string()));
+        assert_eq!(
+            image_name(Path::new("elsewhere/parallel_link_2dof.yaml"), Some("horizontal")),
+            Ok("horizontal".to_string())
+        );
+        let missing = image_name(Path::new("models/parallel_link_2dof.yaml"), None).unwrap_err();
+        assert!(
+            missing.contains("vertical (variant vertical)") && missing.contains("--variant"),
+            "{missing}"
+        );
+        let unknown = image_name(Path::new("models/nothing.yaml"), None).unwrap_err();
+        assert!(unknown.contains("no firmware image"), "{unknown}");
+    }
+
+    /// The report's `key=value` lines are read back.
+    #[test]
+    fn report_values_are_read_by_prefix_and_part() {
+        let report = PilReport {
+            lines: vec![
+                "PIL_SAFE periods=1912 missed_periods=37 us=4933".into(),
+                "PIL_COST part=receive n=3 min=1 mean=2 max=3".into(),
+                "PIL_COST part=send n=3 min=4 mean=5 max=6".into(),
+            ],
+            output: String::new(),
+        };
+        assert_eq!(report.value("PIL_SAFE", None, "us"), Some(4933));
+        assert_eq!(report.value("PIL_COST", Some("send"), "max"), Some(6));
+        assert_eq!(report.value("PIL_DONE", None, "periods"), None);
+    }
+}
