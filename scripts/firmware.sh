@@ -215,11 +215,12 @@ for NAME in "${SELECTED[@]}"; do
         fi
         "$REF" link-stream "$OUT/$LINK.uart" "$OUT/$LINK.out" || { FAILED+=("$LINK: UART stream"); continue; }
         # Ceilings at today's cost (the goal, encode + decode <= 1,000 instructions, is not met
-        # yet; see docs/link.md): a regression fails.
+        # yet; see docs/link.md): a regression fails. Heartbeat and impedance were 600 and 3,600
+        # with protocol version 1; version 2's 112-byte host message costs ~490 per frame.
         LINK_FAIL=$(awk '/^LINK / {
                 part = ""; max = 0
                 for (i = 1; i <= NF; i++) { split($i, kv, "="); if (kv[1] == "part") part = kv[2]; if (kv[1] == "max") max = kv[2] }
-                limit = (part == "state") ? 3400 : (part == "heartbeat") ? 600 : 3600
+                limit = (part == "state") ? 3400 : (part == "heartbeat") ? 1100 : 4000
                 if (max + 0 > limit) print $0 " over its ceiling " limit
             }' "$OUT/$LINK.out")
         if [ -n "$LINK_FAIL" ]; then
@@ -256,9 +257,10 @@ for NAME in "${SELECTED[@]}"; do
             FAILED+=("$PIL: Fig. 4 run or comparison (see above)")
             continue
         fi
-        step "PIL: fault test (the host goes silent at 0.25 s: safe state within 10 ms of the image's periods)"
+        step "PIL: fault tests (one sensor frame in 100 corrupted, dropped; the host goes silent at 0.25 s: safe state within 10 ms)"
         if ! "$HAPTICGEN" pil "$ROOT/models/joystick_1dof.yaml" --controller natural-inertia --scenario step \
-            --duration 0.3 --stop-after 0.25 --image "$OUT/$PIL_VARIANT.pil.elf" -o "$OUT/pil-fault"; then
+            --duration 0.3 --stop-after 0.25 --corrupt-every 100 --image "$OUT/$PIL_VARIANT.pil.elf" \
+            -o "$OUT/pil-fault"; then
             FAILED+=("$PIL: fault test (see above)")
             continue
         fi

@@ -286,6 +286,10 @@ struct PilArgs {
     /// the firmware reaches its safe state within 10 ms of simulated time (its periods).
     #[arg(long)]
     stop_after: Option<f64>,
+    /// Fault test: before every N-th sensor frame, send a copy with one bit flipped; fails
+    /// unless the image dropped exactly those frames and missed no period because of them.
+    #[arg(long)]
+    corrupt_every: Option<u64>,
 }
 
 fn load(
@@ -621,6 +625,7 @@ fn pil(args: PilArgs) -> Result<(), String> {
         name: name.clone(),
         log: run.output.join("qemu.out"),
         stop_after: args.stop_after.map(|t| (t / period).round() as u64),
+        corrupt_every: args.corrupt_every,
     };
     eprintln!("pil: image {} ({name}) under {}", image.display(), target.qemu.display());
     let (trace, report) = sim.run_pil(&cfg, &target)?;
@@ -660,6 +665,24 @@ fn pil(args: PilArgs) -> Result<(), String> {
                 }
             }
             None => failures.push("the firmware did not report reaching its safe state (PIL_SAFE)".into()),
+        }
+    }
+    if args.corrupt_every.is_some() {
+        let dropped = report.value("PIL_DONE", None, "dropped_frames").unwrap_or(-1);
+        let missed = report.value("PIL_DONE", None, "missed").unwrap_or(-1);
+        let silent = report.value("PIL_SAFE", None, "missed_periods").unwrap_or(0);
+        println!(
+            "fault test: {} sensor frames sent with one bit flipped; the image dropped {dropped} frames and missed \
+             {} periods because of them",
+            report.corrupted,
+            missed - silent
+        );
+        if dropped != report.corrupted as i64 || missed != silent {
+            failures.push(format!(
+                "{} corrupted frames sent, {dropped} dropped, {} periods missed",
+                report.corrupted,
+                missed - silent
+            ));
         }
     }
     if args.compare {

@@ -137,6 +137,8 @@ pub fn fnv1a(bytes: &[u8]) -> u32 {
 /// What the image reported at the end of a run.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PilReport {
+    /// Sensor frames the host sent corrupted ([`Pil::corrupt_every`]).
+    pub corrupted: u64,
     /// Every `PIL_…` line the image printed, in order.
     pub lines: Vec<String>,
     /// The image's whole semihosting output.
@@ -168,6 +170,11 @@ pub struct Pil<const N: usize, const M: usize> {
     /// Stop sending sensor frames after this many periods (a fault test: the firmware must
     /// reach its safe state); `None`: never.
     pub stop_after: Option<u64>,
+    /// Fault test: before every `n`-th sensor frame, send a copy with one bit flipped (the
+    /// device must count and drop it, and run the period on the good frame that follows).
+    pub corrupt_every: Option<u64>,
+    /// Sensor frames sent corrupted so far.
+    pub corrupted: u64,
 }
 
 fn law_of(law: ImpedanceLaw) -> PilLaw {
@@ -274,6 +281,8 @@ impl<const N: usize, const M: usize> Pil<N, M> {
             tick: 0,
             period: 0,
             stop_after: None,
+            corrupt_every: None,
+            corrupted: 0,
         };
         if let Err(e) = pil.open(name, settings, reference) {
             pil.abort();
@@ -348,6 +357,20 @@ impl<const N: usize, const M: usize> Pil<N, M> {
             .map_err(|e| format!("error: writing to the firmware's UART: {e}"))
     }
 
+    /// Sends `message` with one bit flipped in the middle of its frame (never making a zero
+    /// byte, so it stays one frame): CRC-16 detects every one-bit error, so the device must
+    /// drop it.
+    fn send_corrupted(&mut self, message: &HostMessage) -> Result<(), String> {
+        let mut frame = [0u8; MAX_FRAME_BYTES];
+        let length = encode(message, &mut frame).map_err(|e| format!("error: framing {message:?}: {e:?}"))?;
+        let middle = length / 2;
+        frame[middle] ^= if frame[middle] == 1 { 2 } else { 1 };
+        self.corrupted += 1;
+        self.stream
+            .write_all(&frame[..length])
+            .map_err(|e| format!("error: writing to the firmware's UART: {e}"))
+    }
+
     /// The next valid message from the device (corrupt frames are counted by the decoder and
     /// skipped).
     fn receive(&mut self) -> Result<DeviceMessage, String> {
@@ -409,7 +432,7 @@ impl<const N: usize, const M: usize> Pil<N, M> {
             return Err(format!("error: QEMU exited with {status}; the image's output:\n{output}"));
         }
         let lines = output.lines().filter(|l| l.starts_with("PIL_")).map(str::to_string).collect();
-        Ok(PilReport { lines, output })
+        Ok(PilReport { corrupted: self.corrupted, lines, output })
     }
 }
 
@@ -427,12 +450,16 @@ impl<const N: usize, const M: usize> DeviceController<N, M> for Pil<N, M> {
         }
         self.tick = self.tick.wrapping_add(1);
         let readings = sensors.force_readings.unwrap_or([0.0; M]);
-        self.send(&HostMessage::Sensors(SensorFrame {
+        let frame = HostMessage::Sensors(SensorFrame {
             tick: self.tick,
             encoder_counts: padded(&sensors.encoder_counts, |c| c),
             motor_current: padded(&sensors.measured_current, |v: f64| v as f32),
             force_readings: padded(&readings, |v: f64| v as f32),
-        }))?;
+        });
+        if self.corrupt_every.is_some_and(|n| n > 0 && (self.period + 1) % n == 0) {
+            self.send_corrupted(&frame)?;
+        }
+        self.send(&frame)?;
         let answer: ActuatorFrame = loop {
             match self.receive()? {
                 DeviceMessage::Actuators(frame) if frame.tick == self.tick => break frame,
@@ -517,6 +544,7 @@ mod tests {
                 "PIL_COST part=send n=3 min=4 mean=5 max=6".into(),
             ],
             output: String::new(),
+            corrupted: 0,
         };
         assert_eq!(report.value("PIL_SAFE", None, "us"), Some(4933));
         assert_eq!(report.value("PIL_COST", Some("send"), "max"), Some(6));

@@ -148,6 +148,8 @@ pub struct PilTarget {
     pub log: std::path::PathBuf,
     /// Stop sending sensor frames after this many current-loop periods (fault test).
     pub stop_after: Option<u64>,
+    /// Send a corrupted copy before every this many sensor frames (fault test).
+    pub corrupt_every: Option<u64>,
 }
 
 struct PilVisitor<'a> {
@@ -175,6 +177,7 @@ impl RigVisitor for PilVisitor<'_> {
                 let mut pil =
                     Pil::start(&target.qemu, &target.image, &target.name, &target.log, settings, reference)?;
                 pil.stop_after = target.stop_after;
+                pil.corrupt_every = target.corrupt_every;
                 Ok(pil)
             },
         )?;

@@ -278,13 +278,15 @@ fn sensor_frames_feed_the_watchdog_and_are_handed_on_after_the_handshake() {
         min_abs_jacobian_determinant: 0.0,
         spring_lead_time: 0.0,
     };
-    assert_eq!(feed(&mut link, &HostMessage::PilSetup(setup)), vec![LinkEvent::PilSetup(setup)]);
+    assert_eq!(feed(&mut link, &HostMessage::PilSetup(setup)), vec![LinkEvent::PilSetup]);
+    assert_eq!(link.pil_setup(), Some(&setup));
     assert!(feed(&mut link, &HostMessage::Heartbeat { sequence: 1 }).is_empty());
     assert!(feed(&mut link, &HostMessage::Enable).is_empty());
     // One sensor frame per period, no heartbeat: the bridges stay on for a second.
     for tick in 0..CURRENT_LOOP_HZ as u16 {
         let events = feed(&mut link, &sensors(tick));
-        assert!(matches!(events.as_slice(), [LinkEvent::Sensors(f)] if f.tick == tick));
+        assert_eq!(events, vec![LinkEvent::Sensors]);
+        assert_eq!(link.sensors().map(|f| f.tick), Some(tick));
         assert!(link.on_current_tick(), "driven at period {tick}");
     }
     // The host stops: the bridges are off within 10 ms of periods.

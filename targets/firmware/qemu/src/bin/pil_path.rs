@@ -60,7 +60,11 @@ fn SysTick() {
     };
     // SAFETY: a volatile read of a plain static (never run).
     let byte = unsafe { read_volatile(addr_of!(RECEIVED)) };
-    if let Some(LinkEvent::Sensors(frame)) = state.link.receive::<f32>(byte) {
+    let sensors = match state.link.receive::<f32>(byte) {
+        Some(LinkEvent::Sensors) => state.link.sensors().copied(),
+        _ => None,
+    };
+    if let Some(frame) = sensors {
         let open = state.link.on_current_tick();
         let outcome =
             state.control.on_current_tick(&mut Gated { board: &mut OpaqueBoard, open }, &OpaqueClock);
