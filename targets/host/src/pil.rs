@@ -456,7 +456,7 @@ impl<const N: usize, const M: usize> DeviceController<N, M> for Pil<N, M> {
             motor_current: padded(&sensors.measured_current, |v: f64| v as f32),
             force_readings: padded(&readings, |v: f64| v as f32),
         });
-        if self.corrupt_every.is_some_and(|n| n > 0 && (self.period + 1) % n == 0) {
+        if self.corrupt_every.is_some_and(|n| n > 0 && (self.period + 1).is_multiple_of(n)) {
             self.send_corrupted(&frame)?;
         }
         self.send(&frame)?;
