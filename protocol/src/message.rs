@@ -175,6 +175,11 @@ pub struct PilSetup {
     pub min_abs_jacobian_determinant: f32,
     /// Lead time of the spring term, s (0: the paper's law).
     pub spring_lead_time: f32,
+    /// `None`: the reference is [`PilSetup::reference`]. `Some(grid spacing, m)`: a planar
+    /// scene rendered by the device (a 2-D task): the objects sent with
+    /// [`HostMessage::SetObject`] (a sphere is a circle, a box a rectangle), free space with
+    /// the target impedance's `K_d`, `B_d` of the first axis and this anti-drift grid.
+    pub scene_grid_spacing: Option<f32>,
 }
 
 /// Processor in the loop: what the device commands in one current-loop period, the answer to
@@ -189,6 +194,8 @@ pub struct ActuatorFrame {
     pub current_setpoint: [f32; MAX_JOINTS],
     /// Joint torques commanded by the latest impedance tick (after the safety rules), N·m.
     pub torque: [f32; MAX_JOINTS],
+    /// The impedance law's reference position after this period (the proxy of a scene).
+    pub reference: [f32; MAX_TASK],
     /// [`ActuatorFrame::IMPEDANCE_TICK`], [`ActuatorFrame::DRIVEN`], [`ActuatorFrame::CLAMPED`],
     /// [`ActuatorFrame::FALLBACK`], [`ActuatorFrame::LINK_FAULT`].
     pub status: u8,

@@ -95,9 +95,10 @@ fn pil_setup() -> impl Strategy<Value = PilSetup> {
         joint_vector(),
         any::<[i32; 6]>(),
         (task_vector(), task_vector(), task_vector()),
+        proptest::option::of(finite()),
     )
         .prop_map(
-            |(law, [velocity, acceleration, determinant, lead], zero_offset, initial_counts, axes)| {
+            |(law, [velocity, acceleration, determinant, lead], zero_offset, initial_counts, axes, grid)| {
                 let (reference, force_scale, force_offset) = axes;
                 PilSetup {
                     law,
@@ -110,6 +111,7 @@ fn pil_setup() -> impl Strategy<Value = PilSetup> {
                     force_offset,
                     min_abs_jacobian_determinant: determinant,
                     spring_lead_time: lead,
+                    scene_grid_spacing: grid,
                 }
             },
         )
@@ -158,19 +160,19 @@ fn device_message() -> impl Strategy<Value = DeviceMessage> {
             }
         ),
         (1usize..=6, 1usize..=3).prop_flat_map(|(n, m)| state_frame(n, m)).prop_map(DeviceMessage::State),
-        (any::<u16>(), joint_vector(), joint_vector(), joint_vector(), any::<(u8, u8, u32)>()).prop_map(
-            |(tick, voltage, current_setpoint, torque, (status, fault, missed))| {
+        (any::<u16>(), joint_vector(), joint_vector(), joint_vector(), task_vector(), any::<(u8, u8, u32)>())
+            .prop_map(|(tick, voltage, current_setpoint, torque, reference, (status, fault, missed))| {
                 DeviceMessage::Actuators(ActuatorFrame {
                     tick,
                     voltage,
                     current_setpoint,
                     torque,
+                    reference,
                     status,
                     fault,
                     missed,
                 })
-            }
-        ),
+            }),
         any::<[u32; 5]>().prop_map(|[frames, oversized, bad_stuffing, bad_crc, not_a_message]| {
             DeviceMessage::Link(LinkCounters { frames, oversized, bad_stuffing, bad_crc, not_a_message })
         }),
@@ -379,12 +381,14 @@ fn pil_frames_fit_at_their_widest() {
         force_offset: [1e9; 3],
         min_abs_jacobian_determinant: 1e9,
         spring_lead_time: 1e9,
+        scene_grid_spacing: Some(1e9),
     });
     let actuators = DeviceMessage::Actuators(ActuatorFrame {
         tick: u16::MAX,
         voltage: [1e9; 6],
         current_setpoint: [1e9; 6],
         torque: [1e9; 6],
+        reference: [1e9; 3],
         status: u8::MAX,
         fault: u8::MAX,
         missed: u32::MAX,

@@ -610,7 +610,8 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
 fn pil(args: PilArgs) -> Result<(), String> {
     let Configured { sim, cfg, scenario: _, singular_start: _ } = configure(&args.run)?;
     let run = &args.run;
-    let name = hapticgen_host::pil::image_name(&run.model, run.variant.as_deref())?;
+    // The variant applied: the one asked for, else the model's default.
+    let name = hapticgen_host::pil::image_name(&run.model, sim.model.variant.as_deref())?;
     let image = hapticgen_host::pil::locate_image(&name, args.image.as_deref())?;
     let qemu = hapticgen_host::pil::locate_qemu(args.qemu.as_deref())?;
     let period = 1.0 / f64::from(sim.data.current_loop_hz);

@@ -21,7 +21,7 @@ use std::time::{Duration, Instant};
 
 use hapticgen_protocol::{
     encode, ActuatorFrame, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, PilLaw, PilSetup,
-    SensorFrame, MAX_FRAME_BYTES, MAX_JOINTS, MAX_TASK, PROTOCOL_VERSION,
+    SceneObject, SensorFrame, MAX_FRAME_BYTES, MAX_JOINTS, MAX_TASK, PROTOCOL_VERSION,
 };
 use hapticgen_runtime::control::ImpedanceLaw;
 use hapticgen_runtime::tick::HapticLoopSettings;
@@ -134,6 +134,19 @@ pub fn fnv1a(bytes: &[u8]) -> u32 {
     hash
 }
 
+/// A planar scene the device renders in a PIL run (`PilSetup::scene_grid_spacing`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PilScene {
+    /// The objects, one slot each.
+    pub objects: Vec<SceneObject>,
+    /// Free-space stiffness (must equal the target impedance's: the device uses that).
+    pub free_stiffness: f64,
+    /// Free-space damping (likewise).
+    pub free_damping: f64,
+    /// Anti-drift grid spacing, m.
+    pub grid_spacing: f64,
+}
+
 /// What the image reported at the end of a run.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PilReport {
@@ -206,6 +219,7 @@ impl<const N: usize, const M: usize> Pil<N, M> {
         output: &Path,
         settings: &HapticLoopSettings<f64, N, M>,
         reference: [f64; M],
+        scene: Option<&PilScene>,
     ) -> Result<Self, String> {
         if N > MAX_JOINTS || M > MAX_TASK {
             return Err(format!(
@@ -284,7 +298,7 @@ impl<const N: usize, const M: usize> Pil<N, M> {
             corrupt_every: None,
             corrupted: 0,
         };
-        if let Err(e) = pil.open(name, settings, reference) {
+        if let Err(e) = pil.open(name, settings, reference, scene) {
             pil.abort();
             return Err(e);
         }
@@ -296,6 +310,7 @@ impl<const N: usize, const M: usize> Pil<N, M> {
         name: &str,
         settings: &HapticLoopSettings<f64, N, M>,
         reference: [f64; M],
+        scene: Option<&PilScene>,
     ) -> Result<(), String> {
         self.send(&HostMessage::Hello { version: PROTOCOL_VERSION })?;
         let info = loop {
@@ -316,6 +331,24 @@ impl<const N: usize, const M: usize> Pil<N, M> {
                 "error: the image is not `{name}` ({} joints, {} task axes, name hash {:#x}): rebuild it",
                 info.joints, info.task_dim, info.rig_name_hash
             ));
+        }
+        if let Some(scene) = scene {
+            if M != 2 {
+                return Err("error: a scene needs a 2-D task".into());
+            }
+            let (k, b) =
+                (settings.controller.parameters.stiffness[0], settings.controller.parameters.damping[0]);
+            if (scene.free_stiffness, scene.free_damping) != (k, b) {
+                return Err(format!(
+                    "error: the device renders free space with the target impedance (K_d = {k}, B_d = {b}); \
+                     this scene's free space has K = {}, B = {}",
+                    scene.free_stiffness, scene.free_damping
+                ));
+            }
+            for (slot, object) in scene.objects.iter().enumerate() {
+                let slot = u8::try_from(slot).map_err(|_| "error: too many scene objects".to_string())?;
+                self.send(&HostMessage::SetObject { slot, object: *object })?;
+            }
         }
         let parameters = &settings.controller.parameters;
         let to_f32 = |v: f64| v as f32;
@@ -344,6 +377,7 @@ impl<const N: usize, const M: usize> Pil<N, M> {
             force_offset: padded(&settings.force_calibration.offset, to_f32),
             min_abs_jacobian_determinant: options.min_abs_jacobian_determinant as f32,
             spring_lead_time: options.spring_lead_time as f32,
+            scene_grid_spacing: scene.map(|s| s.grid_spacing as f32),
         }))?;
         self.send(&HostMessage::Heartbeat { sequence: 0 })?;
         self.send(&HostMessage::Enable)
@@ -493,6 +527,7 @@ impl<const N: usize, const M: usize> DeviceController<N, M> for Pil<N, M> {
             }
         });
         self.period += 1;
+        self.reference = std::array::from_fn(|k| f64::from(answer.reference[k]));
         Ok(PeriodCommand {
             volts: widen(&answer.voltage),
             current_setpoints: widen(&answer.current_setpoint),

@@ -18,10 +18,12 @@ use hapticgen_runtime::render::{ObjectKind, Shape, VirtualObject};
 use hapticgen_runtime::RigModel;
 
 use crate::generated::{self, RigVisitor};
-use crate::pil::{Pil, PilReport};
+use crate::pil::{Pil, PilReport, PilScene};
 use crate::rig::{CompiledModel, TapeRig};
+use crate::sim::SCENE_VERTICES;
 use crate::sim::{self, LoopData, Operator, Path as HandPath, Reference, SensorSpec, SimConfig, Trace};
 use crate::tape::Tape;
+use hapticgen_protocol::SceneObject;
 
 /// A model ready to simulate.
 pub struct Simulation {
@@ -169,19 +171,60 @@ impl RigVisitor for PilVisitor<'_> {
             self.data,
             self.cfg,
             |_, source, settings| {
-                let reference = source.fixed_position().ok_or_else(|| {
-                "error: hapticgen pil runs a fixed reference only (step, singularity); a rendered scene is not \
-                 supported yet"
-                    .to_string()
-            })?;
-                let mut pil =
-                    Pil::start(&target.qemu, &target.image, &target.name, &target.log, settings, reference)?;
+                let scene = match &self.cfg.reference {
+                    Reference::Fixed(_) => None,
+                    Reference::Scene { objects, free_stiffness, free_damping, grid_spacing } => {
+                        Some(PilScene {
+                            objects: objects.iter().map(scene_object).collect::<Result<_, _>>()?,
+                            free_stiffness: *free_stiffness,
+                            free_damping: *free_damping,
+                            grid_spacing: *grid_spacing,
+                        })
+                    }
+                };
+                // A scene's reference starts at the device's start position, as on the host.
+                let reference = source.fixed_position().unwrap_or(source.last);
+                let mut pil = Pil::start(
+                    &target.qemu,
+                    &target.image,
+                    &target.name,
+                    &target.log,
+                    settings,
+                    reference,
+                    scene.as_ref(),
+                )?;
                 pil.stop_after = target.stop_after;
                 pil.corrupt_every = target.corrupt_every;
                 Ok(pil)
             },
         )?;
         Ok((trace, pil.finish()?))
+    }
+}
+
+/// A planar virtual object of the simulator as a scene object of the link: a circle is a
+/// sphere, an axis-aligned rectangle a box (solid only); other shapes are not sent yet.
+fn scene_object(object: &VirtualObject<f64, SCENE_VERTICES>) -> Result<SceneObject, String> {
+    let (stiffness, damping) = (object.stiffness as f32, object.damping as f32);
+    match (object.shape, object.kind) {
+        (Shape::Circle { center, radius }, kind) => Ok(SceneObject::Sphere {
+            centre: [center[0] as f32, center[1] as f32, 0.0],
+            radius: radius as f32,
+            cavity: kind == ObjectKind::Cavity,
+            stiffness,
+            damping,
+        }),
+        (Shape::Rectangle { center, half_extents, angle: 0.0 }, ObjectKind::Solid) => Ok(SceneObject::Box {
+            centre: [center[0] as f32, center[1] as f32, 0.0],
+            half_extents: [half_extents[0] as f32, half_extents[1] as f32, 1.0],
+            stiffness,
+            damping,
+        }),
+        _ => {
+            Err("error: hapticgen pil sends circles and axis-aligned solid rectangles only; this scene has \
+                  another shape (the trace-square scenario's cavity)"
+                .into())
+        }
     }
 }
 

@@ -277,6 +277,7 @@ fn sensor_frames_feed_the_watchdog_and_are_handed_on_after_the_handshake() {
         force_offset: [0.0; 3],
         min_abs_jacobian_determinant: 0.0,
         spring_lead_time: 0.0,
+        scene_grid_spacing: None,
     };
     assert_eq!(feed(&mut link, &HostMessage::PilSetup(setup)), vec![LinkEvent::PilSetup]);
     assert_eq!(link.pil_setup(), Some(&setup));

@@ -49,15 +49,16 @@ use hapticgen_fw_control::link::{DeviceLink, Gated, LinkEvent, LinkSettings};
 use hapticgen_fw_control::report::Line;
 use hapticgen_fw_control::{Controller, CostStats};
 use hapticgen_protocol::{
-    encode, ActuatorFrame, ChannelScales, DeviceInfo, DeviceMessage, PilLaw, PilSetup, SensorFrame,
-    MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION,
+    encode, ActuatorFrame, ChannelScales, DeviceInfo, DeviceMessage, PilLaw, PilSetup, SceneObject,
+    SensorFrame, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION,
 };
 use hapticgen_runtime::control::{
     ControlOptions, ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference,
 };
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
+use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
 use hapticgen_runtime::safety::FaultCode;
-use hapticgen_runtime::tick::HapticLoopSettings;
+use hapticgen_runtime::tick::{HapticLoopSettings, ReferenceSource};
 
 #[allow(clippy::all, dead_code)]
 mod generated {
@@ -68,7 +69,86 @@ use generated::image;
 const N: usize = image::JOINTS;
 const M: usize = image::TASK_DIM;
 type Rig = image::Rig;
-type Control = Controller<Rig, TaskReference<f32, M>, N, M>;
+type Control = Controller<Rig, PilSource, N, M>;
+
+/// Scene objects a PIL run may hold.
+const SCENE_OBJECTS: usize = 4;
+
+/// The reference of a PIL run: fixed, or a planar scene rendered on the device (a 2-D task:
+/// the runtime's proxy renderer with its anti-drift grid, as the self-contained images'
+/// `wall_contact` and the host's simulator run it).
+// One instance, in a static-sized controller: no heap on the device, so no box for the scene.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy)]
+enum Reference {
+    Fixed(TaskReference<f32, M>),
+    Scene(Scene<f32, SCENE_OBJECTS, 8>),
+}
+
+/// [`Reference`] and the last reference position it gave (sent back to the host).
+#[derive(Clone, Copy)]
+struct PilSource {
+    reference: Reference,
+    last: [f32; M],
+}
+
+impl ReferenceSource<f32, M> for PilSource {
+    fn update_reference(
+        &mut self,
+        task_position: &[f32; M],
+        parameters: &mut ImpedanceParameters<f32, M>,
+    ) -> TaskReference<f32, M> {
+        let reference = match &mut self.reference {
+            Reference::Fixed(fixed) => *fixed,
+            Reference::Scene(scene) => {
+                // The scene is planar: the first two task coordinates (`build` only makes a
+                // scene for a 2-D task).
+                let mut planar = ImpedanceParameters {
+                    stiffness: first(&parameters.stiffness),
+                    damping: first(&parameters.damping),
+                    mass: first(&parameters.mass),
+                };
+                let out = scene.update_reference(&first(task_position), &mut planar);
+                for k in 0..M.min(2) {
+                    parameters.stiffness[k] = planar.stiffness[k];
+                    parameters.damping[k] = planar.damping[k];
+                }
+                TaskReference {
+                    position: first(&out.position),
+                    velocity: first(&out.velocity),
+                    acceleration: first(&out.acceleration),
+                }
+            }
+        };
+        self.last = reference.position;
+        reference
+    }
+}
+
+/// A scene object of the link as a planar virtual object: a sphere is a circle, a box an
+/// axis-aligned rectangle; `None` for an empty slot or a half-space (not rendered in 2-D here).
+fn planar_object(object: &SceneObject) -> Option<VirtualObject<f32, 8>> {
+    let kind = |cavity: bool| if cavity { ObjectKind::Cavity } else { ObjectKind::Solid };
+    match *object {
+        SceneObject::Sphere { centre, radius, cavity, stiffness, damping } => Some(VirtualObject {
+            shape: Shape::Circle { center: first(&centre), radius },
+            kind: kind(cavity),
+            stiffness,
+            damping,
+        }),
+        SceneObject::Box { centre, half_extents, stiffness, damping } => Some(VirtualObject {
+            shape: Shape::Rectangle {
+                center: first(&centre),
+                half_extents: first(&half_extents),
+                angle: 0.0,
+            },
+            kind: ObjectKind::Solid,
+            stiffness,
+            damping,
+        }),
+        SceneObject::Empty | SceneObject::HalfSpace { .. } => None,
+    }
+}
 
 /// How long a period of a started run waits for its sensor frame, in ticks of the 25 MHz APB
 /// timer: 2.5 × 10⁸ ticks = 10 s of virtual time. The host computes the plant between two
@@ -198,7 +278,11 @@ fn first<const K: usize, T: Copy + Default>(values: &[T]) -> [T; K] {
 
 /// The controller `setup` and `impedance` describe, with the image's own current-loop gains;
 /// `None` if a value is unusable (non-finite, a cut-off not positive) or the rates are.
-fn build(setup: &PilSetup, impedance: &ImpedanceParameters<f32, MAX_TASK>) -> Option<Control> {
+fn build(
+    setup: &PilSetup,
+    impedance: &ImpedanceParameters<f32, MAX_TASK>,
+    objects: &[SceneObject; SCENE_OBJECTS],
+) -> Option<Control> {
     let scalars = [
         setup.velocity_cutoff_hz,
         setup.acceleration_cutoff_hz,
@@ -244,8 +328,21 @@ fn build(setup: &PilSetup, impedance: &ImpedanceParameters<f32, MAX_TASK>) -> Op
         current_gains: image::setup().current_gains,
         max_tick_gap: 1,
     };
-    let reference = TaskReference::at_rest(first(&setup.reference));
-    Controller::new(Rig::NOMINAL, reference, &settings, false)
+    let fixed = TaskReference::at_rest(first(&setup.reference));
+    let reference = match setup.scene_grid_spacing {
+        None => Reference::Fixed(fixed),
+        Some(grid) => {
+            if M != 2 || !grid.is_finite() || grid < 0.0 {
+                return None;
+            }
+            let mut scene = Scene::new(impedance.stiffness[0], impedance.damping[0], grid);
+            for object in objects.iter().filter_map(planar_object) {
+                scene.add(object)?;
+            }
+            Reference::Scene(scene)
+        }
+    };
+    Controller::new(Rig::NOMINAL, PilSource { reference, last: fixed.position }, &settings, false)
 }
 
 fn fault_number(fault: FaultCode) -> u8 {
@@ -357,6 +454,7 @@ fn main() -> ! {
     let mut board =
         PilBoard { counts: [0; N], currents: [0.0; N], readings: [0.0; M], volts: [0.0; N], driven: false };
     let mut impedance: Option<ImpedanceParameters<f32, MAX_TASK>> = None;
+    let mut objects = [SceneObject::Empty; SCENE_OBJECTS];
     let mut control: Option<Control> = None;
     let mut torque = [0.0f32; N];
     let mut tally = Tally {
@@ -395,33 +493,33 @@ fn main() -> ! {
                                 tally.uart_dropped += uart.write(buffer.get(..length).unwrap_or(&[]));
                             }
                         }
-                        Some(LinkEvent::Impedance(parameters)) => {
-                            if !running {
-                                impedance = Some(parameters);
-                            }
+                        // Settings, setup and scene only before the run starts.
+                        Some(LinkEvent::Impedance(parameters)) if !running => {
+                            impedance = Some(parameters);
                         }
-                        Some(LinkEvent::PilSetup) => {
-                            if !running {
-                                control = match (link.pil_setup(), impedance.as_ref()) {
-                                    (Some(setup), Some(p)) => build(setup, p),
-                                    _ => None,
-                                };
-                                if control.is_none() {
-                                    tally.refused_setups += 1;
-                                }
+                        Some(LinkEvent::PilSetup) if !running => {
+                            control = match (link.pil_setup(), impedance.as_ref()) {
+                                (Some(setup), Some(p)) => build(setup, p, &objects),
+                                _ => None,
+                            };
+                            if control.is_none() {
+                                tally.refused_setups += 1;
                             }
                         }
                         Some(LinkEvent::Sensors) => {
                             sensors = link.sensors().copied();
                             break;
                         }
-                        Some(LinkEvent::Disabled) => {
-                            if running {
-                                ended = true;
-                                break;
+                        Some(LinkEvent::Disabled) if running => {
+                            ended = true;
+                            break;
+                        }
+                        Some(LinkEvent::Object { slot, object }) if !running => {
+                            if let Some(entry) = objects.get_mut(usize::from(slot)) {
+                                *entry = object;
                             }
                         }
-                        Some(LinkEvent::Object { .. }) | None => {}
+                        _ => {}
                     }
                 }
                 None => {
@@ -481,6 +579,7 @@ fn main() -> ! {
                         voltage: first(&board.volts),
                         current_setpoint: first(control.haptic.current_setpoints()),
                         torque: first(&torque),
+                        reference: first(&control.haptic.source.last),
                         status,
                         fault: control.first_fault.map_or(0, |(_, f)| fault_number(f)),
                         missed: tally.missed,

@@ -74,6 +74,7 @@ fn SysTick() {
             voltage: first(&outcome.volts),
             current_setpoint: first(state.control.haptic.current_setpoints()),
             torque: first(&torque),
+            reference: [0.0; 3],
             status: u8::from(open),
             fault: 0,
             missed: 0,
