@@ -4,7 +4,8 @@
 //! received byte through `DeviceLink::receive` (frame decoding: COBS, CRC, postcard); on a
 //! sensor frame, the link's watchdog, `Controller::on_current_tick` through the link's `Gated`
 //! board, and the actuator frame's encoding. `scripts/firmware.sh --only pil` fails when a
-//! panic survives in it.
+//! panic survives in it. Its reference source is a fixed reference; the PIL image's may also
+//! be the runtime's planar `Scene`, which the probes of the `wall_contact` images check.
 #![no_std]
 #![no_main]
 
