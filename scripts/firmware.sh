@@ -10,7 +10,8 @@
 #   scripts/firmware.sh --only NAME      one image (repeatable; `stm32f4` is the board image, `link` the
 #                                        host link's cost image: state frames to UART0, checked on the host;
 #                                        `pil` the joystick's processor-in-the-loop image, run by `hapticgen pil`
-#                                        against the host's plant and compared with `hapticgen simulate`)
+#                                        against the host's plant and compared with `hapticgen simulate`;
+#                                        `pil-fig7` the parallel link's, tracing the circle of Fig. 7: ~10 min)
 #   HAPTICGEN_FW_OPT_LEVEL=s scripts/firmware.sh   another opt-level (the measurement in the docs)
 #   HAPTICGEN_FW_FMA=1 scripts/firmware.sh         generated code with fused multiply-adds (vfma.f32)
 #
@@ -32,6 +33,8 @@ LINK=link                     # the host link's cost image, for --only (docs/lin
 PIL=pil                       # the processor-in-the-loop run, for --only (docs/link.md)
 PIL_VARIANT=joystick          # the variants.txt line it is built for
 PIL_MAX_COUNTS=4              # PIL vs simulate: largest joint difference, encoder counts (docs/link.md)
+PIL_FIG7=pil-fig7             # the processor-in-the-loop circle tracing, for --only (docs/link.md)
+PIL_FIG7_VARIANT=vertical     # the variants.txt line it is built for (the paper's parallel link)
 QEMU_TIMEOUT=${HAPTICGEN_FW_QEMU_TIMEOUT:-300}
 LIMITS=()
 ONLY=()
@@ -53,7 +56,7 @@ die() { printf 'FAIL %s\n' "$*" >&2; exit 1; }
 # The images: every line of variants.txt, and the board image.
 TABLE=$(awk '{ sub(/#.*/, "") } NF { print $1 }' "$FW/variants.txt")
 [ -n "$TABLE" ] || die "$FW/variants.txt lists no image"
-KNOWN=$(printf '%s\n%s\n%s\n%s\n' "$TABLE" "$BOARD" "$LINK" "$PIL")
+KNOWN=$(printf '%s\n%s\n%s\n%s\n%s\n' "$TABLE" "$BOARD" "$LINK" "$PIL" "$PIL_FIG7")
 SELECTED=()
 if [ ${#ONLY[@]} -eq 0 ]; then
     mapfile -t SELECTED <<<"$KNOWN"
@@ -229,6 +232,28 @@ for NAME in "${SELECTED[@]}"; do
             continue
         fi
         CHECKED+=("$LINK")
+        continue
+    fi
+    if [ "$NAME" = "$PIL_FIG7" ]; then
+        step "PIL image ($PIL_FIG7_VARIANT): lint and build"
+        HAPTICGEN_FW_VARIANT=$PIL_FIG7_VARIANT cargo clippy --locked --release --target "$TARGET" \
+            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil -- -D warnings
+        HAPTICGEN_FW_VARIANT=$PIL_FIG7_VARIANT cargo build --locked --release --target "$TARGET" \
+            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil
+        cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-pil" "$OUT/$PIL_FIG7_VARIANT.pil.elf"
+        HOST_TARGET_DIR=$(cd "$ROOT" && cargo metadata --locked --format-version 1 --no-deps \
+            | sed -n 's/.*"target_directory":"\([^"]*\)".*/\1/p')
+        [ -n "$HOST_TARGET_DIR" ] || die "cargo metadata did not name the root workspace's target directory"
+        (cd "$ROOT" && cargo build --locked -p hapticgen) || die "building hapticgen failed"
+        HAPTICGEN=$HOST_TARGET_DIR/debug/hapticgen
+        step "PIL: Fig. 7 (circle tracing) on the parallel link under QEMU vs hapticgen simulate (bound: $PIL_MAX_COUNTS counts through |J|, two grid spacings)"
+        if ! "$HAPTICGEN" pil "$ROOT/models/parallel_link_2dof.yaml" --variant "$PIL_FIG7_VARIANT" \
+            --controller jacobian-transpose --scenario trace-circle --compare --max-counts "$PIL_MAX_COUNTS" \
+            --image "$OUT/$PIL_FIG7_VARIANT.pil.elf" -o "$OUT/pil-fig7"; then
+            FAILED+=("$PIL_FIG7: Fig. 7 run or comparison (see above)")
+            continue
+        fi
+        CHECKED+=("$PIL_FIG7")
         continue
     fi
     if [ "$NAME" = "$PIL" ]; then

@@ -316,6 +316,16 @@ impl Simulation {
         self.model.joints.iter().map(|j| 0.5 * (j.lower + j.upper)).collect()
     }
 
+    /// The task Jacobian at `q`, row by row (`task_dim` rows of `joints` entries).
+    pub fn jacobian_at(&self, q: &[f64]) -> Vec<Vec<f64>> {
+        let (n, m) = (self.joints(), self.task_dim());
+        let tape: &Tape = &self.nominal.kinematics;
+        let mut scratch = tape.scratch();
+        let mut out = vec![0.0; tape.len()];
+        tape.eval(&mut scratch, q, &vec![0.0; n], &self.nominal.parameters, &mut out);
+        (0..m).map(|k| out[m + k * n..m + (k + 1) * n].to_vec()).collect()
+    }
+
     /// Task position and Jacobian determinant (square tasks; 0 otherwise) at `q`.
     pub fn task_at(&self, q: &[f64]) -> (Vec<f64>, f64) {
         let (n, m) = (self.joints(), self.task_dim());
