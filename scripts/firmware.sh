@@ -8,7 +8,10 @@
 #   scripts/firmware.sh                  everything, limits enforced
 #   scripts/firmware.sh --limits=warn    limit violations reported but not fatal
 #   scripts/firmware.sh --only NAME      one image (repeatable; `stm32f4` is the board image, `link` the
-#                                        host link's cost image: state frames to UART0, checked on the host)
+#                                        host link's cost image: state frames to UART0, checked on the host;
+#                                        `pil` the joystick's processor-in-the-loop image, run by `hapticgen pil`
+#                                        against the host's plant and compared with `hapticgen simulate`;
+#                                        `pil-fig7` the parallel link's, tracing the circle of Fig. 7: ~10 min)
 #   HAPTICGEN_FW_OPT_LEVEL=s scripts/firmware.sh   another opt-level (the measurement in the docs)
 #   HAPTICGEN_FW_FMA=1 scripts/firmware.sh         generated code with fused multiply-adds (vfma.f32)
 #
@@ -27,6 +30,11 @@ TARGET=thumbv7em-none-eabihf
 BOARD=stm32f4                 # the board image's name for --only
 BOARD_VARIANT=horizontal      # the variants.txt line it is built for (its wiring has two joints)
 LINK=link                     # the host link's cost image, for --only (docs/link.md)
+PIL=pil                       # the processor-in-the-loop run, for --only (docs/link.md)
+PIL_VARIANT=joystick          # the variants.txt line it is built for
+PIL_MAX_COUNTS=4              # PIL vs simulate: largest joint difference, encoder counts (docs/link.md)
+PIL_FIG7=pil-fig7             # the processor-in-the-loop circle tracing, for --only (docs/link.md)
+PIL_FIG7_VARIANT=vertical     # the variants.txt line it is built for (the paper's parallel link)
 QEMU_TIMEOUT=${HAPTICGEN_FW_QEMU_TIMEOUT:-300}
 LIMITS=()
 ONLY=()
@@ -48,7 +56,7 @@ die() { printf 'FAIL %s\n' "$*" >&2; exit 1; }
 # The images: every line of variants.txt, and the board image.
 TABLE=$(awk '{ sub(/#.*/, "") } NF { print $1 }' "$FW/variants.txt")
 [ -n "$TABLE" ] || die "$FW/variants.txt lists no image"
-KNOWN=$(printf '%s\n%s\n%s\n' "$TABLE" "$BOARD" "$LINK")
+KNOWN=$(printf '%s\n%s\n%s\n%s\n%s\n' "$TABLE" "$BOARD" "$LINK" "$PIL" "$PIL_FIG7")
 SELECTED=()
 if [ ${#ONLY[@]} -eq 0 ]; then
     mapfile -t SELECTED <<<"$KNOWN"
@@ -210,11 +218,12 @@ for NAME in "${SELECTED[@]}"; do
         fi
         "$REF" link-stream "$OUT/$LINK.uart" "$OUT/$LINK.out" || { FAILED+=("$LINK: UART stream"); continue; }
         # Ceilings at today's cost (the goal, encode + decode <= 1,000 instructions, is not met
-        # yet; see docs/link.md): a regression fails.
+        # yet; see docs/link.md): a regression fails. Heartbeat and impedance were 600 and 3,600
+        # with protocol version 1; version 2's 112-byte host message costs ~490 per frame.
         LINK_FAIL=$(awk '/^LINK / {
                 part = ""; max = 0
                 for (i = 1; i <= NF; i++) { split($i, kv, "="); if (kv[1] == "part") part = kv[2]; if (kv[1] == "max") max = kv[2] }
-                limit = (part == "state") ? 3400 : (part == "heartbeat") ? 600 : 3600
+                limit = (part == "state") ? 3400 : (part == "heartbeat") ? 1100 : 4000
                 if (max + 0 > limit) print $0 " over its ceiling " limit
             }' "$OUT/$LINK.out")
         if [ -n "$LINK_FAIL" ]; then
@@ -223,6 +232,64 @@ for NAME in "${SELECTED[@]}"; do
             continue
         fi
         CHECKED+=("$LINK")
+        continue
+    fi
+    if [ "$NAME" = "$PIL_FIG7" ]; then
+        step "PIL image ($PIL_FIG7_VARIANT): lint and build"
+        HAPTICGEN_FW_VARIANT=$PIL_FIG7_VARIANT cargo clippy --locked --release --target "$TARGET" \
+            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil -- -D warnings
+        HAPTICGEN_FW_VARIANT=$PIL_FIG7_VARIANT cargo build --locked --release --target "$TARGET" \
+            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil
+        cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-pil" "$OUT/$PIL_FIG7_VARIANT.pil.elf"
+        HOST_TARGET_DIR=$(cd "$ROOT" && cargo metadata --locked --format-version 1 --no-deps \
+            | sed -n 's/.*"target_directory":"\([^"]*\)".*/\1/p')
+        [ -n "$HOST_TARGET_DIR" ] || die "cargo metadata did not name the root workspace's target directory"
+        (cd "$ROOT" && cargo build --locked -p hapticgen) || die "building hapticgen failed"
+        HAPTICGEN=$HOST_TARGET_DIR/debug/hapticgen
+        step "PIL: Fig. 7 (circle tracing) on the parallel link under QEMU vs hapticgen simulate (bound: $PIL_MAX_COUNTS counts through |J|, two grid spacings)"
+        if ! "$HAPTICGEN" pil "$ROOT/models/parallel_link_2dof.yaml" --variant "$PIL_FIG7_VARIANT" \
+            --controller jacobian-transpose --scenario trace-circle --compare --max-counts "$PIL_MAX_COUNTS" \
+            --image "$OUT/$PIL_FIG7_VARIANT.pil.elf" -o "$OUT/pil-fig7"; then
+            FAILED+=("$PIL_FIG7: Fig. 7 run or comparison (see above)")
+            continue
+        fi
+        CHECKED+=("$PIL_FIG7")
+        continue
+    fi
+    if [ "$NAME" = "$PIL" ]; then
+        step "PIL image ($PIL_VARIANT): lint and build (the control path against sensor frames from UART0, and its probe)"
+        HAPTICGEN_FW_VARIANT=$PIL_VARIANT cargo clippy --locked --release --target "$TARGET" \
+            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil \
+            --bin hapticgen-fw-qemu-pil-path -- -D warnings
+        HAPTICGEN_FW_VARIANT=$PIL_VARIANT cargo build --locked --release --target "$TARGET" \
+            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil --bin hapticgen-fw-qemu-pil-path
+        cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-pil" "$OUT/$PIL_VARIANT.pil.elf"
+        cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-pil-path" "$OUT/$PIL_VARIANT.pil-path.elf"
+        "$REF" size "$OUT/$PIL_VARIANT.pil.elf"
+        step "PIL image: no panic reachable from a received byte, the period's control and the answer's framing"
+        panic_check "$PIL" "$OUT/$PIL_VARIANT.pil-path.elf"
+        step "PIL: the host side (hapticgen, root workspace)"
+        HOST_TARGET_DIR=$(cd "$ROOT" && cargo metadata --locked --format-version 1 --no-deps \
+            | sed -n 's/.*"target_directory":"\([^"]*\)".*/\1/p')
+        [ -n "$HOST_TARGET_DIR" ] || die "cargo metadata did not name the root workspace's target directory"
+        (cd "$ROOT" && cargo build --locked -p hapticgen) || die "building hapticgen failed"
+        HAPTICGEN=$HOST_TARGET_DIR/debug/hapticgen
+        [ -x "$HAPTICGEN" ] || die "hapticgen was built but is not at $HAPTICGEN"
+        step "PIL: Fig. 4 on the joystick under QEMU vs hapticgen simulate (bound: $PIL_MAX_COUNTS encoder counts)"
+        if ! "$HAPTICGEN" pil "$ROOT/models/joystick_1dof.yaml" --controller natural-inertia --scenario step \
+            --duration 2 --compare --max-counts "$PIL_MAX_COUNTS" --image "$OUT/$PIL_VARIANT.pil.elf" \
+            -o "$OUT/pil-fig4"; then
+            FAILED+=("$PIL: Fig. 4 run or comparison (see above)")
+            continue
+        fi
+        step "PIL: fault tests (one sensor frame in 100 corrupted, dropped; the host goes silent at 0.25 s: safe state within 10 ms)"
+        if ! "$HAPTICGEN" pil "$ROOT/models/joystick_1dof.yaml" --controller natural-inertia --scenario step \
+            --duration 0.3 --stop-after 0.25 --corrupt-every 100 --image "$OUT/$PIL_VARIANT.pil.elf" \
+            -o "$OUT/pil-fault"; then
+            FAILED+=("$PIL: fault test (see above)")
+            continue
+        fi
+        CHECKED+=("$PIL")
         continue
     fi
     if [ "$NAME" = "$BOARD" ]; then

@@ -25,6 +25,7 @@ pub mod message;
 
 pub use frame::{encode, EncodeError, FrameDecoder, LinkCounters, MAX_FRAME_BYTES, MAX_MESSAGE_BYTES};
 pub use message::{
-    ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, HostMessage, ImpedanceSettings, SceneObject,
-    SensorFrame, StateFrame, StateSample, MAX_JOINTS, MAX_TASK, PROTOCOL_VERSION,
+    ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, HostMessage, ImpedanceSettings,
+    PilLaw, PilSetup, SceneObject, SensorFrame, StateFrame, StateSample, MAX_JOINTS, MAX_TASK,
+    PROTOCOL_VERSION,
 };

@@ -11,8 +11,10 @@
 
 use serde::{Deserialize, Serialize};
 
-/// The protocol version both sides must speak (exchanged in the handshake).
-pub const PROTOCOL_VERSION: u16 = 1;
+/// The protocol version both sides must speak (exchanged in the handshake). Version 2 added
+/// [`HostMessage::PilSetup`] and made [`DeviceMessage::Actuators`] an [`ActuatorFrame`]
+/// (processor in the loop); version 1 had neither.
+pub const PROTOCOL_VERSION: u16 = 2;
 
 /// The most joints a rig on the link may have.
 pub const MAX_JOINTS: usize = 6;
@@ -134,6 +136,89 @@ pub struct SensorFrame {
     pub force_readings: [f32; MAX_TASK],
 }
 
+/// The impedance law of a processor-in-the-loop run (the runtime's `ImpedanceLaw`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PilLaw {
+    /// Controller 1: force feedback.
+    ForceFeedback,
+    /// Controller 2, first variant: acceleration feedback.
+    AccelerationFeedback,
+    /// Controller 2, second variant: natural inertia, `M_d = W⁻¹`.
+    NaturalInertia,
+    /// Controller 3: Jacobian transpose.
+    JacobianTranspose,
+}
+
+/// Processor in the loop: how the device's controller is configured for the run, besides the
+/// target impedance ([`HostMessage::SetImpedance`]). Sent after the handshake and before the
+/// first [`SensorFrame`]; the device builds its controller from it (the host's simulation of
+/// the same scenario uses the same values, so the two runs can be compared).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PilSetup {
+    /// The impedance law.
+    pub law: PilLaw,
+    /// Velocity low-pass cut-off of the joint-state estimator, Hz.
+    pub velocity_cutoff_hz: f32,
+    /// Acceleration low-pass cut-off of the joint-state estimator, Hz.
+    pub acceleration_cutoff_hz: f32,
+    /// Joint coordinates at the initial encoder counts, rad (or m).
+    pub zero_offset: [f32; MAX_JOINTS],
+    /// Encoder counts at start-up.
+    pub initial_counts: [i32; MAX_JOINTS],
+    /// The fixed task-space reference `x_d` (at rest).
+    pub reference: [f32; MAX_TASK],
+    /// Force-sensor calibration: force per raw unit, per task axis.
+    pub force_scale: [f32; MAX_TASK],
+    /// Force-sensor calibration: raw reading at zero force, per task axis.
+    pub force_offset: [f32; MAX_TASK],
+    /// `|det J|` below which Controllers 1 and 2 fall back to Controller 3.
+    pub min_abs_jacobian_determinant: f32,
+    /// Lead time of the spring term, s (0: the paper's law).
+    pub spring_lead_time: f32,
+    /// `None`: the reference is [`PilSetup::reference`]. `Some(grid spacing, m)`: a planar
+    /// scene rendered by the device (a 2-D task): the objects sent with
+    /// [`HostMessage::SetObject`] (a sphere is a circle, a box a rectangle), free space with
+    /// the target impedance's `K_d`, `B_d` of the first axis and this anti-drift grid.
+    pub scene_grid_spacing: Option<f32>,
+}
+
+/// Processor in the loop: what the device commands in one current-loop period, the answer to
+/// one [`SensorFrame`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ActuatorFrame {
+    /// The tick of the sensor frame this answers (wrapping).
+    pub tick: u16,
+    /// Armature voltage per joint, V (zero while the bridges are off).
+    pub voltage: [f32; MAX_JOINTS],
+    /// Motor current setpoints after this period's impedance tick, A.
+    pub current_setpoint: [f32; MAX_JOINTS],
+    /// Joint torques commanded by the latest impedance tick (after the safety rules), N·m.
+    pub torque: [f32; MAX_JOINTS],
+    /// The impedance law's reference position after this period (the proxy of a scene).
+    pub reference: [f32; MAX_TASK],
+    /// [`ActuatorFrame::IMPEDANCE_TICK`], [`ActuatorFrame::DRIVEN`], [`ActuatorFrame::CLAMPED`],
+    /// [`ActuatorFrame::FALLBACK`], [`ActuatorFrame::LINK_FAULT`].
+    pub status: u8,
+    /// The safety monitor's latched fault (0: none; 1 non-finite input, 2 non-finite torque,
+    /// 3 missed ticks, 4 tick counter stalled, 5 control refused, 6 sensor implausible).
+    pub fault: u8,
+    /// Periods so far for which no sensor frame arrived in time.
+    pub missed: u32,
+}
+
+impl ActuatorFrame {
+    /// Status bit: an impedance tick ran this period.
+    pub const IMPEDANCE_TICK: u8 = 1;
+    /// Status bit: the bridges were driven this period (link enabled, no link fault).
+    pub const DRIVEN: u8 = 2;
+    /// Status bit: this period's impedance tick clamped a torque to its limit.
+    pub const CLAMPED: u8 = 4;
+    /// Status bit: this period's impedance tick fell back to Controller 3 near a singularity.
+    pub const FALLBACK: u8 = 8;
+    /// Status bit: the link's heartbeat watchdog has latched its fault (safe state).
+    pub const LINK_FAULT: u8 = 16;
+}
+
 /// Host → device.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum HostMessage {
@@ -163,8 +248,11 @@ pub enum HostMessage {
         /// Its new object.
         object: SceneObject,
     },
-    /// Processor-in-the-loop: the sensors for the next tick.
+    /// Processor-in-the-loop: the sensors for the next tick (also proves the host alive, as a
+    /// heartbeat does).
     Sensors(SensorFrame),
+    /// Processor-in-the-loop: the controller's configuration for the run.
+    PilSetup(PilSetup),
 }
 
 /// Device → host.
@@ -174,13 +262,8 @@ pub enum DeviceMessage {
     Hello(DeviceInfo),
     /// One impedance tick's state.
     State(StateFrame),
-    /// Processor-in-the-loop: the armature voltages this tick commands.
-    Actuators {
-        /// The tick of the sensor frame these answer (wrapping).
-        tick: u16,
-        /// Armature voltage per joint, V.
-        voltage: [f32; MAX_JOINTS],
-    },
+    /// Processor-in-the-loop: what this period commands (the answer to a sensor frame).
+    Actuators(ActuatorFrame),
     /// The device's receive counters.
     Link(crate::frame::LinkCounters),
 }

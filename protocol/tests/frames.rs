@@ -4,8 +4,9 @@
 
 use hapticgen_protocol::message::Channels;
 use hapticgen_protocol::{
-    encode, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, FrameDecoder, HostMessage,
-    ImpedanceSettings, LinkCounters, SceneObject, SensorFrame, StateFrame, StateSample, MAX_FRAME_BYTES,
+    encode, ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, FrameDecoder,
+    HostMessage, ImpedanceSettings, LinkCounters, PilLaw, PilSetup, SceneObject, SensorFrame, StateFrame,
+    StateSample, MAX_FRAME_BYTES,
 };
 use proptest::prelude::*;
 
@@ -74,7 +75,46 @@ fn host_message() -> impl Strategy<Value = HostMessage> {
             .prop_map(|(tick, encoder_counts, motor_current, force_readings)| {
                 HostMessage::Sensors(SensorFrame { tick, encoder_counts, motor_current, force_readings })
             }),
+        pil_setup().prop_map(HostMessage::PilSetup),
     ]
+}
+
+fn joint_vector() -> impl Strategy<Value = [f32; 6]> {
+    [finite(), finite(), finite(), finite(), finite(), finite()]
+}
+
+fn pil_setup() -> impl Strategy<Value = PilSetup> {
+    (
+        prop_oneof![
+            Just(PilLaw::ForceFeedback),
+            Just(PilLaw::AccelerationFeedback),
+            Just(PilLaw::NaturalInertia),
+            Just(PilLaw::JacobianTranspose)
+        ],
+        [finite(), finite(), finite(), finite()],
+        joint_vector(),
+        any::<[i32; 6]>(),
+        (task_vector(), task_vector(), task_vector()),
+        proptest::option::of(finite()),
+    )
+        .prop_map(
+            |(law, [velocity, acceleration, determinant, lead], zero_offset, initial_counts, axes, grid)| {
+                let (reference, force_scale, force_offset) = axes;
+                PilSetup {
+                    law,
+                    velocity_cutoff_hz: velocity,
+                    acceleration_cutoff_hz: acceleration,
+                    zero_offset,
+                    initial_counts,
+                    reference,
+                    force_scale,
+                    force_offset,
+                    min_abs_jacobian_determinant: determinant,
+                    spring_lead_time: lead,
+                    scene_grid_spacing: grid,
+                }
+            },
+        )
 }
 
 /// A state sample of `joints` joints and `task` axes with values inside the desktop scales.
@@ -120,8 +160,19 @@ fn device_message() -> impl Strategy<Value = DeviceMessage> {
             }
         ),
         (1usize..=6, 1usize..=3).prop_flat_map(|(n, m)| state_frame(n, m)).prop_map(DeviceMessage::State),
-        (any::<u16>(), [finite(), finite(), finite(), finite(), finite(), finite()])
-            .prop_map(|(tick, voltage)| DeviceMessage::Actuators { tick, voltage }),
+        (any::<u16>(), joint_vector(), joint_vector(), joint_vector(), task_vector(), any::<(u8, u8, u32)>())
+            .prop_map(|(tick, voltage, current_setpoint, torque, reference, (status, fault, missed))| {
+                DeviceMessage::Actuators(ActuatorFrame {
+                    tick,
+                    voltage,
+                    current_setpoint,
+                    torque,
+                    reference,
+                    status,
+                    fault,
+                    missed,
+                })
+            }),
         any::<[u32; 5]>().prop_map(|[frames, oversized, bad_stuffing, bad_crc, not_a_message]| {
             DeviceMessage::Link(LinkCounters { frames, oversized, bad_stuffing, bad_crc, not_a_message })
         }),
@@ -307,6 +358,59 @@ fn state_frames_fit_a_megabit_uart_at_one_kilohertz() {
         );
         assert!(bytes <= limit, "{joints}×{task}: {bytes} bytes");
     }
+}
+
+/// The processor-in-the-loop frames at their widest (every count and every counter at the
+/// longest varint) fit a frame; their sizes are those of docs/link.md.
+#[test]
+fn pil_frames_fit_at_their_widest() {
+    let sensors = HostMessage::Sensors(SensorFrame {
+        tick: u16::MAX,
+        encoder_counts: [i32::MIN; 6],
+        motor_current: [1e9; 6],
+        force_readings: [1e9; 3],
+    });
+    let setup = HostMessage::PilSetup(PilSetup {
+        law: PilLaw::JacobianTranspose,
+        velocity_cutoff_hz: 1e9,
+        acceleration_cutoff_hz: 1e9,
+        zero_offset: [1e9; 6],
+        initial_counts: [i32::MIN; 6],
+        reference: [1e9; 3],
+        force_scale: [1e9; 3],
+        force_offset: [1e9; 3],
+        min_abs_jacobian_determinant: 1e9,
+        spring_lead_time: 1e9,
+        scene_grid_spacing: Some(1e9),
+    });
+    let actuators = DeviceMessage::Actuators(ActuatorFrame {
+        tick: u16::MAX,
+        voltage: [1e9; 6],
+        current_setpoint: [1e9; 6],
+        torque: [1e9; 6],
+        reference: [1e9; 3],
+        status: u8::MAX,
+        fault: u8::MAX,
+        missed: u32::MAX,
+    });
+    let sizes = [frame_of(&sensors).len(), frame_of(&setup).len(), frame_of(&actuators).len()];
+    println!(
+        "PIL frames at their widest: sensors {} B, setup {} B, actuators {} B",
+        sizes[0], sizes[1], sizes[2]
+    );
+    assert!(sizes.iter().all(|&n| n <= MAX_FRAME_BYTES));
+    // A version-1 peer's actuator frame (tick and voltages only) is not a message of this
+    // version: refused, not misread.
+    #[derive(serde::Serialize)]
+    struct ActuatorsV1 {
+        kind: u8,
+        tick: u16,
+        voltage: [f32; 6],
+    }
+    let mut decoder = FrameDecoder::new();
+    let old = frame_of(&ActuatorsV1 { kind: 2, tick: 1, voltage: [0.5; 6] });
+    assert!(receive::<DeviceMessage>(&mut decoder, &old).is_empty());
+    assert_eq!(decoder.counters().not_a_message, 1);
 }
 
 /// Quantisation: within half a step of the value; beyond the channel's range sent at the

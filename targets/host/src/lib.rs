@@ -14,6 +14,7 @@ pub mod faults;
 pub mod generated;
 pub mod output;
 pub mod paper;
+pub mod pil;
 pub mod plant;
 pub mod plot;
 pub mod rig;

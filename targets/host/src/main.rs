@@ -15,7 +15,7 @@ use hapticgen_codegen::check::stability;
 use hapticgen_codegen::{eval, model, Scalar};
 use hapticgen_host::paper;
 use hapticgen_host::plant::Effects;
-use hapticgen_host::simulate::{Scenario, ScenarioSettings, Simulation};
+use hapticgen_host::simulate::{PilTarget, Scenario, ScenarioSettings, Simulation};
 use hapticgen_runtime::control::ImpedanceLaw;
 
 #[derive(Parser)]
@@ -132,6 +132,10 @@ enum Command {
     /// Simulate a model in closed loop with one of the paper's controllers; writes
     /// DIR/trace.csv and plots (DIR/*.svg, DIR/*.png).
     Simulate(SimulateArgs),
+    /// Processor in the loop: the rig's firmware image under QEMU (Cortex-M4F) controls the
+    /// simulated plant of `simulate`, lock-step over the board's UART (one exchange per
+    /// current-loop period); writes DIR/trace.csv, plots and DIR/qemu.out (the image's report).
+    Pil(PilArgs),
     /// Run every experiment of the paper's section 6; writes figures and DIR/report.md.
     Paper {
         /// Output directory.
@@ -257,6 +261,36 @@ struct SimulateArgs {
     /// Seed of the sensor noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+}
+
+#[derive(clap::Args)]
+struct PilArgs {
+    #[command(flatten)]
+    run: SimulateArgs,
+    /// The PIL image (default: $HAPTICGEN_PIL_IMAGE, else <target dir>/images/<image>.pil.elf
+    /// as `scripts/firmware.sh --only pil` builds it).
+    #[arg(long)]
+    image: Option<PathBuf>,
+    /// qemu-system-arm (default: the first on PATH).
+    #[arg(long)]
+    qemu: Option<PathBuf>,
+    /// Also run `simulate` of the same scenario (DIR/simulate/trace.csv) and print the largest
+    /// differences of the two traces (DIR/compare.csv: the differences over time).
+    #[arg(long)]
+    compare: bool,
+    /// With --compare: fail unless the largest joint-angle difference is within this many
+    /// encoder counts (motor side); with a rendered scene, unless every task coordinate is
+    /// within this many counts mapped through |J(q0)| plus two grid spacings (docs/link.md).
+    #[arg(long)]
+    max_counts: Option<f64>,
+    /// Fault test: stop sending sensor frames after this much simulated time, s; fails unless
+    /// the firmware reaches its safe state within 10 ms of simulated time (its periods).
+    #[arg(long)]
+    stop_after: Option<f64>,
+    /// Fault test: before every N-th sensor frame, send a copy with one bit flipped; fails
+    /// unless the image dropped exactly those frames and missed no period because of them.
+    #[arg(long)]
+    corrupt_every: Option<u64>,
 }
 
 fn load(
@@ -419,6 +453,7 @@ fn run(cli: Cli) -> Result<(), String> {
             Ok(())
         }
         Command::Simulate(args) => simulate(args),
+        Command::Pil(args) => pil(args),
         Command::Paper { output, quick } => {
             let summary = paper::run_all(&output, quick, true)?;
             println!("{summary}");
@@ -458,7 +493,16 @@ fn run(cli: Cli) -> Result<(), String> {
     }
 }
 
-fn simulate(args: SimulateArgs) -> Result<(), String> {
+/// A run `simulate` and `pil` share: the model, its configuration, the scenario and whether
+/// the start is singular.
+struct Configured {
+    sim: Simulation,
+    cfg: hapticgen_host::sim::SimConfig,
+    scenario: Scenario,
+    singular_start: Option<f64>,
+}
+
+fn configure(args: &SimulateArgs) -> Result<Configured, String> {
     let sim = Simulation::load(&args.model, args.variant.as_deref())?;
     for (name, value) in
         [("--kd", args.kd), ("--bd", args.bd), ("--md", args.md), ("--duration", args.duration)]
@@ -529,6 +573,13 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     }
     std::fs::create_dir_all(&args.output)
         .map_err(|e| format!("error: cannot create {}: {e}", args.output.display()))?;
+    Ok(Configured { sim, cfg, scenario, singular_start })
+}
+
+fn simulate(args: SimulateArgs) -> Result<(), String> {
+    let Configured { sim, cfg, scenario, singular_start } = configure(&args)?;
+    let largest_det = sim.largest_jacobian_determinant();
+    let singularity = |q: &[f64]| largest_det.map(|largest| sim.task_at(q).1.abs() / largest);
     let trace = sim.run(&cfg)?;
     hapticgen_host::output::write_csv(&trace, &args.output.join("trace.csv"))?;
     let figures = paper::trace_figures(&trace, &args.output)?;
@@ -555,6 +606,220 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+fn pil(args: PilArgs) -> Result<(), String> {
+    let Configured { sim, cfg, scenario: _, singular_start: _ } = configure(&args.run)?;
+    let run = &args.run;
+    // The variant applied: the one asked for, else the model's default.
+    let name = hapticgen_host::pil::image_name(&run.model, sim.model.variant.as_deref())?;
+    let image = hapticgen_host::pil::locate_image(&name, args.image.as_deref())?;
+    let qemu = hapticgen_host::pil::locate_qemu(args.qemu.as_deref())?;
+    let period = 1.0 / f64::from(sim.data.current_loop_hz);
+    if let Some(t) = args.stop_after {
+        if !(t.is_finite() && t >= 0.0) {
+            return Err(format!("error: --stop-after must be a finite, non-negative time, got {t}"));
+        }
+    }
+    let target = PilTarget {
+        qemu,
+        image: image.clone(),
+        name: name.clone(),
+        log: run.output.join("qemu.out"),
+        stop_after: args.stop_after.map(|t| (t / period).round() as u64),
+        corrupt_every: args.corrupt_every,
+    };
+    eprintln!("pil: image {} ({name}) under {}", image.display(), target.qemu.display());
+    let (trace, report) = sim.run_pil(&cfg, &target)?;
+    hapticgen_host::output::write_csv(&trace, &run.output.join("trace.csv"))?;
+    let figures = paper::trace_figures(&trace, &run.output)?;
+    println!(
+        "{}: {:.2} s simulated in {:.2} s ({:.2}× real time), controller: firmware `{name}` under QEMU; wrote {} and {} \
+         figures",
+        run.model.display(),
+        trace.duration(),
+        trace.wall_seconds,
+        trace.duration() / trace.wall_seconds.max(1e-9),
+        run.output.join("trace.csv").display(),
+        figures
+    );
+    for line in &report.lines {
+        println!("  {line}");
+    }
+    if let Some((t, fault)) = &trace.fault {
+        println!("note: the firmware's safety monitor latched {fault} at t = {t:.3} s");
+    }
+    let mut failures = Vec::new();
+    if let Some(stop) = target.stop_after {
+        // The host went silent after `stop` periods: the image must have reached its safe state
+        // within 10 ms of its own (simulated) time.
+        match report.value("PIL_SAFE", None, "us") {
+            Some(us) => {
+                let missed = report.value("PIL_SAFE", None, "missed_periods").unwrap_or(-1);
+                println!(
+                    "fault test: host silent after {stop} periods ({:.3} s); safe state after {missed} periods \
+                     without a sensor frame = {:.2} ms (bound 10 ms)",
+                    stop as f64 * period,
+                    us as f64 / 1000.0
+                );
+                if us > 10_000 {
+                    failures.push(format!("the safe state took {:.2} ms, over 10 ms", us as f64 / 1000.0));
+                }
+            }
+            None => failures.push("the firmware did not report reaching its safe state (PIL_SAFE)".into()),
+        }
+    }
+    if args.corrupt_every.is_some() {
+        let dropped = report.value("PIL_DONE", None, "dropped_frames").unwrap_or(-1);
+        let missed = report.value("PIL_DONE", None, "missed").unwrap_or(-1);
+        let silent = report.value("PIL_SAFE", None, "missed_periods").unwrap_or(0);
+        println!(
+            "fault test: {} sensor frames sent with one bit flipped; the image dropped {dropped} frames and missed \
+             {} periods because of them",
+            report.corrupted,
+            missed - silent
+        );
+        if dropped != report.corrupted as i64 || missed != silent {
+            failures.push(format!(
+                "{} corrupted frames sent, {dropped} dropped, {} periods missed",
+                report.corrupted,
+                missed - silent
+            ));
+        }
+    }
+    if args.compare {
+        let reference = sim.run(&cfg)?;
+        std::fs::create_dir_all(run.output.join("simulate"))
+            .map_err(|e| format!("error: cannot create {}: {e}", run.output.join("simulate").display()))?;
+        hapticgen_host::output::write_csv(&reference, &run.output.join("simulate/trace.csv"))?;
+        let comparison = compare_traces(&trace, &reference, args.stop_after);
+        let rad_per_count: Vec<f64> = sim
+            .model
+            .joints
+            .iter()
+            .map(|j| {
+                std::f64::consts::TAU / (f64::from(j.drive.encoder.counts_per_turn) * j.drive.gear_ratio)
+            })
+            .collect();
+        println!("PIL vs simulate of the same scenario (every {:.1} ms):", 1000.0 * comparison.sample_period);
+        for (column, (difference, t)) in &comparison.largest {
+            let counts = column
+                .strip_prefix('q')
+                .filter(|rest| !rest.starts_with('d'))
+                .and_then(|j| j.parse::<usize>().ok())
+                .and_then(|j| rad_per_count.get(j))
+                .map(|per| format!(" = {:.2} encoder counts", difference / per));
+            println!(
+                "  largest |Δ{column}| = {difference:.3e} at t = {t:.4} s{}",
+                counts.unwrap_or_default()
+            );
+        }
+        write_comparison(&comparison, &run.output.join("compare.csv"))?;
+        if let Some(limit) = args.max_counts {
+            let before = failures.len();
+            if let hapticgen_host::sim::Reference::Scene { grid_spacing, .. } = &cfg.reference {
+                // A rendered scene: the rule of the firmware check (docs/firmware.md, `TOL x`):
+                // the counts mapped to the task through |J(q0)|, plus two grid spacings (after
+                // a contact the proxies may rest on neighbouring grid nodes); joint angles are
+                // not compared (a different node is a different pose).
+                let jacobian = sim.jacobian_at(&cfg.initial_q);
+                let through = jacobian
+                    .iter()
+                    .map(|row| row.iter().zip(&rad_per_count).map(|(a, per)| a.abs() * per).sum::<f64>())
+                    .fold(0.0, f64::max);
+                let bound = limit * through + 2.0 * grid_spacing;
+                for (column, (difference, t)) in &comparison.largest {
+                    if column.starts_with('x') && !column.starts_with("xp") && *difference > bound {
+                        failures.push(format!(
+                            "|Δ{column}| = {:.1} µm at t = {t:.4} s, over the bound of {:.1} µm",
+                            difference * 1e6,
+                            bound * 1e6
+                        ));
+                    }
+                }
+                if failures.len() == before {
+                    println!(
+                        "check: every task coordinate within {:.1} µm of simulate ({limit} counts through |J(q0)| \
+                         and two grid spacings)",
+                        bound * 1e6
+                    );
+                }
+            } else {
+                for (j, per) in rad_per_count.iter().enumerate() {
+                    let name = format!("q{j}");
+                    if let Some((difference, t)) =
+                        comparison.largest.iter().find(|(c, _)| *c == name).map(|(_, d)| *d)
+                    {
+                        if difference > limit * per {
+                            failures.push(format!(
+                                "|Δ{name}| = {:.2} counts at t = {t:.4} s, over the bound of {limit} counts",
+                                difference / per
+                            ));
+                        }
+                    }
+                }
+                if failures.len() == before {
+                    println!("check: every joint within {limit} encoder counts of simulate");
+                }
+            }
+        }
+    }
+    if failures.is_empty() {
+        Ok(())
+    } else {
+        Err(failures.iter().map(|f| format!("FAIL pil: {f}")).collect::<Vec<_>>().join("\n"))
+    }
+}
+
+/// The largest absolute difference per column of two traces of the same run, and when.
+struct Comparison {
+    sample_period: f64,
+    /// `(column, (largest |difference|, time))`, in the traces' column order (time excluded).
+    largest: Vec<(String, (f64, f64))>,
+    /// Time and every column's difference, per row.
+    rows: Vec<Vec<f64>>,
+    columns: Vec<String>,
+}
+
+fn compare_traces(
+    pil: &hapticgen_host::sim::Trace,
+    reference: &hapticgen_host::sim::Trace,
+    until: Option<f64>,
+) -> Comparison {
+    let columns: Vec<String> = pil.columns.iter().skip(1).cloned().collect();
+    let mut largest: Vec<(String, (f64, f64))> = columns.iter().map(|c| (c.clone(), (0.0, 0.0))).collect();
+    let mut rows = Vec::new();
+    for (a, b) in pil.rows.iter().zip(&reference.rows) {
+        let t = a[0];
+        if until.is_some_and(|stop| t > stop) {
+            break;
+        }
+        let mut row = vec![t];
+        for (i, (x, y)) in a.iter().zip(b).enumerate().skip(1) {
+            let d = (x - y).abs();
+            row.push(x - y);
+            if d > largest[i - 1].1 .0 {
+                largest[i - 1].1 = (d, t);
+            }
+        }
+        rows.push(row);
+    }
+    let sample_period = pil.rows.get(1).map_or(0.0, |r| r[0]) - pil.rows.first().map_or(0.0, |r| r[0]);
+    Comparison { sample_period, largest, rows, columns }
+}
+
+fn write_comparison(comparison: &Comparison, path: &std::path::Path) -> Result<(), String> {
+    let mut text = String::from("t");
+    for c in &comparison.columns {
+        text.push_str(&format!(",d{c}"));
+    }
+    text.push('\n');
+    for row in &comparison.rows {
+        let cells: Vec<String> = row.iter().map(|v| format!("{v:.9e}")).collect();
+        text.push_str(&cells.join(","));
+        text.push('\n');
+    }
+    std::fs::write(path, text).map_err(|e| format!("error: cannot write {}: {e}", path.display()))
 }
 
 /// `|det J|` under this fraction of its largest value over the joint limits is singular.

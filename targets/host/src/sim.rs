@@ -336,6 +336,106 @@ fn array<const K: usize>(values: &[f64], name: &str) -> Result<[f64; K], String>
     Ok(std::array::from_fn(|k| values[k]))
 }
 
+/// What the device's controller is given in one current-loop period of a run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PeriodSensors<const N: usize, const M: usize> {
+    /// Motor currents as measured through the current-sense filter, A.
+    pub measured_current: [f64; N],
+    /// Encoder counters now.
+    pub encoder_counts: [i32; N],
+    /// Force-sensor readings (raw units), when the simulation's scheduler says an impedance
+    /// tick is due this period.
+    pub force_readings: Option<[f64; M]>,
+}
+
+/// What one impedance tick of the device's controller did, for the trace.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImpedanceOutcome<const N: usize> {
+    /// Commanded joint torques after the safety rules, N·m.
+    pub torque: [f64; N],
+    /// A torque was clamped to its limit.
+    pub clamped: bool,
+    /// Controller 1 or 2 fell back to Controller 3 near a singularity.
+    pub fallback: bool,
+    /// The latched fault, described, if there is one.
+    pub fault: Option<String>,
+}
+
+/// What the device's controller commands in one current-loop period.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PeriodCommand<const N: usize, const M: usize> {
+    /// Armature voltages, held over the period, V.
+    pub volts: [f64; N],
+    /// Motor current setpoints (the plant's currents when its electrics are off), A.
+    pub current_setpoints: [f64; N],
+    /// The impedance tick's outcome, when one ran this period.
+    pub impedance: Option<ImpedanceOutcome<N>>,
+    /// The impedance law's reference position (the proxy) after this period.
+    pub reference: [f64; M],
+}
+
+/// The controller in the closed loop of [`run_with`]: the runtime's [`HapticLoop`] on the host
+/// ([`run`], `hapticgen simulate`), or the firmware on the emulated processor
+/// (`hapticgen pil`, [`crate::pil`]).
+pub trait DeviceController<const N: usize, const M: usize> {
+    /// One current-loop period: the current loop on `sensors.measured_current`, and the
+    /// impedance tick when `sensors.force_readings` is given.
+    fn period(&mut self, sensors: &PeriodSensors<N, M>) -> Result<PeriodCommand<N, M>, String>;
+}
+
+/// The runtime's control cycle on the host, in `f64`.
+pub struct LocalController<R, const N: usize, const M: usize>
+where
+    R: RigModel<N, M, Scalar = f64>,
+{
+    haptic: HapticLoop<SimRig<R, N>, SimSource<M>, N, M>,
+    tick: u32,
+}
+
+impl<R, const N: usize, const M: usize> DeviceController<N, M> for LocalController<R, N, M>
+where
+    R: RigModel<N, M, Scalar = f64>,
+{
+    fn period(&mut self, sensors: &PeriodSensors<N, M>) -> Result<PeriodCommand<N, M>, String> {
+        let haptic = &mut self.haptic;
+        let (voltages, _) = haptic.current_tick(&sensors.measured_current);
+        let impedance = sensors.force_readings.map(|readings| {
+            self.tick = self.tick.wrapping_add(1);
+            let inputs = ImpedanceInputs {
+                encoder_counts: sensors.encoder_counts,
+                force_readings: readings,
+                tick: self.tick,
+            };
+            let report = haptic.impedance_tick(&inputs);
+            ImpedanceOutcome {
+                torque: report.command.torque,
+                clamped: report.command.any_clamped(),
+                fallback: report.control_status == ControlStatus::SingularFallback,
+                fault: report
+                    .command
+                    .fault
+                    .map(|fault| format!("{fault:?} (control {:?})", report.control_status)),
+            }
+        });
+        Ok(PeriodCommand {
+            volts: std::array::from_fn(|j| voltages[j].voltage),
+            current_setpoints: *haptic.current_setpoints(),
+            impedance,
+            reference: haptic.source.last,
+        })
+    }
+}
+
+impl<const M: usize> SimSource<M> {
+    /// The fixed reference position, if the reference is not a scene.
+    pub fn fixed_position(&self) -> Option<[f64; M]> {
+        if self.scene.is_some() {
+            return None;
+        }
+        Some(self.fixed.map_or(self.last, |r| r.position))
+    }
+}
+
 /// Runs one simulation with `rig` as the controller's model and `plant_model` as the device.
 pub fn run<R, const N: usize, const M: usize>(
     rig: R,
@@ -345,6 +445,31 @@ pub fn run<R, const N: usize, const M: usize>(
 ) -> Result<Trace, String>
 where
     R: RigModel<N, M, Scalar = f64>,
+{
+    run_with(rig, plant_model, data, cfg, |rig, source, settings| {
+        let haptic = HapticLoop::new(rig, source, settings)
+            .ok_or_else(|| "error: unusable loop rates in the generated rig".to_string())?;
+        Ok(LocalController { haptic, tick: 0 })
+    })
+    .map(|(trace, _)| trace)
+}
+
+/// Runs one simulation of `plant_model` with the controller `make` builds from the rig (with
+/// the run's drive settings), the reference source and the loop settings that
+/// [`run`] gives the runtime's [`HapticLoop`]: the plant, the operator, the sensors and the
+/// trace are the same whichever controller closes the loop. Returns the trace and the
+/// controller.
+pub fn run_with<R, C, F, const N: usize, const M: usize>(
+    rig: R,
+    plant_model: Arc<CompiledModel>,
+    data: &LoopData,
+    cfg: &SimConfig,
+    make: F,
+) -> Result<(Trace, C), String>
+where
+    R: RigModel<N, M, Scalar = f64>,
+    C: DeviceController<N, M>,
+    F: FnOnce(SimRig<R, N>, SimSource<M>, &HapticLoopSettings<f64, N, M>) -> Result<C, String>,
 {
     let effects = cfg.effects;
     let mut drives = rig.drives();
@@ -427,8 +552,8 @@ where
         current_gains: rig.current_loop_gains(),
         max_tick_gap: 1,
     };
-    let mut haptic = HapticLoop::new(rig, source, &settings)
-        .ok_or_else(|| "error: unusable loop rates in the generated rig".to_string())?;
+    let mut reference = source.last;
+    let mut controller = make(rig, source, &settings)?;
     let mut scheduler = Scheduler::new(data.current_loop_hz, data.impedance_loop_hz).ok_or_else(|| {
         format!(
             "error: unusable loop rates: current loop {} Hz, impedance loop {} Hz",
@@ -447,7 +572,6 @@ where
         trace.columns.extend((0..count).map(|k| format!("{prefix}{k}")));
     }
     let mut torque = [0.0; N];
-    let mut tick_counter: u32 = 0;
     let wall = Instant::now();
     let mut bar: Option<indicatif::ProgressBar> = None;
     let show_progress = cfg.progress && std::io::stderr().is_terminal();
@@ -465,16 +589,14 @@ where
             row.extend_from_slice(&task.position);
             row.extend_from_slice(&torque);
             row.extend_from_slice(&force);
-            row.extend_from_slice(&haptic.source.last);
+            row.extend_from_slice(&reference);
             trace.rows.push(row);
         }
         if k == total {
             break;
         }
-        let measured = plant.state.measured_current;
-        let (voltages, _) = haptic.current_tick(&measured);
-        if scheduler.tick() {
-            let readings: [f64; M] = std::array::from_fn(|i| {
+        let readings = scheduler.tick().then(|| {
+            std::array::from_fn(|i| {
                 let spec = &sensors[i];
                 let mut f_l = -force[i];
                 if effects.sensor_noise {
@@ -487,34 +609,33 @@ where
                     }
                 }
                 spec.offset + f_l / spec.scale
-            });
-            tick_counter = tick_counter.wrapping_add(1);
-            let inputs = ImpedanceInputs {
-                encoder_counts: plant.encoder_counts(),
-                force_readings: readings,
-                tick: tick_counter,
-            };
-            let report = haptic.impedance_tick(&inputs);
+            })
+        });
+        let command = controller.period(&PeriodSensors {
+            measured_current: plant.state.measured_current,
+            encoder_counts: plant.encoder_counts(),
+            force_readings: readings,
+        })?;
+        if let Some(outcome) = command.impedance {
             trace.impedance_ticks += 1;
-            if report.command.any_clamped() {
+            if outcome.clamped {
                 trace.clamped_ticks += 1;
             }
-            if report.control_status == ControlStatus::SingularFallback {
+            if outcome.fallback {
                 trace.fallback_ticks += 1;
             }
-            if let (Some(fault), None) = (report.command.fault, &trace.fault) {
-                trace.fault = Some((t, format!("{fault:?} (control {:?})", report.control_status)));
+            if let (Some(fault), None) = (outcome.fault, &trace.fault) {
+                trace.fault = Some((t, fault));
             }
-            torque = report.command.torque;
+            torque = outcome.torque;
             for u in torque {
                 trace.peak_torque = trace.peak_torque.max(u.abs());
             }
         }
-        let volts: [f64; N] = std::array::from_fn(|j| voltages[j].voltage);
-        let setpoints = *haptic.current_setpoints();
+        reference = command.reference;
         let external = linalg::transpose_mul_vec(&task.jacobian, &force);
         for _ in 0..substeps {
-            plant.step(dt / substeps as f64, &volts, &setpoints, &external);
+            plant.step(dt / substeps as f64, &command.volts, &command.current_setpoints, &external);
         }
         if show_progress && k % 2000 == 0 {
             if bar.is_none() && wall.elapsed().as_secs_f64() > 1.0 {
@@ -537,5 +658,5 @@ where
         b.finish_and_clear();
     }
     trace.wall_seconds = wall.elapsed().as_secs_f64();
-    Ok(trace)
+    Ok((trace, controller))
 }

@@ -18,9 +18,12 @@ use hapticgen_runtime::render::{ObjectKind, Shape, VirtualObject};
 use hapticgen_runtime::RigModel;
 
 use crate::generated::{self, RigVisitor};
+use crate::pil::{Pil, PilReport, PilScene};
 use crate::rig::{CompiledModel, TapeRig};
+use crate::sim::SCENE_VERTICES;
 use crate::sim::{self, LoopData, Operator, Path as HandPath, Reference, SensorSpec, SimConfig, Trace};
 use crate::tape::Tape;
+use hapticgen_protocol::SceneObject;
 
 /// A model ready to simulate.
 pub struct Simulation {
@@ -133,6 +136,98 @@ impl RigVisitor for RunVisitor<'_> {
     }
 }
 
+/// Where a processor-in-the-loop run finds its firmware, and how it runs
+/// ([`Simulation::run_pil`]).
+#[derive(Clone, Debug)]
+pub struct PilTarget {
+    /// `qemu-system-arm`.
+    pub qemu: std::path::PathBuf,
+    /// The PIL image (`hapticgen-fw-qemu-pil` built for the rig's line of `variants.txt`).
+    pub image: std::path::PathBuf,
+    /// The image's name (its line of `variants.txt`).
+    pub name: String,
+    /// Where QEMU's output (the image's semihosting lines) goes.
+    pub log: std::path::PathBuf,
+    /// Stop sending sensor frames after this many current-loop periods (fault test).
+    pub stop_after: Option<u64>,
+    /// Send a corrupted copy before every this many sensor frames (fault test).
+    pub corrupt_every: Option<u64>,
+}
+
+struct PilVisitor<'a> {
+    plant: Arc<CompiledModel>,
+    data: &'a LoopData,
+    cfg: &'a SimConfig,
+    target: &'a PilTarget,
+}
+
+impl RigVisitor for PilVisitor<'_> {
+    type Output = Result<(Trace, PilReport), String>;
+    fn visit<R: RigModel<N, M, Scalar = f64>, const N: usize, const M: usize>(self, rig: R) -> Self::Output {
+        let target = self.target;
+        let (trace, pil) = sim::run_with::<R, Pil<N, M>, _, N, M>(
+            rig,
+            self.plant,
+            self.data,
+            self.cfg,
+            |_, source, settings| {
+                let scene = match &self.cfg.reference {
+                    Reference::Fixed(_) => None,
+                    Reference::Scene { objects, free_stiffness, free_damping, grid_spacing } => {
+                        Some(PilScene {
+                            objects: objects.iter().map(scene_object).collect::<Result<_, _>>()?,
+                            free_stiffness: *free_stiffness,
+                            free_damping: *free_damping,
+                            grid_spacing: *grid_spacing,
+                        })
+                    }
+                };
+                // A scene's reference starts at the device's start position, as on the host.
+                let reference = source.fixed_position().unwrap_or(source.last);
+                let mut pil = Pil::start(
+                    &target.qemu,
+                    &target.image,
+                    &target.name,
+                    &target.log,
+                    settings,
+                    reference,
+                    scene.as_ref(),
+                )?;
+                pil.stop_after = target.stop_after;
+                pil.corrupt_every = target.corrupt_every;
+                Ok(pil)
+            },
+        )?;
+        Ok((trace, pil.finish()?))
+    }
+}
+
+/// A planar virtual object of the simulator as a scene object of the link: a circle is a
+/// sphere, an axis-aligned rectangle a box (solid only); other shapes are not sent yet.
+fn scene_object(object: &VirtualObject<f64, SCENE_VERTICES>) -> Result<SceneObject, String> {
+    let (stiffness, damping) = (object.stiffness as f32, object.damping as f32);
+    match (object.shape, object.kind) {
+        (Shape::Circle { center, radius }, kind) => Ok(SceneObject::Sphere {
+            centre: [center[0] as f32, center[1] as f32, 0.0],
+            radius: radius as f32,
+            cavity: kind == ObjectKind::Cavity,
+            stiffness,
+            damping,
+        }),
+        (Shape::Rectangle { center, half_extents, angle: 0.0 }, ObjectKind::Solid) => Ok(SceneObject::Box {
+            centre: [center[0] as f32, center[1] as f32, 0.0],
+            half_extents: [half_extents[0] as f32, half_extents[1] as f32, 1.0],
+            stiffness,
+            damping,
+        }),
+        _ => {
+            Err("error: hapticgen pil sends circles and axis-aligned solid rectangles only; this scene has \
+                  another shape (the trace-square scenario's cavity)"
+                .into())
+        }
+    }
+}
+
 impl Simulation {
     /// Loads a model file; errors are the code generator's diagnostics.
     pub fn load(path: &Path, variant: Option<&str>) -> Result<Simulation, String> {
@@ -221,6 +316,16 @@ impl Simulation {
         self.model.joints.iter().map(|j| 0.5 * (j.lower + j.upper)).collect()
     }
 
+    /// The task Jacobian at `q`, row by row (`task_dim` rows of `joints` entries).
+    pub fn jacobian_at(&self, q: &[f64]) -> Vec<Vec<f64>> {
+        let (n, m) = (self.joints(), self.task_dim());
+        let tape: &Tape = &self.nominal.kinematics;
+        let mut scratch = tape.scratch();
+        let mut out = vec![0.0; tape.len()];
+        tape.eval(&mut scratch, q, &vec![0.0; n], &self.nominal.parameters, &mut out);
+        (0..m).map(|k| out[m + k * n..m + (k + 1) * n].to_vec()).collect()
+    }
+
     /// Task position and Jacobian determinant (square tasks; 0 otherwise) at `q`.
     pub fn task_at(&self, q: &[f64]) -> (Vec<f64>, f64) {
         let (n, m) = (self.joints(), self.task_dim());
@@ -242,14 +347,28 @@ impl Simulation {
         (position, det)
     }
 
-    /// Runs one simulation.
-    pub fn run(&self, cfg: &SimConfig) -> Result<Trace, String> {
-        let plant = if cfg.plant_mass_scale == 1.0 {
+    fn plant(&self, cfg: &SimConfig) -> Arc<CompiledModel> {
+        if cfg.plant_mass_scale == 1.0 {
             self.nominal.clone()
         } else {
             Arc::new(CompiledModel::new(&self.model, cfg.plant_mass_scale))
-        };
-        let visitor = RunVisitor { plant, data: &self.data, cfg };
+        }
+    }
+
+    /// Runs one simulation.
+    pub fn run(&self, cfg: &SimConfig) -> Result<Trace, String> {
+        self.dispatch(RunVisitor { plant: self.plant(cfg), data: &self.data, cfg })
+    }
+
+    /// Runs one processor-in-the-loop run: the same plant, operator, sensors and trace as
+    /// [`Simulation::run`], the controller the firmware image under QEMU (`crate::pil`).
+    pub fn run_pil(&self, cfg: &SimConfig, target: &PilTarget) -> Result<(Trace, PilReport), String> {
+        self.dispatch(PilVisitor { plant: self.plant(cfg), data: &self.data, cfg, target })
+    }
+
+    /// Calls `visitor` with the controller's rig: the generated code of a shipped model, else
+    /// the model's tapes.
+    fn dispatch<T, V: RigVisitor<Output = Result<T, String>>>(&self, visitor: V) -> Result<T, String> {
         if let Some(index) = self.shipped {
             if let Some(result) = generated::visit(index, visitor) {
                 return result;

@@ -204,3 +204,51 @@ fn start_pose_and_singular_warnings() {
     }
     let _ = std::fs::remove_dir_all(out);
 }
+
+/// `hapticgen pil` says what is missing and how to get it, before starting anything: an image
+/// that is not built, a model variant without an image, a QEMU that is not there. (The PIL
+/// runs themselves need QEMU and the image: `scripts/firmware.sh --only pil`.)
+#[test]
+fn pil_names_what_is_missing() {
+    let out = scratch("pil-missing");
+    let out = out.to_str().expect("a UTF-8 temporary directory");
+    let joystick =
+        ["pil", "models/joystick_1dof.yaml", "--controller", "natural-inertia", "--scenario", "step"];
+    let run = |extra: &[&str]| {
+        let mut args: Vec<&str> = joystick.to_vec();
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["-o", out]);
+        let output = hapticgen(&args);
+        (output.status.code(), String::from_utf8_lossy(&output.stderr).into_owned())
+    };
+    let (code, stderr) = run(&["--image", "/nonexistent/joystick.pil.elf"]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("no PIL firmware image for `joystick`"), "{stderr}");
+    assert!(stderr.contains("/nonexistent/joystick.pil.elf"), "{stderr}");
+    assert!(stderr.contains("scripts/firmware.sh --only pil"), "{stderr}");
+
+    // Any existing file passes the image lookup; then QEMU is looked for.
+    let (code, stderr) =
+        run(&["--image", "models/joystick_1dof.yaml", "--qemu", "/nonexistent/qemu-system-arm"]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("--qemu /nonexistent/qemu-system-arm: no such file"), "{stderr}");
+
+    // The parallel link has images of its two variants only.
+    let output = hapticgen(&[
+        "pil",
+        "models/parallel_link_2dof.yaml",
+        "--controller",
+        "jacobian-transpose",
+        "--scenario",
+        "step",
+        "--variant",
+        "vertical",
+        "--image",
+        "/nonexistent/vertical.pil.elf",
+        "-o",
+        out,
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("no PIL firmware image for `vertical`"), "{stderr}");
+    let _ = std::fs::remove_dir_all(out);
+}

@@ -9,13 +9,19 @@
 //!   latches [`LinkFault::HeartbeatLost`] and the bridges are disabled ([`Gated`]) in the same
 //!   period. Only a `ResetFault` followed by an `Enable` (with fresh heartbeats) turns them on
 //!   again: a host that reappears does not re-enable a device by itself.
+//! * **Processor in the loop**: a [`HostMessage::Sensors`] frame is kept
+//!   ([`DeviceLink::sensors`], announced by [`LinkEvent::Sensors`]) and counts as a heartbeat
+//!   (the host that computes the plant is alive); so is [`HostMessage::PilSetup`]
+//!   ([`DeviceLink::pil_setup`], [`LinkEvent::PilSetup`]); `Disable` is reported
+//!   ([`LinkEvent::Disabled`]) so that a PIL image can end its run. The events carry no
+//!   payload of their own: an event is returned for every byte, so it is kept small.
 //! * **Bounded work**: [`DeviceLink::receive`] takes one byte (the frame decoder's constant
 //!   time per byte, one decoding per zero byte); unknown, corrupt or premature messages are
 //!   counted and dropped.
 
 use hapticgen_protocol::{
     encode, DeviceInfo, DeviceMessage, EncodeError, FrameDecoder, HostMessage, ImpedanceSettings,
-    LinkCounters, SceneObject, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION,
+    LinkCounters, PilSetup, SceneObject, SensorFrame, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION,
 };
 use hapticgen_runtime::control::ImpedanceParameters;
 use hapticgen_runtime::Real;
@@ -60,6 +66,13 @@ pub enum LinkEvent<S> {
         /// The object.
         object: SceneObject,
     },
+    /// Processor in the loop: the sensors of the next current-loop period arrived
+    /// ([`DeviceLink::sensors`]).
+    Sensors,
+    /// Processor in the loop: the controller's configuration arrived ([`DeviceLink::pil_setup`]).
+    PilSetup,
+    /// The host disabled the bridges (honoured before and after the handshake).
+    Disabled,
 }
 
 /// Counts of what the link refused, besides the frame decoder's [`LinkCounters`].
@@ -84,6 +97,8 @@ pub struct DeviceLink {
     ticks_since_heartbeat: u32,
     fault: Option<LinkFault>,
     refused: RefusedCounters,
+    sensors: Option<SensorFrame>,
+    pil_setup: Option<PilSetup>,
 }
 
 impl DeviceLink {
@@ -99,6 +114,8 @@ impl DeviceLink {
             ticks_since_heartbeat: u32::MAX,
             fault: None,
             refused: RefusedCounters::default(),
+            sensors: None,
+            pil_setup: None,
         }
     }
 
@@ -113,7 +130,7 @@ impl DeviceLink {
             // Turning the bridges off is honoured from anyone, handshake or not.
             HostMessage::Disable => {
                 self.enabled = false;
-                return None;
+                return Some(LinkEvent::Disabled);
             }
             _ => {}
         }
@@ -122,7 +139,16 @@ impl DeviceLink {
             return None;
         }
         match message {
-            HostMessage::Hello { .. } | HostMessage::Disable | HostMessage::Sensors(_) => None,
+            HostMessage::Hello { .. } | HostMessage::Disable => None,
+            HostMessage::Sensors(frame) => {
+                self.ticks_since_heartbeat = 0;
+                self.sensors = Some(frame);
+                Some(LinkEvent::Sensors)
+            }
+            HostMessage::PilSetup(setup) => {
+                self.pil_setup = Some(setup);
+                Some(LinkEvent::PilSetup)
+            }
             HostMessage::Heartbeat { .. } => {
                 self.ticks_since_heartbeat = 0;
                 None
@@ -173,6 +199,16 @@ impl DeviceLink {
     /// The latched link fault, if any.
     pub fn fault(&self) -> Option<LinkFault> {
         self.fault
+    }
+
+    /// The last sensor frame received (processor in the loop).
+    pub fn sensors(&self) -> Option<&SensorFrame> {
+        self.sensors.as_ref()
+    }
+
+    /// The last processor-in-the-loop setup received.
+    pub fn pil_setup(&self) -> Option<&PilSetup> {
+        self.pil_setup.as_ref()
     }
 
     /// The frame decoder's counts.

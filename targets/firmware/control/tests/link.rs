@@ -9,8 +9,8 @@ use std::collections::VecDeque;
 use hapticgen_fw_control::board::VoltageOutput;
 use hapticgen_fw_control::link::{DeviceLink, Gated, LinkEvent, LinkFault, LinkSettings};
 use hapticgen_protocol::{
-    encode, ChannelScales, DeviceInfo, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings,
-    MAX_FRAME_BYTES, PROTOCOL_VERSION,
+    encode, ChannelScales, DeviceInfo, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, PilLaw,
+    PilSetup, SensorFrame, MAX_FRAME_BYTES, PROTOCOL_VERSION,
 };
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
@@ -243,4 +243,62 @@ fn the_hello_answer_is_this_devices_info() {
     assert_eq!(answer, vec![DeviceMessage::Hello(DeviceInfo { version: PROTOCOL_VERSION, ..info() })]);
     assert_eq!(LinkSettings::with_timeout_ms(5, CURRENT_LOOP_HZ).heartbeat_timeout_ticks, 37);
     assert_eq!(LinkSettings::with_timeout_ms(0, CURRENT_LOOP_HZ).heartbeat_timeout_ticks, 1);
+}
+
+/// Processor in the loop: sensor frames are handed on only after the handshake, each one
+/// keeps the watchdog fed as a heartbeat does (a host that sends sensors every period keeps the
+/// bridges on without heartbeats), and when they stop the bridges are off within 10 ms; the
+/// setup is handed on; `Disable` is reported.
+#[test]
+fn sensor_frames_feed_the_watchdog_and_are_handed_on_after_the_handshake() {
+    let sensors = |tick: u16| {
+        HostMessage::Sensors(SensorFrame {
+            tick,
+            encoder_counts: [tick as i32; 6],
+            motor_current: [0.5; 6],
+            force_readings: [0.0; 3],
+        })
+    };
+    let mut link = DeviceLink::new(info(), LinkSettings::with_timeout_ms(5, CURRENT_LOOP_HZ));
+    let feed = |link: &mut DeviceLink, message: &HostMessage| -> Vec<LinkEvent<f32>> {
+        frame(message).into_iter().filter_map(|b| link.receive::<f32>(b)).collect()
+    };
+    assert!(feed(&mut link, &sensors(1)).is_empty(), "refused before the handshake");
+    assert_eq!(link.refused().before_handshake, 1);
+    assert_eq!(feed(&mut link, &HostMessage::Hello { version: PROTOCOL_VERSION }), vec![LinkEvent::Hello]);
+    let setup = PilSetup {
+        law: PilLaw::NaturalInertia,
+        velocity_cutoff_hz: 100.0,
+        acceleration_cutoff_hz: 25.0,
+        zero_offset: [0.0; 6],
+        initial_counts: [0; 6],
+        reference: [0.0; 3],
+        force_scale: [1.0; 3],
+        force_offset: [0.0; 3],
+        min_abs_jacobian_determinant: 0.0,
+        spring_lead_time: 0.0,
+        scene_grid_spacing: None,
+    };
+    assert_eq!(feed(&mut link, &HostMessage::PilSetup(setup)), vec![LinkEvent::PilSetup]);
+    assert_eq!(link.pil_setup(), Some(&setup));
+    assert!(feed(&mut link, &HostMessage::Heartbeat { sequence: 1 }).is_empty());
+    assert!(feed(&mut link, &HostMessage::Enable).is_empty());
+    // One sensor frame per period, no heartbeat: the bridges stay on for a second.
+    for tick in 0..CURRENT_LOOP_HZ as u16 {
+        let events = feed(&mut link, &sensors(tick));
+        assert_eq!(events, vec![LinkEvent::Sensors]);
+        assert_eq!(link.sensors().map(|f| f.tick), Some(tick));
+        assert!(link.on_current_tick(), "driven at period {tick}");
+    }
+    // The host stops: the bridges are off within 10 ms of periods.
+    let mut periods = 0u32;
+    while link.on_current_tick() {
+        periods += 1;
+        assert!(periods < CURRENT_LOOP_HZ, "never disabled");
+    }
+    let ms = f64::from(periods + 1) * 1000.0 / f64::from(CURRENT_LOOP_HZ);
+    println!("PIL: bridges off {ms:.2} ms after the last sensor frame");
+    assert!(ms <= 10.0);
+    assert_eq!(link.fault(), Some(LinkFault::HeartbeatLost));
+    assert_eq!(feed(&mut link, &HostMessage::Disable), vec![LinkEvent::Disabled]);
 }
