@@ -170,9 +170,12 @@ fn scenario_mesh(scenario: &str, scalar: Scalar) -> Result<Option<String>, Strin
     match scenario {
         "mesh_contact" => {
             use hapticgen_fw_sim::scenarios::mesh_contact as contact;
-            let sphere =
-                hapticgen_codegen::mesh::TriangleMesh::uv_sphere(contact::RADIUS, contact::RINGS, contact::SEGMENTS)?
-                    .with_bvh(contact::LEAF_SIZE);
+            let sphere = hapticgen_codegen::mesh::TriangleMesh::uv_sphere(
+                contact::RADIUS,
+                contact::RINGS,
+                contact::SEGMENTS,
+            )?
+            .with_bvh(contact::LEAF_SIZE);
             if sphere.faces.len() != contact::TRIANGLES {
                 return Err(format!(
                     "scenario `{scenario}`: the sphere has {} triangles, the scenario says {}",

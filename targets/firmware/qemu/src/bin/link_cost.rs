@@ -18,9 +18,12 @@
 #[allow(dead_code)]
 #[path = "../qemu.rs"]
 mod qemu;
+// The polled UART the link talks through.
+#[allow(dead_code)]
+#[path = "../uart.rs"]
+mod uart;
 
 use core::hint::black_box;
-use core::ptr::{read_volatile, write_volatile};
 
 use cortex_m_rt::entry;
 use hapticgen_fw_control::board::CycleCounter;
@@ -31,51 +34,10 @@ use hapticgen_protocol::{
     encode, ChannelScales, DeviceInfo, DeviceMessage, HostMessage, ImpedanceSettings, StateFrame,
     StateSample, MAX_FRAME_BYTES, PROTOCOL_VERSION,
 };
+use uart::Uart0;
 
 /// State frames per rig shape.
 const FRAMES: u32 = 200;
-
-/// CMSDK APB UART0 of the MPS2-AN386: data, state (bit 0: transmit buffer full), control
-/// (bit 0: transmit enable, bit 1: receive enable), baud divider (≥ 16).
-const UART0: usize = 0x4000_4000;
-const DATA: usize = 0x00;
-const STATE: usize = 0x04;
-const CTRL: usize = 0x08;
-const BAUDDIV: usize = 0x10;
-
-/// Polled UART0 transmitter.
-struct Uart0;
-
-impl Uart0 {
-    fn start() -> Self {
-        // SAFETY: UART0's registers; nothing else uses it.
-        unsafe {
-            write_volatile((UART0 + BAUDDIV) as *mut u32, 16);
-            write_volatile((UART0 + CTRL) as *mut u32, 0b11);
-        }
-        Uart0
-    }
-
-    /// Writes `bytes`, waiting at most a bounded number of polls per byte; returns how many
-    /// bytes were dropped because the transmitter stayed full.
-    fn write(&mut self, bytes: &[u8]) -> u32 {
-        let mut dropped = 0;
-        for &byte in bytes {
-            let mut polls = 0u32;
-            // SAFETY: reads of UART0's state register.
-            while unsafe { read_volatile((UART0 + STATE) as *const u32) } & 1 != 0 && polls < 10_000 {
-                polls += 1;
-            }
-            if polls == 10_000 {
-                dropped += 1;
-                continue;
-            }
-            // SAFETY: a write of one byte to UART0's data register.
-            unsafe { write_volatile((UART0 + DATA) as *mut u32, u32::from(byte)) };
-        }
-        dropped
-    }
-}
 
 /// Counter ticks as instructions, from the ticks of [`qemu::KNOWN_INSTRUCTIONS`] instructions.
 fn instructions(ticks: u32, cal_ticks: u32) -> i64 {

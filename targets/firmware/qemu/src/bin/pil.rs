@@ -40,8 +40,10 @@
 #[allow(dead_code)]
 #[path = "../qemu.rs"]
 mod qemu;
-
-use core::ptr::{read_volatile, write_volatile};
+// The polled UART the link talks through.
+#[allow(dead_code)]
+#[path = "../uart.rs"]
+mod uart;
 
 use cortex_m_rt::entry;
 use hapticgen_fw_control::board::{CurrentSense, CycleCounter, Encoders, ForceSense, VoltageOutput};
@@ -59,6 +61,7 @@ use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
 use hapticgen_runtime::safety::FaultCode;
 use hapticgen_runtime::tick::{HapticLoopSettings, ReferenceSource};
+use uart::Uart0;
 
 #[allow(clippy::all, dead_code)]
 mod generated {
@@ -161,60 +164,6 @@ const WAIT_TICKS: u32 = 250_000_000;
 
 /// The heartbeat timeout of the link (the 10 ms bound, with a margin), ms.
 const LINK_TIMEOUT_MS: u32 = 5;
-
-/// CMSDK APB UART0 of the MPS2-AN386: data, state (bit 0: transmit buffer full, bit 1: receive
-/// buffer full), control (bit 0: transmit enable, bit 1: receive enable), baud divider (≥ 16).
-const UART0: usize = 0x4000_4000;
-const DATA: usize = 0x00;
-const STATE: usize = 0x04;
-const CTRL: usize = 0x08;
-const BAUDDIV: usize = 0x10;
-
-/// Polled UART0.
-struct Uart0;
-
-impl Uart0 {
-    fn start() -> Self {
-        // SAFETY: UART0's registers; nothing else uses it.
-        unsafe {
-            write_volatile((UART0 + BAUDDIV) as *mut u32, 16);
-            write_volatile((UART0 + CTRL) as *mut u32, 0b11);
-        }
-        Uart0
-    }
-
-    /// The received byte, if one is waiting.
-    #[inline(always)]
-    fn read(&mut self) -> Option<u8> {
-        // SAFETY: reads of UART0's state and data registers.
-        unsafe {
-            if read_volatile((UART0 + STATE) as *const u32) & 2 == 0 {
-                return None;
-            }
-            Some(read_volatile((UART0 + DATA) as *const u32) as u8)
-        }
-    }
-
-    /// Writes `bytes`, waiting a bounded number of polls per byte; returns how many bytes were
-    /// dropped because the transmitter stayed full.
-    fn write(&mut self, bytes: &[u8]) -> u32 {
-        let mut dropped = 0;
-        for &byte in bytes {
-            let mut polls = 0u32;
-            // SAFETY: reads of UART0's state register.
-            while unsafe { read_volatile((UART0 + STATE) as *const u32) } & 1 != 0 && polls < 100_000 {
-                polls += 1;
-            }
-            if polls == 100_000 {
-                dropped += 1;
-                continue;
-            }
-            // SAFETY: a write of one byte to UART0's data register.
-            unsafe { write_volatile((UART0 + DATA) as *mut u32, u32::from(byte)) };
-        }
-        dropped
-    }
-}
 
 /// The board of a PIL run: its sensors are the last sensor frame's, its voltages go back to
 /// the host.
