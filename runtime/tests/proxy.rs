@@ -947,14 +947,7 @@ fn a_translated_mesh_answers_as_the_mesh_with_moved_vertices() {
 /// its new top face.
 #[test]
 fn a_moving_mesh_carries_the_proxy_in_contact() {
-    let (vertices, faces, face_normals) = cube_mesh(0.05);
-    let cube = hapticgen_runtime::shape::Mesh {
-        vertices: &vertices,
-        faces: &faces,
-        face_normals: &face_normals,
-        vertex_normals: &[],
-        nodes: &[],
-    };
+    let cube = leaked_cube_mesh(0.05);
     let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
     scene.add(solid(Shape::Mesh(&cube))).unwrap();
     scene.reset([0.0, 0.0, 0.1]);
@@ -1057,14 +1050,7 @@ fn the_entry_into_a_grown_triangle_is_where_the_distance_reaches_the_margin() {
 /// off: every sweep step then searches the whole mesh).
 #[test]
 fn candidate_faces_leave_the_proxy_where_a_search_of_every_face_puts_it() {
-    let (vertices, faces, face_normals) = cube_mesh(0.05);
-    let cube = hapticgen_runtime::shape::Mesh {
-        vertices: &vertices,
-        faces: &faces,
-        face_normals: &face_normals,
-        vertex_normals: &[],
-        nodes: &[],
-    };
+    let cube = leaked_cube_mesh(0.05);
     let mut with_candidates: GodObject<f64, 2, 3> = GodObject::new(0.0, 0.0, R, SKIN);
     let mut every_face: GodObject<f64, 2, 3> = GodObject::new(0.0, 0.0, R, SKIN);
     for scene in [&mut with_candidates, &mut every_face] {
@@ -1097,14 +1083,7 @@ fn candidate_faces_leave_the_proxy_where_a_search_of_every_face_puts_it() {
 /// `Mesh::faces_near` against a scan of every face, and its overflow.
 #[test]
 fn faces_near_finds_every_face_within_the_radius() {
-    let (vertices, faces, face_normals) = cube_mesh(0.05);
-    let cube = hapticgen_runtime::shape::Mesh {
-        vertices: &vertices,
-        faces: &faces,
-        face_normals: &face_normals,
-        vertex_normals: &[],
-        nodes: &[],
-    };
+    let cube = leaked_cube_mesh(0.05);
     let mut rng = SmallRng::seed_from_u64(14);
     for _ in 0..2000 {
         let p = random_point(&mut rng, 0.1);
@@ -1115,8 +1094,9 @@ fn faces_near_finds_every_face_within_the_radius() {
         got.sort_unstable();
         let expected: Vec<u32> = (0..12u32)
             .filter(|&f| {
-                let [i, j, k] = faces[f as usize];
-                let (a, b, c) = (vertices[i as usize], vertices[j as usize], vertices[k as usize]);
+                let [i, j, k] = cube.faces[f as usize];
+                let (a, b, c) =
+                    (cube.vertices[i as usize], cube.vertices[j as usize], cube.vertices[k as usize]);
                 norm(sub(p, closest_on_triangle(&p, &a, &b, &c).0)) <= radius
             })
             .collect();
@@ -1125,5 +1105,17 @@ fn faces_near_finds_every_face_within_the_radius() {
             let mut small = [0u32; 1];
             assert_eq!(cube.faces_near(&p, radius, &mut small), None);
         }
+    }
+}
+
+/// [`cube_mesh`] as a runtime mesh without a BVH, its arrays leaked (a test's lifetime).
+fn leaked_cube_mesh(h: f64) -> hapticgen_runtime::shape::Mesh<'static, f64, 3> {
+    let (vertices, faces, face_normals) = cube_mesh(h);
+    hapticgen_runtime::shape::Mesh {
+        vertices: Vec::leak(vertices),
+        faces: Vec::leak(faces),
+        face_normals: Vec::leak(face_normals),
+        vertex_normals: &[],
+        nodes: &[],
     }
 }

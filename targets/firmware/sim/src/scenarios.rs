@@ -282,19 +282,42 @@ pub mod sphere_cavity {
             kind: ObjectKind::Cavity,
             material: Material::frictionless(wall_stiffness, wall_damping),
         })?;
-        let fast = R::CURRENT_LOOP_HZ;
-        let board = board(&rig, setup, sense_time_constant);
-        let controller =
-            controller(rig, scene, jacobian_transpose(wall_stiffness, wall_damping, false), setup, profile)?;
-        let third = FORCE / 3.0;
-        let load = Load { start: fast / 10, end: fast, force: [s(2.0 * third), s(third), s(2.0 * third)] };
         // As for the wall: the free-space proxy may rest one node apart in each run.
-        let tolerance = trace_tolerance(board.rig(), &setup.start, grid + grid);
-        let mut run = Scenario::new(name, controller, board, load, 3 * fast / 2, fast / 100);
-        run.task_tolerance = tolerance;
-        run.current_tolerance = current_tolerance(run.board.rig(), &setup.start, wall_stiffness, tolerance);
-        Some(run)
+        let rendering = [wall_stiffness, wall_damping, grid + grid];
+        push_along_221(name, rig, setup, sense_time_constant, profile, scene, rendering, FORCE)
     }
+}
+
+/// The run of the spatial cavity scenarios (`sphere_cavity`, `mesh_contact`): the
+/// Jacobian-transpose law with `rendering = [K_d, B_d, extra]` on the reference `source`, the
+/// operator pushing with `force` N along `(2, 1, 2)/3` from 0.1 s to 1.0 s, 1.5 s in all; the
+/// trace tolerance is the encoder counts' plus `extra` (what the renderer adds).
+#[allow(clippy::too_many_arguments)]
+fn push_along_221<R, Src, const N: usize>(
+    name: &'static str,
+    rig: R,
+    setup: &Setup<R::Scalar, N>,
+    sense_time_constant: R::Scalar,
+    profile: bool,
+    source: Src,
+    rendering: [R::Scalar; 3],
+    force: f64,
+) -> Option<Scenario<R, Src, N, 3>>
+where
+    R: FusedImpedance<N, 3> + Clone,
+    Src: ReferenceSource<R::Scalar, 3> + Clone,
+{
+    let [stiffness, damping, extra] = rendering;
+    let fast = R::CURRENT_LOOP_HZ;
+    let board = board(&rig, setup, sense_time_constant);
+    let controller = controller(rig, source, jacobian_transpose(stiffness, damping, false), setup, profile)?;
+    let third = force / 3.0;
+    let load = Load { start: fast / 10, end: fast, force: [s(2.0 * third), s(third), s(2.0 * third)] };
+    let tolerance = trace_tolerance(board.rig(), &setup.start, extra);
+    let mut run = Scenario::new(name, controller, board, load, 3 * fast / 2, fast / 100);
+    run.task_tolerance = tolerance;
+    run.current_tolerance = current_tolerance(run.board.rig(), &setup.start, stiffness, tolerance);
+    Some(run)
 }
 
 /// The inside of a closed triangle mesh touched through the god-object proxy (`M = 3`, any `N`;
@@ -357,18 +380,9 @@ pub mod mesh_contact {
             kind: ObjectKind::Cavity,
             material: Material::frictionless(wall_stiffness, wall_damping),
         })?;
-        let fast = R::CURRENT_LOOP_HZ;
-        let board = board(&rig, setup, sense_time_constant);
-        let controller =
-            controller(rig, scene, jacobian_transpose(wall_stiffness, wall_damping, false), setup, profile)?;
-        let third = FORCE / 3.0;
-        let load = Load { start: fast / 10, end: fast, force: [s(2.0 * third), s(third), s(2.0 * third)] };
         // The proxy has no grid: the two runs differ by rounding and the skin.
-        let tolerance = trace_tolerance(board.rig(), &setup.start, s(4.0 * SKIN));
-        let mut run = Scenario::new(name, controller, board, load, 3 * fast / 2, fast / 100);
-        run.task_tolerance = tolerance;
-        run.current_tolerance = current_tolerance(run.board.rig(), &setup.start, wall_stiffness, tolerance);
-        Some(run)
+        let rendering = [wall_stiffness, wall_damping, s(4.0 * SKIN)];
+        push_along_221(name, rig, setup, sense_time_constant, profile, scene, rendering, FORCE)
     }
 }
 
