@@ -221,20 +221,12 @@ pub mod wall_contact {
             stiffness: wall_stiffness,
             damping: wall_damping,
         })?;
-        let fast = R::CURRENT_LOOP_HZ;
-        let board = board(&rig, setup, sense_time_constant);
-        let force = push(&rig, &setup.start);
-        let controller =
-            controller(rig, scene, jacobian_transpose(wall_stiffness, wall_damping, false), setup, profile)?;
-        let load = Load { start: fast / 10, end: fast, force: [force, R::Scalar::ZERO] };
+        let force = [push(&rig, &setup.start), R::Scalar::ZERO];
         // Two grid spacings: on the rebound after the operator lets go, each run snaps the
         // proxy through its own sequence of grid nodes (a discontinuous, path-dependent map),
         // so the runs can differ by a node at the moment of a jump and by a node at rest.
-        let tolerance = trace_tolerance(board.rig(), &setup.start, grid + grid);
-        let mut run = Scenario::new(name, controller, board, load, 3 * fast / 2, fast / 100);
-        run.task_tolerance = tolerance;
-        run.current_tolerance = current_tolerance(run.board.rig(), &setup.start, wall_stiffness, tolerance);
-        Some(run)
+        let rendering = [wall_stiffness, wall_damping, grid + grid];
+        pushed_run(name, rig, setup, sense_time_constant, profile, scene, rendering, force)
     }
 }
 
@@ -284,16 +276,16 @@ pub mod sphere_cavity {
         })?;
         // As for the wall: the free-space proxy may rest one node apart in each run.
         let rendering = [wall_stiffness, wall_damping, grid + grid];
-        push_along_221(name, rig, setup, sense_time_constant, profile, scene, rendering, FORCE)
+        pushed_run(name, rig, setup, sense_time_constant, profile, scene, rendering, along_221(FORCE))
     }
 }
 
-/// The run of the spatial cavity scenarios (`sphere_cavity`, `mesh_contact`): the
+/// The run of the contact scenarios (`wall_contact`, `sphere_cavity`, `mesh_contact`): the
 /// Jacobian-transpose law with `rendering = [K_d, B_d, extra]` on the reference `source`, the
-/// operator pushing with `force` N along `(2, 1, 2)/3` from 0.1 s to 1.0 s, 1.5 s in all; the
-/// trace tolerance is the encoder counts' plus `extra` (what the renderer adds).
+/// operator pushing with `force` from 0.1 s to 1.0 s, 1.5 s in all; the trace tolerance is the
+/// encoder counts' plus `extra` (what the renderer adds).
 #[allow(clippy::too_many_arguments)]
-fn push_along_221<R, Src, const N: usize>(
+fn pushed_run<R, Src, const N: usize, const M: usize>(
     name: &'static str,
     rig: R,
     setup: &Setup<R::Scalar, N>,
@@ -301,23 +293,28 @@ fn push_along_221<R, Src, const N: usize>(
     profile: bool,
     source: Src,
     rendering: [R::Scalar; 3],
-    force: f64,
-) -> Option<Scenario<R, Src, N, 3>>
+    force: [R::Scalar; M],
+) -> Option<Scenario<R, Src, N, M>>
 where
-    R: FusedImpedance<N, 3> + Clone,
-    Src: ReferenceSource<R::Scalar, 3> + Clone,
+    R: FusedImpedance<N, M> + Clone,
+    Src: ReferenceSource<R::Scalar, M> + Clone,
 {
     let [stiffness, damping, extra] = rendering;
     let fast = R::CURRENT_LOOP_HZ;
     let board = board(&rig, setup, sense_time_constant);
     let controller = controller(rig, source, jacobian_transpose(stiffness, damping, false), setup, profile)?;
-    let third = force / 3.0;
-    let load = Load { start: fast / 10, end: fast, force: [s(2.0 * third), s(third), s(2.0 * third)] };
+    let load = Load { start: fast / 10, end: fast, force };
     let tolerance = trace_tolerance(board.rig(), &setup.start, extra);
     let mut run = Scenario::new(name, controller, board, load, 3 * fast / 2, fast / 100);
     run.task_tolerance = tolerance;
     run.current_tolerance = current_tolerance(run.board.rig(), &setup.start, stiffness, tolerance);
     Some(run)
+}
+
+/// The push of the spatial cavity scenarios: `force` N along `(2, 1, 2)/3`.
+fn along_221<S: Real>(force: f64) -> [S; 3] {
+    let third = force / 3.0;
+    [s(2.0 * third), s(third), s(2.0 * third)]
 }
 
 /// The inside of a closed triangle mesh touched through the god-object proxy (`M = 3`, any `N`;
@@ -382,7 +379,7 @@ pub mod mesh_contact {
         })?;
         // The proxy has no grid: the two runs differ by rounding and the skin.
         let rendering = [wall_stiffness, wall_damping, s(4.0 * SKIN)];
-        push_along_221(name, rig, setup, sense_time_constant, profile, scene, rendering, FORCE)
+        pushed_run(name, rig, setup, sense_time_constant, profile, scene, rendering, along_221(FORCE))
     }
 }
 
