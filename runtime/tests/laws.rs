@@ -316,3 +316,29 @@ fn acceleration_feedback_at_the_reference_is_finite() {
         assert_torque(output, ControlStatus::Ok, expected, &format!("ẍ_d = {xdd_d}"));
     }
 }
+
+/// Every gain of the desired impedance must be finite, not only the stiffness: a NaN or
+/// infinite `B_d` or `M_d` with a finite `K_d` is refused as a non-finite input, with zero
+/// torque, by every law (including those that do not use `M_d`). Guards the parameter check
+/// (a held-out cargo-mutants survivor: `finite(K_d) && finite(B_d) && finite(M_d)` with the
+/// first `&&` turned into `||` accepted any parameters once `K_d` was finite).
+#[test]
+fn non_finite_damping_or_mass_is_refused_with_a_finite_stiffness() {
+    let c = case();
+    let terms = Joystick.terms(&[c.q], &[c.qd]);
+    for law in LAWS {
+        for bad in [f64::NAN, f64::INFINITY] {
+            for which in ["B_d", "M_d"] {
+                let mut controller = controller(law, &c);
+                if which == "B_d" {
+                    controller.parameters.damping = [bad];
+                } else {
+                    controller.parameters.mass = [bad];
+                }
+                let output = controller.torque(&Joystick, &terms, &[c.qd], &c.reference, &c.sensed);
+                assert_eq!(output.status, ControlStatus::NonFiniteInput, "{law:?}, {which} = {bad}");
+                assert_eq!(output.torque, [0.0], "{law:?}, {which} = {bad}");
+            }
+        }
+    }
+}

@@ -909,3 +909,176 @@ fn min_distance_contact_is_the_deepest_of_two_overlapping_solids() {
     assert_eq!(scene.contact(), Some(0));
     assert!(close(proxy, [0.05, 0.0, 0.0], 1e-15), "{proxy:?}");
 }
+
+/// The offset effects need a positive free-space stiffness (module docs of `effects`): with
+/// `K_d = 0` a constant force or a vibration does nothing, the reference stays at the HIP
+/// with the gains unchanged, instead of an infinite offset `F / 0`. Guards the `K_d > 0` test
+/// (a held-out cargo-mutants survivor: `>` → `>=` let `K_d = 0` through).
+#[test]
+fn offset_effects_do_nothing_without_a_free_space_stiffness() {
+    use hapticgen_runtime::effects::{Effect, EffectState};
+    let hip = [0.01, -0.02, 0.05];
+    let effects = [
+        Effect::Force { force: [0.5, -1.0, 2.0] },
+        // A quarter period in, so that the vibration's force is not zero at this tick.
+        Effect::Vibration { direction: [0.0, 0.0, 1.0], amplitude: 0.8, frequency: 250.0, period: 1e-3 },
+    ];
+    for effect in effects {
+        let mut state = EffectState::default();
+        for tick in 0..3 {
+            let (reference, stiffness, damping) = state.apply(&effect, &hip, 0.0, 2.0);
+            assert_eq!((reference, stiffness, damping), (hip, 0.0, 2.0), "{effect:?}, tick {tick}");
+        }
+        // The same effect with K_d = 400 N/m does offset the reference (by F / K_d).
+        let (reference, _, _) = EffectState::default().apply(&effect, &hip, 400.0, 2.0);
+        if let Effect::Force { force } = effect {
+            assert!(close(reference, add(hip, scale(force, 1.0 / 400.0)), 1e-15), "{reference:?}");
+        }
+    }
+}
+
+/// A mesh's normal is on the side of the query (`Closest::normal`): a triangle in the plane
+/// z = 0 with its face normal +z, queried from above and from below over its interior,
+/// gives the foot of the perpendicular with the normal `+z` above and `−z` below, the unit
+/// vector from the point to the query. Guards the flip of the shading normal (a held-out
+/// cargo-mutants survivor: `x = −x` → `x = x` kept `+z` below the face).
+#[test]
+fn a_mesh_normal_points_to_the_side_of_the_query() {
+    use hapticgen_runtime::shape::Mesh;
+    let vertices = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let faces = [[0, 1, 2]];
+    let face_normals = [[0.0, 0.0, 1.0]];
+    let mesh = Mesh {
+        vertices: &vertices,
+        faces: &faces,
+        face_normals: &face_normals,
+        vertex_normals: &[],
+        nodes: &[],
+    };
+    for z in [0.5, -0.5] {
+        let query = [0.2, 0.3, z];
+        let closest = Shape::Mesh(&mesh).closest(&query).unwrap();
+        assert!(close(closest.point, [0.2, 0.3, 0.0], 1e-15), "{:?}", closest.point);
+        assert!(
+            close(closest.normal, unit(sub(query, closest.point)), 1e-15),
+            "z = {z}: {:?}",
+            closest.normal
+        );
+        assert!(!closest.inside);
+    }
+}
+
+/// `inside` is strict (`Closest::inside`): a query exactly on a box's face or a cylinder's cap
+/// is on the boundary, its own closest point, with the face's outward normal, and not
+/// inside. Guards the strict `|l| < h` of the box and `|axial| < half` of the cylinder (two
+/// held-out cargo-mutants survivors: `<` → `<=` counted those faces as inside).
+#[test]
+fn a_point_on_a_box_face_or_a_cylinder_cap_is_not_inside() {
+    let aligned = Shape::aligned_box([0.0; 3], [0.05, 0.04, 0.03]);
+    for (query, normal) in [
+        ([-0.05, 0.01, 0.01], [-1.0, 0.0, 0.0]),
+        ([0.01, 0.04, -0.02], [0.0, 1.0, 0.0]),
+        ([0.02, -0.01, -0.03], [0.0, 0.0, -1.0]),
+    ] {
+        let on_face = aligned.closest(&query).unwrap();
+        assert!(!on_face.inside, "{query:?}");
+        assert!(close(on_face.point, query, 1e-15), "{query:?}: {:?}", on_face.point);
+        assert_eq!(on_face.normal, normal, "{query:?}");
+    }
+    let cylinder = Shape::Cylinder { a: [0.0, 0.0, -0.1], b: [0.0, 0.0, 0.1], radius: 0.03 };
+    for (query, normal) in [([0.01, 0.0, 0.1], [0.0, 0.0, 1.0]), ([0.0, -0.02, -0.1], [0.0, 0.0, -1.0])] {
+        let on_cap = cylinder.closest(&query).unwrap();
+        assert!(!on_cap.inside, "{query:?}");
+        assert!(close(on_cap.point, query, 1e-15), "{query:?}: {:?}", on_cap.point);
+        assert_eq!(on_cap.normal, normal, "{query:?}");
+    }
+}
+
+/// A cylinder shrunk by exactly its half length leaves nothing, like a sphere shrunk by its
+/// radius (`Shape::project_inside`: `None` "when `margin` leaves nothing"): lengths in powers
+/// of two so that `h − margin` is exactly 0. Guards the `h > 0` test of the cylinder's inner
+/// body (a held-out cargo-mutants survivor: `>` → `>=` returned a flat disc).
+#[test]
+fn a_margin_equal_to_the_half_length_leaves_nothing_of_a_cylinder() {
+    let cylinder = Shape::Cylinder { a: [0.0, 0.0, -0.125], b: [0.0, 0.0, 0.125], radius: 0.5 };
+    assert_eq!(cylinder.project_inside(&[0.0, 0.1, 0.0], 0.125), None);
+    let sphere = Shape::Sphere { center: [0.0; 3], radius: 0.125 };
+    assert_eq!(sphere.project_inside(&[0.0, 0.1, 0.0], 0.125), None);
+    // A little less margin leaves a thin disc, and the query's radial part is kept.
+    let inner = cylinder.project_inside(&[0.0, 0.1, 0.3], 0.0625).unwrap();
+    assert!(close(inner, [0.0, 0.1, 0.0625], 1e-15), "{inner:?}");
+}
+
+/// A polytope's closest point is on the plane the query is farthest outside of (least deep
+/// inside of); on an exact tie, the first plane listed (`Shape::closest`). At the centre of a
+/// cube every plane is `h` away: the first plane of `cube_planes`, `+x`. Guards the tie rule
+/// (a held-out cargo-mutants survivor: `value > v` → `>=` let the last plane win).
+#[test]
+fn on_a_tie_a_polytope_is_closest_on_its_first_plane() {
+    let planes = cube_planes(0.05);
+    let cube = Shape::Polytope { planes: &planes };
+    let centre = cube.closest(&[0.0; 3]).unwrap();
+    assert!(centre.inside);
+    assert_eq!(centre.normal, [1.0, 0.0, 0.0]);
+    assert!(close(centre.point, [0.05, 0.0, 0.0], 1e-15), "{:?}", centre.point);
+    // Off the tie the deepest plane is chosen whatever its place: nearer +y than any other.
+    let near_y = cube.closest(&[0.01, 0.045, 0.0]).unwrap();
+    assert_eq!(near_y.normal, [0.0, 1.0, 0.0]);
+}
+
+/// Two solid spheres the HIP is equally deep in (exactly, in powers of two): on an exact tie
+/// of depths the object added first is in contact (`MinDistanceScene::render`), with its
+/// stiffness and closest point. Guards the tie rule (a held-out cargo-mutants survivor:
+/// `depth > d` → `>=` let the later object win).
+#[test]
+fn min_distance_contact_on_an_exact_tie_is_the_first_object() {
+    let mut scene: MinDistanceScene<f64, 2, 3> = MinDistanceScene::new(0.0, 0.0, 0.0);
+    for (center, stiffness) in [([0.25, 0.0, 0.0], 1000.0), ([0.0, 0.25, 0.0], 2000.0)] {
+        scene
+            .add(Object {
+                shape: Shape::Sphere { center, radius: 0.5 },
+                kind: ObjectKind::Solid,
+                material: Material::frictionless(stiffness, 5.0),
+            })
+            .unwrap();
+    }
+    let (proxy, stiffness, _) = scene.render(&[0.0; 3]).unwrap();
+    assert_eq!(scene.contact(), Some(0));
+    assert_eq!(stiffness, 1000.0);
+    assert_eq!(proxy, [-0.25, 0.0, 0.0]);
+}
+
+/// The BVH's lower bound for a box the query is beyond on its high side is the squared gap
+/// `(x − hi)²`: two triangles across the x axis, in the planes x = 0.1 and x = −2.9, each in
+/// its own leaf, queried from (1, 0, 0): the nearer is 0.9 away (the foot of the
+/// perpendicular, inside it), the other 3.9. Guards the high-side gap of the box distance (a
+/// held-out cargo-mutants survivor: `x − hi` → `x / hi` bounded the near box by 100 and
+/// pruned it once the far face had been seen).
+#[test]
+fn the_bounding_volume_hierarchy_bounds_a_box_by_its_gap_beyond_its_high_side() {
+    use hapticgen_runtime::shape::{BvhNode, Mesh};
+    let plate = |x: f64| [[x, -1.0, -1.0], [x, 2.0, -1.0], [x, -1.0, 2.0]];
+    let [a, b, c] = plate(0.1);
+    let [d, e, f] = plate(-2.9);
+    let vertices = [a, b, c, d, e, f];
+    let faces = [[0, 1, 2], [3, 4, 5]];
+    let face_normals = [[1.0, 0.0, 0.0]; 2];
+    let leaf = |first: u32, x: f64| BvhNode { min: [x, -1.0, -1.0], max: [x, 2.0, 2.0], first, count: 1 };
+    let nodes = [
+        BvhNode { min: [-2.9, -1.0, -1.0], max: [0.1, 2.0, 2.0], first: 1, count: 0 },
+        leaf(0, 0.1),
+        leaf(1, -2.9),
+    ];
+    let mesh = Mesh {
+        vertices: &vertices,
+        faces: &faces,
+        face_normals: &face_normals,
+        vertex_normals: &[],
+        nodes: &nodes,
+    };
+    let closest = mesh.closest(&[1.0, 0.0, 0.0]).unwrap();
+    assert_eq!(closest.face, 0);
+    assert!(close(closest.point, [0.1, 0.0, 0.0], 1e-15), "{:?}", closest.point);
+    // From the other side the far plate is the nearer one.
+    assert_eq!(mesh.closest(&[-4.0, 0.0, 0.0]).unwrap().face, 1);
+}

@@ -296,3 +296,75 @@ fn the_anti_drift_grid_holds_its_node_within_one_spacing_and_snaps_beyond() {
     let mut off = AntiDriftGrid::new(0.0);
     assert_eq!(off.update(&[0.0151, -0.0095]), [0.0151, -0.0095]);
 }
+
+/// A circle queried at its exact centre, where every boundary point is equally close: a finite
+/// boundary point one radius away (the one along +x1), inside. Guards the centre case of the
+/// circle (a held-out cargo-mutants survivor: `distance > 0` → `>=` divided 0 by 0 there and
+/// the query gave no point).
+#[test]
+fn a_circle_queried_at_its_centre_gives_a_boundary_point_one_radius_away() {
+    let circle: Shape<f64, 4> = Shape::Circle { center: [0.02, -0.01], radius: 0.05 };
+    let out = circle.closest_surface_point(&[0.02, -0.01]).unwrap();
+    assert!((distance(out.point, [0.02, -0.01]) - 0.05).abs() < 1e-15, "{:?}", out.point);
+    assert!(distance(out.point, [0.07, -0.01]) < 1e-15, "{:?}", out.point);
+    assert!(out.inside);
+}
+
+/// `inside` means strictly inside (`SurfacePoint::inside`): a point exactly on a rectangle's
+/// edge is on the boundary, its own closest point, and not inside. Guards the strict
+/// comparisons of the rectangle's inside test (a held-out cargo-mutants survivor: the second
+/// axis' `|y| < h` → `<=` counted its edges as inside).
+#[test]
+fn a_point_on_a_rectangle_edge_is_not_inside() {
+    let rectangle: Shape<f64, 4> =
+        Shape::Rectangle { center: [0.0, 0.0], half_extents: [0.03, 0.015], angle: 0.0 };
+    for p in [[0.01, 0.015], [-0.02, -0.015], [0.03, 0.005], [-0.03, 0.0]] {
+        let out = rectangle.closest_surface_point(&p).unwrap();
+        assert!(!out.inside, "{p:?}");
+        assert_eq!(out.point, p);
+    }
+    // Just inside the top edge: inside, pushed out to it.
+    let out = rectangle.closest_surface_point(&[0.01, 0.0149]).unwrap();
+    assert!(out.inside);
+    assert!(distance(out.point, [0.01, 0.015]) < 1e-15, "{:?}", out.point);
+}
+
+/// A contour over a range that does not start at 0, `x2 = x1` over `[1, 3]`: the closest point
+/// to `(x, y)` is the foot `t = (x + y)/2` when it is in the range, else the nearer end (the
+/// distance is convex in `t`). From `(2.8, 4)` the foot `t = 3.4` is beyond the range: the end
+/// `(3, 3)`, not a point of the line outside the range. Guards the sample spacing
+/// `(b − a)/(n − 1)` (a held-out cargo-mutants survivor: `b + a` spaced the samples beyond
+/// `b`, invisible over `[0, 1]`).
+#[test]
+fn a_contour_over_a_range_away_from_zero_is_closest_within_its_range() {
+    let contour: Shape<f64, 4> =
+        Shape::ContourFunction { function: diagonal, slope: diagonal_slope, x1_range: [1.0, 3.0] };
+    let out = contour.closest_surface_point(&[2.8, 4.0]).unwrap();
+    assert!(distance(out.point, [3.0, 3.0]) < 1e-12, "{:?}", out.point);
+    assert!(!out.inside);
+    let out = contour.closest_surface_point(&[2.0, 2.4]).unwrap();
+    assert!(distance(out.point, [2.2, 2.2]) < 1e-12, "{:?}", out.point);
+    let out = contour.closest_surface_point(&[1.2, -1.0]).unwrap();
+    assert!(distance(out.point, [1.0, 1.0]) < 1e-12, "{:?}", out.point);
+}
+
+/// Two solid circles the HIP is equally deep in (1/4 inside each, exactly, in powers of two):
+/// on an exact tie the object added first is in contact (`Scene::render`), with its gains and
+/// its closest point. Guards the tie rule of the deepest-violation choice (a held-out
+/// cargo-mutants survivor: `depth > d` → `>=` let the later object win ties).
+#[test]
+fn on_an_exact_tie_of_depths_the_first_object_is_in_contact() {
+    let mut scene: Scene<f64, 2, 8> = Scene::new(200.0, 2.0, 0.0);
+    for (center, stiffness) in [([0.25, 0.0], 1000.0), ([0.0, 0.25], 3000.0)] {
+        scene.add(VirtualObject {
+            shape: Shape::Circle { center, radius: 0.5 },
+            kind: ObjectKind::Solid,
+            stiffness,
+            damping: 5.0,
+        });
+    }
+    let out = scene.render(&[0.0, 0.0]);
+    assert_eq!(out.contact, Some(0));
+    assert_eq!(out.proxy, [-0.25, 0.0]);
+    assert_eq!(out.stiffness, [1000.0; 2]);
+}

@@ -137,3 +137,44 @@ fn a_skipped_impedance_tick_trips_the_current_loop_watchdog() {
     let n = ticks_after_due.unwrap();
     assert!((3..=6).contains(&n), "tripped {n} current ticks after the due one");
 }
+
+/// The current loop's feedforward is the motor's back EMF at the estimated joint velocity:
+/// `k_e ω_motor = k_t N q̇` (in SI units the back-EMF constant equals the torque constant),
+/// computed here from the drive's data sheet values. With zero PI gains the armature voltage
+/// is that feedforward alone: 0 V at rest, then `k_t N q̇` once the encoder moves, `q̇` read
+/// from the estimator after each impedance tick. Guards the feedforward's product (a held-out
+/// cargo-mutants survivor: `k · q̇` → `k + q̇` went unseen).
+#[test]
+fn the_current_loop_feeds_forward_the_back_emf_of_the_estimated_velocity() {
+    use hapticgen_runtime::RigModel;
+    let mut s = settings(ImpedanceLaw::JacobianTranspose, 0.01);
+    s.current_gains = [CurrentLoopGains { kp: 0.0, ki: 0.0, ..GAINS[0] }];
+    let drive = Joystick.drives()[0];
+    let volts_per_rad_s = drive.torque_constant * drive.gear_ratio;
+    let mut haptic = HapticLoop::new(Joystick, TaskReference::at_rest([0.0]), &s).unwrap();
+    let (mut tick, mut counts, mut velocity) = (0, 0, 0.0);
+    let mut moving_checked = 0;
+    for _ in 0..200 {
+        let (out, due) = haptic.current_tick(&[0.0]);
+        let expected = volts_per_rad_s * velocity;
+        assert!((out[0].voltage - expected).abs() < 1e-12, "{} V against {expected} V", out[0].voltage);
+        if velocity.abs() > 0.1 {
+            moving_checked += 1;
+        }
+        if due {
+            tick += 1;
+            // At rest for 5 impedance ticks, then 10 counts per tick.
+            if tick > 5 {
+                counts += 10;
+            }
+            let report = haptic.impedance_tick(&ImpedanceInputs {
+                encoder_counts: [counts],
+                force_readings: [0.0],
+                tick,
+            });
+            assert_eq!(report.command.fault, None);
+            velocity = haptic.estimator().state().velocity[0];
+        }
+    }
+    assert!(moving_checked > 50, "the joint must have moved: {moving_checked} ticks, q̇ = {velocity}");
+}
