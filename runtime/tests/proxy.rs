@@ -1024,6 +1024,12 @@ fn on_a_tie_a_polytope_is_closest_on_its_first_plane() {
     // Off the tie the deepest plane is chosen whatever its place: nearer +y than any other.
     let near_y = cube.closest(&[0.01, 0.045, 0.0]).unwrap();
     assert_eq!(near_y.normal, [0.0, 1.0, 0.0]);
+    // Exactly on a face: its own closest point, and not inside, `inside` being strict.
+    // (Held-out shard 2/8: the polytope's `value < 0` → `<=` counted the face as inside.)
+    let on_face = cube.closest(&[0.05, 0.01, -0.02]).unwrap();
+    assert!(!on_face.inside);
+    assert_eq!(on_face.point, [0.05, 0.01, -0.02]);
+    assert_eq!(on_face.normal, [1.0, 0.0, 0.0]);
 }
 
 /// Two solid spheres the HIP is equally deep in (exactly, in powers of two): on an exact tie
@@ -1081,4 +1087,42 @@ fn the_bounding_volume_hierarchy_bounds_a_box_by_its_gap_beyond_its_high_side() 
     assert!(close(closest.point, [0.1, 0.0, 0.0], 1e-15), "{:?}", closest.point);
     // From the other side the far plate is the nearer one.
     assert_eq!(mesh.closest(&[-4.0, 0.0, 0.0]).unwrap().face, 1);
+}
+
+/// On a frictionless sphere the proxy follows the HIP round the surface however far it moves
+/// in one tick: with the proxy resting on top, a HIP moved a quarter turn (to 1 cm inside the
+/// sphere's +x side) brings it to the closest point, a radius out along +x, within a few
+/// ticks. Friction has no say without a dynamic coefficient: the straight sweep from the old
+/// proxy that friction uses to slide would cut into the sphere and hold the proxy on top.
+/// Guards the friction branch's `μ_d > 0 && slide > 0` (a cargo-mutants survivor of held-out
+/// shard 2/8: `||` sent frictionless slides through that sweep).
+#[test]
+fn on_a_frictionless_sphere_the_proxy_follows_a_quarter_turn() {
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene.add(solid(Shape::Sphere { center: [0.0; 3], radius: 0.05 })).unwrap();
+    scene.reset([0.0, 0.0, 0.1]);
+    let out = scene.render(&[0.0, 0.0, 0.04]);
+    assert!(close(out.proxy, [0.0, 0.0, 0.05 + R], 1e-8), "{:?}", out.proxy);
+    let out = settle_one(&mut scene, [0.04, 0.0, 0.0]);
+    assert!(close(out, [0.05 + R, 0.0, 0.0], 1e-6), "{out:?}");
+}
+
+/// From a point on an oblique axis a cylinder is closest on its side, perpendicular to the
+/// axis, one radius away (the radial direction is undefined there; any perpendicular will
+/// do). With the axis along (1, 2, 3)/√14 no basis vector is perpendicular to it, so the
+/// direction has to be made orthogonal. Guards `e − (e·u) u` (a cargo-mutants survivor of
+/// held-out shard 2/8: with `+` the "perpendicular" was not; axis-aligned cylinders did not
+/// show it).
+#[test]
+fn from_a_point_on_an_oblique_axis_a_cylinder_is_closest_perpendicular_to_it() {
+    let axis = unit([1.0, 2.0, 3.0]);
+    let middle = [0.1, -0.2, 0.05];
+    let shape: Shape<f64, 3> =
+        Shape::Cylinder { a: sub(middle, scale(axis, 0.1)), b: add(middle, scale(axis, 0.1)), radius: 0.03 };
+    let closest = shape.closest(&middle).unwrap();
+    assert!(closest.inside);
+    let offset = sub(closest.point, middle);
+    assert!(dot(offset, axis).abs() < 1e-14, "{offset:?}");
+    assert!((norm(offset) - 0.03).abs() < 1e-14, "{offset:?}");
+    assert!(dot(closest.normal, axis).abs() < 1e-14 && (norm(closest.normal) - 1.0).abs() < 1e-14);
 }

@@ -370,3 +370,37 @@ fn on_an_exact_tie_of_depths_the_first_object_is_in_contact() {
     assert_eq!(out.proxy, [-0.25, 0.0]);
     assert_eq!(out.stiffness, [1000.0; 2]);
 }
+
+/// Degenerate 2-D shapes give no point (`Shape::closest_surface_point`: "`None` for a
+/// degenerate shape"): a rectangle with one half side zero or negative, and a contour whose
+/// range is a single point. Guards `half₀ > 0 && half₁ > 0` and `a < b` (cargo-mutants
+/// survivors of held-out shard 2/8: `&&` → `||` accepted a flat rectangle, `<` → `<=` an
+/// empty range).
+#[test]
+fn a_flat_rectangle_and_a_point_range_contour_give_no_point() {
+    for half_extents in [[0.03, 0.0], [0.0, 0.015], [0.03, -0.015]] {
+        let flat: Shape<f64, 4> = Shape::Rectangle { center: [0.0, 0.0], half_extents, angle: 0.0 };
+        assert!(flat.closest_surface_point(&[0.01, 0.005]).is_none(), "{half_extents:?}");
+    }
+    let point: Shape<f64, 4> =
+        Shape::ContourFunction { function: diagonal, slope: diagonal_slope, x1_range: [0.5, 0.5] };
+    assert!(point.closest_surface_point(&[0.5, 0.2]).is_none());
+}
+
+/// A convex polygon of three vertices, the fewest allowed (`ConvexPolygon`: 3 to `V`): the
+/// right triangle (0, 0), (0.1, 0), (0, 0.1) queried inside near its hypotenuse, at
+/// (0.04, 0.05), is closest at the foot of the perpendicular on `x + y = 0.1`,
+/// (0.045, 0.055), and inside; from below, (0.03, −0.02), at (0.03, 0), outside. Guards
+/// `count < 3` (a cargo-mutants survivor of held-out shard 2/8: `<=` refused triangles).
+#[test]
+fn a_triangle_is_a_convex_polygon() {
+    let mut vertices = [[0.0; 2]; 4];
+    vertices[..3].copy_from_slice(&[[0.0, 0.0], [0.1, 0.0], [0.0, 0.1]]);
+    let triangle: Shape<f64, 4> = Shape::ConvexPolygon { vertices, count: 3 };
+    let out = triangle.closest_surface_point(&[0.04, 0.05]).unwrap();
+    assert!(out.inside);
+    assert!(distance(out.point, [0.045, 0.055]) < 1e-15, "{:?}", out.point);
+    let out = triangle.closest_surface_point(&[0.03, -0.02]).unwrap();
+    assert!(!out.inside);
+    assert!(distance(out.point, [0.03, 0.0]) < 1e-15, "{:?}", out.point);
+}

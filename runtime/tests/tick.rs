@@ -178,3 +178,48 @@ fn the_current_loop_feeds_forward_the_back_emf_of_the_estimated_velocity() {
     }
     assert!(moving_checked > 50, "the joint must have moved: {moving_checked} ticks, q̇ = {velocity}");
 }
+
+/// New current-loop gains take effect at the next current tick: at rest with no current
+/// demanded yet (setpoint 0) and 1 A measured, the first sample's voltage is the
+/// proportional part alone, `kp (0 − 1 A)`: −2 V after switching to `kp = 2 V/A`, where the
+/// settings' `kp = 0.5 V/A` would give −0.5 V. Guards `HapticLoop::set_current_loop_gains`
+/// (a cargo-mutants survivor of held-out shard 2/8: its body removed went unseen).
+#[test]
+fn new_current_loop_gains_take_effect_at_the_next_current_tick() {
+    let s = settings(ImpedanceLaw::JacobianTranspose, 0.01);
+    let mut haptic = HapticLoop::new(Joystick, TaskReference::at_rest([0.0]), &s).unwrap();
+    haptic.set_current_loop_gains(&[CurrentLoopGains { kp: 2.0, ki: 0.0, ..GAINS[0] }]);
+    let (out, _) = haptic.current_tick(&[1.0]);
+    assert!((out[0].voltage + 2.0).abs() < 1e-12, "{} V", out[0].voltage);
+    let mut unchanged = HapticLoop::new(Joystick, TaskReference::at_rest([0.0]), &s).unwrap();
+    let (out, _) = unchanged.current_tick(&[1.0]);
+    assert!((out[0].voltage + 0.5).abs() < 1e-12, "{} V", out[0].voltage);
+}
+
+/// The fused tick senses what the generic tick senses: for Controller 2 (first variant) the
+/// task acceleration `ẍ = J q̈ + J̇ q̇` from the estimator, so on twin loops fed the same
+/// accelerating encoder counts the fused and the generic tick give the same torque at every
+/// tick (the generic law and the joystick's fused laws are each checked against the closed
+/// forms in `laws.rs`). Guards the fused tick's choice of terms (a cargo-mutants survivor of
+/// held-out shard 2/8: `law == AccelerationFeedback` → `!=` gave Controller 2 a zero Jacobian
+/// and so `ẍ = 0`).
+#[test]
+fn the_fused_tick_senses_the_task_acceleration_like_the_generic_tick() {
+    let s = settings(ImpedanceLaw::AccelerationFeedback, 0.01);
+    let mut generic = HapticLoop::new(Joystick, TaskReference::at_rest([0.0]), &s).unwrap();
+    let mut fused = HapticLoop::new(Joystick, TaskReference::at_rest([0.0]), &s).unwrap();
+    let mut largest_acceleration: f64 = 0.0;
+    for tick in 1..=30 {
+        // q = ½ a t² in counts: a steady acceleration the estimator sees after a few ticks.
+        let counts = [(tick * tick / 2) as i32];
+        let inputs = ImpedanceInputs { encoder_counts: counts, force_readings: [0.0], tick };
+        let a = generic.impedance_tick(&inputs);
+        let b = fused.impedance_tick_fused(&inputs);
+        assert_eq!(a.command.fault, None);
+        assert_eq!(b.command.fault, None);
+        let (ta, tb) = (a.command.torque[0], b.command.torque[0]);
+        assert!((ta - tb).abs() <= 1e-9 * (1.0 + ta.abs()), "tick {tick}: {ta} against {tb}");
+        largest_acceleration = largest_acceleration.max(generic.estimator().state().acceleration[0].abs());
+    }
+    assert!(largest_acceleration > 1.0, "q̈ must matter: {largest_acceleration}");
+}
