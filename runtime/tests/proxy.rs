@@ -1093,9 +1093,9 @@ fn the_bounding_volume_hierarchy_bounds_a_box_by_its_gap_beyond_its_high_side() 
 /// in one tick: with the proxy resting on top, a HIP moved a quarter turn (to 1 cm inside the
 /// sphere's +x side) brings it to the closest point, a radius out along +x, within a few
 /// ticks. Friction has no say without a dynamic coefficient: the straight sweep from the old
-/// proxy that friction uses to slide would cut into the sphere and hold the proxy on top.
-/// Guards the friction branch's `μ_d > 0 && slide > 0` (a cargo-mutants survivor of held-out
-/// shard 2/8: `||` sent frictionless slides through that sweep).
+/// proxy that friction uses to slide would cut into the sphere. (Written for the
+/// cargo-mutants survivor of held-out shard 2/8 `μ_d > 0 && slide > 0` → `||`, which sends
+/// frictionless slides through that sweep; it does not kill it, see docs/reliability.md.)
 #[test]
 fn on_a_frictionless_sphere_the_proxy_follows_a_quarter_turn() {
     let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
@@ -1125,4 +1125,91 @@ fn from_a_point_on_an_oblique_axis_a_cylinder_is_closest_perpendicular_to_it() {
     assert!(dot(offset, axis).abs() < 1e-14, "{offset:?}");
     assert!((norm(offset) - 0.03).abs() < 1e-14, "{offset:?}");
     assert!(dot(closest.normal, axis).abs() < 1e-14 && (norm(closest.normal) - 1.0).abs() < 1e-14);
+}
+
+/// A vibration's phase advances by `f T` per update and is kept in `[0, 1)` (module docs of
+/// `effects`): at 50 Hz and 1 ms, 0.05 a tick, so 0.15 after 3 ticks and 0.25 (not 1.25)
+/// after 25. Guards `EffectState::phase` (a cargo-mutants survivor of held-out shard 3/8:
+/// replaced by 0, it went unseen).
+#[test]
+fn a_vibration_phase_advances_by_f_t_and_wraps() {
+    use hapticgen_runtime::effects::{Effect, EffectState};
+    let effect =
+        Effect::Vibration { direction: [0.0, 0.0, 1.0], amplitude: 0.8, frequency: 50.0, period: 1e-3 };
+    let mut state: EffectState<f64> = EffectState::default();
+    assert_eq!(state.phase(), 0.0);
+    for tick in 1..=25 {
+        let _ = state.apply(&effect, &[0.0; 3], 400.0, 2.0);
+        if tick == 3 {
+            assert!((state.phase() - 0.15).abs() < 1e-12, "{}", state.phase());
+        }
+    }
+    assert!((state.phase() - 0.25).abs() < 1e-12, "{}", state.phase());
+}
+
+/// Flat cavities away from the origin keep the proxy a radius inside their walls: the room
+/// `0 ≤ x ≤ 0.1`, `|y|, |z| ≤ 0.05` (a polytope whose opposite walls are not symmetric about
+/// the origin), with the HIP 5 cm beyond the +x wall, and the half-space `z < 0.02` with the
+/// HIP 4 cm above its plane: the proxy stops on the wall a radius inside, at the HIP's other
+/// coordinates. Guards `negate` (a cargo-mutants survivor of held-out shard 3/8: without the
+/// minus a cavity's planes faced the wrong way; the cube centred on the origin in
+/// `in_a_polytope_cavity_the_proxy_stays_a_radius_inside_the_wall` pairs each wall with its
+/// mirror image and did not show it).
+#[test]
+fn flat_cavities_away_from_the_origin_hold_the_proxy_a_radius_inside() {
+    let wall = |normal: V, offset: f64| Plane { normal, offset };
+    let planes = [
+        wall([1.0, 0.0, 0.0], 0.1),
+        wall([-1.0, 0.0, 0.0], 0.0),
+        wall([0.0, 1.0, 0.0], 0.05),
+        wall([0.0, -1.0, 0.0], 0.05),
+        wall([0.0, 0.0, 1.0], 0.05),
+        wall([0.0, 0.0, -1.0], 0.05),
+    ];
+    let cases = [
+        (Shape::Polytope { planes: &planes }, [0.05, 0.0, 0.0], [0.15, 0.01, -0.02], [0.1 - R, 0.01, -0.02]),
+        (
+            Shape::half_space([0.0, 0.0, 0.02], [0.0, 0.0, 1.0]).unwrap(),
+            [0.0, 0.0, -0.05],
+            [0.01, 0.02, 0.06],
+            [0.01, 0.02, 0.02 - R],
+        ),
+    ];
+    for (shape, start, hip, expected) in cases {
+        let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+        scene
+            .add(Object { shape, kind: ObjectKind::Cavity, material: Material::frictionless(1500.0, 5.0) })
+            .unwrap();
+        scene.reset(start);
+        let out = settle_one(&mut scene, hip);
+        assert!(close(out, expected, 1e-7), "{shape:?}: {out:?}");
+        assert_eq!(scene.render(&hip).contact, Some(0), "{shape:?}");
+    }
+}
+
+/// A capsule's inner body (`Shape::project_inside`) is the union of balls along its axis: for
+/// the capsule from (0, 0, −0.1) to (0, 0, 0.1) of radius 3 cm shrunk by 1 cm, a point far
+/// out at height 0.05 goes to the axis point at that height plus 2 cm towards it. (A
+/// cargo-mutants survivor of held-out shard 3/8: `|b − a|² > 0` → `== 0` projected onto the
+/// ball at `a`.)
+#[test]
+fn a_capsule_projects_inside_at_the_height_of_the_query() {
+    let capsule = Shape::Capsule { a: [0.0, 0.0, -0.1], b: [0.0, 0.0, 0.1], radius: 0.03 };
+    let inner = capsule.project_inside(&[0.5, 0.0, 0.05], 0.01).unwrap();
+    assert!(close(inner, [0.02, 0.0, 0.05], 1e-15), "{inner:?}");
+    // Beyond the end: the ball at b.
+    let inner = capsule.project_inside(&[0.0, 0.0, 0.5], 0.01).unwrap();
+    assert!(close(inner, [0.0, 0.0, 0.12], 1e-15), "{inner:?}");
+}
+
+/// `Plane::through`: the unit normal and the offset `n · point` worked out by hand, `None` for
+/// a zero normal. (A cargo-mutants survivor of held-out shard 3/8: replaced by `None`.)
+#[test]
+fn a_plane_through_a_point() {
+    let plane = Plane::through(&[1.0, 2.0, 3.0], &[0.0, 0.0, 2.0]).unwrap();
+    assert_eq!(plane, Plane { normal: [0.0, 0.0, 1.0], offset: 3.0 });
+    let plane = Plane::through(&[1.0, 2.0, 3.0], &[3.0, 4.0, 0.0]).unwrap();
+    assert!(close(plane.normal, [0.6, 0.8, 0.0], 1e-15));
+    assert!((plane.offset - 2.2).abs() < 1e-15, "{}", plane.offset);
+    assert_eq!(Plane::through(&[1.0, 2.0, 3.0], &[0.0; 3]), None);
 }

@@ -308,6 +308,14 @@ fn a_circle_queried_at_its_centre_gives_a_boundary_point_one_radius_away() {
     assert!((distance(out.point, [0.02, -0.01]) - 0.05).abs() < 1e-15, "{:?}", out.point);
     assert!(distance(out.point, [0.07, -0.01]) < 1e-15, "{:?}", out.point);
     assert!(out.inside);
+    // Exactly on the circle (distances in powers of two): its own closest point, not inside,
+    // `inside` being strict. (Held-out shard 3/8: `distance < radius` → `<=` counted it in.)
+    let circle: Shape<f64, 4> = Shape::Circle { center: [0.25, 0.0], radius: 0.5 };
+    for p in [[0.75, 0.0], [0.25, -0.5]] {
+        let out = circle.closest_surface_point(&p).unwrap();
+        assert!(!out.inside, "{p:?}");
+        assert_eq!(out.point, p);
+    }
 }
 
 /// `inside` means strictly inside (`SurfacePoint::inside`): a point exactly on a rectangle's
@@ -403,4 +411,56 @@ fn a_triangle_is_a_convex_polygon() {
     let out = triangle.closest_surface_point(&[0.03, -0.02]).unwrap();
     assert!(!out.inside);
     assert!(distance(out.point, [0.03, 0.0]) < 1e-15, "{:?}", out.point);
+}
+
+/// Held-out shard 3/8's survivors in the 2-D shapes (cargo-mutants), each against values
+/// worked out by hand: a point exactly on a contour is not inside (`inside` is strict; the
+/// mutant `<` → `<=` counted it in); a contour table of two samples, the fewest allowed, is a
+/// segment (`count < 2` → `<=` refused it); and a table's inside test uses the height of the
+/// segment over the query, not another one extended (`&&` → `||` took the last segment's
+/// line: for the tent 0, 1, 0 over `[0, 1]` at x1 = 0.25 that line gives 1.5 instead of 0.5).
+#[test]
+fn contours_on_the_curve_two_sample_tables_and_a_tent() {
+    let contour: Shape<f64, 4> =
+        Shape::ContourFunction { function: diagonal, slope: diagonal_slope, x1_range: [0.0, 1.0] };
+    let on = contour.closest_surface_point(&[0.5, 0.5]).unwrap();
+    assert!(!on.inside);
+    assert!(distance(on.point, [0.5, 0.5]) < 1e-12, "{:?}", on.point);
+
+    let mut samples = [0.0; 4];
+    samples[..2].copy_from_slice(&[0.0, 1.0]);
+    let segment: Shape<f64, 4> = Shape::ContourTable { samples, count: 2, x1_range: [0.0, 1.0] };
+    let out = segment.closest_surface_point(&[0.6, 0.2]).unwrap();
+    assert!(out.inside);
+    assert!(distance(out.point, [0.4, 0.4]) < 1e-12, "{:?}", out.point);
+
+    samples[..3].copy_from_slice(&[0.0, 1.0, 0.0]);
+    let tent: Shape<f64, 4> = Shape::ContourTable { samples, count: 3, x1_range: [0.0, 1.0] };
+    // Above the rising side (height 0.5 at x1 = 0.25): outside; the foot on the segment
+    // (0, 0)–(0.5, 1) at t = (0.25·0.5 + 0.7·1)/1.25 = 0.66 of it, (0.33, 0.66).
+    let out = tent.closest_surface_point(&[0.25, 0.7]).unwrap();
+    assert!(!out.inside);
+    assert!(distance(out.point, [0.33, 0.66]) < 1e-12, "{:?}", out.point);
+    assert!(tent.closest_surface_point(&[0.25, 0.4]).unwrap().inside);
+}
+
+/// With two violated objects of different depths the deeper one is in contact in the 2-D
+/// scene too: the HIP at the origin is 1/4 inside the first circle and 3/8 inside the second,
+/// whose boundary point is (0, −0.375). (Held-out shard 3/8: `depth > d` → `<` chose the
+/// shallower; only the 3-D scene's rule was tested.)
+#[test]
+fn the_deeper_of_two_objects_is_in_contact() {
+    let mut scene: Scene<f64, 2, 8> = Scene::new(200.0, 2.0, 0.0);
+    for (center, stiffness) in [([0.25, 0.0], 1000.0), ([0.0, 0.125], 3000.0)] {
+        scene.add(VirtualObject {
+            shape: Shape::Circle { center, radius: 0.5 },
+            kind: ObjectKind::Solid,
+            stiffness,
+            damping: 5.0,
+        });
+    }
+    let out = scene.render(&[0.0, 0.0]);
+    assert_eq!(out.contact, Some(1));
+    assert_eq!(out.proxy, [0.0, -0.375]);
+    assert_eq!(out.stiffness, [3000.0; 2]);
 }
