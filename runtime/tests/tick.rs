@@ -258,10 +258,8 @@ fn controller_2_senses_j_qdd_plus_jdot_qd() {
         let jacobian = rig.jacobian(&state.position);
         let bias = rig.jacobian_dot_times_qdot(&state.position, &state.velocity);
         let mut acceleration = bias;
-        for i in 0..2 {
-            for j in 0..2 {
-                acceleration[i] += jacobian[i][j] * state.acceleration[j];
-            }
+        for (a, row) in acceleration.iter_mut().zip(jacobian.iter()) {
+            *a += row[0] * state.acceleration[0] + row[1] * state.acceleration[1];
         }
         largest_bias = largest_bias.max(bias[0].abs()).max(bias[1].abs());
         let sensed = TaskSensing { operator_force: [0.0; 2], acceleration };
