@@ -1105,6 +1105,16 @@ fn on_a_frictionless_sphere_the_proxy_follows_a_quarter_turn() {
     assert!(close(out.proxy, [0.0, 0.0, 0.05 + R], 1e-8), "{:?}", out.proxy);
     let out = settle_one(&mut scene, [0.04, 0.0, 0.0]);
     assert!(close(out, [0.05 + R, 0.0, 0.0], 1e-6), "{out:?}");
+    // A small move from the top, the HIP 3 mm sideways: the proxy goes to the closest point,
+    // a radius out along the HIP's direction from the centre (the chord from the old proxy
+    // would dip 35 µm into the sphere). Added to reach the friction branch within one tick;
+    // the mutant above survives this too.
+    scene.reset([0.0, 0.0, 0.1]);
+    scene.render(&[0.0, 0.0, 0.04]);
+    scene.render(&[0.0, 0.0, 0.04]);
+    let hip = [0.003, 0.0, 0.04];
+    let out = settle_one(&mut scene, hip);
+    assert!(close(out, scale(unit(hip), 0.05 + R), 1e-6), "{out:?}");
 }
 
 /// From a point on an oblique axis a cylinder is closest on its side, perpendicular to the
