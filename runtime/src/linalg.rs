@@ -394,5 +394,8 @@ mod tests {
         assert!((lu.reciprocal_condition_estimate() - 2.0 / 9.0).abs() < 1e-15);
         let lu = LuFactors::new(&[[2.0, 0.0, 0.0], [0.0, -8.0, 0.0], [0.0, 0.0, 4.0]]).unwrap();
         assert_eq!(lu.reciprocal_condition_estimate(), 0.25);
+        // The zero matrix: no pivot at all, the estimate 0 (not 0/0). (Shard 4/8: the
+        // `largest > 0` test → `>=` divided 0 by 0.)
+        assert_eq!(LuFactors::new(&[[0.0; 2]; 2]).unwrap().reciprocal_condition_estimate(), 0.0);
     }
 }

@@ -1223,3 +1223,11 @@ fn a_plane_through_a_point() {
     assert!((plane.offset - 2.2).abs() < 1e-15, "{}", plane.offset);
     assert_eq!(Plane::through(&[1.0, 2.0, 3.0], &[0.0; 3]), None);
 }
+
+/// `GodObject::radius` is the radius the scene was made with. (A cargo-mutants survivor of
+/// shard 4/8: replaced by 0.)
+#[test]
+fn the_proxy_radius_is_the_one_given() {
+    let scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, 0.002, SKIN);
+    assert_eq!(scene.radius(), 0.002);
+}
