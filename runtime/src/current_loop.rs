@@ -280,6 +280,23 @@ mod tests {
         assert_eq!(pi.integral(), 0.0);
     }
 
+    /// The mirror image of the positive side: saturated at −24 V with an error that drives the
+    /// output back up (e > 0), the integral moves, and is clamped so that `p + z = −24 V`
+    /// (here `p = kp·(0·r − y) = −50 V`, so `z = 26 V`): the next sample leaves saturation as
+    /// soon as the proportional part allows. Guards the negative-side condition (a
+    /// cargo-mutants survivor of held-out shard 2/8: `e > 0` → `e == 0` froze the integral).
+    #[test]
+    fn negative_saturation_integrates_an_error_that_unwinds_it() {
+        let mut pi = CurrentController::new(GAINS, 24.0);
+        let out = pi.step(101.0, 100.0); // raw = −50 V, e = 1 A
+        assert_eq!(out.voltage, -24.0);
+        assert_eq!(out.status, CurrentLoopStatus::Saturated);
+        assert!((pi.integral() - 26.0).abs() < 1e-12, "{}", pi.integral());
+        // With the measurement back at 0 the output is the integral alone, 26 V: saturated high.
+        let out = pi.step(1.0, 0.0);
+        assert_eq!(out.voltage, 24.0);
+    }
+
     #[test]
     fn non_finite_input_gives_zero_volts_and_keeps_state() {
         let mut pi = CurrentController::new(GAINS, 24.0);

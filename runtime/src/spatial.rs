@@ -7,7 +7,8 @@
 //!   in). When the HIP violates an object, the IHIP (the impedance law's reference) is the
 //!   closest point of the object's boundary (eq. (16)), so the spring `K_d (x − x_d)` pushes
 //!   back along the normal and the operator slides along the surface; with several violated
-//!   objects the deepest violation wins. A mesh has no inside, so it never acts here.
+//!   objects the deepest violation wins (on an exact tie, the object added first). A mesh has
+//!   no inside, so it never acts here.
 //! * **Free space** is collocation on the anti-drift grid of spacing `h`: the IHIP is a grid
 //!   node, and moves (to the node nearest the HIP, every coordinate rounded to a multiple of
 //!   `h`) only when the HIP is more than `h` from it along some axis. The proxy velocity is

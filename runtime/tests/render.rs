@@ -296,3 +296,171 @@ fn the_anti_drift_grid_holds_its_node_within_one_spacing_and_snaps_beyond() {
     let mut off = AntiDriftGrid::new(0.0);
     assert_eq!(off.update(&[0.0151, -0.0095]), [0.0151, -0.0095]);
 }
+
+/// A circle queried at its exact centre, where every boundary point is equally close: a finite
+/// boundary point one radius away (the one along +x1), inside. Guards the centre case of the
+/// circle (a held-out cargo-mutants survivor: `distance > 0` → `>=` divided 0 by 0 there and
+/// the query gave no point).
+#[test]
+fn a_circle_queried_at_its_centre_gives_a_boundary_point_one_radius_away() {
+    let circle: Shape<f64, 4> = Shape::Circle { center: [0.02, -0.01], radius: 0.05 };
+    let out = circle.closest_surface_point(&[0.02, -0.01]).unwrap();
+    assert!((distance(out.point, [0.02, -0.01]) - 0.05).abs() < 1e-15, "{:?}", out.point);
+    assert!(distance(out.point, [0.07, -0.01]) < 1e-15, "{:?}", out.point);
+    assert!(out.inside);
+    // Exactly on the circle (distances in powers of two): its own closest point, not inside,
+    // `inside` being strict. (Held-out shard 3/8: `distance < radius` → `<=` counted it in.)
+    let circle: Shape<f64, 4> = Shape::Circle { center: [0.25, 0.0], radius: 0.5 };
+    for p in [[0.75, 0.0], [0.25, -0.5]] {
+        let out = circle.closest_surface_point(&p).unwrap();
+        assert!(!out.inside, "{p:?}");
+        assert_eq!(out.point, p);
+    }
+}
+
+/// `inside` means strictly inside (`SurfacePoint::inside`): a point exactly on a rectangle's
+/// edge is on the boundary, its own closest point, and not inside. Guards the strict
+/// comparisons of the rectangle's inside test (a held-out cargo-mutants survivor: the second
+/// axis' `|y| < h` → `<=` counted its edges as inside).
+#[test]
+fn a_point_on_a_rectangle_edge_is_not_inside() {
+    let rectangle: Shape<f64, 4> =
+        Shape::Rectangle { center: [0.0, 0.0], half_extents: [0.03, 0.015], angle: 0.0 };
+    for p in [[0.01, 0.015], [-0.02, -0.015], [0.03, 0.005], [-0.03, 0.0]] {
+        let out = rectangle.closest_surface_point(&p).unwrap();
+        assert!(!out.inside, "{p:?}");
+        assert_eq!(out.point, p);
+    }
+    // Just inside the top edge: inside, pushed out to it.
+    let out = rectangle.closest_surface_point(&[0.01, 0.0149]).unwrap();
+    assert!(out.inside);
+    assert!(distance(out.point, [0.01, 0.015]) < 1e-15, "{:?}", out.point);
+}
+
+/// A contour over a range that does not start at 0, `x2 = x1` over `[1, 3]`: the closest point
+/// to `(x, y)` is the foot `t = (x + y)/2` when it is in the range, else the nearer end (the
+/// distance is convex in `t`). From `(2.8, 4)` the foot `t = 3.4` is beyond the range: the end
+/// `(3, 3)`, not a point of the line outside the range. Guards the sample spacing
+/// `(b − a)/(n − 1)`: with `b + a` the samples would run beyond `b`, which a range `[0, 1]`
+/// cannot show. (Written for the held-out cargo-mutants survivor `n − 1` → `n + 1`, which it
+/// does not kill: the bisection around the best sample finds the same point with samples
+/// 1/34 of the range apart; it kills `b − a` → `b + a`, a mutant of the next shard.)
+#[test]
+fn a_contour_over_a_range_away_from_zero_is_closest_within_its_range() {
+    let contour: Shape<f64, 4> =
+        Shape::ContourFunction { function: diagonal, slope: diagonal_slope, x1_range: [1.0, 3.0] };
+    let out = contour.closest_surface_point(&[2.8, 4.0]).unwrap();
+    assert!(distance(out.point, [3.0, 3.0]) < 1e-12, "{:?}", out.point);
+    assert!(!out.inside);
+    let out = contour.closest_surface_point(&[2.0, 2.4]).unwrap();
+    assert!(distance(out.point, [2.2, 2.2]) < 1e-12, "{:?}", out.point);
+    let out = contour.closest_surface_point(&[1.2, -1.0]).unwrap();
+    assert!(distance(out.point, [1.0, 1.0]) < 1e-12, "{:?}", out.point);
+}
+
+/// Two solid circles the HIP is equally deep in (1/4 inside each, exactly, in powers of two):
+/// on an exact tie the object added first is in contact (`Scene::render`), with its gains and
+/// its closest point. Guards the tie rule of the deepest-violation choice (a held-out
+/// cargo-mutants survivor: `depth > d` → `>=` let the later object win ties).
+#[test]
+fn on_an_exact_tie_of_depths_the_first_object_is_in_contact() {
+    let mut scene: Scene<f64, 2, 8> = Scene::new(200.0, 2.0, 0.0);
+    for (center, stiffness) in [([0.25, 0.0], 1000.0), ([0.0, 0.25], 3000.0)] {
+        scene.add(VirtualObject {
+            shape: Shape::Circle { center, radius: 0.5 },
+            kind: ObjectKind::Solid,
+            stiffness,
+            damping: 5.0,
+        });
+    }
+    let out = scene.render(&[0.0, 0.0]);
+    assert_eq!(out.contact, Some(0));
+    assert_eq!(out.proxy, [-0.25, 0.0]);
+    assert_eq!(out.stiffness, [1000.0; 2]);
+}
+
+/// Degenerate 2-D shapes give no point (`Shape::closest_surface_point`: "`None` for a
+/// degenerate shape"): a rectangle with one half side zero or negative, and a contour whose
+/// range is a single point. Guards `half₀ > 0 && half₁ > 0` and `a < b` (cargo-mutants
+/// survivors of held-out shard 2/8: `&&` → `||` accepted a flat rectangle, `<` → `<=` an
+/// empty range).
+#[test]
+fn a_flat_rectangle_and_a_point_range_contour_give_no_point() {
+    for half_extents in [[0.03, 0.0], [0.0, 0.015], [0.03, -0.015]] {
+        let flat: Shape<f64, 4> = Shape::Rectangle { center: [0.0, 0.0], half_extents, angle: 0.0 };
+        assert!(flat.closest_surface_point(&[0.01, 0.005]).is_none(), "{half_extents:?}");
+    }
+    let point: Shape<f64, 4> =
+        Shape::ContourFunction { function: diagonal, slope: diagonal_slope, x1_range: [0.5, 0.5] };
+    assert!(point.closest_surface_point(&[0.5, 0.2]).is_none());
+}
+
+/// A convex polygon of three vertices, the fewest allowed (`ConvexPolygon`: 3 to `V`): the
+/// right triangle (0, 0), (0.1, 0), (0, 0.1) queried inside near its hypotenuse, at
+/// (0.04, 0.05), is closest at the foot of the perpendicular on `x + y = 0.1`,
+/// (0.045, 0.055), and inside; from below, (0.03, −0.02), at (0.03, 0), outside. Guards
+/// `count < 3` (a cargo-mutants survivor of held-out shard 2/8: `<=` refused triangles).
+#[test]
+fn a_triangle_is_a_convex_polygon() {
+    let mut vertices = [[0.0; 2]; 4];
+    vertices[..3].copy_from_slice(&[[0.0, 0.0], [0.1, 0.0], [0.0, 0.1]]);
+    let triangle: Shape<f64, 4> = Shape::ConvexPolygon { vertices, count: 3 };
+    let out = triangle.closest_surface_point(&[0.04, 0.05]).unwrap();
+    assert!(out.inside);
+    assert!(distance(out.point, [0.045, 0.055]) < 1e-15, "{:?}", out.point);
+    let out = triangle.closest_surface_point(&[0.03, -0.02]).unwrap();
+    assert!(!out.inside);
+    assert!(distance(out.point, [0.03, 0.0]) < 1e-15, "{:?}", out.point);
+}
+
+/// Held-out shard 3/8's survivors in the 2-D shapes (cargo-mutants), each against values
+/// worked out by hand: a point exactly on a contour is not inside (`inside` is strict; the
+/// mutant `<` → `<=` counted it in); a contour table of two samples, the fewest allowed, is a
+/// segment (`count < 2` → `<=` refused it); and a table's inside test uses the height of the
+/// segment over the query, not another one extended (`&&` → `||` took the last segment's
+/// line: for the tent 0, 1, 0 over `[0, 1]` at x1 = 0.25 that line gives 1.5 instead of 0.5).
+#[test]
+fn contours_on_the_curve_two_sample_tables_and_a_tent() {
+    let contour: Shape<f64, 4> =
+        Shape::ContourFunction { function: diagonal, slope: diagonal_slope, x1_range: [0.0, 1.0] };
+    let on = contour.closest_surface_point(&[0.5, 0.5]).unwrap();
+    assert!(!on.inside);
+    assert!(distance(on.point, [0.5, 0.5]) < 1e-12, "{:?}", on.point);
+
+    let mut samples = [0.0; 4];
+    samples[..2].copy_from_slice(&[0.0, 1.0]);
+    let segment: Shape<f64, 4> = Shape::ContourTable { samples, count: 2, x1_range: [0.0, 1.0] };
+    let out = segment.closest_surface_point(&[0.6, 0.2]).unwrap();
+    assert!(out.inside);
+    assert!(distance(out.point, [0.4, 0.4]) < 1e-12, "{:?}", out.point);
+
+    samples[..3].copy_from_slice(&[0.0, 1.0, 0.0]);
+    let tent: Shape<f64, 4> = Shape::ContourTable { samples, count: 3, x1_range: [0.0, 1.0] };
+    // Above the rising side (height 0.5 at x1 = 0.25): outside; the foot on the segment
+    // (0, 0)–(0.5, 1) at t = (0.25·0.5 + 0.7·1)/1.25 = 0.66 of it, (0.33, 0.66).
+    let out = tent.closest_surface_point(&[0.25, 0.7]).unwrap();
+    assert!(!out.inside);
+    assert!(distance(out.point, [0.33, 0.66]) < 1e-12, "{:?}", out.point);
+    assert!(tent.closest_surface_point(&[0.25, 0.4]).unwrap().inside);
+}
+
+/// With two violated objects of different depths the deeper one is in contact in the 2-D
+/// scene too: the HIP at the origin is 1/4 inside the first circle and 3/8 inside the second,
+/// whose boundary point is (0, −0.375). (Held-out shard 3/8: `depth > d` → `<` chose the
+/// shallower; only the 3-D scene's rule was tested.)
+#[test]
+fn the_deeper_of_two_objects_is_in_contact() {
+    let mut scene: Scene<f64, 2, 8> = Scene::new(200.0, 2.0, 0.0);
+    for (center, stiffness) in [([0.25, 0.0], 1000.0), ([0.0, 0.125], 3000.0)] {
+        scene.add(VirtualObject {
+            shape: Shape::Circle { center, radius: 0.5 },
+            kind: ObjectKind::Solid,
+            stiffness,
+            damping: 5.0,
+        });
+    }
+    let out = scene.render(&[0.0, 0.0]);
+    assert_eq!(out.contact, Some(1));
+    assert_eq!(out.proxy, [0.0, -0.375]);
+    assert_eq!(out.stiffness, [3000.0; 2]);
+}
