@@ -163,26 +163,25 @@ pub fn generate_rig(
     })
 }
 
+/// The sphere of the scenario `mesh_contact` (`hapticgen_fw_sim::scenarios::mesh_contact`):
+/// radius, m (the cavity of `sphere_cavity`, as a mesh).
+pub const MESH_CONTACT_RADIUS: f64 = 0.010;
+/// Its bands of latitude and longitude: `2 × 25 × (21 − 1)` = 1,000 triangles.
+pub const MESH_CONTACT_RINGS_SEGMENTS: (usize, usize) = (21, 25);
+/// The most triangles in a leaf of its BVH.
+pub const MESH_CONTACT_LEAF_SIZE: usize = 4;
+
 /// The mesh a scenario renders, as the Rust source of `static SPHERE: Mesh<'static, S, 3>` and
 /// its arrays (`hapticgen_codegen::mesh::emit`), for the scenarios whose `new` takes one;
-/// `None` for the others. The dimensions are the scenario's own constants.
+/// `None` for the others. (Here, not in the scenario's crate: the board images build with
+/// this crate and must not depend on the simulator.)
 fn scenario_mesh(scenario: &str, scalar: Scalar) -> Result<Option<String>, String> {
     match scenario {
         "mesh_contact" => {
-            use hapticgen_fw_sim::scenarios::mesh_contact as contact;
-            let sphere = hapticgen_codegen::mesh::TriangleMesh::uv_sphere(
-                contact::RADIUS,
-                contact::RINGS,
-                contact::SEGMENTS,
-            )?
-            .with_bvh(contact::LEAF_SIZE);
-            if sphere.faces.len() != contact::TRIANGLES {
-                return Err(format!(
-                    "scenario `{scenario}`: the sphere has {} triangles, the scenario says {}",
-                    sphere.faces.len(),
-                    contact::TRIANGLES
-                ));
-            }
+            let (rings, segments) = MESH_CONTACT_RINGS_SEGMENTS;
+            let sphere =
+                hapticgen_codegen::mesh::TriangleMesh::uv_sphere(MESH_CONTACT_RADIUS, rings, segments)?
+                    .with_bvh(MESH_CONTACT_LEAF_SIZE);
             Ok(Some(hapticgen_codegen::mesh::emit(&sphere, "SPHERE", scalar)))
         }
         _ => Ok(None),

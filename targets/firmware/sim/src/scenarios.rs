@@ -319,8 +319,8 @@ fn along_221<S: Real>(force: f64) -> [S; 3] {
 
 /// The inside of a closed triangle mesh touched through the god-object proxy (`M = 3`, any `N`;
 /// the PHANToM-like arm): the runtime's [`GodObject`](hapticgen_runtime::proxy::GodObject) with
-/// one mesh, a UV sphere of [`RADIUS`](mesh_contact::RADIUS) with
-/// [`TRIANGLES`](mesh_contact::TRIANGLES) triangles and its BVH, which the image's glue emits as
+/// one mesh, a UV sphere of 10 mm radius with 1,000 triangles and its BVH (dimensions in
+/// `hapticgen-fw-build`, `MESH_CONTACT_*`), which the image's glue emits as
 /// `static` arrays (the mesh is in flash) in the sphere's own frame; the scenario places it
 /// about the start's task point (`Shape::MeshAt`). `sphere_cavity` with a mesh instead of the
 /// analytic sphere: the Jacobian-transpose law with the rendering's wall `K_d`, `B_d`; the
@@ -335,16 +335,6 @@ pub mod mesh_contact {
     use hapticgen_runtime::render::ObjectKind;
     use hapticgen_runtime::shape::{Material, Mesh, Object, Shape};
 
-    /// Radius of the sphere, m.
-    pub const RADIUS: f64 = 0.010;
-    /// Bands of latitude of the UV sphere.
-    pub const RINGS: usize = 21;
-    /// Bands of longitude.
-    pub const SEGMENTS: usize = 25;
-    /// Triangles: `2 × SEGMENTS × (RINGS − 1)`.
-    pub const TRIANGLES: usize = 2 * SEGMENTS * (RINGS - 1);
-    /// Most triangles in a leaf of the mesh's BVH.
-    pub const LEAF_SIZE: usize = 4;
     /// Operator force, N, along `(2, 1, 2)/3`.
     pub const FORCE: f64 = 1.0;
     /// Radius of the proxy, m (a point).
