@@ -267,7 +267,7 @@ struct SimulateArgs {
 struct PilArgs {
     #[command(flatten)]
     run: SimulateArgs,
-    /// The PIL image (default: $HAPTICGEN_PIL_IMAGE, else <target dir>/images/<image>.pil.elf
+    /// The PIL image (default: `$HAPTICGEN_PIL_IMAGE`, else `<target dir>/images/<image>.pil.elf`
     /// as `scripts/firmware.sh --only pil` builds it).
     #[arg(long)]
     image: Option<PathBuf>,
