@@ -255,10 +255,9 @@ for NAME in "${SELECTED[@]}"; do
         HAPTICGEN_FW_VARIANT=$PIL_FIG7_VARIANT cargo build --locked --release --target "$TARGET" \
             -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil
         cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-pil" "$OUT/$PIL_FIG7_VARIANT.pil.elf"
-        HOST_TARGET_DIR=$(cd "$ROOT" && cargo metadata --locked --format-version 1 --no-deps \
-            | sed -n 's/.*"target_directory":"\([^"]*\)".*/\1/p')
-        [ -n "$HOST_TARGET_DIR" ] || die "cargo metadata did not name the root workspace's target directory"
-        (cd "$ROOT" && cargo build --locked -p hapticgen) || die "building hapticgen failed"
+        # The root workspace's build goes where this script's does: never into <repo>/target.
+        HOST_TARGET_DIR=${CARGO_TARGET_DIR:-$TARGET_DIR/host}
+        (cd "$ROOT" && cargo build --locked -p hapticgen --target-dir "$HOST_TARGET_DIR") || die "building hapticgen failed"
         HAPTICGEN=$HOST_TARGET_DIR/debug/hapticgen
         step "PIL: Fig. 7 (circle tracing) on the parallel link under QEMU vs hapticgen simulate (bound: $PIL_MAX_COUNTS counts through |J|, two grid spacings)"
         background "$PIL_FIG7" "$HAPTICGEN" pil "$ROOT/models/parallel_link_2dof.yaml" --variant "$PIL_FIG7_VARIANT" \
@@ -279,10 +278,9 @@ for NAME in "${SELECTED[@]}"; do
         step "PIL image: no panic reachable from a received byte, the period's control and the answer's framing"
         panic_check "$PIL" "$OUT/$PIL_VARIANT.pil-path.elf"
         step "PIL: the host side (hapticgen, root workspace)"
-        HOST_TARGET_DIR=$(cd "$ROOT" && cargo metadata --locked --format-version 1 --no-deps \
-            | sed -n 's/.*"target_directory":"\([^"]*\)".*/\1/p')
-        [ -n "$HOST_TARGET_DIR" ] || die "cargo metadata did not name the root workspace's target directory"
-        (cd "$ROOT" && cargo build --locked -p hapticgen) || die "building hapticgen failed"
+        # The root workspace's build goes where this script's does: never into <repo>/target.
+        HOST_TARGET_DIR=${CARGO_TARGET_DIR:-$TARGET_DIR/host}
+        (cd "$ROOT" && cargo build --locked -p hapticgen --target-dir "$HOST_TARGET_DIR") || die "building hapticgen failed"
         HAPTICGEN=$HOST_TARGET_DIR/debug/hapticgen
         [ -x "$HAPTICGEN" ] || die "hapticgen was built but is not at $HAPTICGEN"
         step "PIL: Fig. 4 on the joystick under QEMU vs hapticgen simulate (bound: $PIL_MAX_COUNTS encoder counts), then the fault tests (one sensor frame in 100 corrupted, dropped; the host goes silent at 0.25 s: safe state within 10 ms)"
