@@ -120,3 +120,51 @@ fn closed_chain_where_the_loop_cannot_close_is_non_finite_without_panicking() {
         .chain(terms.jacobian.iter().flatten())
         .all(|x| x.is_finite()));
 }
+
+/// The pantograph's elbows (the passive joints' axes): `(∓s + l cos q_k, l sin q_k)`, from
+/// `models/pantograph_5bar.yaml`'s parameters, written out here independently of the generator.
+fn pantograph_elbows(q: &[f64; 2]) -> [[f64; 2]; 2] {
+    let (l_proximal, half_spacing) = (0.07, 0.019);
+    [
+        [-half_spacing + l_proximal * q[0].cos(), l_proximal * q[0].sin()],
+        [half_spacing + l_proximal * q[1].cos(), l_proximal * q[1].sin()],
+    ]
+}
+
+#[test]
+fn closure_margin_is_the_squared_sine_between_the_distal_links_and_vanishes_where_the_loop_is_singular() {
+    let rig = pantograph_f64::Pantograph5bar::NOMINAL;
+    // Inside the workspace: the squared sine of the angle between the two distal links, from
+    // the elbows and the handle (the rig's own task position) by the cross product.
+    for q in [[1.6, 1.2], [2.0, 0.9], [2.5, 0.6], [1.45, 1.7], [2.6, 1.7]] {
+        let [e1, e2] = pantograph_elbows(&q);
+        let handle = rig.position(&q);
+        let u1 = [handle[0] - e1[0], handle[1] - e1[1]];
+        let u2 = [handle[0] - e2[0], handle[1] - e2[1]];
+        let cross = u1[0] * u2[1] - u1[1] * u2[0];
+        let sine_squared =
+            cross * cross / ((u1[0].powi(2) + u1[1].powi(2)) * (u2[0].powi(2) + u2[1].powi(2)));
+        let margin = rig.closure_margin(&q)[0];
+        assert!((margin - sine_squared).abs() < 1e-12, "at {q:?}: margin {margin}, sin² {sine_squared}");
+    }
+    // The elbows coincide where `2 l cos q1 = 2 s` and `q2 = π − q1`: both distal links then
+    // lie along the same line, `Φ_p` is singular and `D` grows without bound as the
+    // configuration approaches it. The margin must go to zero with it.
+    let coincident = (0.019_f64 / 0.07).acos();
+    let mut previous_largest = 0.0;
+    for offset in [1e-2, 1e-3, 1e-4] {
+        let q = [coincident, std::f64::consts::PI - coincident + offset];
+        let margin = rig.closure_margin(&q)[0];
+        let d = rig.inertia_matrix(&q);
+        // The larger eigenvalue of the symmetric 2 × 2 `D`.
+        let (mean, half_gap) =
+            (0.5 * (d[0][0] + d[1][1]), (0.25 * (d[0][0] - d[1][1]).powi(2) + d[0][1].powi(2)).sqrt());
+        let largest = mean + half_gap;
+        assert!(margin >= 0.0 && margin < 10.0 * offset * offset, "offset {offset}: margin {margin}");
+        assert!(
+            largest > 10.0 * previous_largest,
+            "offset {offset}: D's largest eigenvalue {largest} did not grow"
+        );
+        previous_largest = largest;
+    }
+}

@@ -145,10 +145,11 @@ pub struct Installed {
     pub hints: Vec<(NodeId, String)>,
     /// Every atom substituted, with its node.
     pub atoms: Vec<(Atom, NodeId)>,
-    /// Per closure, its assembly margin `Δ / (4 |d|² r₁²)`: the squared sine of the angle
-    /// between the first distal link and the line joining the two passive joints' axes. 1 with
-    /// the links square to that line, 0 with them aligned (the singular boundary, where
-    /// `det Φ_p = 0`), negative where the loop cannot close.
+    /// Per closure, its assembly margin `Δ / (4 r₁² r₂²)`: the squared sine of the angle
+    /// between the two distal links (`(E − c₁) × (E − c₂) = σ √Δ / 2`). 1 with the links
+    /// square to each other, 0 exactly where `det Φ_p = 0` (the links aligned: the workspace
+    /// boundary, or the passive joints' axes coincident), negative where the loop cannot
+    /// close.
     pub margins: Vec<NodeId>,
 }
 
@@ -388,7 +389,13 @@ pub fn install(dag: &mut Dag, closures: Option<&Closures>) -> Installed {
         let k2 = dag.mul(k, k);
         let discriminant = dag.sub(scaled, k2);
         name(dag, discriminant, format!("{}_discriminant", l.name), &mut out);
-        let margin = dag.div(discriminant, scaled);
+        // `E − c₁` and `E − c₂` are the two distal links; their cross product is
+        // `d × (E − c₁) = σ √Δ / 2`, so `Δ / (4 r₁² r₂²)` is the squared sine of the angle
+        // between them: 0 exactly where `det Φ_p` vanishes (links aligned, or the elbows
+        // coincident, where `|d|² → 0` would make a ratio to `|d|²` read 1).
+        let radii_product = dag.mul(r1, r2);
+        let margin_scale = dag.mul(four, radii_product);
+        let margin = dag.div(discriminant, margin_scale);
         name(dag, margin, format!("{}_margin", l.name), &mut out);
         out.margins.push(margin);
         let root = dag.sqrt(discriminant);

@@ -195,7 +195,7 @@ pub(crate) fn closure_margin_function(
     let s = scalar.tokens();
     let names: Vec<String> = closures.loops.iter().map(|l| format!("`{}`", l.name)).collect();
     let doc = format!(
-        " Assembly margin of each closure ({}): the squared sine of the angle between the first distal link and the line joining the passive joints' axes; 1 with the link square to it, 0 at the singular boundary (links aligned), negative where the loop cannot close (NaN if the axes coincide). Guard the workspace with it: the dynamics grow without bound as it approaches 0.",
+        " Assembly margin of each closure ({}): the squared sine of the angle between its two distal links; 1 with the links square to each other, 0 where the loop is singular (the links aligned, at the workspace boundary or with the passive joints' axes coincident), negative where the loop cannot close. Guard the workspace with it: the dynamics grow without bound as it approaches 0.",
         names.join(", ")
     );
     let tokens = quote! {
