@@ -37,15 +37,16 @@ impl AtomValues for State<'_> {
 /// and its rate), computed in closed form from the actuated state.
 pub struct Full<'a> {
     state: &'a State<'a>,
-    eliminated: Vec<(Atom, f64)>,
+    /// Looked up once per atom of every term: a spatial chain has about a hundred.
+    eliminated: std::collections::HashMap<Atom, f64>,
 }
 
 impl<'a> Full<'a> {
     /// The values at `state` for `mech`.
     pub fn new(mech: &Mechanics, state: &'a State<'a>) -> Self {
         let eliminated = match &mech.closures {
-            Some(c) => c.values(state.q, state.qd, state.parameters),
-            None => Vec::new(),
+            Some(c) => c.values(state.q, state.qd, state.parameters).into_iter().collect(),
+            None => std::collections::HashMap::new(),
         };
         Full { state, eliminated }
     }
@@ -53,8 +54,8 @@ impl<'a> Full<'a> {
 
 impl AtomValues for Full<'_> {
     fn value(&self, atom: Atom) -> f64 {
-        match self.eliminated.iter().find(|(a, _)| *a == atom) {
-            Some(&(_, v)) => v,
+        match self.eliminated.get(&atom) {
+            Some(&v) => v,
             None => self.state.value(atom),
         }
     }

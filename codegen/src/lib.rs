@@ -69,7 +69,7 @@ pub fn generate_with(
     options: EmitOptions,
 ) -> Result<Generated, Diagnostics> {
     let model = load(source, variant)?;
-    Ok(generate_model_with(model, scalar, options))
+    generate_model_with(model, scalar, options)
 }
 
 /// Parses a model (the named variant, else the model's default), validates it and runs the
@@ -94,16 +94,24 @@ pub fn derive(model: &CheckedModel) -> dynamics::mechanics::Mechanics {
     dynamics::derive(model, model.analyses.closures.as_ref())
 }
 
-/// Emits the code of an already loaded model.
-pub fn generate_model(model: CheckedModel, scalar: Scalar) -> Generated {
+/// Emits the code of an already loaded model; the model's located refusal if code cannot be
+/// emitted for it ([`check::Analyses::emission_refused`]).
+pub fn generate_model(model: CheckedModel, scalar: Scalar) -> Result<Generated, Diagnostics> {
     generate_model_with(model, scalar, EmitOptions::default())
 }
 
 /// Emits the code of an already loaded model with emission options.
-pub fn generate_model_with(model: CheckedModel, scalar: Scalar, options: EmitOptions) -> Generated {
+pub fn generate_model_with(
+    model: CheckedModel,
+    scalar: Scalar,
+    options: EmitOptions,
+) -> Result<Generated, Diagnostics> {
+    if let Some(refusal) = &model.analyses.emission_refused {
+        return Err(refusal.clone());
+    }
     let mechanics = dynamics::derive_for_emission(&model, model.analyses.closures.as_ref());
     let (tokens, stats) = emit::items(&model, &mechanics, scalar, options);
-    Generated { model, mechanics, scalar, options, tokens, stats }
+    Ok(Generated { model, mechanics, scalar, options, tokens, stats })
 }
 
 impl Generated {

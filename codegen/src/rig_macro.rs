@@ -108,9 +108,10 @@ pub fn expand(input: TokenStream, manifest_dir: &Path) -> TokenStream {
     let full = manifest_dir.join(&file);
     let variant_name = variant.as_ref().map(LitStr::value);
     let span = path.span();
-    match crate::load_file(&full, &file, variant_name.as_deref()) {
-        Ok(model) => {
-            let generated = crate::generate_model_with(model, *scalar, *options);
+    let generated = crate::load_file(&full, &file, variant_name.as_deref())
+        .and_then(|model| crate::generate_model_with(model, *scalar, *options));
+    match generated {
+        Ok(generated) => {
             let items = &generated.tokens;
             let tracked = full.to_string_lossy().into_owned();
             let doc = format!(

@@ -17,6 +17,10 @@ const CASES: &[(&str, Option<&str>)] = &[
     ("closure-points-swapped", None),
     ("closure-spatial", None),
     ("closure-unreachable", None),
+    ("spatial-closure-cannot-close", None),
+    ("spatial-closure-over-constrained", None),
+    ("spatial-closure-singular", None),
+    ("spatial-closure-under-constrained", None),
     ("com-three-entries", None),
     ("current-loop-infeasible", None),
     ("dh-and-origin", None),
@@ -990,17 +994,73 @@ fn closure_points_paired_with_the_wrong_joints() {
 }
 
 #[test]
-fn closure_in_a_spatial_model() {
-    check(
+fn planar_closure_keys_in_a_spatial_model() {
+    let d = check(
         "closure-spatial",
         None,
         Expect {
-            context: "  - name: loop\n",
-            token: "name",
-            path: "closures[0]",
-            message: "closures are supported for planar models only",
+            context: "    joints: [a, b]",
+            token: "[a, b]",
+            path: "closures[0].joints",
+            message: "a spatial closure does not name joints",
         },
     );
+    assert!(
+        d.0.iter()
+            .any(|d| d.path == "closures[0].branch" && d.message == "a spatial closure has no `branch`"),
+        "{d}"
+    );
+}
+
+/// The spatial loops' mobility count and assembly, on the Falcon-like Delta with one change.
+fn spatial_closures(name: &str, message: &str) -> Diagnostics {
+    check(
+        name,
+        None,
+        Expect { context: "closures:\n  - name: leg2", token: "- name: leg2", path: "closures", message },
+    )
+}
+
+#[test]
+fn spatial_loops_under_constrained() {
+    let d = spatial_closures(
+        "spatial-closure-under-constrained",
+        "the loops are under-constrained: 7 constraint equations for 8 passive joint coordinates (knee1_swing, knee1_twist, knee2_swing, knee2_twist, knee3_swing, knee3_twist, platform_swing, platform_twist)",
+    );
+    assert!(hint(&d.0[0]).contains("`perpendicular`"), "{d}");
+}
+
+#[test]
+fn spatial_loops_over_constrained() {
+    spatial_closures(
+        "spatial-closure-over-constrained",
+        "the loops are over-constrained: 11 constraint equations for 8 passive joint coordinates (knee1_swing, knee1_twist, knee2_swing, knee2_twist, knee3_swing, knee3_twist, platform_swing, platform_twist)",
+    );
+}
+
+#[test]
+fn spatial_loops_singular_name_the_free_joints_and_the_redundant_equations() {
+    // Leg 3's closure repeats leg 2's equations: the rank is short by 4. Knee 3 appears in no
+    // equation, so it is free; the other two free coordinates lie among legs 1 and 2 and the
+    // platform (4 equations for their 6), and pivoting names the platform's. Which copy of the
+    // repeated equations is called redundant is the pivoting's choice too.
+    let d = spatial_closures(
+        "spatial-closure-singular",
+        "the loops are singular at their assembly: the constraints do not determine passive joints `knee3_swing`, `knee3_twist`, `platform_swing`, `platform_twist` (redundant equations: `leg2.x`, `leg2.y`, `leg2.z`, `leg2.perpendicular`)",
+    );
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn spatial_loops_that_cannot_close() {
+    let (text, d) = reject("spatial-closure-cannot-close", None);
+    let (line, column) = locate(&text, "closures:\n  - name: leg2", "- name: leg2");
+    assert_eq!((d.0[0].line, d.0[0].column, d.0[0].path.as_str()), (line, column, "closures"));
+    assert!(
+        d.0[0].message.starts_with("the loops do not close near the passive joints' `assembly` angles at the middle of the actuated ranges (there `"),
+        "{d}"
+    );
+    assert!(hint(&d.0[0]).contains("`assembly` angle"), "{d}");
 }
 
 #[test]

@@ -200,7 +200,8 @@ pub struct ActuatorFrame {
     /// [`ActuatorFrame::FALLBACK`], [`ActuatorFrame::LINK_FAULT`].
     pub status: u8,
     /// The safety monitor's latched fault (0: none; 1 non-finite input, 2 non-finite torque,
-    /// 3 missed ticks, 4 tick counter stalled, 5 control refused, 6 sensor implausible).
+    /// 3 missed ticks, 4 tick counter stalled, 5 control refused, 6 sensor implausible, 7 loop
+    /// singular: `FaultCode::number`).
     pub fault: u8,
     /// Periods so far for which no sensor frame arrived in time.
     pub missed: u32,

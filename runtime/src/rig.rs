@@ -93,6 +93,16 @@ pub trait RigModel<const N: usize, const M: usize> {
     fn jacobian_dot_times_qdot(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N]) -> [Self::Scalar; M];
     /// All terms one control tick needs, sharing common subexpressions.
     fn terms(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N]) -> RigTerms<Self::Scalar, N, M>;
+    /// How far `q` is from a singularity of the rig's own closed loops, where the constraint
+    /// Jacobian of the passive joints loses rank and `D` grows without bound: the least over
+    /// the loops of a closed chain's `closure_margin` (the squared sine of the angle between
+    /// each loop's two distal links; 0 singular, negative or NaN where a loop cannot close).
+    /// Open chains have no loop: `1`. The safety monitor latches a fault below its
+    /// threshold ([`crate::safety::SafetyMonitor::check_loop_margin`]).
+    fn loop_margin(&self, q: &[Self::Scalar; N]) -> Self::Scalar {
+        let _ = q;
+        Self::Scalar::ONE
+    }
     /// The drive train of each joint.
     fn drives(&self) -> [DriveTrain<Self::Scalar>; N];
     /// Each motor's current-loop gains, in the order of `q`: for a generated rig its
@@ -130,7 +140,9 @@ pub trait RigModel<const N: usize, const M: usize> {
 /// ```
 #[macro_export]
 macro_rules! impl_rig_model {
-    ($rig:ty, $s:ty, $n:literal, $m:literal, $name:literal, $current_hz:literal, $impedance_hz:literal) => {
+    // `closure_margin`, for a closed chain: the inherent method whose least entry is the
+    // rig's `loop_margin`.
+    ($rig:ty, $s:ty, $n:literal, $m:literal, $name:literal, $current_hz:literal, $impedance_hz:literal $(, $closure_margin:ident)?) => {
         impl $crate::RigModel<$n, $m> for $rig {
             type Scalar = $s;
             const NAME: &'static str = $name;
@@ -176,6 +188,11 @@ macro_rules! impl_rig_model {
             fn inverse_dynamics(&self, q: &[$s; $n], qd: &[$s; $n], qdd: &[$s; $n]) -> [$s; $n] {
                 Self::inverse_dynamics(self, q, qd, qdd)
             }
+            $(
+                fn loop_margin(&self, q: &[$s; $n]) -> $s {
+                    $crate::safety::least_loop_margin(&Self::$closure_margin(self, q))
+                }
+            )?
         }
     };
 }

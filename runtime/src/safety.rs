@@ -11,6 +11,12 @@
 //!   [`FaultCode::MissedTicks`] (or [`FaultCode::TickCounterStalled`]).
 //! * **Refusals.** A control law that refuses (see `control::ControlStatus`) latches
 //!   [`FaultCode::ControlRefused`].
+//! * **Singular loops.** A closed chain's own loops become singular where the constraint
+//!   Jacobian of its passive joints loses rank (the five-bar's distal links aligned): the
+//!   reduced inertia `D` grows without bound there and no law can be trusted. Below
+//!   [`SafetyMonitor::min_loop_margin`] of the rig's [`RigModel::loop_margin`](crate::RigModel::loop_margin)
+//!   (the squared sine of the worst loop's angle, `1` for open chains) the tick latches
+//!   [`FaultCode::LoopSingular`]: a haptic device's handle can be moved out by hand, then reset.
 //! * **Near-singular configurations.** Controllers 1 and 2 need `J⁻¹` (eq. (4)); below
 //!   `|det J| = min_abs_jacobian_determinant` they fall back to Controller 3 for that tick
 //!   (implemented in `control`, reported as `ControlStatus::SingularFallback`, not latched):
@@ -37,7 +43,46 @@ pub enum FaultCode {
     ControlRefused,
     /// A sensor reading was physically implausible (an encoder counter jumped).
     SensorImplausible,
+    /// A closed chain's loop was at or near its singularity (see the module docs).
+    LoopSingular,
 }
+
+impl FaultCode {
+    /// The fault's number on the wire and in reports (`0` is kept for "no fault"): 1
+    /// non-finite input, 2 non-finite torque, 3 missed ticks, 4 tick counter stalled, 5 control
+    /// refused, 6 sensor implausible, 7 loop singular.
+    pub const fn number(self) -> u8 {
+        match self {
+            FaultCode::NonFiniteInput => 1,
+            FaultCode::NonFiniteTorque => 2,
+            FaultCode::MissedTicks => 3,
+            FaultCode::TickCounterStalled => 4,
+            FaultCode::ControlRefused => 5,
+            FaultCode::SensorImplausible => 6,
+            FaultCode::LoopSingular => 7,
+        }
+    }
+}
+
+/// The least of a closed chain's loop margins (`1` with none), for
+/// [`RigModel::loop_margin`](crate::RigModel::loop_margin); `−1` (a loop that cannot close)
+/// as soon as one is not finite, so that NaN never reads as safe.
+pub fn least_loop_margin<S: Real>(margins: &[S]) -> S {
+    let mut least = S::ONE;
+    for &margin in margins {
+        if !margin.is_finite() {
+            return S::ZERO - S::ONE;
+        }
+        if margin < least {
+            least = margin;
+        }
+    }
+    least
+}
+
+/// The default [`SafetyMonitor::min_loop_margin`]: a loop's squared sine of `10⁻³`, its links
+/// within about 1.8° of aligned.
+pub const DEFAULT_MIN_LOOP_MARGIN: f64 = 1e-3;
 
 /// The torque and current setpoints the monitor lets through.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -67,6 +112,7 @@ pub struct SafetyMonitor<S, const N: usize> {
     max_tick_gap: u32,
     last_tick: Option<u32>,
     fault: Option<FaultCode>,
+    min_loop_margin: S,
 }
 
 impl<S: Real, const N: usize> SafetyMonitor<S, N> {
@@ -87,7 +133,36 @@ impl<S: Real, const N: usize> SafetyMonitor<S, N> {
                 *limit = if candidate.is_finite() && candidate > S::ZERO { candidate } else { S::ZERO };
             }
         }
-        Self { torque_limit, torque_per_amp, max_tick_gap, last_tick: None, fault: None }
+        Self {
+            torque_limit,
+            torque_per_amp,
+            max_tick_gap,
+            last_tick: None,
+            fault: None,
+            min_loop_margin: S::from_f64(DEFAULT_MIN_LOOP_MARGIN),
+        }
+    }
+
+    /// The loop margin below which [`SafetyMonitor::check_loop_margin`] latches
+    /// [`FaultCode::LoopSingular`] ([`DEFAULT_MIN_LOOP_MARGIN`] unless set).
+    pub fn min_loop_margin(&self) -> S {
+        self.min_loop_margin
+    }
+
+    /// Sets the loop margin threshold; a NaN threshold makes every check fail (fault).
+    pub fn set_min_loop_margin(&mut self, margin: S) {
+        self.min_loop_margin = margin;
+    }
+
+    /// Latches [`FaultCode::LoopSingular`] unless `margin ≥ min_loop_margin` (a NaN margin, a
+    /// loop that cannot close, fails).
+    pub fn check_loop_margin(&mut self, margin: S) -> bool {
+        // Written so that NaN on either side counts as singular.
+        let safe = margin >= self.min_loop_margin;
+        if !safe {
+            self.latch(FaultCode::LoopSingular);
+        }
+        safe
     }
 
     /// The effective joint torque limits `min(torque_limit, N·η·k_t·current_limit)`.
@@ -265,5 +340,35 @@ mod tests {
         let command = monitor.limit(&[1.0, -1.0]);
         assert_eq!(command.torque, [0.0, 0.0]);
         assert_eq!(command.clamped, [true, true]);
+    }
+
+    #[test]
+    fn least_loop_margin_is_the_minimum_and_never_reads_a_non_finite_margin_as_safe() {
+        assert_eq!(least_loop_margin::<f64>(&[]), 1.0);
+        assert_eq!(least_loop_margin(&[0.7, 0.2, 0.9]), 0.2);
+        assert_eq!(least_loop_margin(&[0.7, -0.3]), -0.3);
+        assert_eq!(least_loop_margin(&[0.7, f64::NAN, 0.9]), -1.0);
+        assert_eq!(least_loop_margin(&[f64::INFINITY]), -1.0);
+        assert_eq!(least_loop_margin(&[0.5_f32, f32::NAN]), -1.0);
+    }
+
+    #[test]
+    fn loop_margin_below_the_threshold_latches_loop_singular() {
+        let mut monitor = SafetyMonitor::<f64, 2>::new(&[drive(1.0, 10.0), drive(1.0, 10.0)], 1);
+        assert_eq!(monitor.min_loop_margin(), DEFAULT_MIN_LOOP_MARGIN);
+        assert!(monitor.check_loop_margin(DEFAULT_MIN_LOOP_MARGIN));
+        assert!(monitor.check_loop_margin(0.5));
+        assert_eq!(monitor.fault(), None);
+        monitor.set_min_loop_margin(0.6);
+        assert!(!monitor.check_loop_margin(0.5));
+        assert_eq!(monitor.fault(), Some(FaultCode::LoopSingular));
+        assert_eq!(monitor.limit(&[0.1, 0.1]).torque, [0.0, 0.0]);
+        monitor.reset();
+        assert!(!monitor.check_loop_margin(f64::NAN));
+        monitor.reset();
+        monitor.set_min_loop_margin(f64::NAN);
+        assert!(!monitor.check_loop_margin(1.0), "a NaN threshold must fail safe");
+        assert_eq!(FaultCode::LoopSingular.number(), 7);
+        assert_eq!(FaultCode::NonFiniteInput.number(), 1);
     }
 }

@@ -258,6 +258,13 @@ where
         &self.safety
     }
 
+    /// Sets the loop margin below which the tick latches `FaultCode::LoopSingular`
+    /// ([`SafetyMonitor::set_min_loop_margin`]; closed chains only, see
+    /// [`RigModel::loop_margin`]).
+    pub fn set_min_loop_margin(&mut self, margin: R::Scalar) {
+        self.safety.set_min_loop_margin(margin);
+    }
+
     /// Clears a latched fault and the current loops' integrators.
     pub fn reset_fault(&mut self) {
         self.safety.reset();
@@ -290,7 +297,8 @@ where
         self.finish(output, estimation_status, &state.velocity)
     }
 
-    /// Watchdog and estimation: the first step of every impedance tick.
+    /// Watchdog, estimation and the loops' singularity check: the first step of every
+    /// impedance tick.
     fn estimate(
         &mut self,
         inputs: &ImpedanceInputs<R::Scalar, N, M>,
@@ -303,7 +311,9 @@ where
             EstimationStatus::NonFinite => self.safety.latch(FaultCode::NonFiniteInput),
             EstimationStatus::Implausible => self.safety.latch(FaultCode::SensorImplausible),
         }
-        (*self.estimator.state(), estimation_status)
+        let state = *self.estimator.state();
+        self.safety.check_loop_margin(self.rig.loop_margin(&state.position));
+        (state, estimation_status)
     }
 
     /// The task-space signals the selected law reads: the calibrated force (Controller 1) or

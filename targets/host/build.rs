@@ -55,9 +55,11 @@ fn main() {
             let type_name = hapticgen_codegen::emit::rig_type_name(&model);
             let mut anonymous = model.clone();
             anonymous.model.file = String::new();
-            let print =
-                fingerprint(&hapticgen_codegen::generate_model(anonymous, Scalar::F64).tokens.to_string());
-            let text = hapticgen_codegen::generate_model(model, Scalar::F64).file_text();
+            let generate = |model| {
+                hapticgen_codegen::generate_model(model, Scalar::F64).unwrap_or_else(|e| panic!("{e}"))
+            };
+            let print = fingerprint(&generate(anonymous).tokens.to_string());
+            let text = generate(model).file_text();
             let file = out.join(format!("{module}.rs"));
             if std::fs::read_to_string(&file).ok().as_deref() != Some(text.as_str()) {
                 std::fs::write(&file, text).expect("OUT_DIR is writable");

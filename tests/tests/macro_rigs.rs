@@ -72,7 +72,8 @@ fn macro_expansion_equals_the_build_helper_output() {
         let expanded = expansion_items(input, manifest_dir).expect("the expansion is a module with items");
         let loaded =
             hapticgen_codegen::load_file(&manifest_dir.join(file), file, variant).expect("valid model");
-        let built = hapticgen_codegen::generate_model(loaded, scalar).formatted_items();
+        let built =
+            hapticgen_codegen::generate_model(loaded, scalar).expect("the model generates").formatted_items();
         assert_eq!(expanded, built, "{file} {variant:?}");
         assert!(expanded.contains("::hapticgen_runtime::impl_rig_model!("));
     }
@@ -83,7 +84,9 @@ fn macro_expansion_equals_the_build_helper_output() {
     let loaded =
         hapticgen_codegen::load_file(&manifest_dir.join(file), file, Some("vertical")).expect("valid model");
     let options = hapticgen_codegen::EmitOptions { fused_multiply_add: true };
-    let built = hapticgen_codegen::generate_model_with(loaded, Scalar::F64, options).formatted_items();
+    let built = hapticgen_codegen::generate_model_with(loaded, Scalar::F64, options)
+        .expect("the model generates")
+        .formatted_items();
     assert_eq!(expanded, built);
     assert!(expanded.contains("::hapticgen_runtime::Real::mul_add("));
 }
@@ -167,4 +170,35 @@ fn closure_margin_is_the_squared_sine_between_the_distal_links_and_vanishes_wher
         );
         previous_largest = largest;
     }
+}
+
+#[test]
+fn the_impedance_tick_latches_a_loop_singularity_and_nothing_else_does() {
+    use hapticgen_runtime::control::{ImpedanceController, ImpedanceLaw, TaskReference};
+    use hapticgen_runtime::safety::FaultCode;
+    use hapticgen_runtime::tick::{HapticLoop, HapticLoopSettings, ImpedanceInputs};
+    use hapticgen_runtime::RigModel;
+
+    let rig = pantograph_f64::Pantograph5bar::NOMINAL;
+    let coincident = (0.019_f64 / 0.07).acos();
+    let first_tick = |start: [f64; 2]| {
+        let controller =
+            ImpedanceController::new(ImpedanceLaw::NaturalInertia, [200.0; 2], [2.0; 2], [0.5; 2]);
+        let mut settings = HapticLoopSettings::for_rig(&rig, controller);
+        settings.zero_offset = start;
+        let reference = TaskReference::at_rest(rig.position(&start));
+        let mut haptic = HapticLoop::new(rig, reference, &settings).expect("valid settings");
+        let inputs = ImpedanceInputs { encoder_counts: [0; 2], force_readings: [0.0; 2], tick: 0 };
+        let report = haptic.impedance_tick(&inputs);
+        (rig.loop_margin(&start), report.command.fault)
+    };
+    // In the workspace: a margin near 1, no fault.
+    let (margin, fault) = first_tick([2.0, 0.9]);
+    assert!(margin > 0.5, "{margin}");
+    assert_eq!(fault, None);
+    // Five millidegrees from the elbows' coincidence every term is still finite (no other check
+    // fires), but the loop is singular.
+    let (margin, fault) = first_tick([coincident, std::f64::consts::PI - coincident + 1e-4]);
+    assert!(margin < 1e-6, "{margin}");
+    assert_eq!(fault, Some(FaultCode::LoopSingular));
 }

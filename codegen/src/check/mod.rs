@@ -22,6 +22,9 @@ pub struct Analyses {
     pub current_loop_designs: Vec<CurrentLoopDesign>,
     /// The elimination of the loop closures, if the model is a closed chain.
     pub closures: Option<Closures>,
+    /// Why code cannot be emitted for this model although it can be evaluated (a spatial
+    /// closed chain), located in the model file; `None` if it can.
+    pub emission_refused: Option<Diagnostics>,
 }
 
 /// A model that passed every analysis, with their results.
@@ -51,7 +54,12 @@ fn key(k: &str) -> Segment {
 pub(crate) fn analyse(model: Model, locator: &Locator<'_>) -> Result<CheckedModel, Diagnostics> {
     let current_loop_designs = design_current_loops(&model, locator)?;
     let closures = analyse_closures(&model, locator)?;
-    Ok(CheckedModel { model, analyses: Analyses { current_loop_designs, closures } })
+    let emission_refused = (!model.spatial_closures.is_empty()).then(|| {
+        Diagnostics(vec![locator
+            .at(&[key("closures")], "code cannot be emitted for a spatial closed chain yet")
+            .with_hint("the model loads, checks and evaluates (`hapticgen eval`): the elimination of its loops is numerical, and its emission (issue 16) is not written yet")])
+    });
+    Ok(CheckedModel { model, analyses: Analyses { current_loop_designs, closures, emission_refused } })
 }
 
 /// The current loop of every joint's drive (joints sharing a drive share its design).
@@ -89,6 +97,24 @@ fn design_current_loops(model: &Model, locator: &Locator<'_>) -> Result<Vec<Curr
 /// The elimination of the model's loop closures; a closure that cannot close is reported at
 /// its entry (or the key of it that is at fault).
 fn analyse_closures(model: &Model, locator: &Locator<'_>) -> Result<Option<Closures>, Diagnostics> {
+    if !model.spatial_closures.is_empty() {
+        if !model.frames.is_empty() {
+            return Err(Diagnostics(vec![locator
+                .at(&[key("frames")], "frames (orientation outputs) of a closed chain are not supported yet")
+                .with_hint("name a point for the position you need")]));
+        }
+        return closure::analyse_spatial(model, &model.spatial_closures).map(Some).map_err(|problems| {
+            let errors = problems
+                .into_iter()
+                .map(|p| {
+                    let mut path = vec![key("closures")];
+                    path.extend(p.closure.map(Segment::Index));
+                    locator.at(&path, p.message).with_hint(p.hint)
+                })
+                .collect();
+            Diagnostics(errors)
+        });
+    }
     if model.closures.is_empty() {
         return Ok(None);
     }

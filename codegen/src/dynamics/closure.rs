@@ -35,6 +35,7 @@
 //! should keep the actuated angles where the loop closes away from that boundary.
 
 use super::kinematics::point_positions;
+use super::spatial_loops::SpatialLoops;
 use crate::model::{Branch, LoopClosure, Model};
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::{Atom, AtomValues, Poly};
@@ -90,8 +91,11 @@ pub struct Closures {
     pub actuated: usize,
     /// Names of all coordinates of the open tree (actuated, then passive).
     pub names: Vec<String>,
-    /// The closures.
+    /// The closures of a planar chain.
     pub loops: Vec<Loop>,
+    /// The closures of a spatial chain, eliminated together and numerically (their atoms are
+    /// numbered after the planar loops').
+    pub spatial: Option<SpatialLoops>,
     /// The elimination as a DAG, built on first use by [`Closures::values`].
     evaluator: std::sync::OnceLock<(Dag, Installed)>,
 }
@@ -109,6 +113,22 @@ impl Closures {
         Atom::Closure((c * 4 * n + 2 * n + r * n + j) as u16)
     }
 
+    /// The atom of `∂q_i/∂q_aj` (`rate`: its time derivative) for a passive tree coordinate
+    /// `i`; `None` for an actuated one.
+    pub(crate) fn sensitivity_atom(&self, i: usize, j: usize, rate: bool) -> Option<Atom> {
+        if let Some((c, r)) = self.passive_slot(i) {
+            return Some(if rate { self.sensitivity_rate(c, r, j) } else { self.sensitivity(c, r, j) });
+        }
+        let spatial = self.spatial.as_ref()?;
+        let r = i.checked_sub(self.actuated)?;
+        (r < spatial.passive).then(|| spatial.sensitivity(self.spatial_first_atom(), r, j, rate))
+    }
+
+    /// The first atom number of the spatial loops' sensitivities: after the planar loops'.
+    fn spatial_first_atom(&self) -> usize {
+        self.loops.len() * 4 * self.actuated
+    }
+
     /// Loop and row of a passive coordinate.
     pub(crate) fn passive_slot(&self, coordinate: usize) -> Option<(usize, usize)> {
         self.loops
@@ -120,6 +140,9 @@ impl Closures {
     /// Values of every substituted atom (passive sines, cosines and velocities, `A`, `Ȧ`)
     /// at a state of the actuated coordinates, in `f64`.
     pub fn values(&self, q: &[f64], qd: &[f64], parameters: &[f64]) -> Vec<(Atom, f64)> {
+        if let Some(spatial) = &self.spatial {
+            return spatial.values(q, qd, parameters, self.spatial_first_atom());
+        }
         let (dag, installed) = self.evaluator.get_or_init(|| {
             let mut dag = Dag::new();
             let installed = install(&mut dag, Some(self));
@@ -345,10 +368,26 @@ pub fn analyse(model: &Model, declarations: &[LoopClosure]) -> Result<Closures, 
         });
     }
     if problems.is_empty() {
-        Ok(Closures { actuated: n, names, loops, evaluator: std::sync::OnceLock::new() })
+        Ok(Closures { actuated: n, names, loops, spatial: None, evaluator: std::sync::OnceLock::new() })
     } else {
         Err(problems)
     }
+}
+
+/// The closures of a spatial chain, analysed ([`SpatialLoops::analyse`]).
+pub fn analyse_spatial(
+    model: &Model,
+    closures: &[crate::model::SpatialClosure],
+) -> Result<Closures, Vec<super::spatial_loops::SpatialProblem>> {
+    let spatial = SpatialLoops::analyse(model, closures)?;
+    let names = (0..model.tree_coordinates()).map(|j| model.coordinate_name(j).to_string()).collect();
+    Ok(Closures {
+        actuated: model.joints.len(),
+        names,
+        loops: Vec::new(),
+        spatial: Some(spatial),
+        evaluator: std::sync::OnceLock::new(),
+    })
 }
 
 /// Adds the elimination of every closure to `dag`: from then on the passive joints' sines,

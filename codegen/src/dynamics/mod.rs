@@ -4,8 +4,9 @@
 //! [`kinematics`] composes the body frames; `lagrangian` and [`recursive`] are the two
 //! derivations of the dynamics (expanded polynomials; Newton–Euler and composite rigid body on
 //! the expression DAG); [`mechanics`] holds the derived quantities and builds them into a DAG
-//! by either derivation; [`closure`] analyses a closed chain's loops and `reduction` reduces
-//! the open tree's mechanics to the actuated coordinates.
+//! by either derivation; [`closure`] analyses a closed chain's loops (planar ones in closed
+//! form, spatial ones numerically in [`spatial_loops`]) and `reduction` reduces the open
+//! tree's mechanics to the actuated coordinates.
 
 #[doc(hidden)]
 pub mod closure;
@@ -15,6 +16,7 @@ pub mod mechanics;
 #[doc(hidden)]
 pub mod recursive;
 mod reduction;
+pub mod spatial_loops;
 
 use crate::model::Model;
 use closure::Closures;

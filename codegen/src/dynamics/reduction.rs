@@ -29,12 +29,8 @@ pub fn reduce(tree: Mechanics, closures: &Closures) -> Mechanics {
     let total = tree.joints;
     // S = ∂q/∂q_a and Ṡ, as polynomials in the `Closure` atoms.
     let entry = |i: usize, j: usize, rate: bool| -> Poly {
-        match closures.passive_slot(i) {
-            Some((c, r)) => Poly::atom(if rate {
-                closures.sensitivity_rate(c, r, j)
-            } else {
-                closures.sensitivity(c, r, j)
-            }),
+        match closures.sensitivity_atom(i, j, rate) {
+            Some(atom) => Poly::atom(atom),
             None if !rate && i == j => Poly::constant(1.0),
             None => Poly::zero(),
         }
@@ -92,7 +88,7 @@ pub fn reduce(tree: Mechanics, closures: &Closures) -> Mechanics {
         potential_energy: tree.potential_energy.clone(),
         task: reduce_kinematics(&tree.task),
         points: tree.points.iter().map(reduce_kinematics).collect(),
-        // Closed chains are planar, and frames are declared on spatial models only.
+        // Frames of closed chains are not reduced yet (none is declared on one).
         frames: Vec::new(),
         closures: Some(closures.clone()),
         tree: Some(Box::new(tree)),

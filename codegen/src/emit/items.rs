@@ -51,9 +51,12 @@ pub fn items(
     let (terms, tick) = terms_function(model, mech, scalar, options, &names);
     stats.functions.push(("terms".into(), tick));
     methods.extend(terms);
+    // A closed chain's `RigModel::loop_margin` is the least of its `closure_margin`.
+    let mut loop_margin = TokenStream::new();
     if let Some((margin, counts)) = closure_margin_function(model, mech, scalar, options, &names) {
         stats.functions.push(("closure_margin".into(), counts));
         methods.extend(margin);
+        loop_margin = quote!(, closure_margin);
     }
     let (fused, fused_counts) = fused_impl(model, mech, scalar, options, &names);
     stats.functions.extend(fused_counts);
@@ -259,7 +262,7 @@ pub fn items(
         }
 
         // `RigModel` by the inherent methods above.
-        ::hapticgen_runtime::impl_rig_model!(#type_name, #s, #n, #m, #rig_name, #current_hz, #impedance_hz);
+        ::hapticgen_runtime::impl_rig_model!(#type_name, #s, #n, #m, #rig_name, #current_hz, #impedance_hz #loop_margin);
 
         #fused
     };

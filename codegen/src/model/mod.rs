@@ -22,7 +22,7 @@ use positions::{display_path, KeyPath, PositionIndex, Segment};
 pub use schema::{Branch, Drive, JointKind, ModelFile, Rendering, Sensor};
 pub use types::{
     FixedTransform, LoopClosure, Model, Motion, PassiveJoint, ResolvedBody, ResolvedFrame, ResolvedJoint,
-    ResolvedParameter, ResolvedPoint, TaskSpec,
+    ResolvedParameter, ResolvedPoint, SpatialClosure, TaskSpec,
 };
 
 /// The text of a model file and how to name it in diagnostics.

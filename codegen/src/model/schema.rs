@@ -200,12 +200,24 @@ pub struct Joint {
     /// not a coordinate of the generated code.
     #[serde(default)]
     pub passive: bool,
+    /// Spatial closed chains: the passive joint's angle (rad) in the assembly the file chooses,
+    /// at the middle of the actuated joints' ranges, to within the loops' convergence basin.
+    /// The elimination starts from it, so it picks the branch (assembly mode). Planar loops
+    /// choose theirs with the closure's `branch`.
+    #[serde(default)]
+    pub assembly: Option<f64>,
 }
 
-/// A loop-closure constraint of a planar closed chain: two passive revolute joints (the
-/// distal joints of an RRR dyad, e.g. the elbows of a five-bar) and one point on the
-/// chain of each, which must coincide. The passive angles are eliminated in closed form
-/// (intersection of two circles).
+/// A loop-closure constraint.
+///
+/// **Planar** models: two passive revolute joints (the distal joints of an RRR dyad, e.g.
+/// the elbows of a five-bar) and one point on the chain of each, which must coincide; the
+/// passive angles are eliminated in closed form (intersection of two circles) on `branch`.
+///
+/// **Spatial** models: two points that coincide (3 equations) and, optionally, two axes kept
+/// perpendicular (1 equation: a universal joint cut open). The passive joints of all spatial
+/// closures are eliminated together, numerically, from the assembly the joints' `assembly`
+/// angles give; `joints` and `branch` are not used.
 #[derive(Clone, Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Closure {
@@ -214,14 +226,30 @@ pub struct Closure {
     /// What the loop is.
     #[serde(default)]
     pub description: Option<String>,
-    /// The two passive revolute joints `[j1, j2]` the constraint eliminates.
+    /// Planar: the two passive revolute joints `[j1, j2]` the constraint eliminates.
+    #[serde(default)]
     pub joints: Vec<String>,
-    /// The two points `[p1, p2]` (names of `points`) that coincide: `p1` is moved by `j1`,
-    /// `p2` by `j2`.
+    /// The two points `[p1, p2]` (names of `points`) that coincide: planar, `p1` is moved by
+    /// `j1`, `p2` by `j2`.
     pub points: Vec<String>,
-    /// Which of the two assemblies: the joined point lies to the `left` or `right` of the
-    /// line from the axis of `j1` to the axis of `j2`.
-    pub branch: Branch,
+    /// Planar: which of the two assemblies; the joined point lies to the `left` or `right` of
+    /// the line from the axis of `j1` to the axis of `j2`.
+    #[serde(default)]
+    pub branch: Option<Branch>,
+    /// Spatial: two axes, each fixed in a body, kept perpendicular (the two axes of a
+    /// universal joint cut open by the closure).
+    #[serde(default)]
+    pub perpendicular: Option<Vec<BodyAxis>>,
+}
+
+/// A direction fixed in a body.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BodyAxis {
+    /// The body's name (`base` for the fixed ground).
+    pub body: String,
+    /// The direction in the body's frame (3 entries; normalised).
+    pub axis: Vec<f64>,
 }
 
 /// One of the two assemblies of a closure.

@@ -171,8 +171,11 @@ pub struct Model {
     /// Passive joints of closed chains: coordinates `joints.len() + k` of the mechanics'
     /// open tree, eliminated by `closures`, not coordinates of the generated code.
     pub passive: Vec<PassiveJoint>,
-    /// The loop closures of a closed chain, as declared (none for an open tree).
+    /// The loop closures of a planar closed chain, as declared (none for an open tree).
     pub closures: Vec<LoopClosure>,
+    /// The loop closures of a spatial closed chain, as declared: their passive joints are
+    /// eliminated together.
+    pub spatial_closures: Vec<SpatialClosure>,
 }
 
 /// A passive (unactuated) revolute joint of a closed chain.
@@ -182,8 +185,31 @@ pub struct PassiveJoint {
     pub name: String,
     /// Documentation.
     pub description: Option<String>,
-    /// Unit axis in the joint frame (`[0, 0, ±1]`).
+    /// Unit axis in the joint frame (`[0, 0, ±1]` in planar models).
     pub axis: [f64; 3],
+    /// Spatial closed chains: the angle in the file's assembly at the middle of the actuated
+    /// ranges (where the elimination starts; 0 unless given).
+    pub assembly: f64,
+}
+
+/// A loop closure of a spatial closed chain as declared: two points coincide and, optionally,
+/// two body axes stay perpendicular.
+#[derive(Clone, Debug)]
+pub struct SpatialClosure {
+    /// The closure's name.
+    pub name: String,
+    /// The two points that coincide (indices into the model's points).
+    pub points: [usize; 2],
+    /// Two axes kept perpendicular: each a body (`None`: the base) and a unit direction in
+    /// its frame.
+    pub perpendicular: Option<[(Option<usize>, [f64; 3]); 2]>,
+}
+
+impl SpatialClosure {
+    /// The number of scalar constraint equations: 3, and 1 more for a perpendicularity.
+    pub fn equations(&self) -> usize {
+        3 + usize::from(self.perpendicular.is_some())
+    }
 }
 
 /// A loop closure as declared in the model file: two points, each on a link turned by one of

@@ -69,7 +69,8 @@ pub fn find(model: &CheckedModel) -> Option<usize> {
     }
     let mut anonymous = model.clone();
     anonymous.model.file = String::new();
-    let print = fingerprint(&hapticgen_codegen::generate_model(anonymous, Scalar::F64).tokens.to_string());
+    let generated = hapticgen_codegen::generate_model(anonymous, Scalar::F64).ok()?;
+    let print = fingerprint(&generated.tokens.to_string());
     candidates.into_iter().find(|&i| SHIPPED[i].fingerprint == print)
 }
 

@@ -48,7 +48,13 @@ pub(super) fn bodies(
         };
         let what = format!("body `{}`", b.name);
         let (mass, mass_nominal) = r.value(&b.mass, &at(&["mass"]));
-        r.positive(mass_nominal, &at(&["mass"]));
+        // A massless body is the cross of a universal joint (two passive revolute joints):
+        // the loops' elimination gives the reduced inertia, whose definiteness is checked there.
+        let moved_by_passive_joint =
+            b.joint.as_ref().is_some_and(|name| file.joints.iter().any(|j| &j.name == name && j.passive));
+        if !(mass_nominal == 0.0 && moved_by_passive_joint) {
+            r.positive(mass_nominal, &at(&["mass"]));
+        }
         let (com, _) = r.vector(&b.com, dim, &at(&["com"]));
         let zero = || Poly::zero();
         let mut inertia = [[zero(), zero(), zero()], [zero(), zero(), zero()], [zero(), zero(), zero()]];

@@ -85,9 +85,26 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
                 r.error_hint(
                     &at("type"),
                     format!("passive joint `{}` must be revolute", j.name),
-                    "closures eliminate the revolute distal joints of a planar dyad",
+                    "closures eliminate revolute joints (a universal joint is two, about perpendicular axes, with a massless cross between them)",
                 );
             }
+            if planar && j.assembly.is_some() {
+                r.error_hint(
+                    &at("assembly"),
+                    format!("joint `{}` is in a planar loop: it has no `assembly` angle", j.name),
+                    "a planar closure chooses its assembly with `branch`",
+                );
+            }
+        } else if j.assembly.is_some() {
+            r.error_hint(
+                &at("assembly"),
+                format!("joint `{}` is actuated: only passive joints have an `assembly` angle", j.name),
+                "the elimination starts from the middle of the actuated joints' ranges",
+            );
+        }
+        let assembly = j.assembly.unwrap_or(0.0);
+        if !assembly.is_finite() {
+            r.error(&at("assembly"), "must be a finite angle");
         }
         let damping = match &j.damping {
             Some(v) => {
@@ -163,7 +180,12 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
             }
         };
         let Some(drive) = drive else {
-            passive.push(PassiveJoint { name: j.name.clone(), description: j.description.clone(), axis });
+            passive.push(PassiveJoint {
+                name: j.name.clone(),
+                description: j.description.clone(),
+                axis,
+                assembly,
+            });
             continue;
         };
         joints.push(ResolvedJoint {

@@ -222,7 +222,7 @@ pub(crate) fn resolve(
     let (mut points, point_index) = points::points(&mut r, &file);
     let mut frames = points::frames(&mut r, &file, &point_index);
     let task = task::task(&mut r, &file, &points);
-    let declared = closures::closures(&mut r, &file, &points);
+    let (declared, mut spatial_closures) = closures::closures(&mut r, &file, &points);
     settings::settings(&mut r, &file, &variant);
     let order = bodies::dependency_order(&mut r, &file, &depends_on);
     settings::current_loop_filter(&mut r, &file);
@@ -231,6 +231,16 @@ pub(crate) fn resolve(
     }
     let (ordered, task) =
         bodies::into_dependency_order(bodies, &order, &mut points, &mut frames, &coordinate_of, task);
+    // The spatial closures' axes name bodies by their file index: renumber them as the bodies.
+    let mut new_body_index = vec![0; order.len()];
+    for (new, &old) in order.iter().enumerate() {
+        new_body_index[old] = new;
+    }
+    for closure in &mut spatial_closures {
+        for (body, _) in closure.perpendicular.iter_mut().flatten() {
+            *body = body.map(|b| new_body_index[b]);
+        }
+    }
     let closures = declared
         .iter()
         .map(|&(i, j1, j2, p1, p2, branch)| LoopClosure {
@@ -260,6 +270,7 @@ pub(crate) fn resolve(
         rendering: file.rendering,
         passive,
         closures,
+        spatial_closures,
     };
     Ok(model)
 }

@@ -15,7 +15,6 @@
 use hapticgen_fw_control::app::{Controller, PROFILE_NAMES};
 use hapticgen_fw_control::board::CycleCounter;
 use hapticgen_fw_control::report::{Line, Sink};
-use hapticgen_runtime::safety::FaultCode;
 use hapticgen_runtime::tick::ReferenceSource;
 use hapticgen_runtime::{Real, RigModel};
 
@@ -143,17 +142,6 @@ fn micro<S: Real>(value: S) -> i64 {
     libm::round(value.to_f64() * 1e6) as i64
 }
 
-fn fault_number(fault: FaultCode) -> i64 {
-    match fault {
-        FaultCode::NonFiniteInput => 1,
-        FaultCode::NonFiniteTorque => 2,
-        FaultCode::MissedTicks => 3,
-        FaultCode::TickCounterStalled => 4,
-        FaultCode::ControlRefused => 5,
-        FaultCode::SensorImplausible => 6,
-    }
-}
-
 impl<R, Src, const N: usize, const M: usize> Scenario<R, Src, N, M>
 where
     R: hapticgen_runtime::fused::FusedImpedance<N, M> + Clone,
@@ -258,7 +246,7 @@ where
         line.str("SUMMARY").str(" variant=").str(self.name).str(" scalar=").str(scalar);
         line.kv("periods", i64::from(self.done)).kv("impedance_ticks", i64::from(c.impedance_ticks()));
         match c.first_fault {
-            Some((tick, fault)) => line.kv("fault", fault_number(fault)).kv("fault_tick", i64::from(tick)),
+            Some((tick, fault)) => line.kv("fault", i64::from(fault.number())).kv("fault_tick", i64::from(tick)),
             None => line.kv("fault", 0),
         };
         line.kv("plant_ok", i64::from(!self.board.broken));

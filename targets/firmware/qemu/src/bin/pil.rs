@@ -59,7 +59,6 @@ use hapticgen_runtime::control::{
 };
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
-use hapticgen_runtime::safety::FaultCode;
 use hapticgen_runtime::tick::{HapticLoopSettings, ReferenceSource};
 use uart::Uart0;
 
@@ -294,17 +293,6 @@ fn build(
     Controller::new(Rig::NOMINAL, PilSource { reference, last: fixed.position }, &settings, false)
 }
 
-fn fault_number(fault: FaultCode) -> u8 {
-    match fault {
-        FaultCode::NonFiniteInput => 1,
-        FaultCode::NonFiniteTorque => 2,
-        FaultCode::MissedTicks => 3,
-        FaultCode::TickCounterStalled => 4,
-        FaultCode::ControlRefused => 5,
-        FaultCode::SensorImplausible => 6,
-    }
-}
-
 /// FNV-1a of `bytes` (the device's name hash in its `DeviceInfo`).
 fn fnv1a(bytes: &[u8]) -> u32 {
     let mut hash = 0x811c_9dc5u32;
@@ -346,7 +334,7 @@ fn report(
     let counters = link.counters();
     line.str("PIL_DONE").kv("periods", i64::from(tally.periods)).kv("missed", i64::from(tally.missed));
     line.kv("impedance_ticks", i64::from(control.map_or(0, |c| c.impedance_ticks())));
-    line.kv("fault", i64::from(control.and_then(|c| c.first_fault).map_or(0, |(_, f)| fault_number(f))));
+    line.kv("fault", i64::from(control.and_then(|c| c.first_fault).map_or(0, |(_, f)| f.number())));
     line.kv("frames", i64::from(counters.frames)).kv("dropped_frames", i64::from(counters.dropped()));
     line.kv("refused_setups", i64::from(tally.refused_setups))
         .kv("uart_dropped", i64::from(tally.uart_dropped));
@@ -530,7 +518,7 @@ fn main() -> ! {
                         torque: first(&torque),
                         reference: first(&control.haptic.source.last),
                         status,
-                        fault: control.first_fault.map_or(0, |(_, f)| fault_number(f)),
+                        fault: control.first_fault.map_or(0, |(_, f)| f.number()),
                         missed: tally.missed,
                     },
                     t0,

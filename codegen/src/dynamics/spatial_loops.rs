@@ -1,0 +1,372 @@
+//! The loops of a spatial closed chain (a Delta's legs), eliminated numerically.
+//!
+//! As for planar loops ([`super::closure`]) the chain is an open tree, every joint a
+//! coordinate: the actuated `q_a` (`0 … N−1`) and the passive `q_p` (`N … N+P−1`). Each
+//! spatial closure cuts the loop at a joint and asks that two points coincide,
+//! `p₁(q) − p₂(q) = 0` (3 equations), and optionally that two body axes stay perpendicular,
+//! `(R_A a)·(R_B b) = 0` (1 equation: the universal joint that was cut). All closures
+//! together give `Φ(q) = 0`, `P` equations in the `P` passive coordinates (the resolver checks
+//! the count).
+//!
+//! **Position level**: Newton's method on `Φ(q_a, q_p) = 0` over `q_p`,
+//! `Φ_p Δq_p = −Φ`, from the assembly the file chooses (each passive joint's `assembly` angle
+//! at the middle of the actuated ranges, refined here), continued along the straight line to
+//! the requested `q_a` in steps, so the solution stays on the file's branch. A state where
+//! Newton does not converge within its bound gives NaN values (an error value, never a
+//! plausible-looking number).
+//!
+//! **Velocity and acceleration level**, as in the planar case: `q̇_p = A q̇_a`,
+//! `A = −Φ_p⁻¹ Φ_a`, `Ȧ = −Φ_p⁻¹ (Φ̇_p A + Φ̇_a)`, solved numerically (pivoted LU); the
+//! entries of `A` and `Ȧ` are the [`Atom::Closure`] atoms the reduction
+//! ([`super::reduction`]) builds `S = [I; A]` from.
+//!
+//! **Singularity.** The loops are singular where `Φ_p` loses rank; [`SpatialLoops::analyse`]
+//! refuses an assembly where it does, naming the passive joints the constraints leave free
+//! and the equations that are redundant.
+
+use std::sync::OnceLock;
+
+use super::kinematics::{body_frames, mat_vec, point_positions};
+use crate::math::dense::{independent_columns, solve};
+use crate::model::{Model, SpatialClosure};
+use crate::sym::dag::{Dag, NodeId};
+use crate::sym::poly::{Atom, AtomValues, Poly};
+
+/// Newton iterations allowed per continuation step.
+const NEWTON_ITERATIONS: usize = 30;
+/// Convergence: the largest constraint residual, m (and rad for perpendicularity).
+const RESIDUAL_TOLERANCE: f64 = 1e-13;
+/// Continuation steps from the assembly to a requested state.
+const CONTINUATION_STEPS: usize = 8;
+
+/// A problem with the spatial closures, reported at `closures` (or one entry of it).
+#[derive(Clone, Debug)]
+pub struct SpatialProblem {
+    /// The closure at fault, if one is.
+    pub closure: Option<usize>,
+    /// What is wrong.
+    pub message: String,
+    /// How to fix it.
+    pub hint: String,
+}
+
+/// The constraints of a spatial closed chain and what their elimination needs.
+#[derive(Clone, Debug)]
+pub struct SpatialLoops {
+    /// Number of actuated coordinates `N`.
+    pub actuated: usize,
+    /// Number of passive coordinates `P` (the tree coordinates `N … N+P−1`).
+    pub passive: usize,
+    /// A name per equation (`leg2.x`, `leg2.perpendicular`), for messages.
+    pub equation_names: Vec<String>,
+    /// `Φ`, `P` polynomials over every tree coordinate.
+    pub residual: Vec<Poly>,
+    /// `Φ_p = ∂Φ/∂q_p`, `P × P`.
+    pub passive_jacobian: Vec<Vec<Poly>>,
+    /// `Φ_a = ∂Φ/∂q_a`, `P × N`.
+    pub actuated_jacobian: Vec<Vec<Poly>>,
+    /// `Φ̇_p`, with every tree velocity as its `Qd` atom.
+    pub passive_jacobian_dot: Vec<Vec<Poly>>,
+    /// `Φ̇_a`.
+    pub actuated_jacobian_dot: Vec<Vec<Poly>>,
+    /// The actuated coordinates where the assembly was found (middle of their ranges).
+    pub nominal_actuated: Vec<f64>,
+    /// The passive coordinates of the assembly there (the file's `assembly` angles, refined).
+    pub assembly: Vec<f64>,
+    /// The polynomials as expression DAGs (shared subterms evaluated once), built on first
+    /// use: `[Φ, Φ_p, Φ_a]` for Newton's steps, `[Φ̇_p, Φ̇_a]` once per state.
+    compiled: OnceLock<[Compiled; 2]>,
+}
+
+/// Polynomials compiled into one DAG, with the node of each, row-major.
+#[derive(Clone, Debug)]
+struct Compiled {
+    dag: Dag,
+    roots: Vec<NodeId>,
+}
+
+impl Compiled {
+    fn new<'a>(polys: impl Iterator<Item = &'a Poly>) -> Compiled {
+        let mut dag = Dag::new();
+        let roots = polys.map(|p| dag.polynomial(p)).collect();
+        Compiled { dag, roots }
+    }
+
+    /// The values of the roots at `state`.
+    fn eval(&self, state: &TreeState<'_>) -> Vec<f64> {
+        let values = self.dag.eval_all(&|atom| state.value(atom));
+        self.roots.iter().map(|&r| values[r]).collect()
+    }
+}
+
+/// Atom values of the whole tree at a state.
+struct TreeState<'a> {
+    q: &'a [f64],
+    qd: &'a [f64],
+    parameters: &'a [f64],
+}
+
+impl AtomValues for TreeState<'_> {
+    fn value(&self, atom: Atom) -> f64 {
+        let get = |v: &[f64], i: u16| v.get(usize::from(i)).copied().unwrap_or(f64::NAN);
+        match atom {
+            Atom::Sin(j) => get(self.q, j).sin(),
+            Atom::Cos(j) => get(self.q, j).cos(),
+            Atom::Q(j) => get(self.q, j),
+            Atom::Qd(j) => get(self.qd, j),
+            Atom::Param(k) => get(self.parameters, k),
+            Atom::Qdd(_) | Atom::External(_) | Atom::Closure(_) => f64::NAN,
+        }
+    }
+}
+
+fn evaluate(polys: &[Vec<Poly>], state: &TreeState<'_>) -> Vec<Vec<f64>> {
+    polys.iter().map(|row| row.iter().map(|p| p.eval(state)).collect()).collect()
+}
+
+fn largest(values: &[f64]) -> f64 {
+    values.iter().fold(0.0_f64, |m, x| if x.is_nan() { f64::NAN } else { m.max(x.abs()) })
+}
+
+impl SpatialLoops {
+    /// The constraints of `closures` on `model`'s tree, and the assembly at the middle of the
+    /// actuated ranges; problems if the loops do not close there or are singular.
+    pub fn analyse(model: &Model, closures: &[SpatialClosure]) -> Result<SpatialLoops, Vec<SpatialProblem>> {
+        let n = model.joints.len();
+        let total = model.tree_coordinates();
+        let p = total - n;
+        let positions = point_positions(model);
+        let frames = body_frames(model);
+        let mut residual = Vec::new();
+        let mut equation_names = Vec::new();
+        for closure in closures {
+            let [first, second] = closure.points.map(|k| &positions[k]);
+            for (axis, (a, b)) in ["x", "y", "z"].iter().zip(first.iter().zip(second)) {
+                residual.push(a.sub(b));
+                equation_names.push(format!("{}.{axis}", closure.name));
+            }
+            if let Some(axes) = &closure.perpendicular {
+                let [u, v] = axes.map(|(body, axis)| {
+                    let constant = axis.map(Poly::constant);
+                    match body {
+                        Some(b) => mat_vec(&frames[b].rotation, &constant),
+                        None => constant,
+                    }
+                });
+                residual.push(Poly::sum(&[u[0].mul(&v[0]), u[1].mul(&v[1]), u[2].mul(&v[2])]));
+                equation_names.push(format!("{}.perpendicular", closure.name));
+            }
+        }
+        let diff = |poly: &Poly, k: usize| poly.diff_q(k as u16);
+        let rate = |poly: &Poly| {
+            Poly::sum(
+                &(0..total).map(|k| diff(poly, k).mul(&Poly::atom(Atom::Qd(k as u16)))).collect::<Vec<_>>(),
+            )
+        };
+        let passive_jacobian: Vec<Vec<Poly>> =
+            residual.iter().map(|phi| (n..total).map(|k| diff(phi, k)).collect()).collect();
+        let actuated_jacobian: Vec<Vec<Poly>> =
+            residual.iter().map(|phi| (0..n).map(|k| diff(phi, k)).collect()).collect();
+        let passive_jacobian_dot =
+            passive_jacobian.iter().map(|row| row.iter().map(rate).collect()).collect();
+        let actuated_jacobian_dot =
+            actuated_jacobian.iter().map(|row| row.iter().map(rate).collect()).collect();
+        let nominal_actuated: Vec<f64> = model.joints.iter().map(|j| 0.5 * (j.lower + j.upper)).collect();
+        let mut loops = SpatialLoops {
+            actuated: n,
+            passive: p,
+            equation_names,
+            residual,
+            passive_jacobian,
+            actuated_jacobian,
+            passive_jacobian_dot,
+            actuated_jacobian_dot,
+            nominal_actuated,
+            assembly: model.passive.iter().map(|j| j.assembly).collect(),
+            compiled: OnceLock::new(),
+        };
+        let parameters = model.nominal_parameters();
+        let names = |indices: &[usize], of: &dyn Fn(usize) -> String| -> String {
+            indices.iter().map(|&i| of(i)).collect::<Vec<_>>().join(", ")
+        };
+        let passive_name = |k: usize| format!("`{}`", model.coordinate_name(n + k));
+        // Φ_p must have full rank; else name what is free and what is redundant.
+        let singular = |passive: &[f64]| -> Option<SpatialProblem> {
+            let state = loops.tree_state(&loops.nominal_actuated, passive);
+            let jacobian =
+                evaluate(&loops.passive_jacobian, &TreeState { q: &state, qd: &[], parameters: &parameters });
+            let (_, free) = independent_columns(&jacobian, 1e-9);
+            if free.is_empty() {
+                return None;
+            }
+            let transposed: Vec<Vec<f64>> =
+                (0..p).map(|j| jacobian.iter().map(|row| row[j]).collect()).collect();
+            let (_, redundant) = independent_columns(&transposed, 1e-9);
+            Some(SpatialProblem {
+                closure: None,
+                message: format!(
+                    "the loops are singular at their assembly: the constraints do not determine passive joint{} {} (redundant equation{}: {})",
+                    if free.len() > 1 { "s" } else { "" },
+                    names(&free, &passive_name),
+                    if redundant.len() > 1 { "s" } else { "" },
+                    names(&redundant, &|k| format!("`{}`", loops.equation_names[k])),
+                ),
+                hint: "a redundant equation repeats what other closures already impose: drop that closure's `perpendicular` (or cut the loop at another joint) and add a passive joint where the mechanism has one".into(),
+            })
+        };
+        let (guess, q_a) = (loops.assembly.clone(), loops.nominal_actuated.clone());
+        let Some(assembly) = loops.newton(&q_a, &guess, &parameters) else {
+            // A structural singularity shows at the guess already; else the loops do not close.
+            if let Some(problem) = singular(&guess) {
+                return Err(vec![problem]);
+            }
+            let state = loops.tree_state(&q_a, &guess);
+            let at = TreeState { q: &state, qd: &[], parameters: &parameters };
+            let values: Vec<f64> = loops.residual.iter().map(|r| r.eval(&at)).collect();
+            let worst = (0..values.len()).max_by(|&i, &j| values[i].abs().total_cmp(&values[j].abs()));
+            return Err(vec![SpatialProblem {
+                closure: None,
+                message: format!(
+                    "the loops do not close near the passive joints' `assembly` angles at the middle of the actuated ranges{}",
+                    worst.map(|w| format!(" (there `{}` is off by {:.3e})", loops.equation_names[w], values[w]))
+                        .unwrap_or_default()
+                ),
+                hint: "give each passive joint an `assembly` angle near the assembly you mean (within a few tenths of a radian), or check the loops' points and axes".into(),
+            }]);
+        };
+        if let Some(problem) = singular(&assembly) {
+            return Err(vec![problem]);
+        }
+        loops.assembly = assembly;
+        Ok(loops)
+    }
+
+    fn compiled(&self) -> &[Compiled; 2] {
+        self.compiled.get_or_init(|| {
+            let flat = |m: &[Vec<Poly>]| m.iter().flatten().cloned().collect::<Vec<_>>();
+            let position: Vec<Poly> = self
+                .residual
+                .iter()
+                .cloned()
+                .chain(flat(&self.passive_jacobian))
+                .chain(flat(&self.actuated_jacobian))
+                .collect();
+            let rates: Vec<Poly> = flat(&self.passive_jacobian_dot)
+                .into_iter()
+                .chain(flat(&self.actuated_jacobian_dot))
+                .collect();
+            [Compiled::new(position.iter()), Compiled::new(rates.iter())]
+        })
+    }
+
+    /// `Φ`, `Φ_p` and `Φ_a` at `state`.
+    fn position_level(&self, state: &TreeState<'_>) -> (Vec<f64>, Vec<Vec<f64>>, Vec<Vec<f64>>) {
+        let (n, p) = (self.actuated, self.passive);
+        let values = self.compiled()[0].eval(state);
+        let (residual, rest) = values.split_at(p);
+        let (passive, actuated) = rest.split_at(p * p);
+        let rows = |m: &[f64], width: usize| m.chunks(width).map(<[f64]>::to_vec).collect();
+        (residual.to_vec(), rows(passive, p), rows(actuated, n))
+    }
+
+    /// The tree coordinates `(q_a, q_p)`.
+    fn tree_state(&self, actuated: &[f64], passive: &[f64]) -> Vec<f64> {
+        actuated.iter().chain(passive).copied().collect()
+    }
+
+    /// Newton's method on `Φ(q_a, ·) = 0` from `guess`; `None` if it does not converge.
+    fn newton(&self, actuated: &[f64], guess: &[f64], parameters: &[f64]) -> Option<Vec<f64>> {
+        let mut passive = guess.to_vec();
+        for _ in 0..NEWTON_ITERATIONS {
+            let state = self.tree_state(actuated, &passive);
+            let (residual, jacobian, _) = self.position_level(&TreeState { q: &state, qd: &[], parameters });
+            if largest(&residual) <= RESIDUAL_TOLERANCE {
+                return Some(passive);
+            }
+            let step = solve(jacobian, residual.iter().map(|r| vec![-r]).collect())?;
+            for (q, d) in passive.iter_mut().zip(&step) {
+                *q += d[0];
+            }
+            if !passive.iter().all(|q| q.is_finite()) {
+                return None;
+            }
+        }
+        None
+    }
+
+    /// The passive coordinates at `actuated`, continued from the assembly along the straight
+    /// line in the actuated coordinates (the file's branch); `None` if Newton fails on the way.
+    pub fn passive_coordinates(&self, actuated: &[f64], parameters: &[f64]) -> Option<Vec<f64>> {
+        let mut passive = self.assembly.clone();
+        for step in 1..=CONTINUATION_STEPS {
+            let t = step as f64 / CONTINUATION_STEPS as f64;
+            let along: Vec<f64> =
+                self.nominal_actuated.iter().zip(actuated).map(|(from, to)| from + t * (to - from)).collect();
+            passive = self.newton(&along, &passive, parameters)?;
+        }
+        Some(passive)
+    }
+
+    /// The atom of `A[r][j]` (`rate`: of `Ȧ[r][j]`), for passive coordinate `r` (counted from
+    /// the first passive one) and actuated coordinate `j`, numbered from `first_atom`.
+    pub fn sensitivity(&self, first_atom: usize, r: usize, j: usize, rate: bool) -> Atom {
+        let (n, p) = (self.actuated, self.passive);
+        Atom::Closure((first_atom + usize::from(rate) * p * n + r * n + j) as u16)
+    }
+
+    /// Atom values at `(q_a, q̇_a)`: the passive coordinates' sines, cosines, angles and
+    /// velocities, and the sensitivity atoms ([`SpatialLoops::sensitivity`]). NaN for every one
+    /// where the loops cannot be solved.
+    pub fn values(&self, q: &[f64], qd: &[f64], parameters: &[f64], first_atom: usize) -> Vec<(Atom, f64)> {
+        let (n, p) = (self.actuated, self.passive);
+        let atoms = |passive: usize| -> [Atom; 4] {
+            let k = (n + passive) as u16;
+            [Atom::Sin(k), Atom::Cos(k), Atom::Q(k), Atom::Qd(k)]
+        };
+        let sensitivity = |r: usize, j: usize, rate: bool| self.sensitivity(first_atom, r, j, rate);
+        let failed = || -> Vec<(Atom, f64)> {
+            let mut all: Vec<Atom> = (0..p).flat_map(atoms).collect();
+            for rate in [false, true] {
+                all.extend(
+                    (0..p).flat_map(|r| (0..n).map(move |j| (r, j))).map(|(r, j)| sensitivity(r, j, rate)),
+                );
+            }
+            all.into_iter().map(|a| (a, f64::NAN)).collect()
+        };
+        let actuated = &q[..n.min(q.len())];
+        let Some(passive) = self.passive_coordinates(actuated, parameters) else { return failed() };
+        let state = self.tree_state(actuated, &passive);
+        let (_, phi_p, phi_a) = self.position_level(&TreeState { q: &state, qd: &[], parameters });
+        let negated: Vec<Vec<f64>> = phi_a.iter().map(|row| row.iter().map(|x| -x).collect()).collect();
+        let Some(a) = solve(phi_p.clone(), negated) else { return failed() };
+        let passive_velocity: Vec<f64> =
+            a.iter().map(|row| row.iter().zip(qd).map(|(x, v)| x * v).sum()).collect();
+        let velocities = self.tree_state(&qd[..n.min(qd.len())], &passive_velocity);
+        let rates = self.compiled()[1].eval(&TreeState { q: &state, qd: &velocities, parameters });
+        let (phi_p_dot, phi_a_dot) = rates.split_at(p * p);
+        let phi_p_dot: Vec<&[f64]> = phi_p_dot.chunks(p).collect();
+        let phi_a_dot: Vec<&[f64]> = phi_a_dot.chunks(n).collect();
+        // Ȧ = −Φ_p⁻¹ (Φ̇_p A + Φ̇_a).
+        let right: Vec<Vec<f64>> = (0..p)
+            .map(|row| {
+                (0..n)
+                    .map(|j| -(phi_a_dot[row][j] + (0..p).map(|k| phi_p_dot[row][k] * a[k][j]).sum::<f64>()))
+                    .collect()
+            })
+            .collect();
+        let Some(a_dot) = solve(phi_p, right) else { return failed() };
+        let mut values = Vec::with_capacity(4 * p + 2 * p * n);
+        for (k, (&angle, &velocity)) in passive.iter().zip(&passive_velocity).enumerate() {
+            let [sin, cos, coordinate, rate] = atoms(k);
+            values.extend([(sin, angle.sin()), (cos, angle.cos()), (coordinate, angle), (rate, velocity)]);
+        }
+        for (rate, matrix) in [(false, &a), (true, &a_dot)] {
+            for (r, row) in matrix.iter().enumerate() {
+                for (j, &x) in row.iter().enumerate() {
+                    values.push((sensitivity(r, j, rate), x));
+                }
+            }
+        }
+        values
+    }
+}

@@ -1,0 +1,489 @@
+//! Spatial closed chains (issue 16): the Falcon-like Delta
+//! (`codegen/tests/closed-chains/falcon_delta.yaml`), its open tree reduced to the three thigh
+//! angles by the generator's numerical elimination, checked against a separate formulation
+//! written here that shares no code with the generator:
+//!
+//! - **Kinematics**: the platform centre by the closed-form intersection of three spheres
+//!   (radius `b` about each knee moved inwards by the platform radius `s`), its Jacobian from
+//!   the differentiated sphere equations `(P + s_k − K_k)·(Ṗ − K̇_k) = 0`;
+//! - **Dynamics** from the kinetic and potential energies of the bodies: each thigh turns about
+//!   its fixed axis (`m a²/3`, plus the reflected rotor `N² J_m`), each shin is a uniform slender
+//!   rod with ends `A`, `B` (`T = m/6 (v_A² + v_A·v_B + v_B²)`), the platform a point mass; so
+//!   `D = Σ` of exact Jacobian products, `g = ∂V/∂q` from the centres' heights, and `C q̇`,
+//!   `J̇ q̇` by central differences of that `D` and `J`.
+//!
+//! and against the structure the mechanism must have: the loops' residual ≤ 1e-12 m, the
+//! platform's orientation constant (Tsai's conditions) to 1e-12, `D` symmetric positive
+//! definite, `J` equal to finite differences of `p`, at 60 random states over the box of the
+//! thigh angles.
+
+// Matrix checks read best with explicit indices.
+#![allow(clippy::needless_range_loop)]
+
+use std::path::{Path, PathBuf};
+
+use hapticgen_codegen::dynamics::mechanics::Mechanics;
+use hapticgen_codegen::eval::{evaluate, Evaluated, Full, State};
+use hapticgen_codegen::sym::dag::{Dag, NodeId};
+use hapticgen_codegen::sym::poly::{Atom, AtomValues};
+use hapticgen_codegen::CheckedModel;
+
+const FILE: &str = "codegen/tests/closed-chains/falcon_delta.yaml";
+
+// The device's data, from ../shared/spec/devices.md section 1 (as the model file has them).
+const BASE_RADIUS: f64 = 0.037233758;
+const THIGH: f64 = 0.060;
+const SHIN: f64 = 0.1025;
+const PLATFORM_RADIUS: f64 = 0.027330909;
+const THIGH_MASS: f64 = 0.020;
+const SHIN_MASS: f64 = 0.010;
+const PLATFORM_MASS: f64 = 0.060;
+const REFLECTED_ROTOR: f64 = 7.72 * 7.72 * 1.7e-7;
+const GRAVITY: f64 = 9.81;
+const STATES: usize = 60;
+
+type Vec3 = [f64; 3];
+type Mat3 = [[f64; 3]; 3];
+
+fn load() -> (CheckedModel, Mechanics) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let model = hapticgen_codegen::load_file(&root.join(FILE), FILE, None).unwrap_or_else(|e| panic!("{e}"));
+    let mechanics = hapticgen_codegen::derive(&model);
+    (model, mechanics)
+}
+
+fn repo_file(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path)
+}
+
+/// A small deterministic generator (xorshift), uniform in [0, 1).
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+fn states(model: &CheckedModel) -> Vec<([f64; 3], [f64; 3])> {
+    let mut rng = Rng(0x5eed_de17a);
+    (0..STATES)
+        .map(|_| {
+            let q = std::array::from_fn(|k| {
+                let j = &model.joints[k];
+                j.lower + (j.upper - j.lower) * rng.next()
+            });
+            let qd = std::array::from_fn(|_| 4.0 * rng.next() - 2.0);
+            (q, qd)
+        })
+        .collect()
+}
+
+fn eval(mech: &Mechanics, q: &[f64; 3], qd: &[f64; 3]) -> Evaluated {
+    evaluate(mech, &State { q, qd, parameters: &[] }, None)
+}
+
+fn sub(a: Vec3, b: Vec3) -> Vec3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot(a: Vec3, b: Vec3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: Vec3, b: Vec3) -> Vec3 {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+fn scale(a: Vec3, k: f64) -> Vec3 {
+    [a[0] * k, a[1] * k, a[2] * k]
+}
+
+fn add(a: Vec3, b: Vec3) -> Vec3 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+/// Leg `k`'s radial and tangent directions.
+fn leg_axes(k: usize) -> (Vec3, Vec3) {
+    let angle = (k as f64) * 2.0 * std::f64::consts::PI / 3.0;
+    ([angle.cos(), angle.sin(), 0.0], [-angle.sin(), angle.cos(), 0.0])
+}
+
+/// Knee `k` and its derivative with respect to its thigh angle.
+fn knee(k: usize, theta: f64) -> (Vec3, Vec3) {
+    let (radial, _) = leg_axes(k);
+    let position = add(scale(radial, BASE_RADIUS + THIGH * theta.cos()), [0.0, 0.0, -THIGH * theta.sin()]);
+    let derivative = add(scale(radial, -THIGH * theta.sin()), [0.0, 0.0, -THIGH * theta.cos()]);
+    (position, derivative)
+}
+
+/// The Delta's kinematics, independently: the platform centre `P` (three spheres of radius
+/// `b` about `K_k − s e_k`, the solution below the base), its Jacobian and the knees' rates.
+struct Delta {
+    platform: Vec3,
+    /// `∂P/∂θ`, column `k` for thigh `k`.
+    platform_jacobian: Mat3,
+    /// `∂K_k/∂θ_k`.
+    knee_rates: [Vec3; 3],
+}
+
+fn solve3(m: Mat3, v: Vec3) -> Vec3 {
+    let det = dot(m[0], cross(m[1], m[2]));
+    // Cramer's rule with the rows of m: x = (v0 (r1×r2) + v1 (r2×r0) + v2 (r0×r1)) / det.
+    let x = add(
+        add(scale(cross(m[1], m[2]), v[0]), scale(cross(m[2], m[0]), v[1])),
+        scale(cross(m[0], m[1]), v[2]),
+    );
+    scale(x, 1.0 / det)
+}
+
+fn delta(theta: &[f64; 3]) -> Delta {
+    let knees_and_rates: [(Vec3, Vec3); 3] = std::array::from_fn(|k| knee(k, theta[k]));
+    let centres: [Vec3; 3] =
+        std::array::from_fn(|k| sub(knees_and_rates[k].0, scale(leg_axes(k).0, PLATFORM_RADIUS)));
+    // Three spheres |P − c_k| = b: subtracting pairs gives two planes; P = base + t n on their
+    // line, and the first sphere gives t (the lower root: the platform below the base).
+    let [c0, c1, c2] = centres;
+    let plane = |a: Vec3, b: Vec3| (scale(sub(b, a), 2.0), dot(b, b) - dot(a, a));
+    let (n1, d1) = plane(c0, c1);
+    let (n2, d2) = plane(c0, c2);
+    let direction = cross(n1, n2);
+    // A point on both planes: with direction d = n1 × n2, x0 = (d1 (n2 × d) + d2 (d × n1)) / |d|².
+    let on_line = scale(
+        add(scale(cross(n2, direction), d1), scale(cross(direction, n1), d2)),
+        1.0 / dot(direction, direction),
+    );
+    let unit = scale(direction, 1.0 / dot(direction, direction).sqrt());
+    let from = sub(on_line, c0);
+    let (half_b, c) = (dot(from, unit), dot(from, from) - SHIN * SHIN);
+    let root = (half_b * half_b - c).sqrt();
+    let candidates = [add(on_line, scale(unit, -half_b + root)), add(on_line, scale(unit, -half_b - root))];
+    let platform = if candidates[0][2] < candidates[1][2] { candidates[0] } else { candidates[1] };
+    // (P − c_k)·(Ṗ − K̇_k) = 0 for each leg: U Ṗ = diag(u_k · K̇_k).
+    let rows: Mat3 = std::array::from_fn(|k| sub(platform, centres[k]));
+    let mut platform_jacobian = [[0.0; 3]; 3];
+    for k in 0..3 {
+        let mut right = [0.0; 3];
+        right[k] = dot(rows[k], knees_and_rates[k].1);
+        let column = solve3(rows, right);
+        for i in 0..3 {
+            platform_jacobian[i][k] = column[i];
+        }
+    }
+    Delta { platform, platform_jacobian, knee_rates: std::array::from_fn(|k| knees_and_rates[k].1) }
+}
+
+/// `D`, `g` of the independent formulation (see the module docs).
+fn independent_dynamics(theta: &[f64; 3]) -> (Mat3, Vec3) {
+    let d = delta(theta);
+    let mut inertia = [[0.0; 3]; 3];
+    let mut gravity = [0.0; 3];
+    // Jacobians (3 × 3, column per thigh) of the knee and of the platform joint of leg k.
+    let knee_jacobian = |k: usize| -> Mat3 {
+        let mut m = [[0.0; 3]; 3];
+        for i in 0..3 {
+            m[i][k] = d.knee_rates[k][i];
+        }
+        m
+    };
+    let add_product = |inertia: &mut Mat3, a: &Mat3, b: &Mat3, weight: f64| {
+        for i in 0..3 {
+            for j in 0..3 {
+                inertia[i][j] += weight * (0..3).map(|r| a[r][i] * b[r][j]).sum::<f64>();
+            }
+        }
+    };
+    for k in 0..3 {
+        // Thigh about its fixed axis, and the rotor.
+        inertia[k][k] += THIGH_MASS * THIGH * THIGH / 3.0 + REFLECTED_ROTOR;
+        gravity[k] += THIGH_MASS * GRAVITY * (-0.5 * THIGH * theta[k].cos());
+        // Shin: a slender rod from the knee to the platform joint (which moves with P).
+        let (a, b) = (knee_jacobian(k), d.platform_jacobian);
+        add_product(&mut inertia, &a, &a, SHIN_MASS / 3.0);
+        add_product(&mut inertia, &b, &b, SHIN_MASS / 3.0);
+        add_product(&mut inertia, &a, &b, SHIN_MASS / 6.0);
+        add_product(&mut inertia, &b, &a, SHIN_MASS / 6.0);
+        // V = m g (z_A + z_B)/2.
+        for j in 0..3 {
+            gravity[j] += SHIN_MASS * GRAVITY * 0.5 * (a[2][j] + b[2][j]);
+        }
+    }
+    let p = d.platform_jacobian;
+    add_product(&mut inertia, &p, &p, PLATFORM_MASS);
+    for j in 0..3 {
+        gravity[j] += PLATFORM_MASS * GRAVITY * p[2][j];
+    }
+    (inertia, gravity)
+}
+
+fn assert_close(what: &str, got: f64, expected: f64, tolerance: f64) {
+    assert!(
+        (got - expected).abs() <= tolerance,
+        "{what}: {got:.15e} vs {expected:.15e} (difference {:.3e} > {tolerance:.1e})",
+        (got - expected).abs()
+    );
+}
+
+#[test]
+fn the_platform_is_where_three_spheres_meet_and_j_is_their_derivative() {
+    let (model, mech) = load();
+    for (q, qd) in states(&model) {
+        let e = eval(&mech, &q, &qd);
+        let d = delta(&q);
+        for i in 0..3 {
+            assert_close(&format!("p[{i}] at {q:?}"), e.p[i], d.platform[i], 1e-12);
+            for j in 0..3 {
+                assert_close(
+                    &format!("J[{i}][{j}] at {q:?}"),
+                    e.jacobian[i][j],
+                    d.platform_jacobian[i][j],
+                    1e-11,
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn the_reduced_dynamics_equal_the_energies_of_the_bodies() {
+    let (model, mech) = load();
+    let h = 1e-5;
+    for (q, qd) in states(&model) {
+        let e = eval(&mech, &q, &qd);
+        let (inertia, gravity) = independent_dynamics(&q);
+        let scale = inertia.iter().flatten().fold(0.0_f64, |m, x| m.max(x.abs()));
+        for i in 0..3 {
+            for j in 0..3 {
+                assert_close(
+                    &format!("D[{i}][{j}] at {q:?}"),
+                    e.inertia_matrix[i][j],
+                    inertia[i][j],
+                    1e-9 * scale,
+                );
+            }
+            assert_close(
+                &format!("g[{i}] at {q:?}"),
+                e.g[i],
+                gravity[i],
+                1e-9 * gravity.iter().map(|g| g.abs()).fold(0.0, f64::max),
+            );
+        }
+        // C q̇ = Ḋ q̇ − ½ ∂(q̇ᵀ D q̇)/∂q, and J̇ q̇, by central differences of the exact D and J.
+        let along = |k: Option<usize>, step: f64| -> [f64; 3] {
+            std::array::from_fn(|i| q[i] + step * k.map_or(qd[i], |k| if k == i { 1.0 } else { 0.0 }))
+        };
+        let d_dot: Mat3 = {
+            let (plus, minus) =
+                (independent_dynamics(&along(None, h)).0, independent_dynamics(&along(None, -h)).0);
+            std::array::from_fn(|i| std::array::from_fn(|j| (plus[i][j] - minus[i][j]) / (2.0 * h)))
+        };
+        let quadratic =
+            |m: &Mat3| (0..3).map(|i| (0..3).map(|j| qd[i] * m[i][j] * qd[j]).sum::<f64>()).sum::<f64>();
+        let coriolis: Vec3 = std::array::from_fn(|k| {
+            let (plus, minus) =
+                (independent_dynamics(&along(Some(k), h)).0, independent_dynamics(&along(Some(k), -h)).0);
+            (0..3).map(|j| d_dot[k][j] * qd[j]).sum::<f64>()
+                - 0.5 * (quadratic(&plus) - quadratic(&minus)) / (2.0 * h)
+        });
+        let (plus, minus) =
+            (delta(&along(None, h)).platform_jacobian, delta(&along(None, -h)).platform_jacobian);
+        let bias: Vec3 =
+            std::array::from_fn(|i| (0..3).map(|j| (plus[i][j] - minus[i][j]) / (2.0 * h) * qd[j]).sum());
+        let speed = qd.iter().map(|v| v * v).sum::<f64>();
+        for i in 0..3 {
+            assert_close(
+                &format!("(C q̇)[{i}] at {q:?}"),
+                e.coriolis_times_qdot[i],
+                coriolis[i],
+                1e-9 * scale * speed,
+            );
+            assert_close(
+                &format!("(J̇ q̇)[{i}] at {q:?}"),
+                e.jacobian_dot_times_qdot[i],
+                bias[i],
+                1e-8 * speed,
+            );
+        }
+    }
+}
+
+/// The generator's own structure: residual, orientation, `D` SPD, `J` against `p`.
+#[test]
+fn the_loops_close_the_platform_translates_and_d_is_positive_definite() {
+    let (model, mech) = load();
+    let closures = mech.closures.as_ref().expect("a closed chain");
+    let spatial = closures.spatial.as_ref().expect("spatial loops");
+    for (q, qd) in states(&model) {
+        let values = closures.values(&q, &qd, &[]);
+        let angle = |k: usize| {
+            values
+                .iter()
+                .find(|(a, _)| *a == Atom::Q((3 + k) as u16))
+                .map(|&(_, v)| v)
+                .expect("passive angle")
+        };
+        let passive: Vec<f64> = (0..spatial.passive).map(angle).collect();
+        // The residual of every loop equation at the solution.
+        struct Tree<'a>(&'a [f64]);
+        impl AtomValues for Tree<'_> {
+            fn value(&self, atom: Atom) -> f64 {
+                match atom {
+                    Atom::Sin(j) => self.0[usize::from(j)].sin(),
+                    Atom::Cos(j) => self.0[usize::from(j)].cos(),
+                    Atom::Q(j) => self.0[usize::from(j)],
+                    _ => 0.0,
+                }
+            }
+        }
+        let tree: Vec<f64> = q.iter().chain(&passive).copied().collect();
+        for (name, r) in spatial.equation_names.iter().zip(&spatial.residual) {
+            let value = r.eval(&Tree(&tree));
+            assert!(value.abs() <= 1e-12, "{name} at {q:?}: {value:e}");
+        }
+        // The platform's orientation, composed here from the joint angles along leg 1:
+        // thigh (about y), knee swing (y), knee twist (z), platform swing (z), platform twist (y).
+        let about = |axis: usize, angle: f64| -> Mat3 {
+            let (s, c) = angle.sin_cos();
+            let (i, j) = ((axis + 1) % 3, (axis + 2) % 3);
+            let mut m = [[0.0; 3]; 3];
+            m[axis][axis] = 1.0;
+            m[i][i] = c;
+            m[j][j] = c;
+            m[i][j] = -s;
+            m[j][i] = s;
+            m
+        };
+        let mul = |a: Mat3, b: Mat3| -> Mat3 {
+            std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
+        };
+        let names = ["knee1_swing", "knee1_twist", "platform_swing", "platform_twist"];
+        let index = |name: &str| {
+            (0..spatial.passive).find(|&k| model.coordinate_name(3 + k) == name).expect("joint of the model")
+        };
+        let [swing, twist, platform_swing, platform_twist] = names.map(|n| passive[index(n)]);
+        let rotation = [
+            about(1, q[0]),
+            about(1, swing),
+            about(2, twist),
+            about(2, platform_swing),
+            about(1, platform_twist),
+        ]
+        .into_iter()
+        .fold([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], mul);
+        for i in 0..3 {
+            for j in 0..3 {
+                let identity = if i == j { 1.0 } else { 0.0 };
+                assert_close(&format!("platform R[{i}][{j}] at {q:?}"), rotation[i][j], identity, 1e-12);
+            }
+        }
+        // D symmetric positive definite (Sylvester's criterion), J against central differences of p.
+        let e = eval(&mech, &q, &qd);
+        let d = &e.inertia_matrix;
+        for i in 0..3 {
+            for j in 0..3 {
+                assert_eq!(d[i][j], d[j][i], "D symmetric at {q:?}");
+            }
+        }
+        let minor2 = d[0][0] * d[1][1] - d[0][1] * d[1][0];
+        let det = d[0][0] * (d[1][1] * d[2][2] - d[1][2] * d[2][1])
+            - d[0][1] * (d[1][0] * d[2][2] - d[1][2] * d[2][0])
+            + d[0][2] * (d[1][0] * d[2][1] - d[1][1] * d[2][0]);
+        assert!(d[0][0] > 0.0 && minor2 > 0.0 && det > 0.0, "D not positive definite at {q:?}: {d:?}");
+        let h = 1e-6;
+        for j in 0..3 {
+            let mut plus = q;
+            let mut minus = q;
+            plus[j] += h;
+            minus[j] -= h;
+            let (pp, pm) = (eval(&mech, &plus, &qd).p, eval(&mech, &minus, &qd).p);
+            for i in 0..3 {
+                assert_close(
+                    &format!("J[{i}][{j}] vs differences at {q:?}"),
+                    e.jacobian[i][j],
+                    (pp[i] - pm[i]) / (2.0 * h),
+                    1e-8,
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_spatial_closed_chain_loads_and_evaluates_but_refuses_emission_at_its_closures() {
+    let (model, _) = load();
+    let error = hapticgen_codegen::generate_model(model, hapticgen_codegen::Scalar::F64)
+        .err()
+        .expect("emission is refused")
+        .to_string();
+    assert!(error.contains("falcon_delta.yaml:"), "{error}");
+    assert!(error.contains("spatial closed chain"), "{error}");
+    assert!(repo_file(FILE).exists());
+}
+
+/// The reduced dynamics conserve energy: RK4 over 1 s with gravity held by a joint-space
+/// spring `K (q − q₀)` about the middle of the thigh ranges (no damping, no input), relative
+/// drift of `½ q̇ᵀ D q̇ + V + ½ K |q − q₀|²` ≤ 1e-8.
+#[test]
+fn the_reduced_dynamics_conserve_energy_with_gravity_held_by_a_spring() {
+    let (model, mech) = load();
+    let stiffness = 0.3; // N·m/rad: about 5 Hz with D ≈ 3.3e-4 kg·m².
+    let centre: [f64; 3] = std::array::from_fn(|k| 0.5 * (model.joints[k].lower + model.joints[k].upper));
+    let spring = |q: &[f64; 3]| -> f64 { (0..3).map(|k| 0.5 * stiffness * (q[k] - centre[k]).powi(2)).sum() };
+    // Only D, C q̇ and g, from one expression DAG of their polynomials (shared subterms
+    // evaluated once: term by term, 4,000 steps take half a minute in a debug build).
+    let mut dag = Dag::new();
+    let roots: Vec<NodeId> = mech
+        .inertia_matrix
+        .iter()
+        .flatten()
+        .chain(&mech.coriolis_times_qdot)
+        .chain(&mech.gravity)
+        .map(|p| dag.polynomial(p))
+        .collect();
+    let acceleration = |q: &[f64; 3], qd: &[f64; 3]| -> [f64; 3] {
+        let state = State { q, qd, parameters: &[] };
+        let at = Full::new(&mech, &state);
+        let values = dag.eval_all(&|atom| at.value(atom));
+        let value = |k: usize| values[roots[k]];
+        let rhs: Vec3 =
+            std::array::from_fn(|i| -value(9 + i) - value(12 + i) - stiffness * (q[i] - centre[i]));
+        let d: Mat3 = std::array::from_fn(|i| std::array::from_fn(|j| value(3 * i + j)));
+        solve3(d, rhs)
+    };
+    let energy = |q: &[f64; 3], qd: &[f64; 3]| -> f64 {
+        let e = eval(&mech, q, qd);
+        let kinetic: f64 =
+            (0..3).map(|i| (0..3).map(|j| 0.5 * qd[i] * e.inertia_matrix[i][j] * qd[j]).sum::<f64>()).sum();
+        kinetic + e.potential_energy + spring(q)
+    };
+    let (mut q, mut qd) = (centre, [1.0, -0.5, 0.3]);
+    let e0 = energy(&q, &qd);
+    let kinetic0 = e0 - energy(&q, &[0.0; 3]);
+    let dt = 2.5e-4;
+    let mut worst = 0.0_f64;
+    let step = |x: &[f64; 3], v: &[f64; 3], k: f64| -> [f64; 3] { std::array::from_fn(|i| x[i] + k * v[i]) };
+    for n in 1..=4000 {
+        let k1q = qd;
+        let k1v = acceleration(&q, &qd);
+        let k2q = step(&qd, &k1v, dt / 2.0);
+        let k2v = acceleration(&step(&q, &k1q, dt / 2.0), &k2q);
+        let k3q = step(&qd, &k2v, dt / 2.0);
+        let k3v = acceleration(&step(&q, &k2q, dt / 2.0), &k3q);
+        let k4q = step(&qd, &k3v, dt);
+        let k4v = acceleration(&step(&q, &k3q, dt), &k4q);
+        q = std::array::from_fn(|i| q[i] + dt / 6.0 * (k1q[i] + 2.0 * k2q[i] + 2.0 * k3q[i] + k4q[i]));
+        qd = std::array::from_fn(|i| qd[i] + dt / 6.0 * (k1v[i] + 2.0 * k2v[i] + 2.0 * k3v[i] + k4v[i]));
+        if n % 40 == 0 {
+            // Relative to the motion's energy (the potential's zero is arbitrary).
+            worst = worst.max((energy(&q, &qd) - e0).abs() / kinetic0);
+        }
+        for (k, joint) in model.joints.iter().enumerate() {
+            assert!(q[k] > joint.lower && q[k] < joint.upper, "left the workspace at step {n}: {q:?}");
+        }
+    }
+    eprintln!("falcon_delta: 1 s, relative energy drift {worst:e}");
+    assert!(worst <= 1e-8, "relative energy drift {worst:e}");
+}
