@@ -255,6 +255,58 @@ pub enum HostMessage {
     PilSetup(PilSetup),
 }
 
+/// The kind of a [`HostMessage`]: the first byte of its serialisation (postcard writes an
+/// enum's variant index first, as a varint: one byte for the first 128 variants), in the
+/// order of [`HostMessage`]'s variants. A receiver can dispatch on it and decode only that
+/// variant's fields ([`crate::Received::payload`]) instead of a whole [`HostMessage`], which
+/// is built and moved at the size of its largest variant (116 bytes, [`PilSetup`]) whatever
+/// its kind: the device's link does, for its instruction budget (docs/link.md).
+///
+/// The fields of each kind, as [`crate::Received::payload`] decodes them: `Hello`: the version
+/// (`u16`); `Heartbeat`: the sequence (`u16`); `Enable`, `Disable`, `ResetFault`: nothing
+/// (`()`); `SetImpedance`: [`ImpedanceSettings`]; `SetObject`: `(u8, SceneObject)`;
+/// `Sensors`: [`SensorFrame`]; `PilSetup`: [`PilSetup`] (checked for every message by
+/// `host_kinds_decode_as_host_messages` in `tests/frames.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HostKind {
+    /// [`HostMessage::Hello`].
+    Hello,
+    /// [`HostMessage::Heartbeat`].
+    Heartbeat,
+    /// [`HostMessage::Enable`].
+    Enable,
+    /// [`HostMessage::Disable`].
+    Disable,
+    /// [`HostMessage::ResetFault`].
+    ResetFault,
+    /// [`HostMessage::SetImpedance`].
+    SetImpedance,
+    /// [`HostMessage::SetObject`].
+    SetObject,
+    /// [`HostMessage::Sensors`].
+    Sensors,
+    /// [`HostMessage::PilSetup`].
+    PilSetup,
+}
+
+impl HostKind {
+    /// The kind of the serialised host message `body`, if its first byte names one.
+    pub fn of(body: &[u8]) -> Option<Self> {
+        Some(match body.first()? {
+            0 => Self::Hello,
+            1 => Self::Heartbeat,
+            2 => Self::Enable,
+            3 => Self::Disable,
+            4 => Self::ResetFault,
+            5 => Self::SetImpedance,
+            6 => Self::SetObject,
+            7 => Self::Sensors,
+            8 => Self::PilSetup,
+            _ => return None,
+        })
+    }
+}
+
 /// Device → host.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum DeviceMessage {
@@ -400,15 +452,7 @@ impl StateFrame {
     /// The frame of `sample` in the units `scales`; `None` if the sample has more than
     /// [`MAX_JOINTS`] joints or [`MAX_TASK`] task axes, or its per-joint slices differ in length.
     pub fn quantise(sample: &StateSample<'_>, scales: &ChannelScales) -> Option<Self> {
-        let joints = sample.encoder_counts.len();
-        let task = sample.task_position.len();
-        let per_joint = [sample.joint_velocity.len(), sample.joint_torque.len(), sample.motor_current.len()];
-        if joints > MAX_JOINTS || task > MAX_TASK || per_joint.iter().any(|&n| n != joints) {
-            return None;
-        }
-        if sample.task_velocity.len() != task {
-            return None;
-        }
+        let (joints, task) = shape_of(sample)?;
         let mut saturated = false;
         let mut channels = Channels::new();
         for &count in sample.encoder_counts {
@@ -441,6 +485,67 @@ impl StateFrame {
             shape: (joints as u8) | ((task as u8) << 4),
             channels,
         })
+    }
+
+    /// Quantises `sample` and frames it as a [`DeviceMessage::State`] into `out`, without
+    /// building a `StateFrame`: the same bytes as
+    /// `encode(&DeviceMessage::State(StateFrame::quantise(sample, scales)?), out)` (the tests
+    /// compare), in a third of the instructions (the device's 1 kHz stream, docs/link.md).
+    /// Returns the frame's length, its final zero byte included; `None` for a sample that
+    /// [`StateFrame::quantise`] refuses.
+    pub fn encode_sample(
+        sample: &StateSample<'_>,
+        scales: &ChannelScales,
+        out: &mut [u8; crate::MAX_FRAME_BYTES],
+    ) -> Option<usize> {
+        let (joints, task) = shape_of(sample)?;
+        let channels = 4 * joints + 2 * task;
+        // The body starts at out[1] (out[0] is the stuffing's code byte): the message's kind,
+        // the fixed fields (STATE_HEAD bytes), then the channels' bytes.
+        let (head, rest) = out.split_at_mut(1 + STATE_HEAD);
+        let mut slots = rest.chunks_exact_mut(2);
+        for (&count, slot) in sample.encoder_counts.iter().zip(&mut slots) {
+            // Modulo 2¹⁶: the low 16 bits, exactly.
+            put(slot, count as i16);
+        }
+        let mut saturated = false;
+        for (values, unit) in [
+            (sample.joint_velocity, scales.joint_velocity),
+            (sample.task_position, scales.task_position),
+            (sample.task_velocity, scales.task_velocity),
+            (sample.joint_torque, scales.joint_torque),
+            (sample.motor_current, scales.motor_current),
+        ] {
+            for (&value, slot) in values.iter().zip(&mut slots) {
+                let (step, clipped) = to_step(value, unit);
+                saturated |= clipped;
+                put(slot, step);
+            }
+        }
+        let tick_instructions = u16::try_from(sample.tick_instructions).unwrap_or_else(|_| {
+            saturated = true;
+            u16::MAX
+        });
+        let status =
+            if sample.enabled { Self::ENABLED } else { 0 } | if saturated { Self::SATURATED } else { 0 };
+        let [tick_low, tick_high] = (sample.tick as u16).to_le_bytes();
+        let [instructions_low, instructions_high] = tick_instructions.to_le_bytes();
+        // postcard: the variant index (a one-byte varint), the fields in order (the two-byte
+        // ones as their bytes), the channels as a byte string: its length (a one-byte varint,
+        // at most 60) and its bytes.
+        head.copy_from_slice(&[
+            0,
+            STATE_KIND,
+            tick_low,
+            tick_high,
+            status,
+            sample.fault,
+            instructions_low,
+            instructions_high,
+            (joints as u8) | ((task as u8) << 4),
+            2 * channels as u8,
+        ]);
+        crate::frame::finish(out, STATE_HEAD + 2 * channels).ok()
     }
 
     /// Joints in the frame.
@@ -495,6 +600,32 @@ impl StateFrame {
         }
         let step = self.channels.get(first + index)?;
         Some(if step == Self::NOT_A_NUMBER { f32::NAN } else { f32::from(step) * unit })
+    }
+}
+
+/// `DeviceMessage::State`'s variant index, the first byte of its serialisation.
+const STATE_KIND: u8 = 1;
+
+/// Bytes of a serialised state message before its channels: the kind, tick (2), status,
+/// fault, tick instructions (2), shape and the channels' length.
+const STATE_HEAD: usize = 9;
+
+/// Joints and task axes of `sample`, if the protocol can carry it: at most [`MAX_JOINTS`]
+/// joints and [`MAX_TASK`] axes, every per-joint and per-axis slice of the same length.
+fn shape_of(sample: &StateSample<'_>) -> Option<(usize, usize)> {
+    let joints = sample.encoder_counts.len();
+    let task = sample.task_position.len();
+    let per_joint = [sample.joint_velocity.len(), sample.joint_torque.len(), sample.motor_current.len()];
+    if joints > MAX_JOINTS || task > MAX_TASK || per_joint.iter().any(|&n| n != joints) {
+        return None;
+    }
+    (sample.task_velocity.len() == task).then_some((joints, task))
+}
+
+/// `value` into a two-byte slot, little-endian.
+fn put(slot: &mut [u8], value: i16) {
+    if let [low, high] = slot {
+        [*low, *high] = value.to_le_bytes();
     }
 }
 

@@ -31,8 +31,8 @@ use hapticgen_fw_control::link::{DeviceLink, LinkSettings};
 use hapticgen_fw_control::report::Line;
 use hapticgen_fw_control::CostStats;
 use hapticgen_protocol::{
-    encode, ChannelScales, DeviceInfo, DeviceMessage, HostMessage, ImpedanceSettings, StateFrame,
-    StateSample, MAX_FRAME_BYTES, PROTOCOL_VERSION,
+    encode, ChannelScales, DeviceInfo, HostMessage, ImpedanceSettings, StateFrame, StateSample,
+    MAX_FRAME_BYTES, PROTOCOL_VERSION,
 };
 use uart::Uart0;
 
@@ -116,8 +116,7 @@ fn main() -> ! {
             };
             let mut buffer = [0u8; MAX_FRAME_BYTES];
             let t0 = counter.now();
-            let length = StateFrame::quantise(black_box(&sample), &ChannelScales::DESKTOP)
-                .and_then(|frame| encode(&DeviceMessage::State(frame), &mut buffer).ok());
+            let length = StateFrame::encode_sample(black_box(&sample), &ChannelScales::DESKTOP, &mut buffer);
             let t1 = counter.now();
             let Some(length) = length else { qemu::exit(5) };
             frame_bytes = length;
