@@ -230,6 +230,7 @@ impl FrameDecoder {
 
     /// Takes one received byte; returns the message a zero byte completes, if the frame it
     /// closes is valid. An empty frame (two zero bytes in a row) is ignored, not counted.
+    #[inline]
     pub fn push<T: DeserializeOwned>(&mut self, byte: u8) -> Option<T> {
         self.push_frame(byte)?.decode()
     }
@@ -237,11 +238,19 @@ impl FrameDecoder {
     /// Takes one received byte; returns the frame a zero byte completes if its stuffing and
     /// CRC are valid, for the caller to decode ([`Received`]). Oversized, badly stuffed and
     /// corrupt frames are counted here; the caller's decoding counts the rest.
+    #[inline]
     pub fn push_frame(&mut self, byte: u8) -> Option<Received<'_>> {
         if byte != 0 {
             self.unstuff(byte);
             return None;
         }
+        self.close()
+    }
+
+    /// The end of a frame (a zero byte): its checks, out of line so that the per-byte path
+    /// above stays a few instructions inside the caller's loop.
+    #[inline(never)]
+    fn close(&mut self) -> Option<Received<'_>> {
         let (length, received, block_left) = (self.length, self.received, self.block_left);
         self.length = 0;
         self.received = 0;
@@ -271,6 +280,7 @@ impl FrameDecoder {
     /// crate's `decode_in_place` (the tests compare), one byte at a time: a block of code `c`
     /// holds `c − 1` data bytes and, unless `c` is 0xFF or it is the frame's last, is followed
     /// by a zero byte.
+    #[inline]
     fn unstuff(&mut self, byte: u8) {
         if self.received >= MAX_FRAME_BYTES {
             // Oversized: dropped at its zero byte (`received` stops just past the limit).
@@ -293,6 +303,7 @@ impl FrameDecoder {
         }
     }
 
+    #[inline]
     fn store(&mut self, byte: u8) {
         // Never more unstuffed bytes than received ones, so there is always room; `get_mut`
         // all the same, so that no index can panic.

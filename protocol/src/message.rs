@@ -629,21 +629,28 @@ fn put(slot: &mut [u8], value: i16) {
     }
 }
 
-/// `value / unit` rounded to the nearest step, and whether it had to be clipped to ±32,767.
+/// `value / unit` rounded to the nearest step (halves away from zero), and whether it had to be
+/// clipped to ±32,767 or is not a number ([`StateFrame::NOT_A_NUMBER`]: a NaN value, a NaN
+/// quotient such as ∞/∞, or a unit that is not positive).
+///
+/// Written for the device's state stream (18 channels of a 3-joint rig per impedance tick):
+/// the in-range case is tested first, with comparisons that are false for NaN, and the rounded
+/// value is converted through `i32`, whose `as` is one instruction on the Cortex-M4F (its
+/// conversion saturates in hardware), where `as i16` needs clamping code of its own.
+#[inline(always)]
 fn to_step(value: f32, unit: f32) -> (i16, bool) {
-    if value.is_nan() || unit.is_nan() || unit <= 0.0 {
-        return (StateFrame::NOT_A_NUMBER, true);
-    }
-    let steps = value / unit;
     let limit = f32::from(i16::MAX);
-    if steps > limit {
+    let steps = value / unit;
+    if unit > 0.0 && steps >= -limit && steps <= limit {
+        let rounded = if steps >= 0.0 { steps + 0.5 } else { steps - 0.5 };
+        // |rounded| ≤ 32,767.5, so its integer part fits an i16 exactly.
+        (rounded as i32 as i16, false)
+    } else if unit > 0.0 && steps > limit {
         (i16::MAX, true)
-    } else if steps < -limit {
+    } else if unit > 0.0 && steps < -limit {
         (-i16::MAX, true)
     } else {
-        // |steps| ≤ 32,767, so the rounded value fits (`as` on a finite, in-range float is exact).
-        let rounded = if steps >= 0.0 { steps + 0.5 } else { steps - 0.5 };
-        (rounded as i16, false)
+        (StateFrame::NOT_A_NUMBER, true)
     }
 }
 

@@ -127,8 +127,19 @@ impl DeviceLink {
     /// cost about 500 instructions per frame in copies (docs/link.md). Every message is
     /// decoded, and so checked, before the handshake rule is applied, as a `HostMessage`
     /// would be: a malformed one is counted as not a message, a valid one as refused.
+    #[inline]
     pub fn receive<S: Real>(&mut self, byte: u8) -> Option<LinkEvent<S>> {
-        let frame = self.decoder.push_frame(byte)?;
+        if byte != 0 {
+            // A frame's byte: unstuffed inside the caller's loop, no call (docs/link.md).
+            return self.decoder.push_frame(byte).and(None);
+        }
+        self.frame_end()
+    }
+
+    /// A zero byte: the frame it closes, decoded and applied (out of line, see `receive`).
+    #[inline(never)]
+    fn frame_end<S: Real>(&mut self) -> Option<LinkEvent<S>> {
+        let frame = self.decoder.push_frame(0)?;
         let Some(kind) = frame.host_kind() else {
             frame.reject();
             return None;
