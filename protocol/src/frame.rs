@@ -139,22 +139,21 @@ pub(crate) fn finish(out: &mut [u8], length: usize) -> Result<usize, EncodeError
 /// COBS encoding in place of the bytes `frame[1..]` (fewer than 254), into `frame`: each zero
 /// byte, and the placeholder `frame[0]`, becomes the distance to the next zero byte (or to the
 /// end). That is the standard encoding (the `cobs` crate's, which the tests compare with) of
-/// a body without a run of 254 non-zero bytes.
+/// a body without a run of 254 non-zero bytes. Backwards, so that the distance is known when
+/// a zero byte is reached and every write is to the byte just read: one load and one test per
+/// byte, no bounds check.
 fn stuff(frame: &mut [u8]) {
-    let mut code_at = 0;
-    let mut at = 1;
-    while at < frame.len() {
-        if frame[at] == 0 {
-            if let Some(code) = frame.get_mut(code_at) {
-                *code = (at - code_at) as u8;
-            }
-            code_at = at;
+    let mut next_zero = frame.len();
+    for at in (1..frame.len()).rev() {
+        let byte = &mut frame[at];
+        if *byte == 0 {
+            // Fewer than 254 bytes: the distance fits a code byte.
+            *byte = (next_zero - at) as u8;
+            next_zero = at;
         }
-        at += 1;
     }
-    let end = frame.len();
-    if let Some(code) = frame.get_mut(code_at) {
-        *code = (end - code_at) as u8;
+    if let Some(code) = frame.first_mut() {
+        *code = next_zero as u8;
     }
 }
 

@@ -502,26 +502,22 @@ impl StateFrame {
         let channels = 4 * joints + 2 * task;
         // The body starts at out[1] (out[0] is the stuffing's code byte): the message's kind,
         // the fixed fields (STATE_HEAD bytes), then the channels' bytes.
-        let (head, rest) = out.split_at_mut(1 + STATE_HEAD);
-        let mut slots = rest.chunks_exact_mut(2);
-        for (&count, slot) in sample.encoder_counts.iter().zip(&mut slots) {
+        let (head, mut rest) = out.split_at_mut(1 + STATE_HEAD);
+        let counts = take_front(&mut rest, 2 * joints);
+        for (slot, &count) in counts.chunks_exact_mut(2).zip(sample.encoder_counts) {
             // Modulo 2¹⁶: the low 16 bits, exactly.
             put(slot, count as i16);
         }
-        let mut saturated = false;
-        for (values, unit) in [
-            (sample.joint_velocity, scales.joint_velocity),
-            (sample.task_position, scales.task_position),
-            (sample.task_velocity, scales.task_velocity),
-            (sample.joint_torque, scales.joint_torque),
-            (sample.motor_current, scales.motor_current),
-        ] {
-            for (&value, slot) in values.iter().zip(&mut slots) {
-                let (step, clipped) = to_step(value, unit);
-                saturated |= clipped;
-                put(slot, step);
-            }
-        }
+        let joint_velocity = take_front(&mut rest, 2 * joints);
+        let task_position = take_front(&mut rest, 2 * task);
+        let task_velocity = take_front(&mut rest, 2 * task);
+        let joint_torque = take_front(&mut rest, 2 * joints);
+        let motor_current = take_front(&mut rest, 2 * joints);
+        let mut saturated = put_steps(joint_velocity, sample.joint_velocity, scales.joint_velocity);
+        saturated |= put_steps(task_position, sample.task_position, scales.task_position);
+        saturated |= put_steps(task_velocity, sample.task_velocity, scales.task_velocity);
+        saturated |= put_steps(joint_torque, sample.joint_torque, scales.joint_torque);
+        saturated |= put_steps(motor_current, sample.motor_current, scales.motor_current);
         let tick_instructions = u16::try_from(sample.tick_instructions).unwrap_or_else(|_| {
             saturated = true;
             u16::MAX
@@ -622,6 +618,14 @@ fn shape_of(sample: &StateSample<'_>) -> Option<(usize, usize)> {
     (sample.task_velocity.len() == task).then_some((joints, task))
 }
 
+/// The first `n` bytes of `rest` (all of it if shorter), and `rest` advanced past them.
+fn take_front<'a>(rest: &mut &'a mut [u8], n: usize) -> &'a mut [u8] {
+    let all = core::mem::take(rest);
+    let (front, back) = all.split_at_mut(n.min(all.len()));
+    *rest = back;
+    front
+}
+
 /// `value` into a two-byte slot, little-endian.
 fn put(slot: &mut [u8], value: i16) {
     if let [low, high] = slot {
@@ -629,29 +633,61 @@ fn put(slot: &mut [u8], value: i16) {
     }
 }
 
-/// `value / unit` rounded to the nearest step (halves away from zero), and whether it had to be
-/// clipped to ±32,767 or is not a number ([`StateFrame::NOT_A_NUMBER`]: a NaN value, a NaN
-/// quotient such as ∞/∞, or a unit that is not positive).
-///
-/// Written for the device's state stream (18 channels of a 3-joint rig per impedance tick):
-/// the in-range case is tested first, with comparisons that are false for NaN, and the rounded
-/// value is converted through `i32`, whose `as` is one instruction on the Cortex-M4F (its
-/// conversion saturates in hardware), where `as i16` needs clamping code of its own.
+/// `value / unit` rounded to the nearest step, and whether it had to be clipped to ±32,767 or
+/// is not a number ([`StateFrame::NOT_A_NUMBER`]: a NaN value, a NaN quotient such as ∞/∞, or
+/// a unit that is not positive).
 #[inline(always)]
 fn to_step(value: f32, unit: f32) -> (i16, bool) {
-    let limit = f32::from(i16::MAX);
-    let steps = value / unit;
-    if unit > 0.0 && steps >= -limit && steps <= limit {
-        let rounded = if steps >= 0.0 { steps + 0.5 } else { steps - 0.5 };
-        // |rounded| ≤ 32,767.5, so its integer part fits an i16 exactly.
-        (rounded as i32 as i16, false)
-    } else if unit > 0.0 && steps > limit {
+    if unit > 0.0 {
+        steps_of(value / unit)
+    } else {
+        (StateFrame::NOT_A_NUMBER, true)
+    }
+}
+
+/// `steps` rounded to the nearest integer (halves to even), and whether it had to be clipped
+/// to ±32,767 or is NaN.
+///
+/// Written for the device's state stream (15 scaled channels of a 3-joint rig per impedance
+/// tick): the in-range case first, with comparisons that are false for NaN, and the rounding
+/// by adding 1.5 × 2²³, after which the float's unit is 1, so the sum is the nearest integer
+/// (the FPU's rounding mode: nearest, ties to even) and its low 16 bits are that integer's
+/// (the sum's significand is 2²² plus it, and 2²² is a multiple of 2¹⁶): two instructions on
+/// the Cortex-M4F where rounding by sign and converting take seven.
+#[inline(always)]
+fn steps_of(steps: f32) -> (i16, bool) {
+    const LIMIT: f32 = 32_767.0;
+    const ROUNDING: f32 = 12_582_912.0;
+    if (-LIMIT..=LIMIT).contains(&steps) {
+        ((steps + ROUNDING).to_bits() as u16 as i16, false)
+    } else if steps > LIMIT {
         (i16::MAX, true)
-    } else if unit > 0.0 && steps < -limit {
+    } else if steps < -LIMIT {
         (-i16::MAX, true)
     } else {
         (StateFrame::NOT_A_NUMBER, true)
     }
+}
+
+/// The steps of `values` in `unit` into `slots` (two bytes each, little-endian), as far as
+/// both go; whether any was clipped or not a number ([`to_step`]).
+#[inline(always)]
+fn put_steps(slots: &mut [u8], values: &[f32], unit: f32) -> bool {
+    let mut clipped = false;
+    let pairs = slots.chunks_exact_mut(2).zip(values);
+    if unit > 0.0 {
+        for (slot, &value) in pairs {
+            let (step, out_of_range) = steps_of(value / unit);
+            clipped |= out_of_range;
+            put(slot, step);
+        }
+    } else {
+        for (slot, _) in pairs {
+            put(slot, StateFrame::NOT_A_NUMBER);
+        }
+        clipped = !values.is_empty();
+    }
+    clipped
 }
 
 /// Recovers full encoder counts from their low 16 bits, frame after frame.
