@@ -140,21 +140,24 @@ pub(crate) fn finish(out: &mut [u8], length: usize) -> Result<usize, EncodeError
 /// byte, and the placeholder `frame[0]`, becomes the distance to the next zero byte (or to the
 /// end). That is the standard encoding (the `cobs` crate's, which the tests compare with) of
 /// a body without a run of 254 non-zero bytes. Backwards, so that the distance is known when
-/// a zero byte is reached and every write is to the byte just read: one load and one test per
-/// byte, no bounds check.
+/// a zero byte is reached and every write is to the byte just read: a load, a test and a count
+/// per byte, no bounds check.
 fn stuff(frame: &mut [u8]) {
-    let mut next_zero = frame.len();
-    for at in (1..frame.len()).rev() {
-        let byte = &mut frame[at];
+    let Some((first, body)) = frame.split_first_mut() else {
+        return;
+    };
+    // The distance from the byte at hand to the next zero byte (or the end).
+    let mut code = 1u8;
+    for byte in body.iter_mut().rev() {
         if *byte == 0 {
-            // Fewer than 254 bytes: the distance fits a code byte.
-            *byte = (next_zero - at) as u8;
-            next_zero = at;
+            *byte = code;
+            code = 1;
+        } else {
+            // At most 254: the body is shorter than that.
+            code = code.wrapping_add(1);
         }
     }
-    if let Some(code) = frame.first_mut() {
-        *code = next_zero as u8;
-    }
+    *first = code;
 }
 
 /// What the receiver has seen, by outcome; every count saturates instead of wrapping.
@@ -190,16 +193,13 @@ impl LinkCounters {
 /// [`MAX_FRAME_BYTES`]. Nothing allocates and nothing panics, whatever the bytes.
 #[derive(Clone, Debug)]
 pub struct FrameDecoder {
-    /// The frame's bytes so far, unstuffed.
+    /// The frame's bytes as received, each block's code byte replaced by the zero byte it
+    /// stands for: from `buffer[1]` on, the unstuffed frame (see `unstuff`).
     buffer: [u8; MAX_FRAME_BYTES],
-    /// Unstuffed bytes in `buffer`.
-    length: usize,
-    /// Stuffed (received) bytes of this frame; more than [`MAX_FRAME_BYTES`]: oversized.
+    /// Bytes of this frame received so far; more than [`MAX_FRAME_BYTES`]: oversized.
     received: usize,
-    /// Bytes left in the current COBS block; 0: the next byte is a block's code.
+    /// Data bytes left in the current COBS block; 0: the next byte is a block's code.
     block_left: u8,
-    /// The current block's code; 0xFF also before the first block (no zero follows either).
-    code: u8,
     counters: LinkCounters,
 }
 
@@ -212,14 +212,7 @@ impl Default for FrameDecoder {
 impl FrameDecoder {
     /// A decoder waiting for the first frame.
     pub const fn new() -> Self {
-        Self {
-            buffer: [0; MAX_FRAME_BYTES],
-            length: 0,
-            received: 0,
-            block_left: 0,
-            code: 0xFF,
-            counters: zero_counters(),
-        }
+        Self { buffer: [0; MAX_FRAME_BYTES], received: 0, block_left: 0, counters: zero_counters() }
     }
 
     /// What has been received so far.
@@ -250,11 +243,9 @@ impl FrameDecoder {
     /// above stays a few instructions inside the caller's loop.
     #[inline(never)]
     fn close(&mut self) -> Option<Received<'_>> {
-        let (length, received, block_left) = (self.length, self.received, self.block_left);
-        self.length = 0;
+        let (received, block_left) = (self.received, self.block_left);
         self.received = 0;
         self.block_left = 0;
-        self.code = 0xFF;
         if received > MAX_FRAME_BYTES {
             bump(&mut self.counters.oversized);
             return None;
@@ -262,12 +253,13 @@ impl FrameDecoder {
         if received == 0 {
             return None;
         }
-        // A block that claims more bytes than arrived, or no room for a CRC and a body.
-        let Some(body_length) = length.checked_sub(CRC_BYTES).filter(|&n| n > 0 && block_left == 0) else {
+        // A block that claims more bytes than arrived, or no room for a CRC and a body (the
+        // first byte is the first block's code).
+        let Some(body_length) = received.checked_sub(1 + CRC_BYTES).filter(|&n| n > 0 && block_left == 0) else {
             bump(&mut self.counters.bad_stuffing);
             return None;
         };
-        let (body, crc) = self.buffer.get(..length)?.split_at(body_length);
+        let (body, crc) = self.buffer.get(1..received)?.split_at(body_length);
         if crc != crc16(body).to_le_bytes().as_slice() {
             bump(&mut self.counters.bad_crc);
             return None;
@@ -275,41 +267,27 @@ impl FrameDecoder {
         Some(Received { body, counters: &mut self.counters })
     }
 
-    /// One non-zero byte of a frame: a block's code, or a data byte. The rules of the `cobs`
-    /// crate's `decode_in_place` (the tests compare), one byte at a time: a block of code `c`
-    /// holds `c − 1` data bytes and, unless `c` is 0xFF or it is the frame's last, is followed
-    /// by a zero byte.
+    /// One non-zero byte of a frame: a block's code, or a data byte, stored where it arrived,
+    /// a code as zero. COBS: a block of code `c` holds `c − 1` data bytes and, unless it is the
+    /// frame's last, is followed by a zero byte, which the next block's code stands in for; so
+    /// the unstuffed frame is the received one after its first byte, with every later code
+    /// byte a zero. (A code of 0xFF, 254 data bytes and no zero after them, never fits a frame
+    /// here: such a frame is oversized or ends inside its block, and is refused as the `cobs`
+    /// crate's `decode_in_place` would; the tests compare the two.) Constant time, a dozen
+    /// instructions: a store where a separate unstuffing pass would copy every byte again.
     #[inline]
     fn unstuff(&mut self, byte: u8) {
-        if self.received >= MAX_FRAME_BYTES {
+        let at = self.received;
+        let Some(slot) = self.buffer.get_mut(at) else {
             // Oversized: dropped at its zero byte (`received` stops just past the limit).
             self.received = MAX_FRAME_BYTES + 1;
             return;
-        }
-        self.received += 1;
-        if self.block_left == 0 {
-            // A new block: the previous one ended in a zero byte unless its code was 0xFF
-            // (or there was none).
-            if self.code != 0xFF {
-                self.store(0);
-            }
-            self.code = byte;
-            // Not zero: zero bytes end the frame before they get here.
-            self.block_left = byte.wrapping_sub(1);
-        } else {
-            self.store(byte);
-            self.block_left -= 1;
-        }
-    }
-
-    #[inline]
-    fn store(&mut self, byte: u8) {
-        // Never more unstuffed bytes than received ones, so there is always room; `get_mut`
-        // all the same, so that no index can panic.
-        if let Some(slot) = self.buffer.get_mut(self.length) {
-            *slot = byte;
-            self.length += 1;
-        }
+        };
+        let (stored, block) = if self.block_left == 0 { (0, byte) } else { (byte, self.block_left) };
+        *slot = stored;
+        // `block` ≥ 1: a code byte is not zero (zero bytes end the frame before they get here).
+        self.block_left = block.wrapping_sub(1);
+        self.received = at + 1;
     }
 }
 
@@ -389,7 +367,7 @@ mod tests {
         for &byte in frame {
             decoder.unstuff(byte);
         }
-        (!frame.is_empty() && decoder.block_left == 0).then(|| decoder.buffer[..decoder.length].to_vec())
+        (!frame.is_empty() && decoder.block_left == 0).then(|| decoder.buffer[1..decoder.received].to_vec())
     }
 
     proptest! {

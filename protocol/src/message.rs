@@ -628,66 +628,85 @@ fn take_front<'a>(rest: &mut &'a mut [u8], n: usize) -> &'a mut [u8] {
 
 /// `value` into a two-byte slot, little-endian.
 fn put(slot: &mut [u8], value: i16) {
-    if let [low, high] = slot {
-        [*low, *high] = value.to_le_bytes();
+    // As an array: one 16-bit store.
+    if let Ok(pair) = <&mut [u8; 2]>::try_from(slot) {
+        *pair = value.to_le_bytes();
     }
 }
 
 /// `value / unit` rounded to the nearest step, and whether it had to be clipped to ±32,767 or
 /// is not a number ([`StateFrame::NOT_A_NUMBER`]: a NaN value, a NaN quotient such as ∞/∞, or
 /// a unit that is not positive).
-#[inline(always)]
 fn to_step(value: f32, unit: f32) -> (i16, bool) {
-    if unit > 0.0 {
-        steps_of(value / unit)
-    } else {
+    let steps = value / unit;
+    if !(unit > 0.0) {
         (StateFrame::NOT_A_NUMBER, true)
+    } else if in_range(steps) {
+        (rounded(steps), false)
+    } else {
+        (clipped(steps), true)
     }
 }
 
-/// `steps` rounded to the nearest integer (halves to even), and whether it had to be clipped
-/// to ±32,767 or is NaN.
+/// The largest step of a channel, either way (`i16::MIN` is [`StateFrame::NOT_A_NUMBER`]).
+const STEP_LIMIT: f32 = 32_767.0;
+
+/// `steps` fits a channel (false for NaN).
+#[inline(always)]
+fn in_range(steps: f32) -> bool {
+    (-STEP_LIMIT..=STEP_LIMIT).contains(&steps)
+}
+
+/// `steps` (within ±32,767) rounded to the nearest integer, halves to even.
 ///
 /// Written for the device's state stream (15 scaled channels of a 3-joint rig per impedance
-/// tick): the in-range case first, with comparisons that are false for NaN, and the rounding
-/// by adding 1.5 × 2²³, after which the float's unit is 1, so the sum is the nearest integer
-/// (the FPU's rounding mode: nearest, ties to even) and its low 16 bits are that integer's
+/// tick): adding 1.5 × 2²³ leaves a float whose unit is 1, so the sum is the nearest integer
+/// (the FPU's rounding mode: nearest, ties to even), and its low 16 bits are that integer's
 /// (the sum's significand is 2²² plus it, and 2²² is a multiple of 2¹⁶): two instructions on
-/// the Cortex-M4F where rounding by sign and converting take seven.
+/// the Cortex-M4F where rounding by the sign and converting take seven.
 #[inline(always)]
-fn steps_of(steps: f32) -> (i16, bool) {
-    const LIMIT: f32 = 32_767.0;
+fn rounded(steps: f32) -> i16 {
     const ROUNDING: f32 = 12_582_912.0;
-    if (-LIMIT..=LIMIT).contains(&steps) {
-        ((steps + ROUNDING).to_bits() as u16 as i16, false)
-    } else if steps > LIMIT {
-        (i16::MAX, true)
-    } else if steps < -LIMIT {
-        (-i16::MAX, true)
+    (steps + ROUNDING).to_bits() as u16 as i16
+}
+
+/// The step sent for `steps` out of range: the limit on its side, or NaN.
+#[cold]
+fn clipped(steps: f32) -> i16 {
+    if steps > STEP_LIMIT {
+        i16::MAX
+    } else if steps < -STEP_LIMIT {
+        -i16::MAX
     } else {
-        (StateFrame::NOT_A_NUMBER, true)
+        StateFrame::NOT_A_NUMBER
     }
 }
 
 /// The steps of `values` in `unit` into `slots` (two bytes each, little-endian), as far as
-/// both go; whether any was clipped or not a number ([`to_step`]).
+/// both go; whether any was clipped or not a number (as [`to_step`]). The in-range case is the
+/// loop's own; clipping is out of line.
 #[inline(always)]
 fn put_steps(slots: &mut [u8], values: &[f32], unit: f32) -> bool {
-    let mut clipped = false;
+    let mut any_clipped = false;
     let pairs = slots.chunks_exact_mut(2).zip(values);
     if unit > 0.0 {
         for (slot, &value) in pairs {
-            let (step, out_of_range) = steps_of(value / unit);
-            clipped |= out_of_range;
+            let steps = value / unit;
+            let step = if in_range(steps) {
+                rounded(steps)
+            } else {
+                any_clipped = true;
+                clipped(steps)
+            };
             put(slot, step);
         }
     } else {
         for (slot, _) in pairs {
             put(slot, StateFrame::NOT_A_NUMBER);
         }
-        clipped = !values.is_empty();
+        any_clipped = !values.is_empty();
     }
-    clipped
+    any_clipped
 }
 
 /// Recovers full encoder counts from their low 16 bits, frame after frame.
