@@ -143,8 +143,10 @@ pub(crate) fn finish(out: &mut [u8], length: usize) -> Result<usize, EncodeError
 /// a zero byte is reached and every write is to the byte just read: a load, a test and a count
 /// per byte, no bounds check.
 fn stuff(frame: &mut [u8]) {
-    let Some((first, body)) = frame.split_first_mut() else {
-        return;
+    // `match`, not `let … else`: the protocol builds with Rust 1.63.
+    let (first, body) = match frame.split_first_mut() {
+        Some(split) => split,
+        None => return,
     };
     // The distance from the byte at hand to the next zero byte (or the end).
     let mut code = 1u8;
@@ -193,13 +195,10 @@ impl LinkCounters {
 /// [`MAX_FRAME_BYTES`]. Nothing allocates and nothing panics, whatever the bytes.
 #[derive(Clone, Debug)]
 pub struct FrameDecoder {
-    /// The frame's bytes as received, each block's code byte replaced by the zero byte it
-    /// stands for: from `buffer[1]` on, the unstuffed frame (see `unstuff`).
+    /// The frame's bytes as received; at its zero byte, unstuffed in place (`unstuff`).
     buffer: [u8; MAX_FRAME_BYTES],
     /// Bytes of this frame received so far; more than [`MAX_FRAME_BYTES`]: oversized.
     received: usize,
-    /// Data bytes left in the current COBS block; 0: the next byte is a block's code.
-    block_left: u8,
     counters: LinkCounters,
 }
 
@@ -212,7 +211,7 @@ impl Default for FrameDecoder {
 impl FrameDecoder {
     /// A decoder waiting for the first frame.
     pub const fn new() -> Self {
-        Self { buffer: [0; MAX_FRAME_BYTES], received: 0, block_left: 0, counters: zero_counters() }
+        Self { buffer: [0; MAX_FRAME_BYTES], received: 0, counters: zero_counters() }
     }
 
     /// What has been received so far.
@@ -233,7 +232,7 @@ impl FrameDecoder {
     #[inline]
     pub fn push_frame(&mut self, byte: u8) -> Option<Received<'_>> {
         if byte != 0 {
-            self.unstuff(byte);
+            self.store(byte);
             return None;
         }
         self.close()
@@ -243,9 +242,8 @@ impl FrameDecoder {
     /// above stays a few instructions inside the caller's loop.
     #[inline(never)]
     fn close(&mut self) -> Option<Received<'_>> {
-        let (received, block_left) = (self.received, self.block_left);
+        let received = self.received;
         self.received = 0;
-        self.block_left = 0;
         if received > MAX_FRAME_BYTES {
             bump(&mut self.counters.oversized);
             return None;
@@ -255,10 +253,14 @@ impl FrameDecoder {
         }
         // A block that claims more bytes than arrived, or no room for a CRC and a body (the
         // first byte is the first block's code).
-        let Some(body_length) = received.checked_sub(1 + CRC_BYTES).filter(|&n| n > 0 && block_left == 0) else {
-            bump(&mut self.counters.bad_stuffing);
-            return None;
-        };
+        let body_length =
+            match received.checked_sub(1 + CRC_BYTES).filter(|&n| n > 0 && self.unstuff(received)) {
+                Some(length) => length,
+                None => {
+                    bump(&mut self.counters.bad_stuffing);
+                    return None;
+                }
+            };
         let (body, crc) = self.buffer.get(1..received)?.split_at(body_length);
         if crc != crc16(body).to_le_bytes().as_slice() {
             bump(&mut self.counters.bad_crc);
@@ -267,27 +269,45 @@ impl FrameDecoder {
         Some(Received { body, counters: &mut self.counters })
     }
 
-    /// One non-zero byte of a frame: a block's code, or a data byte, stored where it arrived,
-    /// a code as zero. COBS: a block of code `c` holds `c − 1` data bytes and, unless it is the
-    /// frame's last, is followed by a zero byte, which the next block's code stands in for; so
-    /// the unstuffed frame is the received one after its first byte, with every later code
-    /// byte a zero. (A code of 0xFF, 254 data bytes and no zero after them, never fits a frame
-    /// here: such a frame is oversized or ends inside its block, and is refused as the `cobs`
-    /// crate's `decode_in_place` would; the tests compare the two.) Constant time, a dozen
-    /// instructions: a store where a separate unstuffing pass would copy every byte again.
+    /// One non-zero byte of a frame, stored where it arrives: the per-byte work is a store
+    /// (the stuffing is undone once per frame, `unstuff`, per block rather than per byte).
     #[inline]
-    fn unstuff(&mut self, byte: u8) {
+    fn store(&mut self, byte: u8) {
         let at = self.received;
-        let Some(slot) = self.buffer.get_mut(at) else {
+        match self.buffer.get_mut(at) {
+            Some(slot) => {
+                *slot = byte;
+                self.received = at + 1;
+            }
             // Oversized: dropped at its zero byte (`received` stops just past the limit).
-            self.received = MAX_FRAME_BYTES + 1;
-            return;
-        };
-        let (stored, block) = if self.block_left == 0 { (0, byte) } else { (byte, self.block_left) };
-        *slot = stored;
-        // `block` ≥ 1: a code byte is not zero (zero bytes end the frame before they get here).
-        self.block_left = block.wrapping_sub(1);
-        self.received = at + 1;
+            None => self.received = MAX_FRAME_BYTES + 1,
+        }
+    }
+
+    /// Undoes the COBS stuffing of the `received` bytes in `buffer`, in place: whether it is
+    /// valid. A block of code `c` holds `c − 1` data bytes and, unless it is the frame's last,
+    /// is followed by a zero byte, which the next block's code stands in for; so the unstuffed
+    /// frame is the received one after its first byte, with every later code byte a zero, and
+    /// the stuffing is valid if the chain of codes ends exactly at the frame's end. One step
+    /// per block. (A code of 0xFF, 254 data bytes and no zero after them, never fits a frame
+    /// here: such a frame is oversized or ends inside its block, and is refused as the `cobs`
+    /// crate's `decode_in_place` would; the tests compare the two.)
+    fn unstuff(&mut self, received: usize) -> bool {
+        let mut at = 0;
+        loop {
+            let code = match self.buffer.get_mut(at) {
+                // The code byte becomes the zero it stands for (the first is not part of the
+                // frame's body).
+                Some(code) => usize::from(core::mem::replace(code, 0)),
+                None => return false,
+            };
+            // Not zero: zero bytes end the frame before they are stored.
+            let next = at + code;
+            if next >= received {
+                return next == received;
+            }
+            at = next;
+        }
     }
 }
 
@@ -360,19 +380,21 @@ mod tests {
     use super::{crc16, stuff, FrameDecoder};
     use proptest::prelude::*;
 
-    /// What the decoder holds after the non-zero bytes of `frame`: the unstuffed bytes, if the
-    /// stuffing is complete (no block waiting for bytes), as `FrameDecoder` sees it at a zero.
+    /// What the decoder holds after the non-zero bytes of `frame` and their unstuffing: the
+    /// unstuffed bytes, if the stuffing is valid, as `FrameDecoder` sees it at a zero byte.
     fn unstuffed(frame: &[u8]) -> Option<Vec<u8>> {
         let mut decoder = FrameDecoder::new();
         for &byte in frame {
-            decoder.unstuff(byte);
+            decoder.store(byte);
         }
-        (!frame.is_empty() && decoder.block_left == 0).then(|| decoder.buffer[1..decoder.received].to_vec())
+        let received = decoder.received;
+        (!frame.is_empty() && decoder.unstuff(received)).then(|| decoder.buffer[1..received].to_vec())
     }
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(4096))]
-        /// The decoder's unstuffing, a byte at a time, decodes exactly as the `cobs` crate's
+        /// The decoder's unstuffing (bytes stored as they arrive, undone block by block at the
+        /// frame's zero byte) decodes exactly as the `cobs` crate's
         /// `decode_in_place` on every frame without zero bytes that fits the decoder (what
         /// `FrameDecoder` collects): same bytes, or both refuse.
         #[test]

@@ -27,7 +27,7 @@ pub use frame::{
     encode, EncodeError, FrameDecoder, LinkCounters, Received, MAX_FRAME_BYTES, MAX_MESSAGE_BYTES,
 };
 pub use message::{
-    ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, HostKind, HostMessage, ImpedanceSettings,
-    PilLaw, PilSetup, SceneObject, SensorFrame, StateFrame, StateSample, MAX_JOINTS, MAX_TASK,
-    PROTOCOL_VERSION,
+    ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, HostKind, HostMessage,
+    ImpedanceSettings, PilLaw, PilSetup, SceneObject, SensorFrame, StateFrame, StateSample, MAX_JOINTS,
+    MAX_TASK, PROTOCOL_VERSION,
 };
