@@ -12,8 +12,8 @@
 //! start, its CRC is computed four bytes at a time from tables in flash, and it is stuffed in
 //! place in one pass (a body shorter than 254 bytes needs exactly one byte of overhead, so the
 //! stuffed frame is the body with its zero bytes turned into block lengths); the receiver
-//! undoes the stuffing as the bytes arrive, so a frame's zero byte leaves only the CRC and the
-//! deserialisation to do.
+//! stores each byte as it arrives and, at the frame's zero byte, undoes the stuffing in place
+//! one step per block, checks the CRC and hands the body over for deserialisation.
 
 use serde::de::{Deserialize, DeserializeOwned};
 use serde::Serialize;
@@ -29,7 +29,7 @@ pub const MAX_FRAME_BYTES: usize = MAX_MESSAGE_BYTES + CRC_BYTES + 2;
 
 const CRC_BYTES: usize = 2;
 
-// In-place stuffing (`stuff`) and the frame size above need a body shorter than one COBS
+// In-place stuffing (`finish`, `stuff`) and the frame size above need a body shorter than one COBS
 // block: a run of 254 non-zero bytes would need a second code byte.
 const _: () = assert!(MAX_MESSAGE_BYTES + CRC_BYTES < 254);
 
@@ -190,8 +190,8 @@ impl LinkCounters {
 
 /// Receives frames one byte at a time.
 ///
-/// [`FrameDecoder::push`] undoes the byte stuffing of a byte in constant time; at a zero byte
-/// it checks the CRC of the frame it closes and deserialises it, in time bounded by
+/// [`FrameDecoder::push`] stores a byte in constant time; at a zero byte it undoes the stuffing
+/// of the frame it closes, checks its CRC and deserialises it, in time bounded by
 /// [`MAX_FRAME_BYTES`]. Nothing allocates and nothing panics, whatever the bytes.
 #[derive(Clone, Debug)]
 pub struct FrameDecoder {

@@ -640,12 +640,12 @@ fn put(slot: &mut [u8], value: i16) {
 /// a unit that is not positive).
 fn to_step(value: f32, unit: f32) -> (i16, bool) {
     let steps = value / unit;
-    if !(unit > 0.0) {
-        (StateFrame::NOT_A_NUMBER, true)
-    } else if in_range(steps) {
+    if unit > 0.0 && in_range(steps) {
         (rounded(steps), false)
-    } else {
+    } else if unit > 0.0 {
         (clipped(steps), true)
+    } else {
+        (StateFrame::NOT_A_NUMBER, true)
     }
 }
 
