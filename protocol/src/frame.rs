@@ -312,7 +312,8 @@ impl FrameDecoder {
 }
 
 /// A frame whose stuffing and CRC are valid ([`FrameDecoder::push_frame`]): its body, the
-/// serialised message, not yet decoded. Decoding it counts it, as a frame or as not a message.
+/// serialised message, not yet decoded. Decoding it counts it, as a frame or as not a message
+/// ([`Received::reject`] as the latter; one dropped unread is not counted).
 #[derive(Debug)]
 pub struct Received<'a> {
     body: &'a [u8],
