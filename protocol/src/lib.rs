@@ -23,9 +23,11 @@
 pub mod frame;
 pub mod message;
 
-pub use frame::{encode, EncodeError, FrameDecoder, LinkCounters, MAX_FRAME_BYTES, MAX_MESSAGE_BYTES};
+pub use frame::{
+    encode, EncodeError, FrameDecoder, LinkCounters, Received, MAX_FRAME_BYTES, MAX_MESSAGE_BYTES,
+};
 pub use message::{
-    ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, HostMessage, ImpedanceSettings,
-    PilLaw, PilSetup, SceneObject, SensorFrame, StateFrame, StateSample, MAX_JOINTS, MAX_TASK,
-    PROTOCOL_VERSION,
+    ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, HostKind, HostMessage,
+    ImpedanceSettings, PilLaw, PilSetup, SceneObject, SensorFrame, StateFrame, StateSample, MAX_JOINTS,
+    MAX_TASK, PROTOCOL_VERSION,
 };

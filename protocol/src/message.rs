@@ -256,6 +256,58 @@ pub enum HostMessage {
     PilSetup(PilSetup),
 }
 
+/// The kind of a [`HostMessage`]: the first byte of its serialisation (postcard writes an
+/// enum's variant index first, as a varint: one byte for the first 128 variants), in the
+/// order of [`HostMessage`]'s variants. A receiver can dispatch on it and decode only that
+/// variant's fields ([`crate::Received::payload`]) instead of a whole [`HostMessage`], which
+/// is built and moved at the size of its largest variant (116 bytes, [`PilSetup`]) whatever
+/// its kind: the device's link does, for its instruction budget (docs/link.md).
+///
+/// The fields of each kind, as [`crate::Received::payload`] decodes them: `Hello`: the version
+/// (`u16`); `Heartbeat`: the sequence (`u16`); `Enable`, `Disable`, `ResetFault`: nothing
+/// (`()`); `SetImpedance`: [`ImpedanceSettings`]; `SetObject`: `(u8, SceneObject)`;
+/// `Sensors`: [`SensorFrame`]; `PilSetup`: [`PilSetup`] (checked for every message by
+/// `host_kinds_decode_as_host_messages` in `tests/frames.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HostKind {
+    /// [`HostMessage::Hello`].
+    Hello,
+    /// [`HostMessage::Heartbeat`].
+    Heartbeat,
+    /// [`HostMessage::Enable`].
+    Enable,
+    /// [`HostMessage::Disable`].
+    Disable,
+    /// [`HostMessage::ResetFault`].
+    ResetFault,
+    /// [`HostMessage::SetImpedance`].
+    SetImpedance,
+    /// [`HostMessage::SetObject`].
+    SetObject,
+    /// [`HostMessage::Sensors`].
+    Sensors,
+    /// [`HostMessage::PilSetup`].
+    PilSetup,
+}
+
+impl HostKind {
+    /// The kind of the serialised host message `body`, if its first byte names one.
+    pub fn of(body: &[u8]) -> Option<Self> {
+        Some(match body.first()? {
+            0 => Self::Hello,
+            1 => Self::Heartbeat,
+            2 => Self::Enable,
+            3 => Self::Disable,
+            4 => Self::ResetFault,
+            5 => Self::SetImpedance,
+            6 => Self::SetObject,
+            7 => Self::Sensors,
+            8 => Self::PilSetup,
+            _ => return None,
+        })
+    }
+}
+
 /// Device → host.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum DeviceMessage {
@@ -377,7 +429,8 @@ impl<'de> Deserialize<'de> for Channels {
                 write!(f, "an even number of at most {} bytes", 2 * MAX_CHANNELS)
             }
             fn visit_bytes<E: serde::de::Error>(self, v: &[u8]) -> Result<Channels, E> {
-                if !v.len().is_multiple_of(2) || v.len() > 2 * MAX_CHANNELS {
+                // `& 1`, not `is_multiple_of` (Rust 1.87): the protocol builds with Rust 1.63.
+                if v.len() & 1 == 1 || v.len() > 2 * MAX_CHANNELS {
                     return Err(E::invalid_length(v.len(), &self));
                 }
                 let mut channels = Channels::new();
@@ -401,15 +454,7 @@ impl StateFrame {
     /// The frame of `sample` in the units `scales`; `None` if the sample has more than
     /// [`MAX_JOINTS`] joints or [`MAX_TASK`] task axes, or its per-joint slices differ in length.
     pub fn quantise(sample: &StateSample<'_>, scales: &ChannelScales) -> Option<Self> {
-        let joints = sample.encoder_counts.len();
-        let task = sample.task_position.len();
-        let per_joint = [sample.joint_velocity.len(), sample.joint_torque.len(), sample.motor_current.len()];
-        if joints > MAX_JOINTS || task > MAX_TASK || per_joint.iter().any(|&n| n != joints) {
-            return None;
-        }
-        if sample.task_velocity.len() != task {
-            return None;
-        }
+        let (joints, task) = shape_of(sample)?;
         let mut saturated = false;
         let mut channels = Channels::new();
         for &count in sample.encoder_counts {
@@ -442,6 +487,63 @@ impl StateFrame {
             shape: (joints as u8) | ((task as u8) << 4),
             channels,
         })
+    }
+
+    /// Quantises `sample` and frames it as a [`DeviceMessage::State`] into `out`, without
+    /// building a `StateFrame`: the same bytes as
+    /// `encode(&DeviceMessage::State(StateFrame::quantise(sample, scales)?), out)` (the tests
+    /// compare), in a third of the instructions (the device's 1 kHz stream, docs/link.md).
+    /// Returns the frame's length, its final zero byte included; `None` for a sample that
+    /// [`StateFrame::quantise`] refuses.
+    pub fn encode_sample(
+        sample: &StateSample<'_>,
+        scales: &ChannelScales,
+        out: &mut [u8; crate::MAX_FRAME_BYTES],
+    ) -> Option<usize> {
+        let (joints, task) = shape_of(sample)?;
+        let channels = 4 * joints + 2 * task;
+        // The body starts at out[1] (out[0] is the stuffing's code byte): the message's kind,
+        // the fixed fields (STATE_HEAD bytes), then the channels' bytes.
+        let (head, mut rest) = out.split_at_mut(1 + STATE_HEAD);
+        let counts = take_front(&mut rest, 2 * joints);
+        for (slot, &count) in counts.chunks_exact_mut(2).zip(sample.encoder_counts) {
+            // Modulo 2¹⁶: the low 16 bits, exactly.
+            put(slot, count as i16);
+        }
+        let joint_velocity = take_front(&mut rest, 2 * joints);
+        let task_position = take_front(&mut rest, 2 * task);
+        let task_velocity = take_front(&mut rest, 2 * task);
+        let joint_torque = take_front(&mut rest, 2 * joints);
+        let motor_current = take_front(&mut rest, 2 * joints);
+        let mut saturated = put_steps(joint_velocity, sample.joint_velocity, scales.joint_velocity);
+        saturated |= put_steps(task_position, sample.task_position, scales.task_position);
+        saturated |= put_steps(task_velocity, sample.task_velocity, scales.task_velocity);
+        saturated |= put_steps(joint_torque, sample.joint_torque, scales.joint_torque);
+        saturated |= put_steps(motor_current, sample.motor_current, scales.motor_current);
+        let tick_instructions = u16::try_from(sample.tick_instructions).unwrap_or_else(|_| {
+            saturated = true;
+            u16::MAX
+        });
+        let status =
+            if sample.enabled { Self::ENABLED } else { 0 } | if saturated { Self::SATURATED } else { 0 };
+        let [tick_low, tick_high] = (sample.tick as u16).to_le_bytes();
+        let [instructions_low, instructions_high] = tick_instructions.to_le_bytes();
+        // postcard: the variant index (a one-byte varint), the fields in order (the two-byte
+        // ones as their bytes), the channels as a byte string: its length (a one-byte varint,
+        // at most 60) and its bytes.
+        head.copy_from_slice(&[
+            0,
+            STATE_KIND,
+            tick_low,
+            tick_high,
+            status,
+            sample.fault,
+            instructions_low,
+            instructions_high,
+            (joints as u8) | ((task as u8) << 4),
+            2 * channels as u8,
+        ]);
+        crate::frame::finish(out, STATE_HEAD + 2 * channels).ok()
     }
 
     /// Joints in the frame.
@@ -499,22 +601,114 @@ impl StateFrame {
     }
 }
 
-/// `value / unit` rounded to the nearest step, and whether it had to be clipped to ±32,767.
+/// `DeviceMessage::State`'s variant index, the first byte of its serialisation.
+const STATE_KIND: u8 = 1;
+
+/// Bytes of a serialised state message before its channels: the kind, tick (2), status,
+/// fault, tick instructions (2), shape and the channels' length.
+const STATE_HEAD: usize = 9;
+
+/// Joints and task axes of `sample`, if the protocol can carry it: at most [`MAX_JOINTS`]
+/// joints and [`MAX_TASK`] axes, every per-joint and per-axis slice of the same length.
+fn shape_of(sample: &StateSample<'_>) -> Option<(usize, usize)> {
+    let joints = sample.encoder_counts.len();
+    let task = sample.task_position.len();
+    let per_joint = [sample.joint_velocity.len(), sample.joint_torque.len(), sample.motor_current.len()];
+    if joints > MAX_JOINTS || task > MAX_TASK || per_joint.iter().any(|&n| n != joints) {
+        return None;
+    }
+    (sample.task_velocity.len() == task).then_some((joints, task))
+}
+
+/// The first `n` bytes of `rest` (all of it if shorter), and `rest` advanced past them.
+fn take_front<'a>(rest: &mut &'a mut [u8], n: usize) -> &'a mut [u8] {
+    let all = core::mem::take(rest);
+    let (front, back) = all.split_at_mut(n.min(all.len()));
+    *rest = back;
+    front
+}
+
+/// `value` into a two-byte slot, little-endian.
+fn put(slot: &mut [u8], value: i16) {
+    // As an array: one 16-bit store.
+    if let Ok(pair) = <&mut [u8; 2]>::try_from(slot) {
+        *pair = value.to_le_bytes();
+    }
+}
+
+/// `value / unit` rounded to the nearest step, and whether it had to be clipped to ±32,767 or
+/// is not a number ([`StateFrame::NOT_A_NUMBER`]: a NaN value, a NaN quotient such as ∞/∞, or
+/// a unit that is not positive).
 fn to_step(value: f32, unit: f32) -> (i16, bool) {
-    if value.is_nan() || unit.is_nan() || unit <= 0.0 {
-        return (StateFrame::NOT_A_NUMBER, true);
-    }
     let steps = value / unit;
-    let limit = f32::from(i16::MAX);
-    if steps > limit {
-        (i16::MAX, true)
-    } else if steps < -limit {
-        (-i16::MAX, true)
+    if unit > 0.0 && in_range(steps) {
+        (rounded(steps), false)
+    } else if unit > 0.0 {
+        (clipped(steps), true)
     } else {
-        // |steps| ≤ 32,767, so the rounded value fits (`as` on a finite, in-range float is exact).
-        let rounded = if steps >= 0.0 { steps + 0.5 } else { steps - 0.5 };
-        (rounded as i16, false)
+        (StateFrame::NOT_A_NUMBER, true)
     }
+}
+
+/// The largest step of a channel, either way (`i16::MIN` is [`StateFrame::NOT_A_NUMBER`]).
+const STEP_LIMIT: f32 = 32_767.0;
+
+/// `steps` fits a channel (false for NaN).
+#[inline(always)]
+fn in_range(steps: f32) -> bool {
+    (-STEP_LIMIT..=STEP_LIMIT).contains(&steps)
+}
+
+/// `steps` (within ±32,767) rounded to the nearest integer, halves to even.
+///
+/// Written for the device's state stream (15 scaled channels of a 3-joint rig per impedance
+/// tick): adding 1.5 × 2²³ leaves a float whose unit is 1, so the sum is the nearest integer
+/// (the FPU's rounding mode: nearest, ties to even), and its low 16 bits are that integer's
+/// (the sum's significand is 2²² plus it, and 2²² is a multiple of 2¹⁶): two instructions on
+/// the Cortex-M4F where rounding by the sign and converting take seven.
+#[inline(always)]
+fn rounded(steps: f32) -> i16 {
+    const ROUNDING: f32 = 12_582_912.0;
+    (steps + ROUNDING).to_bits() as u16 as i16
+}
+
+/// The step sent for `steps` out of range: the limit on its side, or NaN.
+#[cold]
+fn clipped(steps: f32) -> i16 {
+    if steps > STEP_LIMIT {
+        i16::MAX
+    } else if steps < -STEP_LIMIT {
+        -i16::MAX
+    } else {
+        StateFrame::NOT_A_NUMBER
+    }
+}
+
+/// The steps of `values` in `unit` into `slots` (two bytes each, little-endian), as far as
+/// both go; whether any was clipped or not a number (as [`to_step`]). The in-range case is the
+/// loop's own; clipping is out of line.
+#[inline(always)]
+fn put_steps(slots: &mut [u8], values: &[f32], unit: f32) -> bool {
+    let mut any_clipped = false;
+    let pairs = slots.chunks_exact_mut(2).zip(values);
+    if unit > 0.0 {
+        for (slot, &value) in pairs {
+            let steps = value / unit;
+            let step = if in_range(steps) {
+                rounded(steps)
+            } else {
+                any_clipped = true;
+                clipped(steps)
+            };
+            put(slot, step);
+        }
+    } else {
+        for (slot, _) in pairs {
+            put(slot, StateFrame::NOT_A_NUMBER);
+        }
+        any_clipped = !values.is_empty();
+    }
+    any_clipped
 }
 
 /// Recovers full encoder counts from their low 16 bits, frame after frame.

@@ -4,7 +4,7 @@
 
 use hapticgen_protocol::message::Channels;
 use hapticgen_protocol::{
-    encode, ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, FrameDecoder,
+    encode, ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, FrameDecoder, HostKind,
     HostMessage, ImpedanceSettings, LinkCounters, PilLaw, PilSetup, SceneObject, SensorFrame, StateFrame,
     StateSample, MAX_FRAME_BYTES,
 };
@@ -227,6 +227,99 @@ proptest! {
         let c = decoder.counters();
         prop_assert_eq!(c.frames + c.dropped(), closed);
     }
+}
+
+/// A host message decoded by its kind (`HostKind`, `Received::payload`, as the device's link
+/// does): the fields of each kind as `HostKind`'s documentation lists them.
+fn by_kind(frame: &[u8]) -> Option<HostMessage> {
+    let mut decoder = FrameDecoder::new();
+    let (&last, bytes) = frame.split_last()?;
+    for &b in bytes {
+        assert!(decoder.push_frame(b).is_none());
+    }
+    let received = decoder.push_frame(last)?;
+    Some(match received.host_kind()? {
+        HostKind::Hello => HostMessage::Hello { version: received.payload()? },
+        HostKind::Heartbeat => HostMessage::Heartbeat { sequence: received.payload()? },
+        HostKind::Enable => received.payload::<()>().map(|()| HostMessage::Enable)?,
+        HostKind::Disable => received.payload::<()>().map(|()| HostMessage::Disable)?,
+        HostKind::ResetFault => received.payload::<()>().map(|()| HostMessage::ResetFault)?,
+        HostKind::SetImpedance => HostMessage::SetImpedance(received.payload()?),
+        HostKind::SetObject => {
+            let (slot, object) = received.payload()?;
+            HostMessage::SetObject { slot, object }
+        }
+        HostKind::Sensors => HostMessage::Sensors(received.payload()?),
+        HostKind::PilSetup => HostMessage::PilSetup(received.payload()?),
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 1024, ..ProptestConfig::default() })]
+
+    /// Every host message decoded by its kind and fields is the message (the order of
+    /// `HostKind` is `HostMessage`'s, and each kind's fields are its variant's); a frame with
+    /// a byte more or less is not a message.
+    #[test]
+    fn host_kinds_decode_as_host_messages(host in host_message()) {
+        let frame = frame_of(&host);
+        prop_assert_eq!(by_kind(&frame), Some(host));
+        let body = postcard::to_allocvec(&host).unwrap();
+        for change in [Some(7u8), None] {
+            let mut changed = body.clone();
+            match change {
+                Some(byte) => changed.push(byte),
+                None => { changed.pop(); }
+            }
+            prop_assert_eq!(by_kind(&framed(&changed)), None);
+        }
+    }
+
+    /// The device's state frame, quantised and framed in one pass (`encode_sample`), is byte
+    /// for byte the frame of the quantised `StateFrame` as a `DeviceMessage`, for every shape
+    /// and for values in range, out of range and NaN.
+    #[test]
+    fn state_frames_encoded_in_one_pass_are_the_messages_frames(
+        (joints, task) in (0usize..=6, 0usize..=3),
+        tick in any::<u32>(),
+        enabled in any::<bool>(),
+        fault in any::<u8>(),
+        counts in any::<[i32; 6]>(),
+        per_joint in proptest::collection::vec(prop_oneof![-40.0f32..40.0, Just(f32::NAN), Just(1e30)], 18),
+        per_axis in proptest::collection::vec(prop_oneof![-0.7f32..0.7, Just(-f32::INFINITY)], 6),
+        tick_instructions in prop_oneof![0u32..70_000, any::<u32>()],
+    ) {
+        let sample = StateSample {
+            tick,
+            enabled,
+            fault,
+            encoder_counts: &counts[..joints],
+            joint_velocity: &per_joint[..joints],
+            task_position: &per_axis[..task],
+            task_velocity: &per_axis[3..3 + task],
+            joint_torque: &per_joint[6..6 + joints],
+            motor_current: &per_joint[12..12 + joints],
+            tick_instructions,
+        };
+        let expected = frame_of(&DeviceMessage::State(StateFrame::quantise(&sample, &ChannelScales::DESKTOP).unwrap()));
+        let mut out = [0xAAu8; MAX_FRAME_BYTES];
+        let length = StateFrame::encode_sample(&sample, &ChannelScales::DESKTOP, &mut out);
+        prop_assert_eq!(length.map(|n| out[..n].to_vec()), Some(expected));
+        // A shape `quantise` refuses is refused here too.
+        let uneven = StateSample { joint_torque: &per_joint[..joints + 1], ..sample };
+        prop_assert_eq!(StateFrame::encode_sample(&uneven, &ChannelScales::DESKTOP, &mut out), None);
+    }
+}
+
+/// `body` framed as it is, whatever it holds.
+fn framed(body: &[u8]) -> Vec<u8> {
+    let mut with_crc = body.to_vec();
+    with_crc.extend(crc::Crc::<u16>::new(&crc::CRC_16_IBM_3740).checksum(body).to_le_bytes());
+    let mut stuffed = vec![0u8; with_crc.len() + 2];
+    let n = cobs::encode(&with_crc, &mut stuffed);
+    stuffed.truncate(n);
+    stuffed.push(0);
+    stuffed
 }
 
 /// CRC-16/IBM-3740 detects every error of one or two bits: flipping any bit, or any two bits,

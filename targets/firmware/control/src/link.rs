@@ -9,9 +9,10 @@
 //!   latches [`LinkFault::HeartbeatLost`] and the bridges are disabled ([`Gated`]) in the same
 //!   period. Only a `ResetFault` followed by an `Enable` (with fresh heartbeats) turns them on
 //!   again: a host that reappears does not re-enable a device by itself.
-//! * **Processor in the loop**: a [`HostMessage::Sensors`] frame is kept
+//! * **Processor in the loop**: a [`HostMessage::Sensors`](hapticgen_protocol::HostMessage::Sensors) frame is kept
 //!   ([`DeviceLink::sensors`], announced by [`LinkEvent::Sensors`]) and counts as a heartbeat
-//!   (the host that computes the plant is alive); so is [`HostMessage::PilSetup`]
+//!   (the host that computes the plant is alive); so is
+//!   [`HostMessage::PilSetup`](hapticgen_protocol::HostMessage::PilSetup)
 //!   ([`DeviceLink::pil_setup`], [`LinkEvent::PilSetup`]); `Disable` is reported
 //!   ([`LinkEvent::Disabled`]) so that a PIL image can end its run. The events carry no
 //!   payload of their own: an event is returned for every byte, so it is kept small.
@@ -20,8 +21,8 @@
 //!   counted and dropped.
 
 use hapticgen_protocol::{
-    encode, DeviceInfo, DeviceMessage, EncodeError, FrameDecoder, HostMessage, ImpedanceSettings,
-    LinkCounters, PilSetup, SceneObject, SensorFrame, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION,
+    encode, DeviceInfo, DeviceMessage, EncodeError, FrameDecoder, HostKind, ImpedanceSettings, LinkCounters,
+    PilSetup, SceneObject, SensorFrame, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION,
 };
 use hapticgen_runtime::control::ImpedanceParameters;
 use hapticgen_runtime::Real;
@@ -120,40 +121,50 @@ impl DeviceLink {
     }
 
     /// Takes one received byte; returns what a completed message asks of the firmware.
+    ///
+    /// A frame is decoded by its kind ([`HostKind`]): only the fields of the message that came
+    /// are built, never a whole [`HostMessage`](hapticgen_protocol::HostMessage) (116 bytes, whatever its kind), which would
+    /// cost about 500 instructions per frame in copies (docs/link.md). Every message is
+    /// decoded, and so checked, before the handshake rule is applied, as a `HostMessage`
+    /// would be: a malformed one is counted as not a message, a valid one as refused.
+    #[inline]
     pub fn receive<S: Real>(&mut self, byte: u8) -> Option<LinkEvent<S>> {
-        let message = self.decoder.push::<HostMessage>(byte)?;
-        match message {
-            HostMessage::Hello { version } => {
+        if byte != 0 {
+            // A frame's byte: unstuffed inside the caller's loop, no call (docs/link.md).
+            return self.decoder.push_frame(byte).and(None);
+        }
+        self.frame_end()
+    }
+
+    /// A zero byte: the frame it closes, decoded and applied (out of line, see `receive`).
+    #[inline(never)]
+    fn frame_end<S: Real>(&mut self) -> Option<LinkEvent<S>> {
+        let frame = self.decoder.push_frame(0)?;
+        let Some(kind) = frame.host_kind() else {
+            frame.reject();
+            return None;
+        };
+        match kind {
+            HostKind::Hello => {
+                let version: u16 = frame.payload()?;
                 self.handshake = version == PROTOCOL_VERSION;
-                return Some(LinkEvent::Hello);
+                Some(LinkEvent::Hello)
             }
             // Turning the bridges off is honoured from anyone, handshake or not.
-            HostMessage::Disable => {
+            HostKind::Disable => {
+                frame.payload::<()>()?;
                 self.enabled = false;
-                return Some(LinkEvent::Disabled);
+                Some(LinkEvent::Disabled)
             }
-            _ => {}
-        }
-        if !self.handshake {
-            bump(&mut self.refused.before_handshake);
-            return None;
-        }
-        match message {
-            HostMessage::Hello { .. } | HostMessage::Disable => None,
-            HostMessage::Sensors(frame) => {
-                self.ticks_since_heartbeat = 0;
-                self.sensors = Some(frame);
-                Some(LinkEvent::Sensors)
-            }
-            HostMessage::PilSetup(setup) => {
-                self.pil_setup = Some(setup);
-                Some(LinkEvent::PilSetup)
-            }
-            HostMessage::Heartbeat { .. } => {
+            HostKind::Heartbeat => {
+                let _sequence: u16 = frame.payload()?;
+                self.after_handshake()?;
                 self.ticks_since_heartbeat = 0;
                 None
             }
-            HostMessage::Enable => {
+            HostKind::Enable => {
+                frame.payload::<()>()?;
+                self.after_handshake()?;
                 if self.fault.is_none() && self.heartbeat_fresh() {
                     self.enabled = true;
                 } else {
@@ -161,19 +172,55 @@ impl DeviceLink {
                 }
                 None
             }
-            HostMessage::ResetFault => {
+            HostKind::ResetFault => {
+                frame.payload::<()>()?;
+                self.after_handshake()?;
                 self.fault = None;
                 None
             }
-            HostMessage::SetImpedance(settings) => match checked_impedance(&settings) {
-                Some(parameters) => Some(LinkEvent::Impedance(parameters)),
-                None => {
+            HostKind::SetImpedance => {
+                let settings: ImpedanceSettings = frame.payload()?;
+                self.after_handshake()?;
+                if !impedance_is_valid(&settings) {
                     bump(&mut self.refused.bad_settings);
-                    None
+                    return None;
                 }
-            },
-            HostMessage::SetObject { slot, object } => Some(LinkEvent::Object { slot, object }),
+                // Built in the event itself: through an `Option` of the parameters, the
+                // compiler copied the event byte by byte (about 440 instructions).
+                Some(LinkEvent::Impedance(ImpedanceParameters {
+                    stiffness: converted(&settings.stiffness),
+                    damping: converted(&settings.damping),
+                    mass: converted(&settings.mass),
+                }))
+            }
+            HostKind::SetObject => {
+                let (slot, object): (u8, SceneObject) = frame.payload()?;
+                self.after_handshake()?;
+                Some(LinkEvent::Object { slot, object })
+            }
+            HostKind::Sensors => {
+                let sensors: SensorFrame = frame.payload()?;
+                self.after_handshake()?;
+                self.ticks_since_heartbeat = 0;
+                self.sensors = Some(sensors);
+                Some(LinkEvent::Sensors)
+            }
+            HostKind::PilSetup => {
+                let setup: PilSetup = frame.payload()?;
+                self.after_handshake()?;
+                self.pil_setup = Some(setup);
+                Some(LinkEvent::PilSetup)
+            }
         }
+    }
+
+    /// `Some` after a handshake of this protocol version; else `None`, the message counted as
+    /// refused.
+    fn after_handshake(&mut self) -> Option<()> {
+        if !self.handshake {
+            bump(&mut self.refused.before_handshake);
+        }
+        self.handshake.then_some(())
     }
 
     /// Once per current-loop period: advances the heartbeat watchdog. Returns `true` when the
@@ -227,22 +274,20 @@ impl DeviceLink {
     }
 }
 
-/// Impedance settings as the runtime's parameters, if every value is finite, the stiffness
-/// and damping are not negative and the mass is positive.
-fn checked_impedance<S: Real>(settings: &ImpedanceSettings) -> Option<ImpedanceParameters<S, MAX_TASK>> {
+/// Whether impedance settings may be applied: every value finite, the stiffness and damping
+/// not negative, the mass positive.
+fn impedance_is_valid(settings: &ImpedanceSettings) -> bool {
     let gains = || settings.stiffness.iter().chain(&settings.damping);
-    if !gains().chain(&settings.mass).all(|v| v.is_finite())
-        || gains().any(|v| *v < 0.0)
-        || settings.mass.iter().any(|v| *v <= 0.0)
-    {
-        return None;
-    }
-    let convert = |values: &[f32; MAX_TASK]| values.map(|v| S::from_f64(f64::from(v)));
-    Some(ImpedanceParameters {
-        stiffness: convert(&settings.stiffness),
-        damping: convert(&settings.damping),
-        mass: convert(&settings.mass),
-    })
+    gains().chain(&settings.mass).all(|v| v.is_finite())
+        && gains().all(|v| *v >= 0.0)
+        && settings.mass.iter().all(|v| *v > 0.0)
+}
+
+/// Per-axis settings in the runtime's scalar type.
+#[inline(always)]
+fn converted<S: Real>(values: &[f32; MAX_TASK]) -> [S; MAX_TASK] {
+    let [x, y, z] = *values;
+    [S::from_f64(f64::from(x)), S::from_f64(f64::from(y)), S::from_f64(f64::from(z))]
 }
 
 fn bump(count: &mut u32) {
