@@ -324,14 +324,22 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             // A closed chain also names its eliminated passive joints.
             let passive = match &m.analyses.closures {
-                Some(c) => format!(
-                    " (+{} passive, eliminated by {} closure{})",
-                    m.passive.len(),
-                    c.loops.len(),
-                    if c.loops.len() == 1 { "" } else { "s" }
-                ),
+                Some(c) => {
+                    let closures = c.loops.len() + m.spatial_closures.len();
+                    format!(
+                        " (+{} passive, eliminated by {closures} closure{})",
+                        m.passive.len(),
+                        if closures == 1 { "" } else { "s" }
+                    )
+                }
                 None => String::new(),
             };
+            if m.analyses.emission_refused.is_some() {
+                eprintln!(
+                    "note: {}: code cannot be emitted for a spatial closed chain yet: `generate`, `rig!`, `stats` and `simulate` stop at `closures`; `eval` works",
+                    model.display()
+                );
+            }
             println!(
                 "{}: ok: rig `{}`{}, {} joints{passive}, {} bodies, task dimension {}",
                 model.display(),

@@ -252,3 +252,44 @@ fn pil_names_what_is_missing() {
     assert!(stderr.contains("no PIL firmware image for `vertical`"), "{stderr}");
     let _ = std::fs::remove_dir_all(out);
 }
+
+/// A spatial closed chain (the Falcon-like Delta): `check` and `eval` work, with the platform
+/// where the legs' geometry puts it; `generate` and `simulate` stop at `closures` with the
+/// file's line, never with garbage.
+#[test]
+fn a_spatial_closed_chain_checks_and_evaluates_and_is_refused_where_code_is_needed() {
+    let model = "codegen/tests/closed-chains/falcon_delta.yaml";
+    let check = hapticgen(&["check", model]);
+    assert!(check.status.success(), "{}", String::from_utf8_lossy(&check.stderr));
+    assert!(String::from_utf8_lossy(&check.stdout).contains("(+8 passive, eliminated by 2 closures)"));
+    assert!(String::from_utf8_lossy(&check.stderr)
+        .contains("code cannot be emitted for a spatial closed chain yet"));
+    // All thighs at θ = 0.35 rad: the platform straight below the centre, at the knee's height
+    // less the shin's vertical reach, z = −a sin θ − √(b² − (r + a cos θ − s)²).
+    let eval = hapticgen(&["eval", model, "--q", "0.35,0.35,0.35", "--qd", "0,0,0"]);
+    assert!(eval.status.success(), "{}", String::from_utf8_lossy(&eval.stderr));
+    let values: serde_json::Value = serde_json::from_slice(&eval.stdout).expect("JSON");
+    let p: Vec<f64> =
+        values["p"].as_array().expect("p").iter().map(|x| x.as_f64().expect("a number")).collect();
+    let (r, a, b, s, theta) = (0.037233758_f64, 0.060_f64, 0.1025_f64, 0.027330909_f64, 0.35_f64);
+    let z = -a * theta.sin() - (b * b - (r + a * theta.cos() - s).powi(2)).sqrt();
+    assert!(p[0].abs() < 1e-12 && p[1].abs() < 1e-12 && (p[2] - z).abs() < 1e-12, "{p:?} vs z = {z}");
+    for args in [
+        vec!["generate", model],
+        vec!["simulate", model, "--controller", "3", "--scenario", "step", "--output"],
+    ] {
+        let mut args = args;
+        let output = scratch("delta");
+        let output = output.to_string_lossy().into_owned();
+        if args[0] == "simulate" {
+            args.push(&output);
+        }
+        let refused = hapticgen(&args);
+        let stderr = String::from_utf8_lossy(&refused.stderr);
+        assert_eq!(refused.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains("falcon_delta.yaml:") && stderr.contains("closures: code cannot be emitted"),
+            "{args:?}: {stderr}"
+        );
+    }
+}
