@@ -1,7 +1,8 @@
-//! Spatial closed chains (issue 16): the Falcon-like Delta
-//! (`codegen/tests/closed-chains/falcon_delta.yaml`), its open tree reduced to the three thigh
-//! angles by the generator's numerical elimination, checked against a separate formulation
-//! written here that shares no code with the generator:
+//! Spatial closed chains (issue 16): two Deltas, the Falcon-like one
+//! (`codegen/tests/closed-chains/falcon_delta.yaml`) and an omega-like one written as a file
+//! only (`omega_delta.yaml`), each open tree reduced to the three thigh angles by the
+//! generator's numerical elimination, checked against a separate formulation written here that
+//! shares no code with the generator:
 //!
 //! - **Kinematics**: the platform centre by the closed-form intersection of three spheres
 //!   (radius `b` about each knee moved inwards by the platform radius `s`), its Jacobian from
@@ -28,26 +29,56 @@ use hapticgen_codegen::sym::dag::{Dag, NodeId};
 use hapticgen_codegen::sym::poly::{Atom, AtomValues};
 use hapticgen_codegen::CheckedModel;
 
-const FILE: &str = "codegen/tests/closed-chains/falcon_delta.yaml";
+/// A Delta's data, copied from its model file's sources (not read from it).
+struct Device {
+    file: &'static str,
+    base_radius: f64,
+    thigh: f64,
+    shin: f64,
+    platform_radius: f64,
+    thigh_mass: f64,
+    shin_mass: f64,
+    platform_mass: f64,
+    /// `N² J_m`.
+    reflected_rotor: f64,
+}
 
-// The device's data, from ../shared/spec/devices.md section 1 (as the model file has them).
-const BASE_RADIUS: f64 = 0.037233758;
-const THIGH: f64 = 0.060;
-const SHIN: f64 = 0.1025;
-const PLATFORM_RADIUS: f64 = 0.027330909;
-const THIGH_MASS: f64 = 0.020;
-const SHIN_MASS: f64 = 0.010;
-const PLATFORM_MASS: f64 = 0.060;
-const REFLECTED_ROTOR: f64 = 7.72 * 7.72 * 1.7e-7;
+/// ../shared/spec/devices.md section 1.
+const FALCON: Device = Device {
+    file: "codegen/tests/closed-chains/falcon_delta.yaml",
+    base_radius: 0.037233758,
+    thigh: 0.060,
+    shin: 0.1025,
+    platform_radius: 0.027330909,
+    thigh_mass: 0.020,
+    shin_mass: 0.010,
+    platform_mass: 0.060,
+    reflected_rotor: 7.72 * 7.72 * 1.7e-7,
+};
+
+/// The dimensions `omega_delta.yaml`'s header chooses.
+const OMEGA: Device = Device {
+    file: "codegen/tests/closed-chains/omega_delta.yaml",
+    base_radius: 0.060,
+    thigh: 0.100,
+    shin: 0.160,
+    platform_radius: 0.030,
+    thigh_mass: 0.050,
+    shin_mass: 0.030,
+    platform_mass: 0.150,
+    reflected_rotor: 10.0 * 10.0 * 1.0e-6,
+};
+
+const DEVICES: [&Device; 2] = [&FALCON, &OMEGA];
 const GRAVITY: f64 = 9.81;
 const STATES: usize = 60;
 
 type Vec3 = [f64; 3];
 type Mat3 = [[f64; 3]; 3];
 
-fn load() -> (CheckedModel, Mechanics) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let model = hapticgen_codegen::load_file(&root.join(FILE), FILE, None).unwrap_or_else(|e| panic!("{e}"));
+fn load(device: &Device) -> (CheckedModel, Mechanics) {
+    let model = hapticgen_codegen::load_file(&repo_file(device.file), device.file, None)
+        .unwrap_or_else(|e| panic!("{e}"));
     let mechanics = hapticgen_codegen::derive(&model);
     (model, mechanics)
 }
@@ -113,10 +144,11 @@ fn leg_axes(k: usize) -> (Vec3, Vec3) {
 }
 
 /// Knee `k` and its derivative with respect to its thigh angle.
-fn knee(k: usize, theta: f64) -> (Vec3, Vec3) {
+fn knee(device: &Device, k: usize, theta: f64) -> (Vec3, Vec3) {
     let (radial, _) = leg_axes(k);
-    let position = add(scale(radial, BASE_RADIUS + THIGH * theta.cos()), [0.0, 0.0, -THIGH * theta.sin()]);
-    let derivative = add(scale(radial, -THIGH * theta.sin()), [0.0, 0.0, -THIGH * theta.cos()]);
+    let (thigh, base_radius) = (device.thigh, device.base_radius);
+    let position = add(scale(radial, base_radius + thigh * theta.cos()), [0.0, 0.0, -thigh * theta.sin()]);
+    let derivative = add(scale(radial, -thigh * theta.sin()), [0.0, 0.0, -thigh * theta.cos()]);
     (position, derivative)
 }
 
@@ -140,10 +172,10 @@ fn solve3(m: Mat3, v: Vec3) -> Vec3 {
     scale(x, 1.0 / det)
 }
 
-fn delta(theta: &[f64; 3]) -> Delta {
-    let knees_and_rates: [(Vec3, Vec3); 3] = std::array::from_fn(|k| knee(k, theta[k]));
+fn delta(device: &Device, theta: &[f64; 3]) -> Delta {
+    let knees_and_rates: [(Vec3, Vec3); 3] = std::array::from_fn(|k| knee(device, k, theta[k]));
     let centres: [Vec3; 3] =
-        std::array::from_fn(|k| sub(knees_and_rates[k].0, scale(leg_axes(k).0, PLATFORM_RADIUS)));
+        std::array::from_fn(|k| sub(knees_and_rates[k].0, scale(leg_axes(k).0, device.platform_radius)));
     // Three spheres |P − c_k| = b: subtracting pairs gives two planes; P = base + t n on their
     // line, and the first sphere gives t (the lower root: the platform below the base).
     let [c0, c1, c2] = centres;
@@ -158,7 +190,7 @@ fn delta(theta: &[f64; 3]) -> Delta {
     );
     let unit = scale(direction, 1.0 / dot(direction, direction).sqrt());
     let from = sub(on_line, c0);
-    let (half_b, c) = (dot(from, unit), dot(from, from) - SHIN * SHIN);
+    let (half_b, c) = (dot(from, unit), dot(from, from) - device.shin * device.shin);
     let root = (half_b * half_b - c).sqrt();
     let candidates = [add(on_line, scale(unit, -half_b + root)), add(on_line, scale(unit, -half_b - root))];
     let platform = if candidates[0][2] < candidates[1][2] { candidates[0] } else { candidates[1] };
@@ -177,8 +209,9 @@ fn delta(theta: &[f64; 3]) -> Delta {
 }
 
 /// `D`, `g` of the independent formulation (see the module docs).
-fn independent_dynamics(theta: &[f64; 3]) -> (Mat3, Vec3) {
-    let d = delta(theta);
+fn independent_dynamics(device: &Device, theta: &[f64; 3]) -> (Mat3, Vec3) {
+    let d = delta(device, theta);
+    let (thigh, thigh_mass, shin_mass) = (device.thigh, device.thigh_mass, device.shin_mass);
     let mut inertia = [[0.0; 3]; 3];
     let mut gravity = [0.0; 3];
     // Jacobians (3 × 3, column per thigh) of the knee and of the platform joint of leg k.
@@ -198,23 +231,23 @@ fn independent_dynamics(theta: &[f64; 3]) -> (Mat3, Vec3) {
     };
     for k in 0..3 {
         // Thigh about its fixed axis, and the rotor.
-        inertia[k][k] += THIGH_MASS * THIGH * THIGH / 3.0 + REFLECTED_ROTOR;
-        gravity[k] += THIGH_MASS * GRAVITY * (-0.5 * THIGH * theta[k].cos());
+        inertia[k][k] += thigh_mass * thigh * thigh / 3.0 + device.reflected_rotor;
+        gravity[k] += thigh_mass * GRAVITY * (-0.5 * thigh * theta[k].cos());
         // Shin: a slender rod from the knee to the platform joint (which moves with P).
         let (a, b) = (knee_jacobian(k), d.platform_jacobian);
-        add_product(&mut inertia, &a, &a, SHIN_MASS / 3.0);
-        add_product(&mut inertia, &b, &b, SHIN_MASS / 3.0);
-        add_product(&mut inertia, &a, &b, SHIN_MASS / 6.0);
-        add_product(&mut inertia, &b, &a, SHIN_MASS / 6.0);
+        add_product(&mut inertia, &a, &a, shin_mass / 3.0);
+        add_product(&mut inertia, &b, &b, shin_mass / 3.0);
+        add_product(&mut inertia, &a, &b, shin_mass / 6.0);
+        add_product(&mut inertia, &b, &a, shin_mass / 6.0);
         // V = m g (z_A + z_B)/2.
         for j in 0..3 {
-            gravity[j] += SHIN_MASS * GRAVITY * 0.5 * (a[2][j] + b[2][j]);
+            gravity[j] += shin_mass * GRAVITY * 0.5 * (a[2][j] + b[2][j]);
         }
     }
     let p = d.platform_jacobian;
-    add_product(&mut inertia, &p, &p, PLATFORM_MASS);
+    add_product(&mut inertia, &p, &p, device.platform_mass);
     for j in 0..3 {
-        gravity[j] += PLATFORM_MASS * GRAVITY * p[2][j];
+        gravity[j] += device.platform_mass * GRAVITY * p[2][j];
     }
     (inertia, gravity)
 }
@@ -229,10 +262,16 @@ fn assert_close(what: &str, got: f64, expected: f64, tolerance: f64) {
 
 #[test]
 fn the_platform_is_where_three_spheres_meet_and_j_is_their_derivative() {
-    let (model, mech) = load();
+    DEVICES
+        .iter()
+        .for_each(|device| the_platform_is_where_three_spheres_meet_and_j_is_their_derivative_of(device));
+}
+
+fn the_platform_is_where_three_spheres_meet_and_j_is_their_derivative_of(device: &Device) {
+    let (model, mech) = load(device);
     for (q, qd) in states(&model) {
         let e = eval(&mech, &q, &qd);
-        let d = delta(&q);
+        let d = delta(device, &q);
         for i in 0..3 {
             assert_close(&format!("p[{i}] at {q:?}"), e.p[i], d.platform[i], 1e-12);
             for j in 0..3 {
@@ -249,11 +288,15 @@ fn the_platform_is_where_three_spheres_meet_and_j_is_their_derivative() {
 
 #[test]
 fn the_reduced_dynamics_equal_the_energies_of_the_bodies() {
-    let (model, mech) = load();
+    DEVICES.iter().for_each(|device| the_reduced_dynamics_equal_the_energies_of_the_bodies_of(device));
+}
+
+fn the_reduced_dynamics_equal_the_energies_of_the_bodies_of(device: &Device) {
+    let (model, mech) = load(device);
     let h = 1e-5;
     for (q, qd) in states(&model) {
         let e = eval(&mech, &q, &qd);
-        let (inertia, gravity) = independent_dynamics(&q);
+        let (inertia, gravity) = independent_dynamics(device, &q);
         let scale = inertia.iter().flatten().fold(0.0_f64, |m, x| m.max(x.abs()));
         for i in 0..3 {
             for j in 0..3 {
@@ -276,20 +319,26 @@ fn the_reduced_dynamics_equal_the_energies_of_the_bodies() {
             std::array::from_fn(|i| q[i] + step * k.map_or(qd[i], |k| if k == i { 1.0 } else { 0.0 }))
         };
         let d_dot: Mat3 = {
-            let (plus, minus) =
-                (independent_dynamics(&along(None, h)).0, independent_dynamics(&along(None, -h)).0);
+            let (plus, minus) = (
+                independent_dynamics(device, &along(None, h)).0,
+                independent_dynamics(device, &along(None, -h)).0,
+            );
             std::array::from_fn(|i| std::array::from_fn(|j| (plus[i][j] - minus[i][j]) / (2.0 * h)))
         };
         let quadratic =
             |m: &Mat3| (0..3).map(|i| (0..3).map(|j| qd[i] * m[i][j] * qd[j]).sum::<f64>()).sum::<f64>();
         let coriolis: Vec3 = std::array::from_fn(|k| {
-            let (plus, minus) =
-                (independent_dynamics(&along(Some(k), h)).0, independent_dynamics(&along(Some(k), -h)).0);
+            let (plus, minus) = (
+                independent_dynamics(device, &along(Some(k), h)).0,
+                independent_dynamics(device, &along(Some(k), -h)).0,
+            );
             (0..3).map(|j| d_dot[k][j] * qd[j]).sum::<f64>()
                 - 0.5 * (quadratic(&plus) - quadratic(&minus)) / (2.0 * h)
         });
-        let (plus, minus) =
-            (delta(&along(None, h)).platform_jacobian, delta(&along(None, -h)).platform_jacobian);
+        let (plus, minus) = (
+            delta(device, &along(None, h)).platform_jacobian,
+            delta(device, &along(None, -h)).platform_jacobian,
+        );
         let bias: Vec3 =
             std::array::from_fn(|i| (0..3).map(|j| (plus[i][j] - minus[i][j]) / (2.0 * h) * qd[j]).sum());
         let speed = qd.iter().map(|v| v * v).sum::<f64>();
@@ -313,7 +362,13 @@ fn the_reduced_dynamics_equal_the_energies_of_the_bodies() {
 /// The generator's own structure: residual, orientation, `D` SPD, `J` against `p`.
 #[test]
 fn the_loops_close_the_platform_translates_and_d_is_positive_definite() {
-    let (model, mech) = load();
+    DEVICES
+        .iter()
+        .for_each(|device| the_loops_close_the_platform_translates_and_d_is_positive_definite_of(device));
+}
+
+fn the_loops_close_the_platform_translates_and_d_is_positive_definite_of(device: &Device) {
+    let (model, mech) = load(device);
     let closures = mech.closures.as_ref().expect("a closed chain");
     let spatial = closures.spatial.as_ref().expect("spatial loops");
     for (q, qd) in states(&model) {
@@ -413,14 +468,14 @@ fn the_loops_close_the_platform_translates_and_d_is_positive_definite() {
 
 #[test]
 fn a_spatial_closed_chain_loads_and_evaluates_but_refuses_emission_at_its_closures() {
-    let (model, _) = load();
+    let (model, _) = load(&FALCON);
     let error = hapticgen_codegen::generate_model(model, hapticgen_codegen::Scalar::F64)
         .err()
         .expect("emission is refused")
         .to_string();
     assert!(error.contains("falcon_delta.yaml:"), "{error}");
     assert!(error.contains("spatial closed chain"), "{error}");
-    assert!(repo_file(FILE).exists());
+    assert!(repo_file(FALCON.file).exists());
 }
 
 /// The reduced dynamics conserve energy: RK4 over 1 s with gravity held by a joint-space
@@ -428,9 +483,18 @@ fn a_spatial_closed_chain_loads_and_evaluates_but_refuses_emission_at_its_closur
 /// drift of `½ q̇ᵀ D q̇ + V + ½ K |q − q₀|²` ≤ 1e-8.
 #[test]
 fn the_reduced_dynamics_conserve_energy_with_gravity_held_by_a_spring() {
-    let (model, mech) = load();
-    let stiffness = 0.3; // N·m/rad: about 5 Hz with D ≈ 3.3e-4 kg·m².
+    DEVICES
+        .iter()
+        .for_each(|device| the_reduced_dynamics_conserve_energy_with_gravity_held_by_a_spring_of(device));
+}
+
+fn the_reduced_dynamics_conserve_energy_with_gravity_held_by_a_spring_of(device: &Device) {
+    let (model, mech) = load(device);
     let centre: [f64; 3] = std::array::from_fn(|k| 0.5 * (model.joints[k].lower + model.joints[k].upper));
+    // Ten times gravity's torque per radian: gravity moves the rest pose by about 0.1 rad, and
+    // the thighs swing at about 5 Hz (D of a few 1e-4 kg·m² on the Falcon-like device).
+    let gravity = independent_dynamics(device, &centre).1;
+    let stiffness = 10.0 * gravity.iter().fold(0.0_f64, |m, g| m.max(g.abs()));
     let spring = |q: &[f64; 3]| -> f64 { (0..3).map(|k| 0.5 * stiffness * (q[k] - centre[k]).powi(2)).sum() };
     // Only D, C q̇ and g, from one expression DAG of their polynomials (shared subterms
     // evaluated once: term by term, 4,000 steps take half a minute in a debug build).
@@ -484,6 +548,6 @@ fn the_reduced_dynamics_conserve_energy_with_gravity_held_by_a_spring() {
             assert!(q[k] > joint.lower && q[k] < joint.upper, "left the workspace at step {n}: {q:?}");
         }
     }
-    eprintln!("falcon_delta: 1 s, relative energy drift {worst:e}");
+    eprintln!("{}: 1 s, relative energy drift {worst:e}", device.file);
     assert!(worst <= 1e-8, "relative energy drift {worst:e}");
 }
