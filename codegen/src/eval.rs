@@ -8,29 +8,8 @@ use crate::dynamics::kinematics::{FrameKinematics, PointKinematics};
 use crate::dynamics::mechanics::Mechanics;
 use crate::sym::poly::{Atom, AtomValues, Poly};
 
-/// Atom values at a state `(q, q̇)` with given tunable parameters.
-pub struct State<'a> {
-    /// Joint coordinates.
-    pub q: &'a [f64],
-    /// Joint velocities.
-    pub qd: &'a [f64],
-    /// Tunable parameter values.
-    pub parameters: &'a [f64],
-}
-
-impl AtomValues for State<'_> {
-    fn value(&self, atom: Atom) -> f64 {
-        let get = |v: &[f64], i: u16| v.get(usize::from(i)).copied().unwrap_or(0.0);
-        match atom {
-            Atom::Sin(j) => get(self.q, j).sin(),
-            Atom::Cos(j) => get(self.q, j).cos(),
-            Atom::Q(j) => get(self.q, j),
-            Atom::Qd(j) => get(self.qd, j),
-            Atom::Param(k) => get(self.parameters, k),
-            Atom::Qdd(_) | Atom::External(_) | Atom::Closure(_) => f64::NAN,
-        }
-    }
-}
+/// Atom values at a state `(q, q̇)` with given tunable parameters (the generator's own, re-exported).
+pub use crate::sym::poly::State;
 
 /// Atom values at a state of a model's mechanics: the state's own atoms, and for a closed
 /// chain the eliminated ones (passive joints' sines, cosines and velocities, `∂q_p/∂q_a`

@@ -93,6 +93,10 @@ pub trait RigModel<const N: usize, const M: usize> {
     fn jacobian_dot_times_qdot(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N]) -> [Self::Scalar; M];
     /// All terms one control tick needs, sharing common subexpressions.
     fn terms(&self, q: &[Self::Scalar; N], qd: &[Self::Scalar; N]) -> RigTerms<Self::Scalar, N, M>;
+    /// `true` for a closed chain: the impedance tick then checks [`RigModel::loop_margin`]
+    /// (an open chain's check would always pass, so it is not paid for).
+    const HAS_LOOPS: bool = false;
+
     /// How far `q` is from a singularity of the rig's own closed loops, where the constraint
     /// Jacobian of the passive joints loses rank and `D` grows without bound: the least over
     /// the loops of a closed chain's `closure_margin` (the squared sine of the angle between
@@ -189,6 +193,7 @@ macro_rules! impl_rig_model {
                 Self::inverse_dynamics(self, q, qd, qdd)
             }
             $(
+                const HAS_LOOPS: bool = true;
                 fn loop_margin(&self, q: &[$s; $n]) -> $s {
                     $crate::safety::least_loop_margin(&Self::$closure_margin(self, q))
                 }

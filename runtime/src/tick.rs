@@ -312,7 +312,9 @@ where
             EstimationStatus::Implausible => self.safety.latch(FaultCode::SensorImplausible),
         }
         let state = *self.estimator.state();
-        self.safety.check_loop_margin(self.rig.loop_margin(&state.position));
+        if R::HAS_LOOPS {
+            self.safety.check_loop_margin(self.rig.loop_margin(&state.position));
+        }
         (state, estimation_status)
     }
 

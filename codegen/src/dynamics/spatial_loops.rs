@@ -30,7 +30,7 @@ use super::kinematics::{body_frames, mat_vec, point_positions};
 use crate::math::dense::{independent_columns, solve};
 use crate::model::{Model, SpatialClosure};
 use crate::sym::dag::{Dag, NodeId};
-use crate::sym::poly::{Atom, AtomValues, Poly};
+use crate::sym::poly::{Atom, AtomValues, Poly, State};
 
 /// Newton iterations allowed per continuation step.
 const NEWTON_ITERATIONS: usize = 30;
@@ -93,34 +93,13 @@ impl Compiled {
     }
 
     /// The values of the roots at `state`.
-    fn eval(&self, state: &TreeState<'_>) -> Vec<f64> {
+    fn eval(&self, state: &State<'_>) -> Vec<f64> {
         let values = self.dag.eval_all(&|atom| state.value(atom));
         self.roots.iter().map(|&r| values[r]).collect()
     }
 }
 
-/// Atom values of the whole tree at a state.
-struct TreeState<'a> {
-    q: &'a [f64],
-    qd: &'a [f64],
-    parameters: &'a [f64],
-}
-
-impl AtomValues for TreeState<'_> {
-    fn value(&self, atom: Atom) -> f64 {
-        let get = |v: &[f64], i: u16| v.get(usize::from(i)).copied().unwrap_or(f64::NAN);
-        match atom {
-            Atom::Sin(j) => get(self.q, j).sin(),
-            Atom::Cos(j) => get(self.q, j).cos(),
-            Atom::Q(j) => get(self.q, j),
-            Atom::Qd(j) => get(self.qd, j),
-            Atom::Param(k) => get(self.parameters, k),
-            Atom::Qdd(_) | Atom::External(_) | Atom::Closure(_) => f64::NAN,
-        }
-    }
-}
-
-fn evaluate(polys: &[Vec<Poly>], state: &TreeState<'_>) -> Vec<Vec<f64>> {
+fn evaluate(polys: &[Vec<Poly>], state: &State<'_>) -> Vec<Vec<f64>> {
     polys.iter().map(|row| row.iter().map(|p| p.eval(state)).collect()).collect()
 }
 
@@ -194,7 +173,7 @@ impl SpatialLoops {
         let singular = |passive: &[f64]| -> Option<SpatialProblem> {
             let state = loops.tree_state(&loops.nominal_actuated, passive);
             let jacobian =
-                evaluate(&loops.passive_jacobian, &TreeState { q: &state, qd: &[], parameters: &parameters });
+                evaluate(&loops.passive_jacobian, &State { q: &state, qd: &[], parameters: &parameters });
             let (_, free) = independent_columns(&jacobian, 1e-9);
             if free.is_empty() {
                 return None;
@@ -221,7 +200,7 @@ impl SpatialLoops {
                 return Err(vec![problem]);
             }
             let state = loops.tree_state(&q_a, &guess);
-            let at = TreeState { q: &state, qd: &[], parameters: &parameters };
+            let at = State { q: &state, qd: &[], parameters: &parameters };
             let values: Vec<f64> = loops.residual.iter().map(|r| r.eval(&at)).collect();
             let worst = (0..values.len()).max_by(|&i, &j| values[i].abs().total_cmp(&values[j].abs()));
             return Err(vec![SpatialProblem {
@@ -260,7 +239,7 @@ impl SpatialLoops {
     }
 
     /// `Φ`, `Φ_p` and `Φ_a` at `state`.
-    fn position_level(&self, state: &TreeState<'_>) -> (Vec<f64>, Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    fn position_level(&self, state: &State<'_>) -> (Vec<f64>, Vec<Vec<f64>>, Vec<Vec<f64>>) {
         let (n, p) = (self.actuated, self.passive);
         let values = self.compiled()[0].eval(state);
         let (residual, rest) = values.split_at(p);
@@ -279,7 +258,7 @@ impl SpatialLoops {
         let mut passive = guess.to_vec();
         for _ in 0..NEWTON_ITERATIONS {
             let state = self.tree_state(actuated, &passive);
-            let (residual, jacobian, _) = self.position_level(&TreeState { q: &state, qd: &[], parameters });
+            let (residual, jacobian, _) = self.position_level(&State { q: &state, qd: &[], parameters });
             if largest(&residual) <= RESIDUAL_TOLERANCE {
                 return Some(passive);
             }
@@ -336,13 +315,13 @@ impl SpatialLoops {
         let actuated = &q[..n.min(q.len())];
         let Some(passive) = self.passive_coordinates(actuated, parameters) else { return failed() };
         let state = self.tree_state(actuated, &passive);
-        let (_, phi_p, phi_a) = self.position_level(&TreeState { q: &state, qd: &[], parameters });
+        let (_, phi_p, phi_a) = self.position_level(&State { q: &state, qd: &[], parameters });
         let negated: Vec<Vec<f64>> = phi_a.iter().map(|row| row.iter().map(|x| -x).collect()).collect();
         let Some(a) = solve(phi_p.clone(), negated) else { return failed() };
         let passive_velocity: Vec<f64> =
             a.iter().map(|row| row.iter().zip(qd).map(|(x, v)| x * v).sum()).collect();
         let velocities = self.tree_state(&qd[..n.min(qd.len())], &passive_velocity);
-        let rates = self.compiled()[1].eval(&TreeState { q: &state, qd: &velocities, parameters });
+        let rates = self.compiled()[1].eval(&State { q: &state, qd: &velocities, parameters });
         let (phi_p_dot, phi_a_dot) = rates.split_at(p * p);
         let phi_p_dot: Vec<&[f64]> = phi_p_dot.chunks(p).collect();
         let phi_a_dot: Vec<&[f64]> = phi_a_dot.chunks(n).collect();

@@ -138,6 +138,32 @@ pub trait AtomValues {
     fn value(&self, atom: Atom) -> f64;
 }
 
+/// Atom values at a state `(q, q̇)` with given tunable parameters: a coordinate, velocity or
+/// parameter beyond the slices reads 0; accelerations, external inputs and closure atoms, which
+/// a state does not give, read NaN.
+pub struct State<'a> {
+    /// Joint coordinates.
+    pub q: &'a [f64],
+    /// Joint velocities.
+    pub qd: &'a [f64],
+    /// Tunable parameter values.
+    pub parameters: &'a [f64],
+}
+
+impl AtomValues for State<'_> {
+    fn value(&self, atom: Atom) -> f64 {
+        let get = |v: &[f64], i: u16| v.get(usize::from(i)).copied().unwrap_or(0.0);
+        match atom {
+            Atom::Sin(j) => get(self.q, j).sin(),
+            Atom::Cos(j) => get(self.q, j).cos(),
+            Atom::Q(j) => get(self.q, j),
+            Atom::Qd(j) => get(self.qd, j),
+            Atom::Param(k) => get(self.parameters, k),
+            Atom::Qdd(_) | Atom::External(_) | Atom::Closure(_) => f64::NAN,
+        }
+    }
+}
+
 impl Poly {
     /// The zero polynomial.
     pub fn zero() -> Self {

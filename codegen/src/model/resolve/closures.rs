@@ -9,7 +9,7 @@ use std::collections::{HashMap, HashSet};
 
 use super::{is_identifier, key, lookup_body, lookup_joint, Resolver};
 use crate::model::positions::Segment;
-use crate::model::schema::{Branch, ModelFile};
+use crate::model::schema::{Branch, Closure, ModelFile};
 use crate::model::types::{ResolvedPoint, SpatialClosure};
 
 /// A closure whose references resolved: file index, the two joints (file indices), the two
@@ -53,12 +53,14 @@ pub(super) fn closures(
             );
             continue;
         };
-        if !is_identifier(&c.name) {
-            r.error(&at("name"), format!("`{}` is not a valid closure name", c.name));
-        }
-        if !closure_names.insert(c.name.clone()) {
-            r.error(&at("name"), format!("closure `{}` is defined twice", c.name));
-        }
+        let resolved_points = name_and_points(
+            r,
+            c,
+            &base,
+            &mut closure_names,
+            points,
+            "name the point of each joint's link that meets the other: `points: [left_tip, right_tip]`",
+        );
         let what = format!("closure `{}`", c.name);
         let mut resolved_joints = Vec::new();
         if c.joints.len() != 2 {
@@ -88,27 +90,6 @@ pub(super) fn closures(
                     );
                 }
                 resolved_joints.push(j);
-            }
-        }
-        let mut resolved_points = Vec::new();
-        if c.points.len() != 2 {
-            r.error_hint(
-                &at("points"),
-                format!("expected 2 points, got {}", c.points.len()),
-                "name the point of each joint's link that meets the other: `points: [left_tip, right_tip]`",
-            );
-        } else {
-            for (k, name) in c.points.iter().enumerate() {
-                let mut path = at("points");
-                path.push(Segment::Index(k));
-                match points.iter().position(|p| &p.name == name) {
-                    Some(p) => resolved_points.push(p),
-                    None => r.error_hint(
-                        &path,
-                        format!("{what} references unknown point `{name}`"),
-                        "name an entry of `points`",
-                    ),
-                }
             }
         }
         if let (&[j1, j2], &[p1, p2]) = (&resolved_joints[..], &resolved_points[..]) {
@@ -150,12 +131,6 @@ fn spatial_closures(
             p.push(key(k));
             p
         };
-        if !is_identifier(&c.name) {
-            r.error(&at("name"), format!("`{}` is not a valid closure name", c.name));
-        }
-        if !names.insert(c.name.clone()) {
-            r.error(&at("name"), format!("closure `{}` is defined twice", c.name));
-        }
         if !c.joints.is_empty() {
             r.error_hint(
                 &at("joints"),
@@ -171,26 +146,14 @@ fn spatial_closures(
             );
         }
         let what = format!("closure `{}`", c.name);
-        let mut resolved_points = Vec::new();
-        if c.points.len() != 2 {
-            r.error_hint(
-                &at("points"),
-                format!("expected 2 points, got {}", c.points.len()),
-                "name the two points that coincide where the loop is cut: `points: [shin2_end, platform_joint2]`",
-            );
-        }
-        for (k, name) in c.points.iter().enumerate().take(2) {
-            let mut path = at("points");
-            path.push(Segment::Index(k));
-            match points.iter().position(|p| &p.name == name) {
-                Some(p) => resolved_points.push(p),
-                None => r.error_hint(
-                    &path,
-                    format!("{what} references unknown point `{name}`"),
-                    "name an entry of `points`",
-                ),
-            }
-        }
+        let resolved_points = name_and_points(
+            r,
+            c,
+            &base,
+            &mut names,
+            points,
+            "name the two points that coincide where the loop is cut: `points: [shin2_end, platform_joint2]`",
+        );
         let mut perpendicular = None;
         if let Some(axes) = &c.perpendicular {
             if axes.len() != 2 {
@@ -267,4 +230,45 @@ fn spatial_closures(
         );
     }
     declared
+}
+
+/// What every closure is checked for: a valid name not used before, and two known points
+/// (returned as indices; fewer if some are unknown or not two are named).
+fn name_and_points(
+    r: &mut Resolver<'_, '_>,
+    c: &Closure,
+    base: &[Segment],
+    names: &mut HashSet<String>,
+    points: &[ResolvedPoint],
+    points_hint: &str,
+) -> Vec<usize> {
+    let at = |k: &str| {
+        let mut p = base.to_vec();
+        p.push(key(k));
+        p
+    };
+    if !is_identifier(&c.name) {
+        r.error(&at("name"), format!("`{}` is not a valid closure name", c.name));
+    }
+    if !names.insert(c.name.clone()) {
+        r.error(&at("name"), format!("closure `{}` is defined twice", c.name));
+    }
+    if c.points.len() != 2 {
+        r.error_hint(&at("points"), format!("expected 2 points, got {}", c.points.len()), points_hint);
+        return Vec::new();
+    }
+    let mut resolved = Vec::new();
+    for (k, name) in c.points.iter().enumerate() {
+        let mut path = at("points");
+        path.push(Segment::Index(k));
+        match points.iter().position(|p| &p.name == name) {
+            Some(p) => resolved.push(p),
+            None => r.error_hint(
+                &path,
+                format!("closure `{}` references unknown point `{name}`", c.name),
+                "name an entry of `points`",
+            ),
+        }
+    }
+    resolved
 }
