@@ -16,6 +16,7 @@ pub mod effects;
 pub mod estimation;
 pub mod fused;
 pub mod linalg;
+pub mod loops;
 pub mod proxy;
 pub mod real;
 pub mod render;

@@ -5,6 +5,7 @@
 mod closed_loop;
 mod common;
 mod laws;
+mod loops;
 mod proxy;
 mod render;
 mod safety_rules;
