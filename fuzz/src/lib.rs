@@ -316,10 +316,17 @@ pub fn load_corpus(dirs: &[PathBuf]) -> Vec<(PathBuf, Vec<u8>)> {
 
 /// The corpus directories of a workspace: the committed seeds and the repository's models.
 pub fn corpus_dirs(workspace: &Path) -> Vec<PathBuf> {
-    ["fuzz/corpus", "models", "codegen/tests/bad-models", "codegen/tests/good-models", "tests/ui/models"]
-        .iter()
-        .map(|d| workspace.join(d))
-        .collect()
+    [
+        "fuzz/corpus",
+        "models",
+        "codegen/tests/bad-models",
+        "codegen/tests/good-models",
+        "codegen/tests/closed-chains",
+        "tests/ui/models",
+    ]
+    .iter()
+    .map(|d| workspace.join(d))
+    .collect()
 }
 
 /// Findings that are known and reported, with their fix, in `docs/reliability.md`: a
