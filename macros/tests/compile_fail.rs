@@ -9,7 +9,7 @@
 //! `<target dir>/tests/trybuild/hapticgen-macros/`, wherever the target directory is
 //! (`CARGO_TARGET_DIR` may put it outside the repository). So that the cases do not depend on
 //! where that is, the test first mirrors the model files the cases read into that directory at
-//! their workspace-relative paths (`models/`, `tests/ui/models/`): a case names
+//! their workspace-relative paths (`models/`, `tests/ui/models/`, `codegen/tests/closed-chains/`): a case names
 //! `"tests/ui/models/negative-mass.yaml"`, and its expected error reads
 //! `tests/ui/models/negative-mass.yaml:20:11: …`.
 //!
@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 mod nested_builds;
 
 /// The directories of model files the cases name, relative to the workspace root.
-const MODEL_DIRS: [&str; 2] = ["models", "tests/ui/models"];
+const MODEL_DIRS: [&str; 3] = ["models", "tests/ui/models", "codegen/tests/closed-chains"];
 
 /// Copies every `.yaml` file of `from` into `to` (rewriting only files whose content differs).
 fn mirror_yaml_files(from: &Path, to: &Path) -> usize {
