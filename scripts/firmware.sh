@@ -292,11 +292,11 @@ for NAME in "${SELECTED[@]}"; do
         (cd "$ROOT" && cargo build --locked -p hapticgen --target-dir "$HOST_TARGET_DIR") || die "building hapticgen failed"
         HAPTICGEN=$HOST_TARGET_DIR/debug/hapticgen
         [ -x "$HAPTICGEN" ] || die "hapticgen was built but is not at $HAPTICGEN"
-        step "PIL: Fig. 4 on the joystick under QEMU vs hapticgen simulate (bound: $PIL_MAX_COUNTS encoder counts), then the fault tests (one sensor frame in 100 corrupted, dropped; the host goes silent at 0.25 s: safe state within 10 ms)"
+        step "PIL: Fig. 4 on the joystick under QEMU vs hapticgen simulate (bound: $PIL_MAX_COUNTS encoder counts), then the fault tests (one sensor frame in 100 corrupted and a burst of 96 random bytes before one in 37, every bad frame dropped; the host goes silent at 0.25 s: safe state within 10 ms)"
         background "$PIL" bash -c '"$1" pil "$2/models/joystick_1dof.yaml" --controller natural-inertia --scenario step \
             --duration 2 --compare --max-counts "$3" --image "$4" -o "$5/pil-fig4" \
             && "$1" pil "$2/models/joystick_1dof.yaml" --controller natural-inertia --scenario step \
-            --duration 0.3 --stop-after 0.25 --corrupt-every 100 --image "$4" -o "$5/pil-fault"' \
+            --duration 0.3 --stop-after 0.25 --corrupt-every 100 --garbage-every 37 --image "$4" -o "$5/pil-fault"' \
             pil "$HAPTICGEN" "$ROOT" "$PIL_MAX_COUNTS" "$OUT/$PIL_VARIANT.pil.elf" "$OUT"
         continue
     fi

@@ -291,6 +291,11 @@ struct PilArgs {
     /// unless the image dropped exactly those frames and missed no period because of them.
     #[arg(long)]
     corrupt_every: Option<u64>,
+    /// Fault test: before every N-th sensor frame, send a burst of 96 random bytes (zeros among
+    /// them) and a zero; fails unless the image dropped every frame of garbage (and every
+    /// corrupted frame) and missed no period because of them.
+    #[arg(long)]
+    garbage_every: Option<u64>,
 }
 
 fn load(
@@ -639,6 +644,7 @@ fn pil(args: PilArgs) -> Result<(), String> {
         log: run.output.join("qemu.out"),
         stop_after: args.stop_after.map(|t| (t / period).round() as u64),
         corrupt_every: args.corrupt_every,
+        garbage_every: args.garbage_every,
     };
     eprintln!("pil: image {} ({name}) under {}", image.display(), target.qemu.display());
     let (trace, report) = sim.run_pil(&cfg, &target)?;
@@ -680,20 +686,23 @@ fn pil(args: PilArgs) -> Result<(), String> {
             None => failures.push("the firmware did not report reaching its safe state (PIL_SAFE)".into()),
         }
     }
-    if args.corrupt_every.is_some() {
+    if args.corrupt_every.is_some() || args.garbage_every.is_some() {
         let dropped = report.value("PIL_DONE", None, "dropped_frames").unwrap_or(-1);
         let missed = report.value("PIL_DONE", None, "missed").unwrap_or(-1);
         let silent = report.value("PIL_SAFE", None, "missed_periods").unwrap_or(0);
+        let bad = report.corrupted + report.garbage_frames;
         println!(
-            "fault test: {} sensor frames sent with one bit flipped; the image dropped {dropped} frames and missed \
-             {} periods because of them",
+            "fault test: {} sensor frames sent with one bit flipped and {} frames of random bytes; the image \
+             dropped {dropped} frames and missed {} periods because of them",
             report.corrupted,
+            report.garbage_frames,
             missed - silent
         );
-        if dropped != report.corrupted as i64 || missed != silent {
+        if dropped != bad as i64 || missed != silent {
             failures.push(format!(
-                "{} corrupted frames sent, {dropped} dropped, {} periods missed",
+                "{} corrupted frames and {} frames of garbage sent, {dropped} dropped, {} periods missed",
                 report.corrupted,
+                report.garbage_frames,
                 missed - silent
             ));
         }

@@ -152,6 +152,9 @@ pub struct PilScene {
 pub struct PilReport {
     /// Sensor frames the host sent corrupted ([`Pil::corrupt_every`]).
     pub corrupted: u64,
+    /// Non-empty zero-delimited runs of random bytes the host sent ([`Pil::garbage_every`]):
+    /// each is one frame the image must drop.
+    pub garbage_frames: u64,
     /// Every `PIL_…` line the image printed, in order.
     pub lines: Vec<String>,
     /// The image's whole semihosting output.
@@ -188,7 +191,19 @@ pub struct Pil<const N: usize, const M: usize> {
     pub corrupt_every: Option<u64>,
     /// Sensor frames sent corrupted so far.
     pub corrupted: u64,
+    /// Fault test: before every `n`-th sensor frame, send [`GARBAGE_BURST_BYTES`] random bytes
+    /// (zeros among them, so several frames of garbage) and a closing zero; the device must
+    /// drop every one and still answer the good frame in the same period.
+    pub garbage_every: Option<u64>,
+    /// Zero-delimited runs of garbage sent so far (the frames the device must drop).
+    pub garbage_frames: u64,
+    /// The garbage generator's state (xorshift64: the same bytes on every run).
+    garbage_state: u64,
 }
+
+/// Bytes in one burst of garbage ([`Pil::garbage_every`]): more than a sensor frame, less than
+/// the device's largest frame, so that bursts test the parser and never its overflow.
+pub const GARBAGE_BURST_BYTES: usize = 96;
 
 fn law_of(law: ImpedanceLaw) -> PilLaw {
     match law {
@@ -297,6 +312,9 @@ impl<const N: usize, const M: usize> Pil<N, M> {
             stop_after: None,
             corrupt_every: None,
             corrupted: 0,
+            garbage_every: None,
+            garbage_frames: 0,
+            garbage_state: 0x9e37_79b9_7f4a_7c15,
         };
         if let Err(e) = pil.open(name, settings, reference, scene) {
             pil.abort();
@@ -405,6 +423,22 @@ impl<const N: usize, const M: usize> Pil<N, M> {
             .map_err(|e| format!("error: writing to the firmware's UART: {e}"))
     }
 
+    /// Sends a burst of random bytes, then a zero (so the next frame starts clean), and counts
+    /// the frames of garbage it makes: its non-empty zero-delimited runs.
+    fn send_garbage(&mut self) -> Result<(), String> {
+        let mut burst = [0u8; GARBAGE_BURST_BYTES + 1];
+        for byte in burst.iter_mut().take(GARBAGE_BURST_BYTES) {
+            self.garbage_state ^= self.garbage_state << 13;
+            self.garbage_state ^= self.garbage_state >> 7;
+            self.garbage_state ^= self.garbage_state << 17;
+            // One byte in eight a zero: several short frames of garbage per burst.
+            let draw = (self.garbage_state >> 32) as u8;
+            *byte = if draw.is_multiple_of(8) { 0 } else { draw };
+        }
+        self.garbage_frames += burst.split(|&b| b == 0).filter(|run| !run.is_empty()).count() as u64;
+        self.stream.write_all(&burst).map_err(|e| format!("error: writing to the firmware's UART: {e}"))
+    }
+
     /// The next valid message from the device (corrupt frames are counted by the decoder and
     /// skipped).
     fn receive(&mut self) -> Result<DeviceMessage, String> {
@@ -466,7 +500,7 @@ impl<const N: usize, const M: usize> Pil<N, M> {
             return Err(format!("error: QEMU exited with {status}; the image's output:\n{output}"));
         }
         let lines = output.lines().filter(|l| l.starts_with("PIL_")).map(str::to_string).collect();
-        Ok(PilReport { corrupted: self.corrupted, lines, output })
+        Ok(PilReport { corrupted: self.corrupted, garbage_frames: self.garbage_frames, lines, output })
     }
 }
 
@@ -492,6 +526,9 @@ impl<const N: usize, const M: usize> DeviceController<N, M> for Pil<N, M> {
         });
         if self.corrupt_every.is_some_and(|n| n > 0 && (self.period + 1).is_multiple_of(n)) {
             self.send_corrupted(&frame)?;
+        }
+        if self.garbage_every.is_some_and(|n| n > 0 && (self.period + 1).is_multiple_of(n)) {
+            self.send_garbage()?;
         }
         self.send(&frame)?;
         let answer: ActuatorFrame = loop {
@@ -580,6 +617,7 @@ mod tests {
             ],
             output: String::new(),
             corrupted: 0,
+            garbage_frames: 0,
         };
         assert_eq!(report.value("PIL_SAFE", None, "us"), Some(4933));
         assert_eq!(report.value("PIL_COST", Some("send"), "max"), Some(6));

@@ -152,6 +152,8 @@ pub struct PilTarget {
     pub stop_after: Option<u64>,
     /// Send a corrupted copy before every this many sensor frames (fault test).
     pub corrupt_every: Option<u64>,
+    /// Send a burst of random bytes before every this many sensor frames (fault test).
+    pub garbage_every: Option<u64>,
 }
 
 struct PilVisitor<'a> {
@@ -195,6 +197,7 @@ impl RigVisitor for PilVisitor<'_> {
                 )?;
                 pil.stop_after = target.stop_after;
                 pil.corrupt_every = target.corrupt_every;
+                pil.garbage_every = target.garbage_every;
                 Ok(pil)
             },
         )?;
