@@ -396,11 +396,11 @@ fn only_the_law_and_its_fallback_are_usable() {
 
 /// The parallelogram with only the law every rig has (Controller 3, the trait's one required
 /// method, here `g − Jᵀ K_d x̃` at rest): the laws that need `J⁻¹` keep the trait's defaults,
-/// which return `None`, and `fused_torque` refuses them as a non-square task with zero torque,
-/// before any singularity fallback (docs of `FusedImpedance`: "a rig implements only the laws
-/// it has"). Written for the held-out cargo-mutants survivors that replaced those defaults by
-/// `Some` of zeros (a zero `det J`, so the Controller 3 fallback), which no test reached: the
-/// joystick's `FusedImpedance` above implements all four laws.
+/// which return `None`, and `fused_torque` refuses them as a non-square task with zero torque
+/// (docs of `FusedImpedance`: "a rig implements only the laws it has"), a path no test took:
+/// the joystick's `FusedImpedance` above implements all four laws. (Written while treating the
+/// held-out cargo-mutants survivor that replaced a default by `None`, which is equivalent: the
+/// default body is `None`; the `Some` replacements do not compile.)
 impl FusedImpedance<2, 2> for Parallelogram {
     fn jacobian_transpose_torque(
         &self,
