@@ -1470,3 +1470,22 @@ fn a_hip_stroked_inside_a_solid_sphere_is_in_contact_at_every_update() {
         }
     }
 }
+
+/// A non-finite HIP before any proxy exists (a fresh renderer, no `reset`): the update is
+/// invalid, with zero gains, no contact and the origin as its proxy (module docs: a non-finite
+/// HIP never moves the proxy), and the first finite HIP after it starts the proxy there.
+/// (Written for the held-out cargo-mutants survivor that let a NaN HIP start the proxy.)
+#[test]
+fn a_non_finite_first_hip_starts_no_proxy() {
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(300.0, 2.0, R, SKIN);
+    scene.add(solid(Shape::Sphere { center: [0.0; 3], radius: 0.05 })).unwrap();
+    for bad in [f64::NAN, f64::INFINITY] {
+        let out = scene.render(&[0.2, bad, 0.0]);
+        assert!(!out.valid, "{bad}: {out:?}");
+        assert_eq!((out.proxy, out.stiffness, out.damping, out.contact), ([0.0; 3], 0.0, 0.0, None), "{bad}");
+    }
+    // Then a finite HIP in free space: the proxy starts at it, with the free-space gains.
+    let out = scene.render(&[0.2, 0.1, 0.0]);
+    assert!(out.valid);
+    assert_eq!((out.proxy, out.stiffness, out.damping, out.contact), ([0.2, 0.1, 0.0], 300.0, 2.0, None));
+}
