@@ -582,3 +582,26 @@ fn a_contour_of_nan_heights_gives_no_surface_point() {
         Shape::ContourFunction { function: |_| f64::INFINITY, slope: |_| 0.0, x1_range: [0.0, 1.0] };
     assert!(contour.closest_surface_point(&[0.5, 0.0]).is_none());
 }
+
+/// A HIP with one coordinate NaN or infinite and the other finite is not a HIP: the 2-D scene
+/// keeps the last proxy with zero gains and no contact (`RenderOutput::valid`), for either
+/// coordinate; and a circle of zero radius is degenerate: no surface point. (Written for the
+/// held-out cargo-mutants survivors that accepted a HIP with one finite coordinate and a
+/// circle of radius 0.)
+#[test]
+fn a_half_finite_hip_is_refused_and_a_zero_circle_is_degenerate() {
+    let mut scene = scene_with(Shape::Circle { center: [0.1, 0.0], radius: 0.04 });
+    let good = scene.render(&[0.13, 0.0]);
+    assert!(good.valid && good.contact == Some(0), "{good:?}");
+    for hip in [[f64::NAN, 0.0], [0.13, f64::NAN], [f64::INFINITY, 0.0], [0.13, f64::NEG_INFINITY]] {
+        let out = scene.render(&hip);
+        assert!(!out.valid, "{hip:?}: {out:?}");
+        assert_eq!(
+            (out.proxy, out.stiffness, out.damping, out.contact),
+            (good.proxy, [0.0; 2], [0.0; 2], None)
+        );
+    }
+    let point: Shape<f64, 4> = Shape::Circle { center: [0.1, 0.0], radius: 0.0 };
+    assert!(point.closest_surface_point(&[0.13, 0.0]).is_none());
+    assert!(point.closest_surface_point(&[0.1, 0.0]).is_none());
+}
