@@ -323,6 +323,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 _ => {
                     if count == 0 {
                         p = goal; // At the HIP (or within the skin of it).
+                        contact = None;
                     }
                     break;
                 }
@@ -330,16 +331,21 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             let (s, hit) = self.sweep(&p, &direction, length);
             p = if hit.is_none() { goal } else { add_scaled(&p, s, &direction) };
             match hit {
-                None if count == 0 => break, // Reached the HIP: free space.
+                None if count == 0 => {
+                    contact = None; // Reached the HIP: free space.
+                    break;
+                }
                 None => {
-                    // Reached the constrained goal: a new round towards the HIP.
+                    // Reached the constrained goal: a new round towards the HIP. The last
+                    // round's contact stands until this one ends in free space or in a
+                    // contact of its own: the pass limit can end it before its first sweep,
+                    // with the proxy still held off the HIP.
                     constraints = [None; MAX_CONSTRAINTS];
                     count = 0;
-                    contact = None;
                 }
                 Some((index, normal)) => {
-                    if contact.is_none() {
-                        contact = Some(index);
+                    if count == 0 {
+                        contact = Some(index); // The first contact of the round.
                     }
                     let curved_cavity = self.objects.get(index).copied().flatten().map_or(false, |o| {
                         o.kind == ObjectKind::Cavity
@@ -381,7 +387,8 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 }
             }
         }
-        // A round ended by the pass limit while constrained is still in contact.
+        // A round ended by the pass limit while constrained, or before its first sweep, is
+        // still in contact.
         (p, contact)
     }
 

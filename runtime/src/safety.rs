@@ -283,7 +283,12 @@ mod tests {
         assert_eq!(command.torque[0], -3.0);
         assert!((command.torque[1] - 1.4496).abs() < 1e-12);
         assert_eq!(command.clamped, [true, true]);
+        assert!(command.any_clamped());
         assert!((command.current[1] - 5.0).abs() < 1e-12);
+        // One joint over its limit is enough.
+        let command = monitor.limit(&[1.0, -2.0]);
+        assert_eq!(command.clamped, [false, true]);
+        assert!(command.any_clamped());
         let command = monitor.limit(&[1.0, -1.0]);
         assert_eq!(command.torque, [1.0, -1.0]);
         assert!(!command.any_clamped());

@@ -15,7 +15,7 @@
 //! `B q̇`, singularity threshold, checks of its inputs and of `M_d`) is what is under test.
 //! These were written to kill mutants that survived `cargo mutants` (docs/reliability.md).
 
-use crate::common::{Joystick, JOINT_DAMPING};
+use crate::common::{Joystick, Parallelogram, JOINT_DAMPING};
 use hapticgen_runtime::control::{
     ControlOutput, ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference,
     TaskSensing,
@@ -317,6 +317,24 @@ fn acceleration_feedback_at_the_reference_is_finite() {
     }
 }
 
+/// Controller 2 divides the spring-damper force `r` by `M_d` before anything multiplies it:
+/// with a heavy desired mass and a stiff spring (`M_d = K_d = 10²⁰⁰`, so `r/M_d` is about 0.2
+/// while `r·M_d` is beyond `f64`) the torque is still the closed form of the table, in which
+/// `a_x` cancels (about `3·10²⁰⁰`, finite). Kills the `r/M_d → r·M_d` mutant of `a_x`, which
+/// is otherwise equivalent up to rounding (docs/reliability.md).
+#[test]
+fn acceleration_feedback_with_a_heavy_desired_mass_stays_exact() {
+    let mut c = case();
+    c.mass = 1e200;
+    c.stiffness = 1e200;
+    let controller = controller(ImpedanceLaw::AccelerationFeedback, &c);
+    let terms = Joystick.terms(&[c.q], &[c.qd]);
+    let output = controller.torque(&Joystick, &terms, &[c.qd], &c.reference, &c.sensed);
+    let expected = closed_form(ImpedanceLaw::AccelerationFeedback, &c, c.lead) + JOINT_DAMPING * c.qd;
+    assert!(expected.is_finite() && expected.abs() > 1e200, "the case's torque: {expected}");
+    assert_torque(output, ControlStatus::Ok, expected, "M_d = K_d = 1e200");
+}
+
 /// Every gain of the desired impedance must be finite, not only the stiffness: a NaN or
 /// infinite `B_d` or `M_d` with a finite `K_d` is refused as a non-finite input, with zero
 /// torque, by every law (including those that do not use `M_d`). Guards the parameter check
@@ -374,4 +392,55 @@ fn only_the_law_and_its_fallback_are_usable() {
     );
     assert!(!output.status.is_usable());
     assert_eq!(output.torque, [0.0]);
+}
+
+/// The parallelogram with only the law every rig has (Controller 3, the trait's one required
+/// method, here `g − Jᵀ K_d x̃` at rest): the laws that need `J⁻¹` keep the trait's defaults,
+/// which return `None`, and `fused_torque` refuses them as a non-square task with zero torque
+/// (docs of `FusedImpedance`: "a rig implements only the laws it has"), a path no test took:
+/// the joystick's `FusedImpedance` above implements all four laws. (Written while treating the
+/// held-out cargo-mutants survivor that replaced a default by `None`, which is equivalent: the
+/// default body is `None`; the `Some` replacements do not compile.)
+impl FusedImpedance<2, 2> for Parallelogram {
+    fn jacobian_transpose_torque(
+        &self,
+        q: &[f64; 2],
+        qd: &[f64; 2],
+        reference: &TaskReference<f64, 2>,
+        parameters: &ImpedanceParameters<f64, 2>,
+    ) -> [f64; 2] {
+        assert_eq!(*qd, [0.0; 2], "written for a state at rest");
+        let x = self.position(q);
+        let j = self.jacobian(q);
+        let g = self.gravity(q);
+        let f = [0, 1].map(|k| parameters.stiffness[k] * (x[k] - reference.position[k]));
+        [0, 1].map(|i| g[i] - (j[0][i] * f[0] + j[1][i] * f[1]))
+    }
+}
+
+#[test]
+fn a_fused_rig_without_a_law_refuses_it_as_a_non_square_task() {
+    let q = [0.4, 1.9];
+    let x = Parallelogram.position(&q);
+    let reference = TaskReference::at_rest([x[0] - 0.01, x[1] + 0.02]);
+    let sensed = TaskSensing { operator_force: [0.3, -0.2], acceleration: [0.5, 0.1] };
+    let mut controller =
+        ImpedanceController::new(ImpedanceLaw::JacobianTranspose, [100.0; 2], [0.0; 2], [0.5; 2]);
+    controller.options.omit_damping_compensation = true;
+    let output = fused_torque(&Parallelogram, &controller, &q, &[0.0; 2], &reference, &sensed);
+    assert_eq!(output.status, ControlStatus::Ok);
+    // g − Jᵀ K_d x̃ by hand: x̃ = (0.01, −0.02), so K_d x̃ = (1, −2).
+    let j = Parallelogram.jacobian(&q);
+    let g = Parallelogram.gravity(&q);
+    let expected = [g[0] - (j[0][0] - 2.0 * j[1][0]), g[1] - (j[0][1] - 2.0 * j[1][1])];
+    for i in 0..2 {
+        assert!((output.torque[i] - expected[i]).abs() < 1e-12, "{:?} != {expected:?}", output.torque);
+    }
+    for law in [ImpedanceLaw::ForceFeedback, ImpedanceLaw::AccelerationFeedback, ImpedanceLaw::NaturalInertia]
+    {
+        controller.law = law;
+        let output = fused_torque(&Parallelogram, &controller, &q, &[0.0; 2], &reference, &sensed);
+        assert_eq!(output.status, ControlStatus::NonSquareTask, "{law:?}");
+        assert_eq!(output.torque, [0.0; 2], "{law:?}");
+    }
 }

