@@ -246,7 +246,9 @@ where
         line.str("SUMMARY").str(" variant=").str(self.name).str(" scalar=").str(scalar);
         line.kv("periods", i64::from(self.done)).kv("impedance_ticks", i64::from(c.impedance_ticks()));
         match c.first_fault {
-            Some((tick, fault)) => line.kv("fault", i64::from(fault.number())).kv("fault_tick", i64::from(tick)),
+            Some((tick, fault)) => {
+                line.kv("fault", i64::from(fault.number())).kv("fault_tick", i64::from(tick))
+            }
             None => line.kv("fault", 0),
         };
         line.kv("plant_ok", i64::from(!self.board.broken));
