@@ -17,8 +17,8 @@
 //!
 //! **Velocity and acceleration level**, as in the planar case: `q̇_p = A q̇_a`,
 //! `A = −Φ_p⁻¹ Φ_a`, `Ȧ = −Φ_p⁻¹ (Φ̇_p A + Φ̇_a)`, solved numerically (pivoted LU); the
-//! entries of `A` and `Ȧ` are the [`Atom::Closure`] atoms the reduction
-//! ([`super::reduction`]) builds `S = [I; A]` from.
+//! entries of `A` and `Ȧ` are the [`Atom::Closure`] atoms the reduction of the open tree
+//! (`dynamics::reduction`) builds `S = [I; A]` from.
 //!
 //! **Singularity.** The loops are singular where `Φ_p` loses rank; [`SpatialLoops::analyse`]
 //! refuses an assembly where it does, naming the passive joints the constraints leave free
