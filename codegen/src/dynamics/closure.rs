@@ -38,7 +38,7 @@ use super::kinematics::point_positions;
 use super::spatial_loops::SpatialLoops;
 use crate::model::{Branch, LoopClosure, Model};
 use crate::sym::dag::{Dag, NodeId};
-use crate::sym::poly::{Atom, AtomValues, Poly};
+use crate::sym::poly::{Atom, AtomValues, Poly, State};
 
 /// A problem with a declared closure, reported at `closures[closure].key`.
 #[derive(Clone, Debug)]
@@ -148,15 +148,8 @@ impl Closures {
             let installed = install(&mut dag, Some(self));
             (dag, installed)
         });
-        let get = |v: &[f64], i: u16| v.get(usize::from(i)).copied().unwrap_or(0.0);
-        let values = dag.eval_all(&|a: Atom| match a {
-            Atom::Sin(j) => get(q, j).sin(),
-            Atom::Cos(j) => get(q, j).cos(),
-            Atom::Q(j) => get(q, j),
-            Atom::Qd(j) => get(qd, j),
-            Atom::Param(k) => get(parameters, k),
-            Atom::Qdd(_) | Atom::External(_) | Atom::Closure(_) => f64::NAN,
-        });
+        let state = State { q, qd, parameters };
+        let values = dag.eval_all(&|a: Atom| state.value(a));
         installed.atoms.iter().map(|&(atom, id)| (atom, values[id])).collect()
     }
 }
@@ -182,25 +175,6 @@ fn poly_of_monomial(monomial: &[(Atom, u32)], coefficient: f64) -> Poly {
     })
 }
 
-/// Nominal values: actuated coordinates at the middle of their ranges.
-struct Nominal<'a> {
-    q: Vec<f64>,
-    parameters: &'a [f64],
-}
-
-impl AtomValues for Nominal<'_> {
-    fn value(&self, atom: Atom) -> f64 {
-        let get = |v: &[f64], i: u16| v.get(usize::from(i)).copied().unwrap_or(0.0);
-        match atom {
-            Atom::Sin(j) => get(&self.q, j).sin(),
-            Atom::Cos(j) => get(&self.q, j).cos(),
-            Atom::Q(j) => get(&self.q, j),
-            Atom::Param(k) => get(self.parameters, k),
-            _ => 0.0,
-        }
-    }
-}
-
 /// Analyses declared closures: splits each point into centre and arm, checks that the
 /// elimination applies and that the loop closes at the middle of the actuated ranges.
 pub fn analyse(model: &Model, declarations: &[LoopClosure]) -> Result<Closures, Vec<Problem>> {
@@ -208,10 +182,9 @@ pub fn analyse(model: &Model, declarations: &[LoopClosure]) -> Result<Closures, 
     let total = model.tree_coordinates();
     let positions = point_positions(model);
     let parameters = model.nominal_parameters();
-    let nominal = Nominal {
-        q: model.joints.iter().map(|j| 0.5 * (j.lower + j.upper)).collect(),
-        parameters: &parameters,
-    };
+    // The actuated coordinates at the middle of their ranges.
+    let middle: Vec<f64> = model.joints.iter().map(|j| 0.5 * (j.lower + j.upper)).collect();
+    let nominal = State { q: &middle, qd: &[], parameters: &parameters };
     let names: Vec<String> = (0..total).map(|j| model.coordinate_name(j).to_string()).collect();
     let mut problems = Vec::new();
     let mut loops = Vec::new();
@@ -316,7 +289,7 @@ pub fn analyse(model: &Model, declarations: &[LoopClosure]) -> Result<Closures, 
         let scale = 4.0 * span * span * r1 * r1;
         if discriminant.is_nan() || discriminant <= 1e-9 * scale {
             let at: Vec<String> =
-                model.joints.iter().zip(&nominal.q).map(|(j, q)| format!("{} = {q:.4}", j.name)).collect();
+                model.joints.iter().zip(&middle).map(|(j, q)| format!("{} = {q:.4}", j.name)).collect();
             let why = if span > r1 + r2 {
                 "they are too far apart"
             } else if span < (r1 - r2).abs() {
