@@ -99,10 +99,6 @@ impl Compiled {
     }
 }
 
-fn evaluate(polys: &[Vec<Poly>], state: &State<'_>) -> Vec<Vec<f64>> {
-    polys.iter().map(|row| row.iter().map(|p| p.eval(state)).collect()).collect()
-}
-
 fn largest(values: &[f64]) -> f64 {
     values.iter().fold(0.0_f64, |m, x| if x.is_nan() { f64::NAN } else { m.max(x.abs()) })
 }
@@ -172,8 +168,8 @@ impl SpatialLoops {
         // Φ_p must have full rank; else name what is free and what is redundant.
         let singular = |passive: &[f64]| -> Option<SpatialProblem> {
             let state = loops.tree_state(&loops.nominal_actuated, passive);
-            let jacobian =
-                evaluate(&loops.passive_jacobian, &State { q: &state, qd: &[], parameters: &parameters });
+            let (_, jacobian, _) =
+                loops.position_level(&State { q: &state, qd: &[], parameters: &parameters });
             let (_, free) = independent_columns(&jacobian, 1e-9);
             if free.is_empty() {
                 return None;
@@ -200,8 +196,7 @@ impl SpatialLoops {
                 return Err(vec![problem]);
             }
             let state = loops.tree_state(&q_a, &guess);
-            let at = State { q: &state, qd: &[], parameters: &parameters };
-            let values: Vec<f64> = loops.residual.iter().map(|r| r.eval(&at)).collect();
+            let (values, _, _) = loops.position_level(&State { q: &state, qd: &[], parameters: &parameters });
             let worst = (0..values.len()).max_by(|&i, &j| values[i].abs().total_cmp(&values[j].abs()));
             return Err(vec![SpatialProblem {
                 closure: None,
