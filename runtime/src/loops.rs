@@ -14,7 +14,7 @@
 
 use core::cmp::Ordering;
 
-use crate::linalg::{LuFactors, SolveError};
+use crate::linalg::{dot, LuFactors, SolveError};
 use crate::Real;
 
 /// Why the loops could not be solved.
@@ -108,18 +108,145 @@ pub fn passive_sensitivity<S: Real, const P: usize, const N: usize>(
     factors: &LuFactors<S, P>,
     actuated_jacobian: &[[S; N]; P],
 ) -> Result<[[S; N]; P], LoopError> {
-    let mut sensitivity = [[S::ZERO; N]; P];
+    negated_solve(factors, actuated_jacobian)
+}
+
+/// `−Φ_p⁻¹ B` for a `P × N` matrix `B`, column by column.
+fn negated_solve<S: Real, const P: usize, const N: usize>(
+    factors: &LuFactors<S, P>,
+    right: &[[S; N]; P],
+) -> Result<[[S; N]; P], LoopError> {
+    let mut solved_columns = [[S::ZERO; N]; P];
     for j in 0..N {
         let mut column = [S::ZERO; P];
-        for (slot, row) in column.iter_mut().zip(actuated_jacobian.iter()) {
+        for (slot, row) in column.iter_mut().zip(right.iter()) {
             *slot = -row[j];
         }
         let solved = factors.solve(&column, S::ZERO).map_err(loop_error)?;
-        for (row, value) in sensitivity.iter_mut().zip(solved.iter()) {
+        for (row, value) in solved_columns.iter_mut().zip(solved.iter()) {
             row[j] = *value;
         }
     }
-    Ok(sensitivity)
+    Ok(solved_columns)
+}
+
+/// A rig's closed loops, as its generated code describes them to [`close_loops`]: the
+/// constraints `Φ(q_a, q_p) = 0` over `N` actuated and `P` passive coordinates, their
+/// Jacobians and rates, and the assembly the guess starts from.
+pub trait LoopConstraints<S: Real, const N: usize, const P: usize> {
+    /// The actuated coordinates of the assembly (the middle of their ranges), `q_a0`.
+    const ASSEMBLY_ACTUATED: [S; N];
+    /// The passive coordinates of the assembly, `q_p0`: the model file's branch.
+    const ASSEMBLY_PASSIVE: [S; P];
+    /// `A₀ = −Φ_p⁻¹ Φ_a` at the assembly, so that `q_p0 + A₀ (q_a − q_a0)` is the first guess.
+    const ASSEMBLY_SENSITIVITY: [[S; N]; P];
+    /// The bounds of Newton's method (the generator checked the step bound over the actuated
+    /// ranges).
+    const LOOP_SOLVER: LoopSolverSettings<S>;
+    /// `Φ` and `Φ_p = ∂Φ/∂q_p` at `(q, passive)`.
+    fn loop_constraints(&self, q: &[S; N], passive: &[S; P]) -> ([S; P], [[S; P]; P]);
+    /// `Φ_a = ∂Φ/∂q_a` at `(q, passive)`.
+    fn loop_actuated_jacobian(&self, q: &[S; N], passive: &[S; P]) -> [[S; N]; P];
+    /// `Φ̇_p` and `Φ̇_a` at `(q, passive)` moving with `(qd, passive_rate)`.
+    fn loop_jacobian_rates(
+        &self,
+        q: &[S; N],
+        qd: &[S; N],
+        passive: &[S; P],
+        passive_rate: &[S; P],
+    ) -> ([[S; P]; P], [[S; N]; P]);
+}
+
+/// The loops closed at one state: what the reduced dynamics of a closed chain read.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClosedLoops<S, const N: usize, const P: usize> {
+    /// The passive coordinates `q_p`.
+    pub passive: [S; P],
+    /// Their rates `q̇_p = A q̇_a` (zero when no velocity was given).
+    pub passive_rate: [S; P],
+    /// `A = ∂q_p/∂q_a = −Φ_p⁻¹ Φ_a`.
+    pub sensitivity: [[S; N]; P],
+    /// `Ȧ = −Φ_p⁻¹ (Φ̇_p A + Φ̇_a)` (zero when no velocity was given).
+    pub sensitivity_rate: [[S; N]; P],
+    /// `Φ_p`'s reciprocal condition estimate at the solution ([`LoopSolution::margin`]): 0 where
+    /// the loops are singular, NaN where they could not be solved.
+    pub margin: S,
+    /// Why the loops could not be solved, if they could not.
+    pub error: Option<LoopError>,
+}
+
+impl<S: Real, const N: usize, const P: usize> ClosedLoops<S, N, P> {
+    /// Every value NaN: what the reduced dynamics then compute is NaN too, which the safety
+    /// monitor latches as a fault (never a plausible-looking number).
+    pub fn failed(error: LoopError) -> Self {
+        let nan = S::ZERO / S::ZERO;
+        ClosedLoops {
+            passive: [nan; P],
+            passive_rate: [nan; P],
+            sensitivity: [[nan; N]; P],
+            sensitivity_rate: [[nan; N]; P],
+            margin: nan,
+            error: Some(error),
+        }
+    }
+}
+
+/// Solves `loops` at `q` (and, with `qd`, at the velocity level): Newton's method from the
+/// assembly moved along its tangent, `q_p0 + A₀ (q_a − q_a0)`, within the generator's checked
+/// step bound; then `A` and, with `qd`, `q̇_p = A q̇_a` and `Ȧ`. Every value is NaN and
+/// `error` says why where the loops cannot be solved.
+pub fn close_loops<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P: usize>(
+    loops: &L,
+    q: &[S; N],
+    qd: Option<&[S; N]>,
+) -> ClosedLoops<S, N, P> {
+    let mut guess = L::ASSEMBLY_PASSIVE;
+    for (slot, row) in guess.iter_mut().zip(L::ASSEMBLY_SENSITIVITY.iter()) {
+        for ((a, q), q0) in row.iter().zip(q.iter()).zip(L::ASSEMBLY_ACTUATED.iter()) {
+            *slot += *a * (*q - *q0);
+        }
+    }
+    let solution = match solve_passive(|passive| loops.loop_constraints(q, passive), &guess, &L::LOOP_SOLVER)
+    {
+        Ok(solution) => solution,
+        Err(error) => return ClosedLoops::failed(error),
+    };
+    let sensitivity =
+        match passive_sensitivity(&solution.factors, &loops.loop_actuated_jacobian(q, &solution.passive)) {
+            Ok(sensitivity) => sensitivity,
+            Err(error) => return ClosedLoops::failed(error),
+        };
+    let mut closed = ClosedLoops {
+        passive: solution.passive,
+        passive_rate: [S::ZERO; P],
+        sensitivity,
+        sensitivity_rate: [[S::ZERO; N]; P],
+        margin: solution.margin,
+        error: None,
+    };
+    let qd = match qd {
+        Some(qd) => qd,
+        None => return closed,
+    };
+    for (rate, row) in closed.passive_rate.iter_mut().zip(sensitivity.iter()) {
+        *rate = dot(row, qd);
+    }
+    let (passive_jacobian_rate, actuated_jacobian_rate) =
+        loops.loop_jacobian_rates(q, qd, &solution.passive, &closed.passive_rate);
+    // Φ̇_p A + Φ̇_a.
+    let mut right = actuated_jacobian_rate;
+    for (row, rate_row) in right.iter_mut().zip(passive_jacobian_rate.iter()) {
+        for (j, entry) in row.iter_mut().enumerate() {
+            for (k, rate) in rate_row.iter().enumerate() {
+                *entry += *rate * sensitivity[k][j];
+            }
+        }
+    }
+    match negated_solve(&solution.factors, &right) {
+        Ok(sensitivity_rate) => closed.sensitivity_rate = sensitivity_rate,
+        Err(error) => return ClosedLoops::failed(error),
+    }
+    closed
 }
 
 fn loop_error(error: SolveError) -> LoopError {

@@ -3,7 +3,9 @@
 //! coupler `b` at angle `β`, rocker `c` at angle `γ` about the ground pivot `(d, 0)`:
 //! `Φ = (a cos q + b cos β − d − c cos γ, a sin q + b sin β − c sin γ) = 0`, passive `(β, γ)`.
 
-use hapticgen_runtime::loops::{passive_sensitivity, solve_passive, LoopError, LoopSolverSettings};
+use hapticgen_runtime::loops::{
+    close_loops, passive_sensitivity, solve_passive, LoopConstraints, LoopError, LoopSolverSettings,
+};
 use hapticgen_runtime::Real;
 
 const CRANK: f64 = 0.03;
@@ -134,4 +136,97 @@ fn failures_are_reported_never_returned_as_numbers() {
         passive_sensitivity(&solution.factors, &[[f64::NAN], [0.0]]).err(),
         Some(LoopError::NonFinite)
     );
+}
+
+/// The four-bar as generated code describes a closed chain to `close_loops`, its assembly at
+/// `q = 1` on the closed form's branch, Newton allowed `STEPS` steps.
+struct FourBar<const STEPS: u32>;
+
+/// `∂Φ/∂(β, γ)` at `passive`, differentiated once more along `passive_rate`, and `∂Φ_a/∂q · q̇`.
+fn jacobian_rates(q: f64, qd: f64, passive: &[f64; 2], rate: &[f64; 2]) -> ([[f64; 2]; 2], [[f64; 1]; 2]) {
+    let (b, c) = (COUPLER, ROCKER);
+    let (sb, cb) = passive[0].sin_cos();
+    let (sg, cg) = passive[1].sin_cos();
+    (
+        [[-b * cb * rate[0], c * cg * rate[1]], [-b * sb * rate[0], c * sg * rate[1]]],
+        [[-CRANK * q.cos() * qd], [-CRANK * q.sin() * qd]],
+    )
+}
+
+impl<const STEPS: u32> LoopConstraints<f64, 1, 2> for FourBar<STEPS> {
+    const ASSEMBLY_ACTUATED: [f64; 1] = [1.0];
+    // closed_form(1.0) and its derivative there, to a few digits: a guess, not the answer.
+    const ASSEMBLY_PASSIVE: [f64; 2] = [0.40, 1.23];
+    const ASSEMBLY_SENSITIVITY: [[f64; 1]; 2] = [[-0.12], [0.38]];
+    const LOOP_SOLVER: LoopSolverSettings<f64> =
+        LoopSolverSettings { max_steps: STEPS, tolerance: 1e-14, min_pivot_ratio: 1e-6 };
+    fn loop_constraints(&self, q: &[f64; 1], passive: &[f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
+        constraints(q[0], passive)
+    }
+    fn loop_actuated_jacobian(&self, q: &[f64; 1], _passive: &[f64; 2]) -> [[f64; 1]; 2] {
+        actuated_jacobian(q[0])
+    }
+    fn loop_jacobian_rates(
+        &self,
+        q: &[f64; 1],
+        qd: &[f64; 1],
+        passive: &[f64; 2],
+        passive_rate: &[f64; 2],
+    ) -> ([[f64; 2]; 2], [[f64; 1]; 2]) {
+        jacobian_rates(q[0], qd[0], passive, passive_rate)
+    }
+}
+
+#[test]
+fn closed_loops_give_the_closed_form_and_its_first_and_second_derivatives() {
+    let h = 1e-5;
+    let derivative = |f: &dyn Fn(f64) -> [f64; 2], q: f64| {
+        let (plus, minus) = (f(q + h), f(q - h));
+        [(plus[0] - minus[0]) / (2.0 * h), (plus[1] - minus[1]) / (2.0 * h)]
+    };
+    for q in [0.6, 0.9, 1.0, 1.3, 1.6] {
+        let qd = 0.7;
+        let closed = close_loops(&FourBar::<8>, &[q], Some(&[qd]));
+        assert_eq!(closed.error, None);
+        let expected = closed_form(q);
+        let slope = derivative(&closed_form, q);
+        // Ȧ = dA/dq · q̇, with A from the closed form's differences.
+        let curvature = derivative(&|x| derivative(&closed_form, x), q);
+        for i in 0..2 {
+            assert!((closed.passive[i] - expected[i]).abs() < 1e-12, "q = {q}: {:?}", closed.passive);
+            assert!((closed.sensitivity[i][0] - slope[i]).abs() < 1e-7, "q = {q}: {:?}", closed.sensitivity);
+            assert!((closed.passive_rate[i] - slope[i] * qd).abs() < 1e-7);
+            assert!(
+                (closed.sensitivity_rate[i][0] - curvature[i] * qd).abs() < 1e-4,
+                "q = {q}: {:?} vs {:?}",
+                closed.sensitivity_rate,
+                curvature
+            );
+        }
+        assert!(closed.margin > 1e-3 && closed.margin <= 1.0);
+        // Without a velocity, the rates are zero and the rest the same.
+        let position_only = close_loops(&FourBar::<8>, &[q], None);
+        assert_eq!(position_only.passive, closed.passive);
+        assert_eq!(position_only.sensitivity_rate, [[0.0], [0.0]]);
+    }
+}
+
+#[test]
+fn closed_loops_that_cannot_be_solved_are_nan_with_the_reason() {
+    // A NaN angle; and an angle too far from the assembly for the one step allowed.
+    let cases = [
+        (close_loops(&FourBar::<8>, &[f64::NAN], Some(&[0.5])), LoopError::NonFinite),
+        (close_loops(&FourBar::<1>, &[1.6], Some(&[0.5])), LoopError::NotConverged),
+    ];
+    for (closed, reason) in cases {
+        assert_eq!(closed.error, Some(reason));
+        assert!(closed.passive.iter().chain(closed.passive_rate.iter()).all(|x| x.is_nan()));
+        assert!(closed
+            .sensitivity
+            .iter()
+            .chain(closed.sensitivity_rate.iter())
+            .flatten()
+            .all(|x| x.is_nan()));
+        assert!(closed.margin.is_nan());
+    }
 }

@@ -73,6 +73,12 @@ pub struct SpatialLoops {
     pub nominal_actuated: Vec<f64>,
     /// The passive coordinates of the assembly there (the file's `assembly` angles, refined).
     pub assembly: Vec<f64>,
+    /// `A = −Φ_p⁻¹ Φ_a` at the assembly, `P × N`: the generated code's first guess at `q_a` is
+    /// the assembly moved along it, `q_p ≈ q_p0 + A₀ (q_a − q_a0)` ([`SpatialLoops::predicted`]).
+    pub assembly_sensitivity: Vec<Vec<f64>>,
+    /// The most Newton steps the guess needed at any of the states sampled over the actuated
+    /// ranges ([`SpatialLoops::analyse`] checks that it always reaches the file's branch).
+    pub newton_steps: usize,
     /// The polynomials as expression DAGs (shared subterms evaluated once), built on first
     /// use: `[Φ, Φ_p, Φ_a]` for Newton's steps, `[Φ̇_p, Φ̇_a]` once per state.
     compiled: OnceLock<[Compiled; 2]>,
@@ -158,6 +164,8 @@ impl SpatialLoops {
             actuated_jacobian_dot,
             nominal_actuated,
             assembly: model.passive.iter().map(|j| j.assembly).collect(),
+            assembly_sensitivity: Vec::new(),
+            newton_steps: 0,
             compiled: OnceLock::new(),
         };
         let parameters = model.nominal_parameters();
@@ -211,8 +219,92 @@ impl SpatialLoops {
         if let Some(problem) = singular(&assembly) {
             return Err(vec![problem]);
         }
+        // Φ_p has full rank at the assembly (checked just above), so `A₀` exists.
+        let sensitivity = loops.sensitivity_at(&q_a, &assembly, &parameters).unwrap_or_default();
         loops.assembly = assembly;
+        loops.assembly_sensitivity = sensitivity;
+        loops.newton_steps =
+            loops.sampled_newton_steps(model, &parameters).map_err(|problem| vec![problem])?;
         Ok(loops)
+    }
+
+    /// `A = −Φ_p⁻¹ Φ_a` at `(q_a, q_p)`; `None` where `Φ_p` is singular.
+    fn sensitivity_at(&self, actuated: &[f64], passive: &[f64], parameters: &[f64]) -> Option<Vec<Vec<f64>>> {
+        let state = self.tree_state(actuated, passive);
+        let (_, phi_p, phi_a) = self.position_level(&State { q: &state, qd: &[], parameters });
+        solve(phi_p, phi_a.iter().map(|row| row.iter().map(|x| -x).collect()).collect())
+    }
+
+    /// The guess the generated code starts Newton from at `actuated`: the assembly moved along
+    /// its tangent, `q_p0 + A₀ (q_a − q_a0)`.
+    pub fn predicted(&self, actuated: &[f64]) -> Vec<f64> {
+        self.assembly
+            .iter()
+            .zip(&self.assembly_sensitivity)
+            .map(|(q0, row)| {
+                q0 + row
+                    .iter()
+                    .zip(actuated.iter().zip(&self.nominal_actuated))
+                    .map(|(a, (q, m))| a * (q - m))
+                    .sum::<f64>()
+            })
+            .collect()
+    }
+
+    /// Newton from [`SpatialLoops::predicted`] at states spread over the actuated ranges (a
+    /// grid of at most about 250, corners included): the most steps it took, or the first
+    /// state where it failed or reached another branch than the continuation from the
+    /// assembly (the generated code has no continuation: one guess, a bounded number of steps).
+    fn sampled_newton_steps(&self, model: &Model, parameters: &[f64]) -> Result<usize, SpatialProblem> {
+        let n = self.actuated;
+        let per_axis = (1..=6).rev().find(|g: &usize| g.pow(n as u32) <= 250).unwrap_or(1).max(2);
+        let mut most = 0;
+        for index in 0..per_axis.pow(n as u32) {
+            let actuated: Vec<f64> = model
+                .joints
+                .iter()
+                .enumerate()
+                .map(|(j, joint)| {
+                    let step = (index / per_axis.pow(j as u32)) % per_axis;
+                    joint.lower + (joint.upper - joint.lower) * step as f64 / (per_axis - 1) as f64
+                })
+                .collect();
+            let at = || {
+                model
+                    .joints
+                    .iter()
+                    .zip(&actuated)
+                    .map(|(j, q)| format!("{} = {q:.4}", j.name))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            let problem = |message: String| {
+                SpatialProblem {
+                closure: None,
+                message,
+                hint: "narrow the actuated joints' limits to where the mechanism moves smoothly from its assembly, or choose `assembly` angles nearer the middle of that motion".into(),
+            }
+            };
+            let Some(reference) = self.passive_coordinates(&actuated, parameters) else {
+                return Err(problem(format!(
+                    "the loops cannot be solved within the actuated joints' limits (at {}): they do not close there, or pass a singular configuration on the way from the assembly",
+                    at()
+                )));
+            };
+            let reached = self.newton_counted(&actuated, &self.predicted(&actuated), parameters);
+            match reached {
+                Some((passive, steps)) if largest(&passive.iter().zip(&reference).map(|(a, b)| a - b).collect::<Vec<_>>()) <= 1e-9 => {
+                    most = most.max(steps);
+                }
+                _ => {
+                    return Err(problem(format!(
+                        "Newton's method from the assembly's tangent does not reach the assembly's branch at {} (the generated code solves the loops from that guess)",
+                        at()
+                    )))
+                }
+            }
+        }
+        Ok(most)
     }
 
     fn compiled(&self) -> &[Compiled; 2] {
@@ -250,12 +342,22 @@ impl SpatialLoops {
 
     /// Newton's method on `Φ(q_a, ·) = 0` from `guess`; `None` if it does not converge.
     fn newton(&self, actuated: &[f64], guess: &[f64], parameters: &[f64]) -> Option<Vec<f64>> {
+        self.newton_counted(actuated, guess, parameters).map(|(passive, _)| passive)
+    }
+
+    /// [`SpatialLoops::newton`], with the number of steps it took.
+    fn newton_counted(
+        &self,
+        actuated: &[f64],
+        guess: &[f64],
+        parameters: &[f64],
+    ) -> Option<(Vec<f64>, usize)> {
         let mut passive = guess.to_vec();
-        for _ in 0..NEWTON_ITERATIONS {
+        for steps in 0..NEWTON_ITERATIONS {
             let state = self.tree_state(actuated, &passive);
             let (residual, jacobian, _) = self.position_level(&State { q: &state, qd: &[], parameters });
             if largest(&residual) <= RESIDUAL_TOLERANCE {
-                return Some(passive);
+                return Some((passive, steps));
             }
             let step = solve(jacobian, residual.iter().map(|r| vec![-r]).collect())?;
             for (q, d) in passive.iter_mut().zip(&step) {
@@ -342,5 +444,20 @@ impl SpatialLoops {
             }
         }
         values
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn falcon_steps() {
+        let path = std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/closed-chains/falcon_delta.yaml"
+        ));
+        let model = crate::load_file(path, "falcon", None).unwrap();
+        let closures = model.analyses.closures.as_ref().unwrap();
+        let s = closures.spatial.as_ref().unwrap();
+        eprintln!("steps {} A0 {:?}", s.newton_steps, s.assembly_sensitivity);
     }
 }
