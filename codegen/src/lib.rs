@@ -106,9 +106,6 @@ pub fn generate_model_with(
     scalar: Scalar,
     options: EmitOptions,
 ) -> Result<Generated, Diagnostics> {
-    if let Some(refusal) = &model.analyses.emission_refused {
-        return Err(refusal.clone());
-    }
     let mechanics = dynamics::derive_for_emission(&model, model.analyses.closures.as_ref());
     let (tokens, stats) = emit::items(&model, &mechanics, scalar, options);
     Ok(Generated { model, mechanics, scalar, options, tokens, stats })

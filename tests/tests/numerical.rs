@@ -177,7 +177,7 @@ impl RigVisitor for EnergyConservation {
             let scale = e0.abs().max((0..N).map(|i| qd[i].abs()).fold(0.0, f64::max).powi(2) * 1e-3);
             // A closed chain's reduced dynamics hold where the loop closes: its run ends when
             // it leaves the box of joint limits (chosen inside the workspace).
-            let closed = !model.closures.is_empty();
+            let closed = !model.passive.is_empty();
             let inside =
                 |q: &[f64; N]| model.joints.iter().zip(q).all(|(j, x)| *x >= j.lower && *x <= j.upper);
             let mut steps = 0;

@@ -22,9 +22,6 @@ pub struct Analyses {
     pub current_loop_designs: Vec<CurrentLoopDesign>,
     /// The elimination of the loop closures, if the model is a closed chain.
     pub closures: Option<Closures>,
-    /// Why code cannot be emitted for this model although it can be evaluated (a spatial
-    /// closed chain), located in the model file; `None` if it can.
-    pub emission_refused: Option<Diagnostics>,
 }
 
 /// A model that passed every analysis, with their results.
@@ -54,12 +51,7 @@ fn key(k: &str) -> Segment {
 pub(crate) fn analyse(model: Model, locator: &Locator<'_>) -> Result<CheckedModel, Diagnostics> {
     let current_loop_designs = design_current_loops(&model, locator)?;
     let closures = analyse_closures(&model, locator)?;
-    let emission_refused = (!model.spatial_closures.is_empty()).then(|| {
-        Diagnostics(vec![locator
-            .at(&[key("closures")], "code cannot be emitted for a spatial closed chain yet")
-            .with_hint("the model loads, checks and evaluates (`hapticgen eval`): the elimination of its loops is numerical, and its emission (issue 16) is not written yet")])
-    });
-    Ok(CheckedModel { model, analyses: Analyses { current_loop_designs, closures, emission_refused } })
+    Ok(CheckedModel { model, analyses: Analyses { current_loop_designs, closures } })
 }
 
 /// The current loop of every joint's drive (joints sharing a drive share its design).

@@ -37,12 +37,13 @@ pub fn derive_for_emission(model: &Model, closures: Option<&Closures>) -> Mechan
 }
 
 fn derive_with(model: &Model, closures: Option<&Closures>, all_polynomials: bool) -> Mechanics {
-    let mut mechanics = derive_tree(model, all_polynomials);
     if let Some(closures) = closures {
         // A closed chain: reduced to the actuated coordinates as polynomials (see
-        // `crate::dynamics::closure`); the emitted code uses those polynomials as they are.
-        return reduce(mechanics, closures);
+        // `crate::dynamics::closure`), from the open tree's; the emitted code uses those
+        // polynomials as they are.
+        return reduce(derive_tree(model, true), closures);
     }
+    let mut mechanics = derive_tree(model, all_polynomials);
     choose_derivations(model, &mut mechanics);
     mechanics
 }

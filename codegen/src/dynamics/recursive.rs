@@ -78,7 +78,7 @@ pub enum PointQuantity {
 /// one joint or a weld, and no loop closes. Direct poses (closed chains written as absolute
 /// angles) and closures (reduced as polynomials, see `crate::dynamics::closure`) do not.
 pub fn applies(model: &Model) -> bool {
-    model.closures.is_empty() && model.bodies.iter().all(|b| matches!(b.motion, Motion::Serial { .. }))
+    model.passive.is_empty() && model.bodies.iter().all(|b| matches!(b.motion, Motion::Serial { .. }))
 }
 
 type V3 = [NodeId; 3];

@@ -15,6 +15,7 @@ use crate::sym::dag::{NodeId, OpCounts};
 use super::catalogue::function_specs;
 use super::fused_impl::fused_impl;
 use super::literal::{unsuffixed, Scalar};
+use super::loops::loop_constraints_impl;
 use super::lower::{BodyEmitter, EmitOptions};
 use super::methods::{closure_margin_function, function_sharing, terms_function};
 use super::naming::{rig_type_name, SharedNames};
@@ -60,6 +61,13 @@ pub fn items(
     }
     let (fused, fused_counts) = fused_impl(model, mech, scalar, options, &names);
     stats.functions.extend(fused_counts);
+    let loop_constraints = match loop_constraints_impl(model, mech, scalar, options, &names) {
+        Some((tokens, counts)) => {
+            stats.functions.extend(counts);
+            tokens
+        }
+        None => TokenStream::new(),
+    };
 
     // Damping depends on tunable parameters at most.
     let mut damping_body = BodyEmitter::new(model, mech, scalar, options);
@@ -184,6 +192,23 @@ pub fn items(
     );
     let closure_doc: Vec<String> = match &mech.closures {
         None => Vec::new(),
+        Some(c) if c.spatial.is_some() => {
+            let spatial = c.spatial.as_ref().map(|s| (s.actuated, s.passive)).unwrap_or_default();
+            let passive: Vec<String> =
+                (spatial.0..spatial.0 + spatial.1).map(|j| format!("`{}`", c.names[j])).collect();
+            vec![
+                String::new(),
+                format!(
+                    " A spatial closed chain reduced to its actuated joints; its passive joints {} are solved",
+                    passive.join(", ")
+                ),
+                " at the top of each function by Newton's method on the loops' constraints".into(),
+                " (`hapticgen_runtime::loops::close_loops`, with the `LoopConstraints` implementation below).".into(),
+                " Where the loops cannot be solved (out of reach, singular, non-finite input) the functions".into(),
+                " return NaN (they never panic), which the runtime's safety monitor latches as a fault with".into(),
+                " zero torque.".into(),
+            ]
+        }
         Some(c) => {
             let loops: Vec<String> = c
                 .loops
@@ -265,6 +290,8 @@ pub fn items(
         ::hapticgen_runtime::impl_rig_model!(#type_name, #s, #n, #m, #rig_name, #current_hz, #impedance_hz #loop_margin);
 
         #fused
+
+        #loop_constraints
     };
     (tokens, stats)
 }

@@ -15,7 +15,7 @@ use crate::sym::dag::{Dag, Fused, Node, NodeId, OpCounts};
 use crate::sym::poly::Atom;
 
 use super::literal::{unsuffixed, Scalar};
-use super::naming::{Naming, SharedNames};
+use super::naming::{LoopInputs, Naming, SharedNames};
 
 /// Options of the emitted code besides its scalar type. The default is what every front end
 /// emits unless asked otherwise.
@@ -65,9 +65,15 @@ impl<'m> BodyEmitter<'m> {
         let mut dag = Dag::new();
         let hints =
             crate::dynamics::closure::install(&mut dag, mech.closures.as_ref()).hints.into_iter().collect();
+        // A spatial chain's are solved at run time instead, at the top of each function.
+        let loops = mech.closures.as_ref().and_then(|c| c.spatial.as_ref()).map(|spatial| LoopInputs {
+            actuated: spatial.actuated,
+            passive: spatial.passive,
+            solved: true,
+        });
         Self {
             dag,
-            naming: Naming { model, externals: Vec::new(), shared: None },
+            naming: Naming { model, externals: Vec::new(), shared: None, loops },
             scalar,
             hints,
             options,
@@ -90,13 +96,13 @@ impl<'m> BodyEmitter<'m> {
                 Node::Input(a) => Some(self.naming.atom_name(a)),
                 // A square inside a product (`0.15 q̇1²` after regrouping): `scaled_q1_dot_sq`.
                 Node::Mul(a, b) if a == b => self.describe(x, names),
-                other => {
-                    self.angle_identity(other, &|j| self.naming.model.joints[usize::from(j)].name.clone())
-                }
+                other => self.angle_identity(other, &|j| {
+                    self.naming.model.coordinate_name(usize::from(j)).to_string()
+                }),
             }
         };
         let node = self.dag.nodes()[id];
-        let joint = |j: u16| self.naming.model.joints[usize::from(j)].name.clone();
+        let joint = |j: u16| self.naming.model.coordinate_name(usize::from(j)).to_string();
         // Angle-sum identities get their mathematical names.
         if let Some(name) = self.angle_identity(node, &joint) {
             return Some(name);
@@ -280,7 +286,7 @@ impl<'m> BodyEmitter<'m> {
         }
         let mut names: HashMap<NodeId, String> = HashMap::default();
         let mut taken: HashMap<String, usize> = HashMap::default();
-        let mut statements = TokenStream::new();
+        let mut statements = self.loop_preamble(&order);
         let mut part = 0usize;
         // Inputs first (coordinates, sines and cosines, velocities), then intermediates.
         let mut order = order;
@@ -327,9 +333,9 @@ impl<'m> BodyEmitter<'m> {
                         (self.naming.atom_name(Atom::Sin(j)), self.naming.atom_name(Atom::Cos(j)));
                     let (sin_ident, cos_ident) =
                         (format_ident!("{}", sin_name), format_ident!("{}", cos_name));
-                    let jj = unsuffixed(usize::from(j));
+                    let angle = self.angle_tokens(j);
                     statements.extend(
-                        quote!(let (#sin_ident, #cos_ident) = ::hapticgen_runtime::Real::sin_cos(q[#jj]);),
+                        quote!(let (#sin_ident, #cos_ident) = ::hapticgen_runtime::Real::sin_cos(#angle);),
                     );
                     names.insert(id, sin_name.clone());
                     taken.insert(sin_name, 1);
@@ -367,14 +373,21 @@ impl<'m> BodyEmitter<'m> {
             *count += 1;
             let name = if *count == 1 { base } else { format!("{base}_{count}") };
             let ident = format_ident!("{}", name);
+            let loop_read = match node {
+                Node::Input(a @ (Atom::Q(_) | Atom::Qd(_) | Atom::Closure(_))) => {
+                    self.naming.loops.and_then(|l| Some(l.tokens(l.read(a)?)))
+                }
+                _ => None,
+            };
             let value = match node {
+                _ if loop_read.is_some() => loop_read.unwrap_or_default(),
                 Node::Input(Atom::Sin(j)) => {
-                    let j = unsuffixed(usize::from(j));
-                    quote!(::hapticgen_runtime::Real::sin(q[#j]))
+                    let angle = self.angle_tokens(j);
+                    quote!(::hapticgen_runtime::Real::sin(#angle))
                 }
                 Node::Input(Atom::Cos(j)) => {
-                    let j = unsuffixed(usize::from(j));
-                    quote!(::hapticgen_runtime::Real::cos(q[#j]))
+                    let angle = self.angle_tokens(j);
+                    quote!(::hapticgen_runtime::Real::cos(#angle))
                 }
                 Node::Input(Atom::Q(j)) => {
                     let j = unsuffixed(usize::from(j));
@@ -400,6 +413,40 @@ impl<'m> BodyEmitter<'m> {
         let counts =
             if self.options.fused_multiply_add { self.dag.count_fused(roots) } else { self.dag.count(roots) };
         (statements, outputs, counts)
+    }
+
+    /// The angle of coordinate `j`: `q[j]`, or a passive coordinate solved at run time.
+    fn angle_tokens(&self, j: u16) -> TokenStream {
+        match self.naming.loops.and_then(|l| Some(l.tokens(l.read(Atom::Q(j))?))) {
+            Some(read) => read,
+            None => {
+                let j = unsuffixed(usize::from(j));
+                quote!(q[#j])
+            }
+        }
+    }
+
+    /// For a spatial closed chain whose loop values `nodes` read, the statement solving the
+    /// loops first (`hapticgen_runtime::loops::close_loops`), at the velocity level only if a
+    /// value read needs it; nothing otherwise.
+    fn loop_preamble(&self, nodes: &[NodeId]) -> TokenStream {
+        let Some(loops) = self.naming.loops.filter(|l| l.solved) else { return TokenStream::new() };
+        let inputs = || {
+            nodes.iter().filter_map(|&id| match self.dag.nodes()[id] {
+                Node::Input(atom) => Some(atom),
+                _ => None,
+            })
+        };
+        if !inputs().any(|atom| loops.read(atom).is_some()) {
+            return TokenStream::new();
+        }
+        let velocity = if inputs().any(|atom| loops.read(atom).is_some() && self.naming.reads_velocity(atom))
+        {
+            quote!(::core::option::Option::Some(qd))
+        } else {
+            quote!(::core::option::Option::None)
+        };
+        quote!(let loops = ::hapticgen_runtime::loops::close_loops(self, q, #velocity);)
     }
 
     /// For an unnamed `(−c)·y` with a constant `c > 0`, the tokens of `c·y`.

@@ -49,6 +49,18 @@ fn uses_atom(dag: &Dag, roots: &[NodeId], pred: impl Fn(Atom) -> bool) -> bool {
     dag.reachable(roots).into_iter().any(|id| matches!(dag.nodes()[id], Node::Input(a) if pred(a)))
 }
 
+/// Whether the body of `roots` reads `q` and `qd` (a spatial closed chain's loop values are
+/// solved from them).
+fn arguments_used(body: &BodyEmitter<'_>, roots: &[NodeId]) -> (bool, bool) {
+    let loops = body.naming.loops;
+    let reads_loops = |a: Atom| loops.is_some_and(|l| l.read(a).is_some());
+    let q_used = uses_atom(&body.dag, roots, |a| {
+        matches!(a, Atom::Sin(_) | Atom::Cos(_) | Atom::Q(_)) || reads_loops(a)
+    });
+    let qd_used = uses_atom(&body.dag, roots, |a| body.naming.reads_velocity(a));
+    (q_used, qd_used)
+}
+
 /// Emits one method; returns it with its operation counts.
 pub fn function(
     model: &Model,
@@ -80,8 +92,7 @@ pub(crate) fn function_sharing(
     let ret = shape_tokens(spec.shape, scalar);
     let n = unsuffixed(model.joints.len());
     let s = scalar.tokens();
-    let q_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Sin(_) | Atom::Cos(_) | Atom::Q(_)));
-    let qd_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Qd(_)));
+    let (q_used, qd_used) = arguments_used(&body, &roots);
     let q = if q_used { quote!(q) } else { quote!(_q) };
     let qd = if qd_used { quote!(qd) } else { quote!(_qd) };
     let name = format_ident!("{}", spec.name);
@@ -153,8 +164,7 @@ pub(crate) fn terms_function(
     let jdot = shape_value(Shape::Vector(m), &take(m));
     let (n, m) = (unsuffixed(n), unsuffixed(m));
     let s = scalar.tokens();
-    let q_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Sin(_) | Atom::Cos(_) | Atom::Q(_)));
-    let qd_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Qd(_)));
+    let (q_used, qd_used) = arguments_used(&body, &roots);
     let q = if q_used { quote!(q) } else { quote!(_q) };
     let qd = if qd_used { quote!(qd) } else { quote!(_qd) };
     let tokens = quote! {
@@ -186,6 +196,9 @@ pub(crate) fn closure_margin_function(
     names: &SharedNames,
 ) -> Option<(TokenStream, OpCounts)> {
     let closures = mech.closures.as_ref()?;
+    if closures.spatial.is_some() {
+        return Some(spatial_loop_margin_function(model, scalar));
+    }
     let mut body = BodyEmitter::new(model, mech, scalar, options);
     body.share_names(names);
     // Installing again into the same DAG re-interns the same nodes: it only reports them.
@@ -208,4 +221,24 @@ pub(crate) fn closure_margin_function(
         }
     };
     Some((tokens, counts))
+}
+
+/// A spatial closed chain's `closure_margin`: the runtime's loop solver measures it
+/// ([`hapticgen_runtime::loops::ClosedLoops::margin`]); its arithmetic is the solver's.
+fn spatial_loop_margin_function(model: &Model, scalar: Scalar) -> (TokenStream, OpCounts) {
+    let n = unsuffixed(model.joints.len());
+    let s = scalar.tokens();
+    let tokens = quote! {
+        /// How far the loops are from singular at `q`: the reciprocal condition estimate of
+        /// `Φ_p = ∂Φ/∂q_p` at the solution (smallest over largest pivot of its LU factors), 1 at
+        /// best, 0 where the passive joints are no longer determined, NaN where the loops cannot
+        /// be solved. Guard the workspace with it: the dynamics grow without bound as it
+        /// approaches 0.
+        #[inline]
+        #[must_use]
+        pub fn closure_margin(&self, q: &[#s; #n]) -> [#s; 1] {
+            [::hapticgen_runtime::loops::close_loops(self, q, ::core::option::Option::None).margin]
+        }
+    };
+    (tokens, OpCounts::default())
 }

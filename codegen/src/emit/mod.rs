@@ -14,6 +14,7 @@
 //! - `lower` — lowering an optimised DAG to `let` statements and expressions;
 //! - `catalogue` — which functions are emitted, their shapes and outputs, tick counts;
 //! - `methods` — each catalogue entry, `terms` and `closure_margin` as a method;
+//! - `loops` — a spatial closed chain's constraints, as the runtime's loop solver reads them;
 //! - [`laws`] — the fused control laws' DAGs (uses none of the files above);
 //! - `fused_impl` — those laws as the `FusedImpedance` implementation;
 //! - `items` — the struct, its constants, methods and trait implementations.
@@ -25,6 +26,7 @@ mod fused_impl;
 mod items;
 pub mod laws;
 mod literal;
+mod loops;
 mod lower;
 mod methods;
 mod naming;

@@ -20,12 +20,99 @@ pub(crate) struct Naming<'m> {
     pub(crate) externals: Vec<(String, TokenStream)>,
     /// The rig's names across its functions (none for a function emitted on its own).
     pub(crate) shared: Option<SharedNames>,
+    /// A spatial closed chain's passive coordinates and sensitivities, solved at run time.
+    pub(crate) loops: Option<LoopInputs>,
+}
+
+/// Where a spatial closed chain's run-time loop values come from
+/// (`hapticgen_runtime::loops`): the passive coordinates `N … N+P−1` of the open tree, their
+/// rates, and the sensitivity atoms `A`, `Ȧ` (`Atom::Closure`, numbered as
+/// `crate::dynamics::spatial_loops::SpatialLoops::sensitivity` does).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LoopInputs {
+    /// Number of actuated coordinates `N`.
+    pub(crate) actuated: usize,
+    /// Number of passive coordinates `P`.
+    pub(crate) passive: usize,
+    /// Whether the values are the fields of a `ClosedLoops` named `loops`, solved at the top of
+    /// the function (`true`), or the arguments `passive` and `passive_rate` of the functions
+    /// describing the constraints (`false`).
+    pub(crate) solved: bool,
+}
+
+/// What an atom is to a spatial closed chain's loops.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum LoopRead {
+    /// Passive coordinate `r` (its angle, sine or cosine).
+    Passive(usize),
+    /// The rate of passive coordinate `r`.
+    PassiveRate(usize),
+    /// `A[r][j]` (`rate`: `Ȧ[r][j]`).
+    Sensitivity { r: usize, j: usize, rate: bool },
+}
+
+impl LoopInputs {
+    /// What `atom` reads, if it is a loop value.
+    pub(crate) fn read(&self, atom: Atom) -> Option<LoopRead> {
+        let (n, p) = (self.actuated, self.passive);
+        let passive = |j: u16| usize::from(j).checked_sub(n).filter(|&r| r < p);
+        match atom {
+            Atom::Q(j) | Atom::Sin(j) | Atom::Cos(j) => passive(j).map(LoopRead::Passive),
+            Atom::Qd(j) => passive(j).map(LoopRead::PassiveRate),
+            Atom::Closure(k) => {
+                let k = usize::from(k);
+                (k < 2 * p * n).then(|| LoopRead::Sensitivity { r: (k / n) % p, j: k % n, rate: k >= p * n })
+            }
+            _ => None,
+        }
+    }
+
+    /// The expression reading a loop value.
+    pub(crate) fn tokens(&self, read: LoopRead) -> TokenStream {
+        use quote::quote;
+        let index = super::literal::unsuffixed;
+        match (read, self.solved) {
+            (LoopRead::Passive(r), true) => {
+                let r = index(r);
+                quote!(loops.passive[#r])
+            }
+            (LoopRead::Passive(r), false) => {
+                let r = index(r);
+                quote!(passive[#r])
+            }
+            (LoopRead::PassiveRate(r), true) => {
+                let r = index(r);
+                quote!(loops.passive_rate[#r])
+            }
+            (LoopRead::PassiveRate(r), false) => {
+                let r = index(r);
+                quote!(passive_rate[#r])
+            }
+            (LoopRead::Sensitivity { r, j, rate }, _) => {
+                let (r, j) = (index(r), index(j));
+                if rate {
+                    quote!(loops.sensitivity_rate[#r][#j])
+                } else {
+                    quote!(loops.sensitivity[#r][#j])
+                }
+            }
+        }
+    }
 }
 
 impl Naming<'_> {
+    /// Whether reading `atom` needs the joint velocities `qd`: a velocity, or a loop value
+    /// computed from them.
+    pub(crate) fn reads_velocity(&self, atom: Atom) -> bool {
+        match self.loops.and_then(|l| l.read(atom)) {
+            Some(LoopRead::PassiveRate(_)) | Some(LoopRead::Sensitivity { rate: true, .. }) => true,
+            _ => matches!(atom, Atom::Qd(_)),
+        }
+    }
+
     /// The binding name of an input.
     pub(crate) fn atom_name(&self, atom: Atom) -> String {
-        let joint = |j: u16| self.model.joints[usize::from(j)].name.clone();
+        let joint = |j: u16| self.model.coordinate_name(usize::from(j)).to_string();
         match atom {
             Atom::Sin(j) => format!("sin_{}", joint(j)),
             Atom::Cos(j) => format!("cos_{}", joint(j)),
@@ -37,7 +124,15 @@ impl Naming<'_> {
             Atom::Qd(j) => format!("{}_dot", joint(j)),
             Atom::Qdd(j) => format!("{}_ddot", joint(j)),
             Atom::Param(k) => self.model.tunable[usize::from(k)].name.clone(),
-            Atom::Closure(k) => format!("closure_{k}"),
+            Atom::Closure(k) => match self.loops.and_then(|l| l.read(atom)) {
+                Some(LoopRead::Sensitivity { r, j, rate }) => format!(
+                    "{}_per_{}{}",
+                    joint((self.model.joints.len() + r) as u16),
+                    joint(j as u16),
+                    if rate { "_rate" } else { "" }
+                ),
+                _ => format!("closure_{k}"),
+            },
             Atom::External(k) => self
                 .externals
                 .get(usize::from(k))

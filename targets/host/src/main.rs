@@ -339,12 +339,6 @@ fn run(cli: Cli) -> Result<(), String> {
                 }
                 None => String::new(),
             };
-            if m.analyses.emission_refused.is_some() {
-                eprintln!(
-                    "note: {}: code cannot be emitted for a spatial closed chain yet: `generate`, `rig!`, `stats` and `simulate` stop at `closures`; `eval` works",
-                    model.display()
-                );
-            }
             println!(
                 "{}: ok: rig `{}`{}, {} joints{passive}, {} bodies, task dimension {}",
                 model.display(),

@@ -241,14 +241,6 @@ impl Simulation {
 
     /// Prepares a loaded model.
     pub fn from_model(model: CheckedModel) -> Result<Simulation, String> {
-        // The simulator compiles the generator's elimination into its tapes, and a spatial
-        // closed chain's is numerical: the generated code's job, once it can be emitted.
-        if let Some(refusal) = &model.analyses.emission_refused {
-            return Err(format!(
-                "{refusal}
-  = note: the simulator runs what the generated code would compute"
-            ));
-        }
         let (n, m) = (model.joints.len(), model.task_dim());
         if !(1..=3).contains(&n) || !(1..=3).contains(&m) {
             return Err(format!(
