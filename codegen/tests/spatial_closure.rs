@@ -1,5 +1,5 @@
 //! Spatial closed chains (issue 16): two Deltas, the Falcon-like one
-//! (`codegen/tests/closed-chains/falcon_delta.yaml`) and an omega-like one written as a file
+//! (`models/falcon_delta.yaml`) and an omega-like one written as a file
 //! only (`omega_delta.yaml`), each open tree reduced to the three thigh angles by the
 //! generator's numerical elimination, checked against a separate formulation written here that
 //! shares no code with the generator:
@@ -45,7 +45,7 @@ struct Device {
 
 /// ../shared/spec/devices.md section 1.
 const FALCON: Device = Device {
-    file: "codegen/tests/closed-chains/falcon_delta.yaml",
+    file: "models/falcon_delta.yaml",
     base_radius: 0.037233758,
     thigh: 0.060,
     shin: 0.1025,
@@ -467,15 +467,25 @@ fn the_loops_close_the_platform_translates_and_d_is_positive_definite_of(device:
 }
 
 #[test]
-fn a_spatial_closed_chain_loads_and_evaluates_but_refuses_emission_at_its_closures() {
-    let (model, _) = load(&FALCON);
-    let error = hapticgen_codegen::generate_model(model, hapticgen_codegen::Scalar::F64)
-        .err()
-        .expect("emission is refused")
-        .to_string();
-    assert!(error.contains("falcon_delta.yaml:"), "{error}");
-    assert!(error.contains("spatial closed chain"), "{error}");
-    assert!(repo_file(FALCON.file).exists());
+fn a_spatial_closed_chain_emits_code_that_solves_its_loops_at_run_time() {
+    for device in &DEVICES {
+        let (model, _) = load(device);
+        let newton_steps =
+            model.analyses.closures.as_ref().and_then(|c| c.spatial.as_ref()).map(|s| s.newton_steps);
+        let text = hapticgen_codegen::generate_model(model, hapticgen_codegen::Scalar::F64)
+            .unwrap_or_else(|e| panic!("{}: {e}", device.file))
+            .file_text();
+        assert!(
+            text.contains("impl ::hapticgen_runtime::loops::LoopConstraints<f64, 3, 8> for"),
+            "{}",
+            device.file
+        );
+        assert!(text.contains("let loops = ::hapticgen_runtime::loops::close_loops("), "{}", device.file);
+        // The solver's bound: the most steps seen over the actuated ranges, plus two.
+        let steps = newton_steps.expect("spatial loops");
+        assert!((1..=8).contains(&steps), "{}: {steps} steps", device.file);
+        assert!(text.contains(&format!("max_steps: {},", steps + 2)), "{}", device.file);
+    }
 }
 
 /// The reduced dynamics conserve energy: RK4 over 1 s with gravity held by a joint-space

@@ -179,7 +179,7 @@ impl<S: Real, const N: usize, const P: usize> ClosedLoops<S, N, P> {
     /// Every value NaN: what the reduced dynamics then compute is NaN too, which the safety
     /// monitor latches as a fault (never a plausible-looking number).
     pub fn failed(error: LoopError) -> Self {
-        let nan = S::ZERO / S::ZERO;
+        let nan = S::from_f64(f64::NAN);
         ClosedLoops {
             passive: [nan; P],
             passive_rate: [nan; P],

@@ -356,15 +356,18 @@ impl SpatialLoops {
         for steps in 0..NEWTON_ITERATIONS {
             let state = self.tree_state(actuated, &passive);
             let (residual, jacobian, _) = self.position_level(&State { q: &state, qd: &[], parameters });
-            if largest(&residual) <= RESIDUAL_TOLERANCE {
-                return Some((passive, steps));
-            }
+            let converged = largest(&residual) <= RESIDUAL_TOLERANCE;
             let step = solve(jacobian, residual.iter().map(|r| vec![-r]).collect())?;
             for (q, d) in passive.iter_mut().zip(&step) {
                 *q += d[0];
             }
             if !passive.iter().all(|q| q.is_finite()) {
                 return None;
+            }
+            // Converged: with the step above as a polish (quadratic convergence puts the
+            // residual at rounding level), so that the solution does not depend on the guess.
+            if converged {
+                return Some((passive, steps));
             }
         }
         None
@@ -390,31 +393,54 @@ impl SpatialLoops {
         Atom::Closure((first_atom + usize::from(rate) * p * n + r * n + j) as u16)
     }
 
-    /// Atom values at `(q_a, q̇_a)`: the passive coordinates' sines, cosines, angles and
-    /// velocities, and the sensitivity atoms ([`SpatialLoops::sensitivity`]). NaN for every one
-    /// where the loops cannot be solved.
-    pub fn values(&self, q: &[f64], qd: &[f64], parameters: &[f64], first_atom: usize) -> Vec<(Atom, f64)> {
+    /// The atoms [`SpatialLoops::values_from`] gives values of, in its order: per passive
+    /// coordinate its sine, cosine, angle and rate; then `A` and `Ȧ` row-major
+    /// ([`SpatialLoops::sensitivity`], numbered from `first_atom`).
+    pub fn atoms(&self, first_atom: usize) -> Vec<Atom> {
         let (n, p) = (self.actuated, self.passive);
-        let atoms = |passive: usize| -> [Atom; 4] {
-            let k = (n + passive) as u16;
-            [Atom::Sin(k), Atom::Cos(k), Atom::Q(k), Atom::Qd(k)]
-        };
-        let sensitivity = |r: usize, j: usize, rate: bool| self.sensitivity(first_atom, r, j, rate);
-        let failed = || -> Vec<(Atom, f64)> {
-            let mut all: Vec<Atom> = (0..p).flat_map(atoms).collect();
-            for rate in [false, true] {
-                all.extend(
-                    (0..p).flat_map(|r| (0..n).map(move |j| (r, j))).map(|(r, j)| sensitivity(r, j, rate)),
-                );
-            }
-            all.into_iter().map(|a| (a, f64::NAN)).collect()
-        };
+        let mut atoms: Vec<Atom> = (0..p)
+            .flat_map(|r| {
+                let k = (n + r) as u16;
+                [Atom::Sin(k), Atom::Cos(k), Atom::Q(k), Atom::Qd(k)]
+            })
+            .collect();
+        for rate in [false, true] {
+            atoms.extend(
+                (0..p)
+                    .flat_map(|r| (0..n).map(move |j| (r, j)))
+                    .map(|(r, j)| self.sensitivity(first_atom, r, j, rate)),
+            );
+        }
+        atoms
+    }
+
+    /// Atom values at `(q_a, q̇_a)`, paired with their atoms ([`SpatialLoops::values_from`]
+    /// without a guess).
+    pub fn values(&self, q: &[f64], qd: &[f64], parameters: &[f64], first_atom: usize) -> Vec<(Atom, f64)> {
+        self.atoms(first_atom).into_iter().zip(self.values_from(q, qd, parameters, None).0).collect()
+    }
+
+    /// The values of [`SpatialLoops::atoms`] at `(q_a, q̇_a)`, and the passive coordinates
+    /// found. Newton's method starts from `guess` (a previous solution: a warm start) if
+    /// given and converges from it, else continues from the assembly (the file's branch).
+    /// Every value NaN, and no coordinates, where the loops cannot be solved.
+    pub fn values_from(
+        &self,
+        q: &[f64],
+        qd: &[f64],
+        parameters: &[f64],
+        guess: Option<&[f64]>,
+    ) -> (Vec<f64>, Option<Vec<f64>>) {
+        let (n, p) = (self.actuated, self.passive);
+        let failed = || (vec![f64::NAN; 4 * p + 2 * p * n], None);
         let actuated = &q[..n.min(q.len())];
-        let Some(passive) = self.passive_coordinates(actuated, parameters) else { return failed() };
+        let warm = guess.filter(|g| g.len() == p).and_then(|g| self.newton(actuated, g, parameters));
+        let Some(passive) = warm.or_else(|| self.passive_coordinates(actuated, parameters)) else {
+            return failed();
+        };
+        let Some(a) = self.sensitivity_at(actuated, &passive, parameters) else { return failed() };
         let state = self.tree_state(actuated, &passive);
-        let (_, phi_p, phi_a) = self.position_level(&State { q: &state, qd: &[], parameters });
-        let negated: Vec<Vec<f64>> = phi_a.iter().map(|row| row.iter().map(|x| -x).collect()).collect();
-        let Some(a) = solve(phi_p.clone(), negated) else { return failed() };
+        let (_, phi_p, _) = self.position_level(&State { q: &state, qd: &[], parameters });
         let passive_velocity: Vec<f64> =
             a.iter().map(|row| row.iter().zip(qd).map(|(x, v)| x * v).sum()).collect();
         let velocities = self.tree_state(&qd[..n.min(qd.len())], &passive_velocity);
@@ -432,32 +458,10 @@ impl SpatialLoops {
             .collect();
         let Some(a_dot) = solve(phi_p, right) else { return failed() };
         let mut values = Vec::with_capacity(4 * p + 2 * p * n);
-        for (k, (&angle, &velocity)) in passive.iter().zip(&passive_velocity).enumerate() {
-            let [sin, cos, coordinate, rate] = atoms(k);
-            values.extend([(sin, angle.sin()), (cos, angle.cos()), (coordinate, angle), (rate, velocity)]);
+        for (&angle, &velocity) in passive.iter().zip(&passive_velocity) {
+            values.extend([angle.sin(), angle.cos(), angle, velocity]);
         }
-        for (rate, matrix) in [(false, &a), (true, &a_dot)] {
-            for (r, row) in matrix.iter().enumerate() {
-                for (j, &x) in row.iter().enumerate() {
-                    values.push((sensitivity(r, j, rate), x));
-                }
-            }
-        }
-        values
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn falcon_steps() {
-        let path = std::path::Path::new(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/tests/closed-chains/falcon_delta.yaml"
-        ));
-        let model = crate::load_file(path, "falcon", None).unwrap();
-        let closures = model.analyses.closures.as_ref().unwrap();
-        let s = closures.spatial.as_ref().unwrap();
-        eprintln!("steps {} A0 {:?}", s.newton_steps, s.assembly_sensitivity);
+        values.extend(a.iter().chain(&a_dot).flatten());
+        (values, Some(passive))
     }
 }

@@ -287,6 +287,7 @@ impl<'m> BodyEmitter<'m> {
         let mut names: HashMap<NodeId, String> = HashMap::default();
         let mut taken: HashMap<String, usize> = HashMap::default();
         let mut statements = self.loop_preamble(&order);
+        let mut bound_texts: HashMap<String, String> = HashMap::default();
         let mut part = 0usize;
         // Inputs first (coordinates, sines and cosines, velocities), then intermediates.
         let mut order = order;
@@ -362,6 +363,13 @@ impl<'m> BodyEmitter<'m> {
                 Node::Input(_) => None,
                 _ => Some(self.expression(id, &names, true).0),
             };
+            // Two nodes can print the same (constants that differ beyond an `f32` literal's
+            // digits): one binding serves both.
+            let text = expression.as_ref().map(ToString::to_string);
+            if let Some(bound) = text.as_ref().and_then(|t| bound_texts.get(t)) {
+                names.insert(id, bound.clone());
+                continue;
+            }
             let base = match (node, &expression) {
                 (Node::Input(a), _) => self.naming.atom_name(a),
                 (_, expression) => {
@@ -407,6 +415,9 @@ impl<'m> BodyEmitter<'m> {
                 _ => expression.unwrap_or_default(),
             };
             statements.extend(quote!(let #ident = #value;));
+            if let Some(text) = text {
+                bound_texts.insert(text, name.clone());
+            }
             names.insert(id, name);
         }
         let outputs = roots.iter().map(|&r| self.expression(r, &names, false).0).collect();

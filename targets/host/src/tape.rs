@@ -12,6 +12,7 @@
 //! single pass over a `Vec<f64>`, with one `sin`/`cos` per joint.
 
 use hapticgen_codegen::dynamics::closure::Closures;
+use hapticgen_codegen::dynamics::spatial_loops::SpatialLoops;
 use hapticgen_codegen::sym::dag::{Dag, Node, NodeId};
 use hapticgen_codegen::sym::poly::{Atom, Poly};
 
@@ -34,8 +35,20 @@ enum Source {
     Q(usize),
     Qd(usize),
     Param(usize),
+    /// A spatial closed chain's loop value (a passive coordinate's sine, cosine, angle or
+    /// rate, or an entry of `A` or `Ȧ`): entry `k` of `SpatialLoops::atoms`.
+    Loop(usize),
     /// An atom the mechanics never contains (inputs of fused control laws): zero.
     Zero,
+}
+
+/// A spatial closed chain's loops, solved before each evaluation (warm-started from the
+/// previous one's passive coordinates, kept in the scratch registers after the tape's own).
+#[derive(Clone, Debug)]
+struct TapeLoops {
+    loops: SpatialLoops,
+    /// The first scratch register of the previous solution.
+    guess_register: usize,
 }
 
 /// A compiled list of outputs over the inputs `sin q_j`, `cos q_j`, `q_j`, `q̇_j` and the
@@ -48,6 +61,7 @@ pub struct Tape {
     ops: Vec<Op>,
     outputs: Vec<u32>,
     joints: usize,
+    loops: Option<TapeLoops>,
 }
 
 impl Tape {
@@ -61,6 +75,9 @@ impl Tape {
     pub fn compile_closed(outputs: &[&Poly], joints: usize, closures: Option<&Closures>) -> Tape {
         let mut dag = Dag::new();
         hapticgen_codegen::dynamics::closure::install(&mut dag, closures);
+        let spatial = closures.and_then(|c| c.spatial.as_ref());
+        // A spatial chain's loop values are numbered after the planar loops' (it has none).
+        let loop_atoms = spatial.map(|s| s.atoms(0)).unwrap_or_default();
         let roots: Vec<NodeId> = outputs.iter().map(|p| dag.polynomial(p)).collect();
         let reachable = dag.reachable(&roots);
         let mut register_of = vec![u32::MAX; dag.nodes().len()];
@@ -76,6 +93,9 @@ impl Tape {
                 Node::Input(atom) => {
                     registers.push(0.0);
                     let source = match atom {
+                        _ if loop_atoms.contains(&atom) => {
+                            Source::Loop(loop_atoms.iter().position(|&a| a == atom).unwrap_or_default())
+                        }
                         Atom::Sin(j) => Source::Sin(usize::from(j)),
                         Atom::Cos(j) => Source::Cos(usize::from(j)),
                         Atom::Q(j) => Source::Q(usize::from(j)),
@@ -112,7 +132,12 @@ impl Tape {
             }
         }
         let outputs = roots.iter().map(|&id| register_of[id]).collect();
-        Tape { registers, inputs, ops, outputs, joints }
+        let loops = spatial.map(|loops| {
+            let guess_register = registers.len();
+            registers.extend(&loops.assembly);
+            TapeLoops { loops: loops.clone(), guess_register }
+        });
+        Tape { registers, inputs, ops, outputs, joints, loops }
     }
 
     /// Number of outputs.
@@ -150,6 +175,15 @@ impl Tape {
             *slot = q.get(j).copied().unwrap_or(0.0).sin_cos();
         }
         let get = |v: &[f64], i: usize| v.get(i).copied().unwrap_or(0.0);
+        let mut loop_values = Vec::new();
+        if let Some(TapeLoops { loops, guess_register }) = &self.loops {
+            let guess_range = *guess_register..guess_register + loops.passive;
+            let (values, passive) = loops.values_from(q, qd, parameters, Some(&scratch[guess_range.clone()]));
+            if let Some(passive) = passive {
+                scratch[guess_range].copy_from_slice(&passive);
+            }
+            loop_values = values;
+        }
         for &(slot, source) in &self.inputs {
             scratch[slot as usize] = match source {
                 Source::Sin(j) => trig.get(j).map_or(0.0, |t| t.0),
@@ -157,6 +191,7 @@ impl Tape {
                 Source::Q(j) => get(q, j),
                 Source::Qd(j) => get(qd, j),
                 Source::Param(k) => get(parameters, k),
+                Source::Loop(k) => get(&loop_values, k),
                 Source::Zero => 0.0,
             };
         }
@@ -205,6 +240,8 @@ mod tests {
         for (file, variant) in [
             ("models/pantograph_5bar.yaml", Some("vertical")),
             ("codegen/tests/good-models/five_bar_2dof.yaml", None),
+            // Spatial: the loops solved on each evaluation, warm-started from the previous.
+            ("models/falcon_delta.yaml", None),
         ] {
             let model = hapticgen_codegen::load_file(&root.join(file), file, variant)
                 .unwrap_or_else(|e| panic!("{e}"));
@@ -223,12 +260,12 @@ mod tests {
                 let q: Vec<f64> = model
                     .joints
                     .iter()
-                    .zip([i, j])
+                    .zip([i, j, 0.5 * (i + j)])
                     .map(|(jt, t)| jt.lower + t * (jt.upper - jt.lower))
                     .collect();
-                let qd = [0.4, -0.9];
-                tape.eval(&mut scratch, &q, &qd, &parameters, &mut out);
-                let e = evaluate(&mech, &State { q: &q, qd: &qd, parameters: &parameters }, None);
+                let qd = &[0.4, -0.9, 0.3][..q.len()];
+                tape.eval(&mut scratch, &q, qd, &parameters, &mut out);
+                let e = evaluate(&mech, &State { q: &q, qd, parameters: &parameters }, None);
                 let mut want: Vec<f64> = e.inertia_matrix.concat();
                 want.extend(&e.coriolis_times_qdot);
                 want.extend(&e.g);

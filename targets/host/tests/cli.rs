@@ -257,13 +257,11 @@ fn pil_names_what_is_missing() {
 /// where the legs' geometry puts it; `generate` and `simulate` stop at `closures` with the
 /// file's line, never with garbage.
 #[test]
-fn a_spatial_closed_chain_checks_and_evaluates_and_is_refused_where_code_is_needed() {
-    let model = "codegen/tests/closed-chains/falcon_delta.yaml";
+fn a_spatial_closed_chain_checks_evaluates_generates_and_simulates() {
+    let model = "models/falcon_delta.yaml";
     let check = hapticgen(&["check", model]);
     assert!(check.status.success(), "{}", String::from_utf8_lossy(&check.stderr));
     assert!(String::from_utf8_lossy(&check.stdout).contains("(+8 passive, eliminated by 2 closures)"));
-    assert!(String::from_utf8_lossy(&check.stderr)
-        .contains("code cannot be emitted for a spatial closed chain yet"));
     // All thighs at θ = 0.35 rad: the platform straight below the centre, at the knee's height
     // less the shin's vertical reach, z = −a sin θ − √(b² − (r + a cos θ − s)²).
     let eval = hapticgen(&["eval", model, "--q", "0.35,0.35,0.35", "--qd", "0,0,0"]);
@@ -274,22 +272,37 @@ fn a_spatial_closed_chain_checks_and_evaluates_and_is_refused_where_code_is_need
     let (r, a, b, s, theta) = (0.037233758_f64, 0.060_f64, 0.1025_f64, 0.027330909_f64, 0.35_f64);
     let z = -a * theta.sin() - (b * b - (r + a * theta.cos() - s).powi(2)).sqrt();
     assert!(p[0].abs() < 1e-12 && p[1].abs() < 1e-12 && (p[2] - z).abs() < 1e-12, "{p:?} vs z = {z}");
-    for args in [
-        vec!["generate", model],
-        vec!["simulate", model, "--controller", "3", "--scenario", "step", "--output"],
-    ] {
-        let mut args = args;
-        let output = scratch("delta");
-        let output = output.to_string_lossy().into_owned();
-        if args[0] == "simulate" {
-            args.push(&output);
-        }
-        let refused = hapticgen(&args);
-        let stderr = String::from_utf8_lossy(&refused.stderr);
-        assert_eq!(refused.status.code(), Some(1), "{args:?}: {stderr}");
-        assert!(
-            stderr.contains("falcon_delta.yaml:") && stderr.contains("closures: code cannot be emitted"),
-            "{args:?}: {stderr}"
-        );
-    }
+    // The generated code solves the loops at run time.
+    let generated = hapticgen(&["generate", model]);
+    assert!(generated.status.success(), "{}", String::from_utf8_lossy(&generated.stderr));
+    let text = String::from_utf8_lossy(&generated.stdout);
+    assert!(text.contains("impl ::hapticgen_runtime::loops::LoopConstraints<f64, 3, 8> for FalconDelta"));
+    // A 1 N step on x against a 200 N/m task-space spring: the grip settles 5 mm along x.
+    let output = scratch("delta");
+    let output_text = output.to_string_lossy().into_owned();
+    let run = hapticgen(&[
+        "simulate",
+        model,
+        "--controller",
+        "3",
+        "--scenario",
+        "step",
+        "--kd",
+        "200",
+        "--bd",
+        "2",
+        "--duration",
+        "1",
+        "--output",
+        &output_text,
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(!stderr.contains("latched"), "{stderr}");
+    let trace = std::fs::read_to_string(output.join("trace.csv")).expect("a trace");
+    let last: Vec<f64> =
+        trace.lines().last().expect("rows").split(',').map(|x| x.parse().expect("a number")).collect();
+    let header: Vec<&str> = trace.lines().next().expect("a header").split(',').collect();
+    let x = last[header.iter().position(|&h| h == "x0").expect("x0")];
+    assert!((x - 1.0 / 200.0).abs() < 1e-4, "x = {x}");
 }
