@@ -47,7 +47,9 @@ fn main() {
                 .unwrap();
                 writeln!(
                     visits,
-                    "    visitor.visit_{}(&RigInfo {{ file: \"{display}\", variant: {:?}, module: \"{module}\" }}, &{module}::{type_name}::NOMINAL);",
+                    // A fresh rig per visit, bound first: a spatial closed chain's cache makes
+                    // borrowing the constant itself a lint.
+                    "    let rig = {module}::{type_name}::NOMINAL;\n    visitor.visit_{}(&RigInfo {{ file: \"{display}\", variant: {:?}, module: \"{module}\" }}, &rig);",
                     scalar.name(),
                     variant
                 )

@@ -219,7 +219,11 @@ impl<S: Real, const N: usize> LuFactors<S, N> {
         // P A = L U: solve L y = P b, then U x = y.
         let mut x = [S::ZERO; N];
         for i in 0..N {
-            let mut sum = b[self.row_order[i]];
+            // `row_order` is a permutation of `0..N`; read without a bounds-check panic path.
+            let mut sum = match b.get(self.row_order[i]) {
+                Some(&value) => value,
+                None => return Err(SolveError::NonFinite),
+            };
             for k in 0..i {
                 sum -= self.packed[i][k] * x[k];
             }
@@ -259,7 +263,10 @@ impl<S: Real, const N: usize> LuFactors<S, N> {
         }
         let mut x = [S::ZERO; N];
         for i in 0..N {
-            x[self.row_order[i]] = z[i];
+            match x.get_mut(self.row_order[i]) {
+                Some(slot) => *slot = z[i],
+                None => return Err(SolveError::NonFinite),
+            }
         }
         finite_or_error(x)
     }

@@ -12,6 +12,7 @@
 //! (the actuated coordinates out of reach), a singular loop (`Φ_p` losing rank, where the
 //! reduced inertia grows without bound) and non-finite inputs.
 
+use core::cell::Cell;
 use core::cmp::Ordering;
 
 use crate::linalg::{dot, LuFactors, SolveError};
@@ -40,6 +41,9 @@ pub struct LoopSolverSettings<S> {
     /// `Φ_p` is singular when its reciprocal condition estimate (smallest over largest LU
     /// pivot) is at most this.
     pub min_pivot_ratio: S,
+    /// [`close_loops`] starts Newton from the last solution when no actuated coordinate moved
+    /// more than this since (one control tick's motion); else from the assembly's tangent.
+    pub warm_start_radius: S,
 }
 
 /// A solution of the loops.
@@ -147,6 +151,8 @@ pub trait LoopConstraints<S: Real, const N: usize, const P: usize> {
     fn loop_constraints(&self, q: &[S; N], passive: &[S; P]) -> ([S; P], [[S; P]; P]);
     /// `Φ_a = ∂Φ/∂q_a` at `(q, passive)`.
     fn loop_actuated_jacobian(&self, q: &[S; N], passive: &[S; P]) -> [[S; N]; P];
+    /// The rig's record of the loops it closed last ([`LoopCache`]).
+    fn loop_cache(&self) -> &LoopCache<S, N, P>;
     /// `Φ̇_p` and `Φ̇_a` at `(q, passive)` moving with `(qd, passive_rate)`.
     fn loop_jacobian_rates(
         &self,
@@ -173,6 +179,8 @@ pub struct ClosedLoops<S, const N: usize, const P: usize> {
     pub margin: S,
     /// Why the loops could not be solved, if they could not.
     pub error: Option<LoopError>,
+    /// Newton steps this solution took ([`LoopSolution::steps`]; 0 when it was reused).
+    pub steps: u32,
 }
 
 impl<S: Real, const N: usize, const P: usize> ClosedLoops<S, N, P> {
@@ -187,29 +195,113 @@ impl<S: Real, const N: usize, const P: usize> ClosedLoops<S, N, P> {
             sensitivity_rate: [[nan; N]; P],
             margin: nan,
             error: Some(error),
+            steps: 0,
         }
     }
 }
 
-/// Solves `loops` at `q` (and, with `qd`, at the velocity level): Newton's method from the
-/// assembly moved along its tangent, `q_p0 + A₀ (q_a − q_a0)`, within the generator's checked
-/// step bound; then `A` and, with `qd`, `q̇_p = A q̇_a` and `Ȧ`. Every value is NaN and
+/// The loops a rig closed last, kept in the rig (a field of a generated spatial closed chain):
+/// functions called at the same state in one tick reuse them, and the next tick's Newton
+/// starts from them. A cache only: it never changes a result beyond rounding (clones and
+/// comparisons of rigs ignore it).
+pub struct LoopCache<S, const N: usize, const P: usize> {
+    last: Cell<Option<CachedLoops<S, N, P>>>,
+}
+
+/// One entry of a [`LoopCache`]: the state the loops were closed at and the result.
+#[derive(Clone, Copy)]
+struct CachedLoops<S, const N: usize, const P: usize> {
+    q: [S; N],
+    qd: Option<[S; N]>,
+    closed: ClosedLoops<S, N, P>,
+}
+
+impl<S: Real, const N: usize, const P: usize> LoopCache<S, N, P> {
+    /// An empty cache.
+    pub const fn new() -> Self {
+        LoopCache { last: Cell::new(None) }
+    }
+}
+
+impl<S: Real, const N: usize, const P: usize> Default for LoopCache<S, N, P> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<S: Real, const N: usize, const P: usize> Clone for LoopCache<S, N, P> {
+    fn clone(&self) -> Self {
+        LoopCache { last: Cell::new(self.last.get()) }
+    }
+}
+
+impl<S, const N: usize, const P: usize> PartialEq for LoopCache<S, N, P> {
+    /// Always equal: what a rig computes does not depend on its cache.
+    fn eq(&self, _other: &Self) -> bool {
+        true
+    }
+}
+
+impl<S, const N: usize, const P: usize> core::fmt::Debug for LoopCache<S, N, P> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("LoopCache")
+    }
+}
+
+/// Solves `loops` at `q` (and, with `qd`, at the velocity level), within the generator's
+/// checked step bound: Newton's method from the last solution when `q` is within
+/// [`LoopSolverSettings::warm_start_radius`] of it, else (or if that fails) from the assembly
+/// moved along its tangent, `q_p0 + A₀ (q_a − q_a0)`; then `A` and, with `qd`, `q̇_p = A q̇_a`
+/// and `Ȧ`. The same state as the last call returns the last result. Every value is NaN and
 /// `error` says why where the loops cannot be solved.
 pub fn close_loops<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P: usize>(
     loops: &L,
     q: &[S; N],
     qd: Option<&[S; N]>,
 ) -> ClosedLoops<S, N, P> {
-    let mut guess = L::ASSEMBLY_PASSIVE;
-    for (slot, row) in guess.iter_mut().zip(L::ASSEMBLY_SENSITIVITY.iter()) {
-        for ((a, q), q0) in row.iter().zip(q.iter()).zip(L::ASSEMBLY_ACTUATED.iter()) {
-            *slot += *a * (*q - *q0);
+    let cache = &loops.loop_cache().last;
+    let last = cache.get();
+    if let Some(last) = last {
+        if last.q == *q && (qd.is_none() || last.qd.as_ref() == qd) {
+            return ClosedLoops { steps: 0, ..last.closed };
         }
     }
-    let solution = match solve_passive(|passive| loops.loop_constraints(q, passive), &guess, &L::LOOP_SOLVER)
-    {
-        Ok(solution) => solution,
-        Err(error) => return ClosedLoops::failed(error),
+    let closed = solve_closed_loops(loops, q, qd, last);
+    cache.set(Some(CachedLoops { q: *q, qd: qd.copied(), closed }));
+    closed
+}
+
+/// [`close_loops`] without the reuse of an identical state.
+fn solve_closed_loops<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P: usize>(
+    loops: &L,
+    q: &[S; N],
+    qd: Option<&[S; N]>,
+    last: Option<CachedLoops<S, N, P>>,
+) -> ClosedLoops<S, N, P> {
+    let settings = &L::LOOP_SOLVER;
+    let constraints = |passive: &[S; P]| loops.loop_constraints(q, passive);
+    let near = |last: &CachedLoops<S, N, P>| {
+        last.closed.error.is_none()
+            && last.q.iter().zip(q.iter()).all(|(a, b)| (*a - *b).abs() <= settings.warm_start_radius)
+    };
+    let warm = match last {
+        Some(last) if near(&last) => solve_passive(constraints, &last.closed.passive, settings).ok(),
+        _ => None,
+    };
+    let solution = match warm {
+        Some(solution) => solution,
+        None => {
+            let mut tangent = L::ASSEMBLY_PASSIVE;
+            for (slot, row) in tangent.iter_mut().zip(L::ASSEMBLY_SENSITIVITY.iter()) {
+                for ((a, q), q0) in row.iter().zip(q.iter()).zip(L::ASSEMBLY_ACTUATED.iter()) {
+                    *slot += *a * (*q - *q0);
+                }
+            }
+            match solve_passive(constraints, &tangent, settings) {
+                Ok(solution) => solution,
+                Err(error) => return ClosedLoops::failed(error),
+            }
+        }
     };
     let sensitivity =
         match passive_sensitivity(&solution.factors, &loops.loop_actuated_jacobian(q, &solution.passive)) {
@@ -223,6 +315,7 @@ pub fn close_loops<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P
         sensitivity_rate: [[S::ZERO; N]; P],
         margin: solution.margin,
         error: None,
+        steps: solution.steps,
     };
     let qd = match qd {
         Some(qd) => qd,

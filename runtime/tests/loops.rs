@@ -4,7 +4,8 @@
 //! `Φ = (a cos q + b cos β − d − c cos γ, a sin q + b sin β − c sin γ) = 0`, passive `(β, γ)`.
 
 use hapticgen_runtime::loops::{
-    close_loops, passive_sensitivity, solve_passive, LoopConstraints, LoopError, LoopSolverSettings,
+    close_loops, passive_sensitivity, solve_passive, LoopCache, LoopConstraints, LoopError,
+    LoopSolverSettings,
 };
 use hapticgen_runtime::Real;
 
@@ -44,7 +45,12 @@ fn closed_form(q: f64) -> [f64; 2] {
 }
 
 fn settings<S: Real>(tolerance: f64) -> LoopSolverSettings<S> {
-    LoopSolverSettings { max_steps: 8, tolerance: S::from_f64(tolerance), min_pivot_ratio: S::from_f64(1e-6) }
+    LoopSolverSettings {
+        max_steps: 8,
+        tolerance: S::from_f64(tolerance),
+        min_pivot_ratio: S::from_f64(1e-6),
+        warm_start_radius: S::from_f64(0.05),
+    }
 }
 
 #[test]
@@ -140,7 +146,10 @@ fn failures_are_reported_never_returned_as_numbers() {
 
 /// The four-bar as generated code describes a closed chain to `close_loops`, its assembly at
 /// `q = 1` on the closed form's branch, Newton allowed `STEPS` steps.
-struct FourBar<const STEPS: u32>;
+#[derive(Default)]
+struct FourBar<const STEPS: u32> {
+    cache: LoopCache<f64, 1, 2>,
+}
 
 /// `∂Φ/∂(β, γ)` at `passive`, differentiated once more along `passive_rate`, and `∂Φ_a/∂q · q̇`.
 fn jacobian_rates(q: f64, qd: f64, passive: &[f64; 2], rate: &[f64; 2]) -> ([[f64; 2]; 2], [[f64; 1]; 2]) {
@@ -158,8 +167,15 @@ impl<const STEPS: u32> LoopConstraints<f64, 1, 2> for FourBar<STEPS> {
     // closed_form(1.0) and its derivative there, to a few digits: a guess, not the answer.
     const ASSEMBLY_PASSIVE: [f64; 2] = [0.40, 1.23];
     const ASSEMBLY_SENSITIVITY: [[f64; 1]; 2] = [[-0.12], [0.38]];
-    const LOOP_SOLVER: LoopSolverSettings<f64> =
-        LoopSolverSettings { max_steps: STEPS, tolerance: 1e-14, min_pivot_ratio: 1e-6 };
+    const LOOP_SOLVER: LoopSolverSettings<f64> = LoopSolverSettings {
+        max_steps: STEPS,
+        tolerance: 1e-14,
+        min_pivot_ratio: 1e-6,
+        warm_start_radius: 0.05,
+    };
+    fn loop_cache(&self) -> &LoopCache<f64, 1, 2> {
+        &self.cache
+    }
     fn loop_constraints(&self, q: &[f64; 1], passive: &[f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
         constraints(q[0], passive)
     }
@@ -186,7 +202,7 @@ fn closed_loops_give_the_closed_form_and_its_first_and_second_derivatives() {
     };
     for q in [0.6, 0.9, 1.0, 1.3, 1.6] {
         let qd = 0.7;
-        let closed = close_loops(&FourBar::<8>, &[q], Some(&[qd]));
+        let closed = close_loops(&FourBar::<8>::default(), &[q], Some(&[qd]));
         assert_eq!(closed.error, None);
         let expected = closed_form(q);
         let slope = derivative(&closed_form, q);
@@ -205,7 +221,7 @@ fn closed_loops_give_the_closed_form_and_its_first_and_second_derivatives() {
         }
         assert!(closed.margin > 1e-3 && closed.margin <= 1.0);
         // Without a velocity, the rates are zero and the rest the same.
-        let position_only = close_loops(&FourBar::<8>, &[q], None);
+        let position_only = close_loops(&FourBar::<8>::default(), &[q], None);
         assert_eq!(position_only.passive, closed.passive);
         assert_eq!(position_only.sensitivity_rate, [[0.0], [0.0]]);
     }
@@ -215,8 +231,8 @@ fn closed_loops_give_the_closed_form_and_its_first_and_second_derivatives() {
 fn closed_loops_that_cannot_be_solved_are_nan_with_the_reason() {
     // A NaN angle; and an angle too far from the assembly for the one step allowed.
     let cases = [
-        (close_loops(&FourBar::<8>, &[f64::NAN], Some(&[0.5])), LoopError::NonFinite),
-        (close_loops(&FourBar::<1>, &[1.6], Some(&[0.5])), LoopError::NotConverged),
+        (close_loops(&FourBar::<8>::default(), &[f64::NAN], Some(&[0.5])), LoopError::NonFinite),
+        (close_loops(&FourBar::<1>::default(), &[1.6], Some(&[0.5])), LoopError::NotConverged),
     ];
     for (closed, reason) in cases {
         assert_eq!(closed.error, Some(reason));
@@ -229,4 +245,38 @@ fn closed_loops_that_cannot_be_solved_are_nan_with_the_reason() {
             .all(|x| x.is_nan()));
         assert!(closed.margin.is_nan());
     }
+}
+
+#[test]
+fn closed_loops_are_reused_at_the_same_state_and_warm_started_near_it() {
+    let rig = FourBar::<8>::default();
+    let first = close_loops(&rig, &[1.3], Some(&[0.7]));
+    assert!(first.steps >= 2, "from the tangent: {} steps", first.steps);
+    // The same state: the same result, no step. A position-only call at it too.
+    let again = close_loops(&rig, &[1.3], Some(&[0.7]));
+    assert_eq!(
+        (again.passive, again.sensitivity_rate, again.steps),
+        (first.passive, first.sensitivity_rate, 0)
+    );
+    assert_eq!(close_loops(&rig, &[1.3], None).steps, 0);
+    // A tick's motion away: one step from the last solution, and the closed form's answer.
+    let mut q = 1.3;
+    for _ in 0..50 {
+        q += 0.002;
+        let closed = close_loops(&rig, &[q], None);
+        assert!(closed.steps <= 2, "q = {q}: {} steps", closed.steps);
+        let expected = closed_form(q);
+        assert!(
+            (closed.passive[0] - expected[0]).abs() < 1e-12
+                && (closed.passive[1] - expected[1]).abs() < 1e-12
+        );
+    }
+    // Beyond the warm-start radius: from the tangent again (more steps), still the branch.
+    let far = close_loops(&rig, &[0.7], None);
+    assert!(far.steps > 2, "{} steps", far.steps);
+    assert!((far.passive[0] - closed_form(0.7)[0]).abs() < 1e-12);
+    // A clone carries the cache along, and compares equal to an empty one.
+    let cloned = FourBar::<8> { cache: rig.cache.clone() };
+    assert_eq!(close_loops(&cloned, &[0.7], None).steps, 0);
+    assert_eq!(cloned.cache, LoopCache::new());
 }

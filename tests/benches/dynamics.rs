@@ -258,7 +258,7 @@ fn serial_tick<R, const N: usize, const M: usize>(
     current_gains: [CurrentLoopGains<f64>; N],
     start: [f64; N],
 ) where
-    R: FusedImpedance<N, M, Scalar = f64> + Copy,
+    R: FusedImpedance<N, M, Scalar = f64> + Clone,
 {
     let measured = [0.1; N];
     let drives = rig.drives();
@@ -289,7 +289,7 @@ fn serial_tick<R, const N: usize, const M: usize>(
     };
     // The three loops see the same inputs, so their last commands must agree.
     let mut last = [[f64::NAN; N]; 3];
-    let mut fused = HapticLoop::new(rig, reference, &settings).expect("settings");
+    let mut fused = HapticLoop::new(rig.clone(), reference, &settings).expect("settings");
     let mut tick = 0u32;
     let fused_ns = nanoseconds(|_| {
         tick = tick.wrapping_add(1);

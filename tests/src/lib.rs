@@ -31,16 +31,17 @@ pub struct RigInfo {
     pub module: &'static str,
 }
 
-/// Visits generated rigs of either scalar type (generated rigs are `Copy`).
+/// Visits generated rigs of either scalar type (generated rigs are `Clone`; all but a spatial
+/// closed chain, which keeps a cache of its loops, are `Copy` too).
 pub trait RigVisitor {
     /// A double-precision rig.
-    fn visit_f64<R: FusedImpedance<N, M, Scalar = f64> + Copy, const N: usize, const M: usize>(
+    fn visit_f64<R: FusedImpedance<N, M, Scalar = f64> + Clone, const N: usize, const M: usize>(
         &mut self,
         info: &RigInfo,
         rig: &R,
     );
     /// A single-precision rig.
-    fn visit_f32<R: FusedImpedance<N, M, Scalar = f32> + Copy, const N: usize, const M: usize>(
+    fn visit_f32<R: FusedImpedance<N, M, Scalar = f32> + Clone, const N: usize, const M: usize>(
         &mut self,
         info: &RigInfo,
         rig: &R,

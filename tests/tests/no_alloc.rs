@@ -137,7 +137,7 @@ const TICKS_PER_RIG: u32 = 400;
 /// Runs one rig's loop against a fixed reference and asserts that it allocates nothing.
 fn ticks_allocate_nothing<R, const N: usize, const M: usize>(info: &RigInfo, rig: &R) -> u32
 where
-    R: FusedImpedance<N, M> + Copy,
+    R: FusedImpedance<N, M> + Clone,
 {
     let s = |x: f64| R::Scalar::from_f64(x);
     let drives = rig.drives();
@@ -176,7 +176,7 @@ where
         }; N],
         max_tick_gap: 1,
     };
-    let mut haptic = HapticLoop::new(*rig, reference, &settings)
+    let mut haptic = HapticLoop::new(rig.clone(), reference, &settings)
         .unwrap_or_else(|| panic!("{}: unusable loop rates", info.module));
     let laws: &[ImpedanceLaw] = if N == M {
         &[
@@ -222,7 +222,7 @@ struct EveryRig {
 }
 
 impl RigVisitor for EveryRig {
-    fn visit_f64<R: FusedImpedance<N, M, Scalar = f64> + Copy, const N: usize, const M: usize>(
+    fn visit_f64<R: FusedImpedance<N, M, Scalar = f64> + Clone, const N: usize, const M: usize>(
         &mut self,
         info: &RigInfo,
         rig: &R,
@@ -230,7 +230,7 @@ impl RigVisitor for EveryRig {
         self.ticks += ticks_allocate_nothing(info, rig);
         self.rigs += 1;
     }
-    fn visit_f32<R: FusedImpedance<N, M, Scalar = f32> + Copy, const N: usize, const M: usize>(
+    fn visit_f32<R: FusedImpedance<N, M, Scalar = f32> + Clone, const N: usize, const M: usize>(
         &mut self,
         info: &RigInfo,
         rig: &R,

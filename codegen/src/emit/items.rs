@@ -90,15 +90,38 @@ pub fn items(
         let v = scalar.literal(p.value);
         quote!(#ident: #v,)
     });
-    let struct_def = if model.tunable.is_empty() {
+    // A spatial closed chain keeps the loops it closed last (reused within a tick, the next
+    // tick's warm start): a cache, so the rig is `Clone` but not `Copy`.
+    let spatial_loops = mech.closures.as_ref().and_then(|c| c.spatial.as_ref());
+    let (cache_field, cache_nominal, derives) = match spatial_loops {
+        Some(spatial) => {
+            let p = unsuffixed(spatial.passive);
+            (
+                quote! {
+                    /// The loops closed last (`::hapticgen_runtime::loops::close_loops`).
+                    loop_cache: ::hapticgen_runtime::loops::LoopCache<#s, #n, #p>,
+                },
+                quote!(loop_cache: ::hapticgen_runtime::loops::LoopCache::new(),),
+                quote!(#[derive(Clone, Debug, PartialEq)]),
+            )
+        }
+        None => (TokenStream::new(), TokenStream::new(), quote!(#[derive(Clone, Copy, Debug, PartialEq)])),
+    };
+    // Each use of the constant is a fresh rig with an empty cache, which is what a user
+    // writing `FalconDelta::NOMINAL` means.
+    let nominal_allow = match spatial_loops {
+        Some(_) => quote!(#[allow(clippy::declare_interior_mutable_const)]),
+        None => TokenStream::new(),
+    };
+    let struct_def = if model.tunable.is_empty() && spatial_loops.is_none() {
         quote!(pub struct #type_name;)
     } else {
-        quote!(pub struct #type_name { #(#fields)* })
+        quote!(pub struct #type_name { #(#fields)* #cache_field })
     };
-    let nominal = if model.tunable.is_empty() {
+    let nominal = if model.tunable.is_empty() && spatial_loops.is_none() {
         quote!(#type_name)
     } else {
-        quote!(#type_name { #(#nominal_fields)* })
+        quote!(#type_name { #(#nominal_fields)* #cache_nominal })
     };
 
     let drives = model.joints.iter().map(|j| {
@@ -249,7 +272,7 @@ pub fn items(
         ///
         #[doc = #variant_doc]
         #(#[doc = #closure_doc])*
-        #[derive(Clone, Copy, Debug, PartialEq)]
+        #derives
         #struct_def
 
         impl Default for #type_name {
@@ -260,6 +283,7 @@ pub fn items(
 
         impl #type_name {
             /// The rig with every tunable parameter at its nominal value.
+            #nominal_allow
             pub const NOMINAL: Self = #nominal;
             /// Number of joints.
             pub const JOINTS: usize = #n;

@@ -23,6 +23,11 @@ use super::naming::SharedNames;
 /// between its samples, and the rounding of `f32`.
 const EXTRA_NEWTON_STEPS: usize = 2;
 
+/// How far (rad, or m) the actuated coordinates may have moved since the last solution for
+/// Newton to start from it: 50 rad/s at a 1 kHz tick, and within Newton's quadratic range on
+/// the devices here (the guess is off by about `|A|` times this).
+const WARM_START_RADIUS: f64 = 0.05;
+
 /// The machine epsilon of `scalar`.
 fn epsilon(scalar: Scalar) -> f64 {
     match scalar {
@@ -76,8 +81,9 @@ pub(crate) fn loop_constraints_impl(
     // near the precision's end, the safety monitor's loop-margin threshold coming far earlier.
     let tolerance = literal(32.0 * epsilon(scalar) * length_scale(spatial));
     let min_pivot_ratio = literal(1e3 * epsilon(scalar));
+    let warm_start_radius = literal(WARM_START_RADIUS);
     let tolerance_doc = format!(
-        " Newton's method from the assembly's tangent: at most {max_steps} steps (the generator saw at most {} over the actuated ranges), converged when every `|Φ_i|` is at most 32 ε times the loops' largest length.",
+        " Newton's method from the last solution within {WARM_START_RADIUS} of the actuated coordinates, else from the assembly's tangent: at most {max_steps} steps (the generator saw at most {} over the actuated ranges), converged when every `|Φ_i|` is at most 32 ε times the loops' largest length.",
         spatial.newton_steps
     );
 
@@ -186,7 +192,12 @@ pub(crate) fn loop_constraints_impl(
                     max_steps: #max_steps,
                     tolerance: #tolerance,
                     min_pivot_ratio: #min_pivot_ratio,
+                    warm_start_radius: #warm_start_radius,
                 };
+            #[inline]
+            fn loop_cache(&self) -> &::hapticgen_runtime::loops::LoopCache<#s, #n_lit, #p_lit> {
+                &self.loop_cache
+            }
             #constraints
             #actuated
             #rates
