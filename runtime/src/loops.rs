@@ -168,11 +168,11 @@ pub trait LoopConstraints<S: Real, const N: usize, const P: usize> {
 pub struct ClosedLoops<S, const N: usize, const P: usize> {
     /// The passive coordinates `q_p`.
     pub passive: [S; P],
-    /// Their rates `q̇_p = A q̇_a` (zero when no velocity was given).
+    /// Their rates `q̇_p = A q̇_a` (NaN when no velocity was given).
     pub passive_rate: [S; P],
-    /// `A = ∂q_p/∂q_a = −Φ_p⁻¹ Φ_a`.
+    /// `A = ∂q_p/∂q_a = −Φ_p⁻¹ Φ_a` (NaN when only [`LoopLevel::Position`] was asked for).
     pub sensitivity: [[S; N]; P],
-    /// `Ȧ = −Φ_p⁻¹ (Φ̇_p A + Φ̇_a)` (zero when no velocity was given).
+    /// `Ȧ = −Φ_p⁻¹ (Φ̇_p A + Φ̇_a)` (NaN when no velocity was given).
     pub sensitivity_rate: [[S; N]; P],
     /// `Φ_p`'s reciprocal condition estimate at the solution ([`LoopSolution::margin`]): 0 where
     /// the loops are singular, NaN where they could not be solved.
@@ -200,20 +200,35 @@ impl<S: Real, const N: usize, const P: usize> ClosedLoops<S, N, P> {
     }
 }
 
+/// What a caller of [`close_loops`] reads of the solution.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LoopLevel {
+    /// The passive coordinates only (positions, the margin).
+    Position,
+    /// Those and `A = ∂q_p/∂q_a`.
+    Sensitivity,
+}
+
 /// The loops a rig closed last, kept in the rig (a field of a generated spatial closed chain):
-/// functions called at the same state in one tick reuse them, and the next tick's Newton
-/// starts from them. A cache only: it never changes a result beyond rounding (clones and
-/// comparisons of rigs ignore it).
+/// functions called at the same state in one tick reuse them (completing what an earlier call
+/// did not need), and the next tick's Newton starts from them. A cache only: it never changes
+/// a result beyond rounding (clones and comparisons of rigs ignore it).
 pub struct LoopCache<S, const N: usize, const P: usize> {
     last: Cell<Option<CachedLoops<S, N, P>>>,
 }
 
-/// One entry of a [`LoopCache`]: the state the loops were closed at and the result.
+/// One entry of a [`LoopCache`]: the state the loops were closed at, the solution, and which
+/// of its levels are filled in.
 #[derive(Clone, Copy)]
 struct CachedLoops<S, const N: usize, const P: usize> {
     q: [S; N],
-    qd: Option<[S; N]>,
     closed: ClosedLoops<S, N, P>,
+    /// `Φ_p`'s factors at the solution (none where it failed).
+    factors: Option<LuFactors<S, P>>,
+    /// `A` is in `closed`.
+    has_sensitivity: bool,
+    /// The velocity `q̇_p` and `Ȧ` in `closed` are for.
+    rates_for: Option<[S; N]>,
 }
 
 impl<S: Real, const N: usize, const P: usize> LoopCache<S, N, P> {
@@ -248,36 +263,56 @@ impl<S, const N: usize, const P: usize> core::fmt::Debug for LoopCache<S, N, P> 
     }
 }
 
-/// Solves `loops` at `q` (and, with `qd`, at the velocity level), within the generator's
-/// checked step bound: Newton's method from the last solution when `q` is within
-/// [`LoopSolverSettings::warm_start_radius`] of it, else (or if that fails) from the assembly
-/// moved along its tangent, `q_p0 + A₀ (q_a − q_a0)`; then `A` and, with `qd`, `q̇_p = A q̇_a`
-/// and `Ȧ`. The same state as the last call returns the last result. Every value is NaN and
-/// `error` says why where the loops cannot be solved.
+/// Solves `loops` at `q` to `level` (and, with `qd`, at the velocity level: `q̇_p = A q̇_a` and
+/// `Ȧ`, `A` included), within the generator's checked step bound: Newton's method from the
+/// last solution when `q` is within [`LoopSolverSettings::warm_start_radius`] of it, else (or if
+/// that fails) from the assembly moved along its tangent, `q_p0 + A₀ (q_a − q_a0)`. At the
+/// last call's `q` the solution is reused and only what it lacks is computed. Values not asked
+/// for are NaN; every value is NaN and `error` says why where the loops cannot be solved.
 pub fn close_loops<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P: usize>(
     loops: &L,
     q: &[S; N],
+    level: LoopLevel,
     qd: Option<&[S; N]>,
 ) -> ClosedLoops<S, N, P> {
     let cache = &loops.loop_cache().last;
     let last = cache.get();
-    if let Some(last) = last {
-        if last.q == *q && (qd.is_none() || last.qd.as_ref() == qd) {
-            return ClosedLoops { steps: 0, ..last.closed };
+    let mut entry = match last {
+        Some(last) if last.q == *q => CachedLoops { closed: ClosedLoops { steps: 0, ..last.closed }, ..last },
+        _ => solve_position(loops, q, last),
+    };
+    if let Some(factors) = entry.factors {
+        let complete = |entry: &mut CachedLoops<S, N, P>| -> Result<(), LoopError> {
+            if (level == LoopLevel::Sensitivity || qd.is_some()) && !entry.has_sensitivity {
+                entry.closed.sensitivity =
+                    passive_sensitivity(&factors, &loops.loop_actuated_jacobian(q, &entry.closed.passive))?;
+                entry.has_sensitivity = true;
+            }
+            if let Some(qd) = qd {
+                if entry.rates_for.as_ref() != Some(qd) {
+                    let (passive_rate, sensitivity_rate) = rates(loops, q, qd, &entry.closed, &factors)?;
+                    entry.closed.passive_rate = passive_rate;
+                    entry.closed.sensitivity_rate = sensitivity_rate;
+                    entry.rates_for = Some(*qd);
+                }
+            }
+            Ok(())
+        };
+        if let Err(error) = complete(&mut entry) {
+            entry = CachedLoops { closed: ClosedLoops::failed(error), factors: None, ..entry };
         }
     }
-    let closed = solve_closed_loops(loops, q, qd, last);
-    cache.set(Some(CachedLoops { q: *q, qd: qd.copied(), closed }));
-    closed
+    cache.set(Some(entry));
+    entry.closed
 }
 
-/// [`close_loops`] without the reuse of an identical state.
-fn solve_closed_loops<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P: usize>(
+/// The passive coordinates at `q` by Newton's method (see [`close_loops`]), as a new cache
+/// entry with nothing else filled in.
+fn solve_position<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P: usize>(
     loops: &L,
     q: &[S; N],
-    qd: Option<&[S; N]>,
     last: Option<CachedLoops<S, N, P>>,
-) -> ClosedLoops<S, N, P> {
+) -> CachedLoops<S, N, P> {
     let settings = &L::LOOP_SOLVER;
     let constraints = |passive: &[S; P]| loops.loop_constraints(q, passive);
     let near = |last: &CachedLoops<S, N, P>| {
@@ -288,8 +323,8 @@ fn solve_closed_loops<S: Real, L: LoopConstraints<S, N, P>, const N: usize, cons
         Some(last) if near(&last) => solve_passive(constraints, &last.closed.passive, settings).ok(),
         _ => None,
     };
-    let solution = match warm {
-        Some(solution) => solution,
+    let solved = match warm {
+        Some(solution) => Ok(solution),
         None => {
             let mut tangent = L::ASSEMBLY_PASSIVE;
             for (slot, row) in tangent.iter_mut().zip(L::ASSEMBLY_SENSITIVITY.iter()) {
@@ -297,35 +332,44 @@ fn solve_closed_loops<S: Real, L: LoopConstraints<S, N, P>, const N: usize, cons
                     *slot += *a * (*q - *q0);
                 }
             }
-            match solve_passive(constraints, &tangent, settings) {
-                Ok(solution) => solution,
-                Err(error) => return ClosedLoops::failed(error),
-            }
+            solve_passive(constraints, &tangent, settings)
         }
     };
-    let sensitivity =
-        match passive_sensitivity(&solution.factors, &loops.loop_actuated_jacobian(q, &solution.passive)) {
-            Ok(sensitivity) => sensitivity,
-            Err(error) => return ClosedLoops::failed(error),
-        };
-    let mut closed = ClosedLoops {
-        passive: solution.passive,
-        passive_rate: [S::ZERO; P],
-        sensitivity,
-        sensitivity_rate: [[S::ZERO; N]; P],
-        margin: solution.margin,
-        error: None,
-        steps: solution.steps,
+    let (closed, factors) = match solved {
+        Ok(solution) => {
+            let nan = S::from_f64(f64::NAN);
+            let closed = ClosedLoops {
+                passive: solution.passive,
+                passive_rate: [nan; P],
+                sensitivity: [[nan; N]; P],
+                sensitivity_rate: [[nan; N]; P],
+                margin: solution.margin,
+                error: None,
+                steps: solution.steps,
+            };
+            (closed, Some(solution.factors))
+        }
+        Err(error) => (ClosedLoops::failed(error), None),
     };
-    let qd = match qd {
-        Some(qd) => qd,
-        None => return closed,
-    };
-    for (rate, row) in closed.passive_rate.iter_mut().zip(sensitivity.iter()) {
+    CachedLoops { q: *q, closed, factors, has_sensitivity: false, rates_for: None }
+}
+
+/// `q̇_p = A q̇_a` and `Ȧ = −Φ_p⁻¹ (Φ̇_p A + Φ̇_a)` at a solution with its `A`.
+#[allow(clippy::type_complexity)]
+fn rates<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P: usize>(
+    loops: &L,
+    q: &[S; N],
+    qd: &[S; N],
+    closed: &ClosedLoops<S, N, P>,
+    factors: &LuFactors<S, P>,
+) -> Result<([S; P], [[S; N]; P]), LoopError> {
+    let sensitivity = &closed.sensitivity;
+    let mut passive_rate = [S::ZERO; P];
+    for (rate, row) in passive_rate.iter_mut().zip(sensitivity.iter()) {
         *rate = dot(row, qd);
     }
     let (passive_jacobian_rate, actuated_jacobian_rate) =
-        loops.loop_jacobian_rates(q, qd, &solution.passive, &closed.passive_rate);
+        loops.loop_jacobian_rates(q, qd, &closed.passive, &passive_rate);
     // Φ̇_p A + Φ̇_a.
     let mut right = actuated_jacobian_rate;
     for (row, rate_row) in right.iter_mut().zip(passive_jacobian_rate.iter()) {
@@ -335,11 +379,7 @@ fn solve_closed_loops<S: Real, L: LoopConstraints<S, N, P>, const N: usize, cons
             }
         }
     }
-    match negated_solve(&solution.factors, &right) {
-        Ok(sensitivity_rate) => closed.sensitivity_rate = sensitivity_rate,
-        Err(error) => return ClosedLoops::failed(error),
-    }
-    closed
+    Ok((passive_rate, negated_solve(factors, &right)?))
 }
 
 fn loop_error(error: SolveError) -> LoopError {

@@ -4,7 +4,7 @@
 //! `Φ = (a cos q + b cos β − d − c cos γ, a sin q + b sin β − c sin γ) = 0`, passive `(β, γ)`.
 
 use hapticgen_runtime::loops::{
-    close_loops, passive_sensitivity, solve_passive, LoopCache, LoopConstraints, LoopError,
+    close_loops, passive_sensitivity, solve_passive, LoopCache, LoopConstraints, LoopError, LoopLevel,
     LoopSolverSettings,
 };
 use hapticgen_runtime::Real;
@@ -202,7 +202,7 @@ fn closed_loops_give_the_closed_form_and_its_first_and_second_derivatives() {
     };
     for q in [0.6, 0.9, 1.0, 1.3, 1.6] {
         let qd = 0.7;
-        let closed = close_loops(&FourBar::<8>::default(), &[q], Some(&[qd]));
+        let closed = close_loops(&FourBar::<8>::default(), &[q], LoopLevel::Sensitivity, Some(&[qd]));
         assert_eq!(closed.error, None);
         let expected = closed_form(q);
         let slope = derivative(&closed_form, q);
@@ -220,10 +220,21 @@ fn closed_loops_give_the_closed_form_and_its_first_and_second_derivatives() {
             );
         }
         assert!(closed.margin > 1e-3 && closed.margin <= 1.0);
-        // Without a velocity, the rates are zero and the rest the same.
-        let position_only = close_loops(&FourBar::<8>::default(), &[q], None);
-        assert_eq!(position_only.passive, closed.passive);
-        assert_eq!(position_only.sensitivity_rate, [[0.0], [0.0]]);
+        // Without a velocity the rates are not computed (NaN), the rest is the same; at the
+        // position level, `A` is not either.
+        let without_velocity = close_loops(&FourBar::<8>::default(), &[q], LoopLevel::Sensitivity, None);
+        assert_eq!(
+            (without_velocity.passive, without_velocity.sensitivity),
+            (closed.passive, closed.sensitivity)
+        );
+        assert!(without_velocity
+            .sensitivity_rate
+            .iter()
+            .chain(&without_velocity.passive_rate.map(|r| [r]))
+            .all(|r| r[0].is_nan()));
+        let position = close_loops(&FourBar::<8>::default(), &[q], LoopLevel::Position, None);
+        assert_eq!(position.passive, closed.passive);
+        assert!(position.sensitivity.iter().all(|r| r[0].is_nan()));
     }
 }
 
@@ -231,8 +242,14 @@ fn closed_loops_give_the_closed_form_and_its_first_and_second_derivatives() {
 fn closed_loops_that_cannot_be_solved_are_nan_with_the_reason() {
     // A NaN angle; and an angle too far from the assembly for the one step allowed.
     let cases = [
-        (close_loops(&FourBar::<8>::default(), &[f64::NAN], Some(&[0.5])), LoopError::NonFinite),
-        (close_loops(&FourBar::<1>::default(), &[1.6], Some(&[0.5])), LoopError::NotConverged),
+        (
+            close_loops(&FourBar::<8>::default(), &[f64::NAN], LoopLevel::Sensitivity, Some(&[0.5])),
+            LoopError::NonFinite,
+        ),
+        (
+            close_loops(&FourBar::<1>::default(), &[1.6], LoopLevel::Sensitivity, Some(&[0.5])),
+            LoopError::NotConverged,
+        ),
     ];
     for (closed, reason) in cases {
         assert_eq!(closed.error, Some(reason));
@@ -250,20 +267,25 @@ fn closed_loops_that_cannot_be_solved_are_nan_with_the_reason() {
 #[test]
 fn closed_loops_are_reused_at_the_same_state_and_warm_started_near_it() {
     let rig = FourBar::<8>::default();
-    let first = close_loops(&rig, &[1.3], Some(&[0.7]));
+    let first = close_loops(&rig, &[1.3], LoopLevel::Position, None);
     assert!(first.steps >= 2, "from the tangent: {} steps", first.steps);
-    // The same state: the same result, no step. A position-only call at it too.
-    let again = close_loops(&rig, &[1.3], Some(&[0.7]));
+    // The same state: the same solution, no step, only what is new computed — and the same
+    // values as a rig that computed everything at once.
+    let full = close_loops(&rig, &[1.3], LoopLevel::Sensitivity, Some(&[0.7]));
+    assert_eq!((full.passive, full.steps), (first.passive, 0));
+    let at_once = close_loops(&FourBar::<8>::default(), &[1.3], LoopLevel::Sensitivity, Some(&[0.7]));
+    assert_eq!((full.sensitivity, full.sensitivity_rate), (at_once.sensitivity, at_once.sensitivity_rate));
+    let other_velocity = close_loops(&rig, &[1.3], LoopLevel::Sensitivity, Some(&[-0.2]));
+    let expected = close_loops(&FourBar::<8>::default(), &[1.3], LoopLevel::Sensitivity, Some(&[-0.2]));
     assert_eq!(
-        (again.passive, again.sensitivity_rate, again.steps),
-        (first.passive, first.sensitivity_rate, 0)
+        (other_velocity.passive_rate, other_velocity.sensitivity_rate),
+        (expected.passive_rate, expected.sensitivity_rate)
     );
-    assert_eq!(close_loops(&rig, &[1.3], None).steps, 0);
-    // A tick's motion away: one step from the last solution, and the closed form's answer.
+    // A tick's motion away: at most two steps from the last solution, and the closed form.
     let mut q = 1.3;
     for _ in 0..50 {
         q += 0.002;
-        let closed = close_loops(&rig, &[q], None);
+        let closed = close_loops(&rig, &[q], LoopLevel::Position, None);
         assert!(closed.steps <= 2, "q = {q}: {} steps", closed.steps);
         let expected = closed_form(q);
         assert!(
@@ -272,11 +294,11 @@ fn closed_loops_are_reused_at_the_same_state_and_warm_started_near_it() {
         );
     }
     // Beyond the warm-start radius: from the tangent again (more steps), still the branch.
-    let far = close_loops(&rig, &[0.7], None);
+    let far = close_loops(&rig, &[0.7], LoopLevel::Position, None);
     assert!(far.steps > 2, "{} steps", far.steps);
     assert!((far.passive[0] - closed_form(0.7)[0]).abs() < 1e-12);
     // A clone carries the cache along, and compares equal to an empty one.
     let cloned = FourBar::<8> { cache: rig.cache.clone() };
-    assert_eq!(close_loops(&cloned, &[0.7], None).steps, 0);
+    assert_eq!(close_loops(&cloned, &[0.7], LoopLevel::Position, None).steps, 0);
     assert_eq!(cloned.cache, LoopCache::new());
 }

@@ -15,7 +15,7 @@ use crate::sym::dag::{Dag, Fused, Node, NodeId, OpCounts};
 use crate::sym::poly::Atom;
 
 use super::literal::{unsuffixed, Scalar};
-use super::naming::{LoopInputs, Naming, SharedNames};
+use super::naming::{LoopInputs, LoopRead, Naming, SharedNames};
 
 /// Options of the emitted code besides its scalar type. The default is what every front end
 /// emits unless asked otherwise.
@@ -457,7 +457,13 @@ impl<'m> BodyEmitter<'m> {
         } else {
             quote!(::core::option::Option::None)
         };
-        quote!(let loops = ::hapticgen_runtime::loops::close_loops(self, q, #velocity);)
+        // `A` only where a value reads it (positions need the passive angles alone).
+        let level = if inputs().any(|atom| matches!(loops.read(atom), Some(LoopRead::Sensitivity { .. }))) {
+            quote!(Sensitivity)
+        } else {
+            quote!(Position)
+        };
+        quote!(let loops = ::hapticgen_runtime::loops::close_loops(self, q, ::hapticgen_runtime::loops::LoopLevel::#level, #velocity);)
     }
 
     /// For an unnamed `(−c)·y` with a constant `c > 0`, the tokens of `c·y`.

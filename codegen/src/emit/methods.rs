@@ -237,7 +237,13 @@ fn spatial_loop_margin_function(model: &Model, scalar: Scalar) -> (TokenStream, 
         #[inline]
         #[must_use]
         pub fn closure_margin(&self, q: &[#s; #n]) -> [#s; 1] {
-            [::hapticgen_runtime::loops::close_loops(self, q, ::core::option::Option::None).margin]
+            [::hapticgen_runtime::loops::close_loops(
+                self,
+                q,
+                ::hapticgen_runtime::loops::LoopLevel::Position,
+                ::core::option::Option::None,
+            )
+            .margin]
         }
     };
     (tokens, OpCounts::default())
