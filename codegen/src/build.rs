@@ -68,7 +68,7 @@ pub fn generate_text_with(
 ) -> Result<String, Diagnostics> {
     let display = model.display().to_string();
     let loaded = crate::load_file(model, &display, variant)?;
-    Ok(crate::generate_model_with(loaded, scalar, options)?.file_text())
+    Ok(crate::generate_model_with(loaded, scalar, options).file_text())
 }
 
 use crate::Diagnostic;

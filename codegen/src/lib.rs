@@ -69,7 +69,7 @@ pub fn generate_with(
     options: EmitOptions,
 ) -> Result<Generated, Diagnostics> {
     let model = load(source, variant)?;
-    generate_model_with(model, scalar, options)
+    Ok(generate_model_with(model, scalar, options))
 }
 
 /// Parses a model (the named variant, else the model's default), validates it and runs the
@@ -94,21 +94,16 @@ pub fn derive(model: &CheckedModel) -> dynamics::mechanics::Mechanics {
     dynamics::derive(model, model.analyses.closures.as_ref())
 }
 
-/// Emits the code of an already loaded model; the model's located refusal if code cannot be
-/// emitted for it ([`check::Analyses::emission_refused`]).
-pub fn generate_model(model: CheckedModel, scalar: Scalar) -> Result<Generated, Diagnostics> {
+/// Emits the code of an already loaded model (every checked model emits).
+pub fn generate_model(model: CheckedModel, scalar: Scalar) -> Generated {
     generate_model_with(model, scalar, EmitOptions::default())
 }
 
 /// Emits the code of an already loaded model with emission options.
-pub fn generate_model_with(
-    model: CheckedModel,
-    scalar: Scalar,
-    options: EmitOptions,
-) -> Result<Generated, Diagnostics> {
+pub fn generate_model_with(model: CheckedModel, scalar: Scalar, options: EmitOptions) -> Generated {
     let mechanics = dynamics::derive_for_emission(&model, model.analyses.closures.as_ref());
     let (tokens, stats) = emit::items(&model, &mechanics, scalar, options);
-    Ok(Generated { model, mechanics, scalar, options, tokens, stats })
+    Generated { model, mechanics, scalar, options, tokens, stats }
 }
 
 impl Generated {

@@ -109,7 +109,7 @@ pub fn expand(input: TokenStream, manifest_dir: &Path) -> TokenStream {
     let variant_name = variant.as_ref().map(LitStr::value);
     let span = path.span();
     let generated = crate::load_file(&full, &file, variant_name.as_deref())
-        .and_then(|model| crate::generate_model_with(model, *scalar, *options));
+        .map(|model| crate::generate_model_with(model, *scalar, *options));
     match generated {
         Ok(generated) => {
             let items = &generated.tokens;

@@ -34,9 +34,7 @@ fn check(
     options: EmitOptions,
 ) {
     let model = hapticgen_codegen::load_file(path, display, variant).unwrap_or_else(|e| panic!("{e}"));
-    let generated = hapticgen_codegen::generate_model_with(model, scalar, options)
-        .expect("the model generates")
-        .file_text();
+    let generated = hapticgen_codegen::generate_model_with(model, scalar, options).file_text();
     let expected = snapshot_body(name);
     if generated.trim_end() != expected.trim_end() {
         let line = generated

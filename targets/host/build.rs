@@ -55,9 +55,7 @@ fn main() {
             let type_name = hapticgen_codegen::emit::rig_type_name(&model);
             let mut anonymous = model.clone();
             anonymous.model.file = String::new();
-            let generate = |model| {
-                hapticgen_codegen::generate_model(model, Scalar::F64).unwrap_or_else(|e| panic!("{e}"))
-            };
+            let generate = |model| hapticgen_codegen::generate_model(model, Scalar::F64);
             let print = fingerprint(&generate(anonymous).tokens.to_string());
             let text = generate(model).file_text();
             let file = out.join(format!("{module}.rs"));

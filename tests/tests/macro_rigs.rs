@@ -72,8 +72,7 @@ fn macro_expansion_equals_the_build_helper_output() {
         let expanded = expansion_items(input, manifest_dir).expect("the expansion is a module with items");
         let loaded =
             hapticgen_codegen::load_file(&manifest_dir.join(file), file, variant).expect("valid model");
-        let built =
-            hapticgen_codegen::generate_model(loaded, scalar).expect("the model generates").formatted_items();
+        let built = hapticgen_codegen::generate_model(loaded, scalar).formatted_items();
         assert_eq!(expanded, built, "{file} {variant:?}");
         assert!(expanded.contains("::hapticgen_runtime::impl_rig_model!("));
     }
@@ -84,9 +83,7 @@ fn macro_expansion_equals_the_build_helper_output() {
     let loaded =
         hapticgen_codegen::load_file(&manifest_dir.join(file), file, Some("vertical")).expect("valid model");
     let options = hapticgen_codegen::EmitOptions { fused_multiply_add: true };
-    let built = hapticgen_codegen::generate_model_with(loaded, Scalar::F64, options)
-        .expect("the model generates")
-        .formatted_items();
+    let built = hapticgen_codegen::generate_model_with(loaded, Scalar::F64, options).formatted_items();
     assert_eq!(expanded, built);
     assert!(expanded.contains("::hapticgen_runtime::Real::mul_add("));
 }

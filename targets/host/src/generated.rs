@@ -69,7 +69,7 @@ pub fn find(model: &CheckedModel) -> Option<usize> {
     }
     let mut anonymous = model.clone();
     anonymous.model.file = String::new();
-    let generated = hapticgen_codegen::generate_model(anonymous, Scalar::F64).ok()?;
+    let generated = hapticgen_codegen::generate_model(anonymous, Scalar::F64);
     let print = fingerprint(&generated.tokens.to_string());
     candidates.into_iter().find(|&i| SHIPPED[i].fingerprint == print)
 }

@@ -357,9 +357,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 ScalarArg::F64 => Scalar::F64,
             };
             let options = hapticgen_codegen::EmitOptions { fused_multiply_add: fma };
-            let text = hapticgen_codegen::generate_model_with(m, scalar, options)
-                .map_err(|d| d.to_string())?
-                .file_text();
+            let text = hapticgen_codegen::generate_model_with(m, scalar, options).file_text();
             write_or_print(output.as_deref(), &text)
         }
         Command::Eval { model, variant, q, qd, point, frame, json: _ } => {
@@ -405,8 +403,7 @@ fn run(cli: Cli) -> Result<(), String> {
         Command::Stats { model, variant, json, fma } => {
             let m = load(&model, variant.as_deref())?;
             let options = hapticgen_codegen::EmitOptions { fused_multiply_add: fma };
-            let generated =
-                hapticgen_codegen::generate_model_with(m, Scalar::F64, options).map_err(|d| d.to_string())?;
+            let generated = hapticgen_codegen::generate_model_with(m, Scalar::F64, options);
             if json {
                 let map: serde_json::Map<String, serde_json::Value> = generated
                     .stats
