@@ -38,6 +38,9 @@ const NEWTON_ITERATIONS: usize = 30;
 const RESIDUAL_TOLERANCE: f64 = 1e-13;
 /// Continuation steps from the assembly to a requested state.
 const CONTINUATION_STEPS: usize = 8;
+/// Newton steps the generated code may take beyond the most seen over the actuated ranges
+/// ([`SpatialLoops::newton_step_bound`]): states between the samples, and `f32` rounding.
+const EXTRA_NEWTON_STEPS: usize = 2;
 
 /// A problem with the spatial closures, reported at `closures` (or one entry of it).
 #[derive(Clone, Debug)]
@@ -226,6 +229,12 @@ impl SpatialLoops {
         loops.newton_steps =
             loops.sampled_newton_steps(model, &parameters).map_err(|problem| vec![problem])?;
         Ok(loops)
+    }
+
+    /// The bound on Newton's steps in the generated code: the most seen over the actuated
+    /// ranges from the assembly's tangent, plus a margin.
+    pub fn newton_step_bound(&self) -> usize {
+        self.newton_steps + EXTRA_NEWTON_STEPS
     }
 
     /// `A = −Φ_p⁻¹ Φ_a` at `(q_a, q_p)`; `None` where `Φ_p` is singular.

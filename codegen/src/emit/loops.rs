@@ -19,10 +19,6 @@ use super::literal::{unsuffixed, Scalar};
 use super::lower::{BodyEmitter, EmitOptions};
 use super::naming::SharedNames;
 
-/// Newton steps allowed beyond the most the generator saw over the actuated ranges: states
-/// between its samples, and the rounding of `f32`.
-const EXTRA_NEWTON_STEPS: usize = 2;
-
 /// How far (rad, or m) the actuated coordinates may have moved since the last solution for
 /// Newton to start from it: 50 rad/s at a 1 kHz tick, and within Newton's quadratic range on
 /// the devices here (the guess is off by about `|A|` times this).
@@ -75,7 +71,7 @@ pub(crate) fn loop_constraints_impl(
     let assembly_actuated = vector(&spatial.nominal_actuated);
     let assembly_passive = vector(&spatial.assembly);
     let sensitivity_rows = spatial.assembly_sensitivity.iter().map(|row| vector(row));
-    let max_steps = proc_macro2::Literal::u32_unsuffixed((spatial.newton_steps + EXTRA_NEWTON_STEPS) as u32);
+    let max_steps = proc_macro2::Literal::u32_unsuffixed(spatial.newton_step_bound() as u32);
     // Converged at a few tens of roundings of the loops' lengths (an order of magnitude above
     // the residual's own rounding); singular (refused) only
     // near the precision's end, the safety monitor's loop-margin threshold coming far earlier.

@@ -67,35 +67,24 @@ impl LoopInputs {
         }
     }
 
-    /// The expression reading a loop value.
+    /// The expression reading a loop value: a field of the solution `loops`, or an argument.
     pub(crate) fn tokens(&self, read: LoopRead) -> TokenStream {
-        use quote::quote;
+        use quote::{format_ident, quote};
         let index = super::literal::unsuffixed;
-        match (read, self.solved) {
-            (LoopRead::Passive(r), true) => {
-                let r = index(r);
-                quote!(loops.passive[#r])
-            }
-            (LoopRead::Passive(r), false) => {
-                let r = index(r);
-                quote!(passive[#r])
-            }
-            (LoopRead::PassiveRate(r), true) => {
-                let r = index(r);
-                quote!(loops.passive_rate[#r])
-            }
-            (LoopRead::PassiveRate(r), false) => {
-                let r = index(r);
-                quote!(passive_rate[#r])
-            }
-            (LoopRead::Sensitivity { r, j, rate }, _) => {
-                let (r, j) = (index(r), index(j));
-                if rate {
-                    quote!(loops.sensitivity_rate[#r][#j])
-                } else {
-                    quote!(loops.sensitivity[#r][#j])
-                }
-            }
+        let (array, r, column) = match read {
+            LoopRead::Passive(r) => ("passive", r, None),
+            LoopRead::PassiveRate(r) => ("passive_rate", r, None),
+            LoopRead::Sensitivity { r, j, rate: false } => ("sensitivity", r, Some(j)),
+            LoopRead::Sensitivity { r, j, rate: true } => ("sensitivity_rate", r, Some(j)),
+        };
+        let array = format_ident!("{}", array);
+        // The constraint functions take the passive values as arguments; `A` and `Ȧ` are only
+        // ever read from a solution.
+        let array = if self.solved || column.is_some() { quote!(loops.#array) } else { quote!(#array) };
+        let r = index(r);
+        match column.map(index) {
+            Some(j) => quote!(#array[#r][#j]),
+            None => quote!(#array[#r]),
         }
     }
 }

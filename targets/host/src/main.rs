@@ -430,6 +430,19 @@ fn run(cli: Cli) -> Result<(), String> {
                         c.fused
                     );
                 }
+                let spatial = generated.mechanics.closures.as_ref().and_then(|c| c.spatial.as_ref());
+                if let Some(spatial) = spatial {
+                    // Its functions' counts leave out the loop solve, which is the runtime's.
+                    println!(
+                        "note: the functions above read the loops' solution; solving them is the runtime's\n\
+                         (`hapticgen_runtime::loops::close_loops`, once per state): up to {} Newton steps, each\n\
+                         `loop_constraints` and a {p} × {p} LU factorisation; then `loop_actuated_jacobian` and\n\
+                         {n} solves for `A`; with velocities `loop_jacobian_rates` and {n} solves for `Ȧ`",
+                        spatial.newton_step_bound(),
+                        p = spatial.passive,
+                        n = spatial.actuated,
+                    );
+                }
             }
             Ok(())
         }

@@ -277,6 +277,11 @@ fn a_spatial_closed_chain_checks_evaluates_generates_and_simulates() {
     assert!(generated.status.success(), "{}", String::from_utf8_lossy(&generated.stderr));
     let text = String::from_utf8_lossy(&generated.stdout);
     assert!(text.contains("impl ::hapticgen_runtime::loops::LoopConstraints<f64, 3, 8> for FalconDelta"));
+    // `stats` says that its counts leave the loop solve out, and what the solve costs.
+    let stats = hapticgen(&["stats", model]);
+    assert!(stats.status.success(), "{}", String::from_utf8_lossy(&stats.stderr));
+    let stats = String::from_utf8_lossy(&stats.stdout);
+    assert!(stats.contains("loop_constraints") && stats.contains("up to 6 Newton steps"), "{stats}");
     // A 1 N step on x against a 200 N/m task-space spring: the grip settles 5 mm along x.
     let output = scratch("delta");
     let output_text = output.to_string_lossy().into_owned();
