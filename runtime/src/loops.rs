@@ -265,8 +265,9 @@ impl<S, const N: usize, const P: usize> core::fmt::Debug for LoopCache<S, N, P> 
 
 /// Solves `loops` at `q` to `level` (and, with `qd`, at the velocity level: `q̇_p = A q̇_a` and
 /// `Ȧ`, `A` included), within the generator's checked step bound: Newton's method from the
-/// last solution when `q` is within [`LoopSolverSettings::warm_start_radius`] of it, else (or if
-/// that fails) from the assembly moved along its tangent, `q_p0 + A₀ (q_a − q_a0)`. At the
+/// last solution (moved along its `A` if that was computed) when `q` is within
+/// [`LoopSolverSettings::warm_start_radius`] of it, else (or if that fails) from the assembly
+/// moved along its tangent, `q_p0 + A₀ (q_a − q_a0)`. At the
 /// last call's `q` the solution is reused and only what it lacks is computed. Values not asked
 /// for are NaN; every value is NaN and `error` says why where the loops cannot be solved.
 pub fn close_loops<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P: usize>(
@@ -320,7 +321,19 @@ fn solve_position<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P:
             && last.q.iter().zip(q.iter()).all(|(a, b)| (*a - *b).abs() <= settings.warm_start_radius)
     };
     let warm = match last {
-        Some(last) if near(&last) => solve_passive(constraints, &last.closed.passive, settings).ok(),
+        Some(last) if near(&last) => {
+            // The last solution moved along its tangent where `A` is known: off by `O(|Δq_a|²)`,
+            // which for a tick's motion is often within the tolerance already.
+            let mut guess = last.closed.passive;
+            if last.has_sensitivity {
+                for (slot, row) in guess.iter_mut().zip(last.closed.sensitivity.iter()) {
+                    for ((a, q), q0) in row.iter().zip(q.iter()).zip(last.q.iter()) {
+                        *slot += *a * (*q - *q0);
+                    }
+                }
+            }
+            solve_passive(constraints, &guess, settings).ok()
+        }
         _ => None,
     };
     let solved = match warm {

@@ -293,6 +293,13 @@ fn closed_loops_are_reused_at_the_same_state_and_warm_started_near_it() {
                 && (closed.passive[1] - expected[1]).abs() < 1e-12
         );
     }
+    // Where the last call computed `A`, the guess moves along it: fewer steps on the same path.
+    let steps_along = |level: LoopLevel| -> u32 {
+        let rig = FourBar::<8>::default();
+        (0..50).map(|k| close_loops(&rig, &[1.3 + 0.002 * f64::from(k)], level, None).steps).sum()
+    };
+    let (without, with) = (steps_along(LoopLevel::Position), steps_along(LoopLevel::Sensitivity));
+    assert!(with < without, "{with} steps with A against {without} without");
     // Beyond the warm-start radius: from the tangent again (more steps), still the branch.
     let far = close_loops(&rig, &[0.7], LoopLevel::Position, None);
     assert!(far.steps > 2, "{} steps", far.steps);
