@@ -38,6 +38,11 @@ const NEWTON_ITERATIONS: usize = 30;
 const RESIDUAL_TOLERANCE: f64 = 1e-13;
 /// Continuation steps from the assembly to a requested state.
 const CONTINUATION_STEPS: usize = 8;
+/// How far (rad, or m) the actuated coordinates may have moved since the last solution for the
+/// generated code's Newton to start from it (`hapticgen_runtime::loops::close_loops`): 50 rad/s
+/// at a 1 kHz tick. [`SpatialLoops::analyse`] checks that it reaches the file's branch from
+/// there over the actuated ranges.
+pub const WARM_START_RADIUS: f64 = 0.05;
 /// Newton steps the generated code may take beyond the most seen over the actuated ranges
 /// ([`SpatialLoops::newton_step_bound`]): states between the samples, and `f32` rounding.
 const EXTRA_NEWTON_STEPS: usize = 2;
@@ -79,8 +84,9 @@ pub struct SpatialLoops {
     /// `A = −Φ_p⁻¹ Φ_a` at the assembly, `P × N`: the generated code's first guess at `q_a` is
     /// the assembly moved along it, `q_p ≈ q_p0 + A₀ (q_a − q_a0)` ([`SpatialLoops::predicted`]).
     pub assembly_sensitivity: Vec<Vec<f64>>,
-    /// The most Newton steps the guess needed at any of the states sampled over the actuated
-    /// ranges ([`SpatialLoops::analyse`] checks that it always reaches the file's branch).
+    /// The most Newton steps the guess (the assembly's tangent, or the last solution within
+    /// [`WARM_START_RADIUS`]) needed at any of the states sampled over the actuated ranges
+    /// ([`SpatialLoops::analyse`] checks that it always reaches the file's branch).
     pub newton_steps: usize,
     /// The polynomials as expression DAGs (shared subterms evaluated once), built on first
     /// use: `[Φ, Φ_p, Φ_a]` for Newton's steps, `[Φ̇_p, Φ̇_a]` once per state.
@@ -226,8 +232,9 @@ impl SpatialLoops {
         let sensitivity = loops.sensitivity_at(&q_a, &assembly, &parameters).unwrap_or_default();
         loops.assembly = assembly;
         loops.assembly_sensitivity = sensitivity;
-        loops.newton_steps =
-            loops.sampled_newton_steps(model, &parameters).map_err(|problem| vec![problem])?;
+        loops.newton_steps = loops
+            .sampled_newton_steps(model, &parameters, WARM_START_RADIUS)
+            .map_err(|problem| vec![problem])?;
         Ok(loops)
     }
 
@@ -264,7 +271,12 @@ impl SpatialLoops {
     /// grid of at most about 250, corners included): the most steps it took, or the first
     /// state where it failed or reached another branch than the continuation from the
     /// assembly (the generated code has no continuation: one guess, a bounded number of steps).
-    fn sampled_newton_steps(&self, model: &Model, parameters: &[f64]) -> Result<usize, SpatialProblem> {
+    fn sampled_newton_steps(
+        &self,
+        model: &Model,
+        parameters: &[f64],
+        warm_start_radius: f64,
+    ) -> Result<usize, SpatialProblem> {
         let n = self.actuated;
         let per_axis = (1..=6).rev().find(|g: &usize| g.pow(n as u32) <= 250).unwrap_or(1).max(2);
         let mut most = 0;
@@ -300,14 +312,34 @@ impl SpatialLoops {
                     at()
                 )));
             };
+            let same = |passive: &[f64], reference: &[f64]| {
+                largest(&passive.iter().zip(reference).map(|(a, b)| a - b).collect::<Vec<_>>()) <= 1e-9
+            };
             let reached = self.newton_counted(&actuated, &self.predicted(&actuated), parameters);
             match reached {
-                Some((passive, steps)) if largest(&passive.iter().zip(&reference).map(|(a, b)| a - b).collect::<Vec<_>>()) <= 1e-9 => {
-                    most = most.max(steps);
-                }
+                Some((passive, steps)) if same(&passive, &reference) => most = most.max(steps),
                 _ => {
                     return Err(problem(format!(
                         "Newton's method from the assembly's tangent does not reach the assembly's branch at {} (the generated code solves the loops from that guess)",
+                        at()
+                    )))
+                }
+            }
+            // The warm start: from this solution to a state `WARM_START_RADIUS` away in every
+            // actuated coordinate (towards the middle of each range), as the next tick may be.
+            let neighbour: Vec<f64> = model
+                .joints
+                .iter()
+                .zip(&actuated)
+                .map(|(joint, &q)| q + warm_start_radius.copysign(0.5 * (joint.lower + joint.upper) - q))
+                .collect();
+            let warm = self.newton_counted(&neighbour, &reference, parameters);
+            let expected = self.passive_coordinates(&neighbour, parameters);
+            match (warm, expected) {
+                (Some((passive, steps)), Some(expected)) if same(&passive, &expected) => most = most.max(steps),
+                _ => {
+                    return Err(problem(format!(
+                        "Newton's method warm-started from the solution at {} does not reach the assembly's branch {warm_start_radius} away (the generated code starts from the last solution within that distance)",
                         at()
                     )))
                 }
@@ -472,5 +504,30 @@ impl SpatialLoops {
         }
         values.extend(a.iter().chain(&a_dot).flatten());
         (values, Some(passive))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The Falcon-like Delta and its loops, analysed.
+    fn falcon() -> (Model, SpatialLoops) {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/falcon_delta.yaml"));
+        let model =
+            crate::model::load_file(path, "models/falcon_delta.yaml", None).unwrap_or_else(|e| panic!("{e}"));
+        let loops = SpatialLoops::analyse(&model, &model.spatial_closures)
+            .unwrap_or_else(|problems| panic!("{}", problems[0].message));
+        (model, loops)
+    }
+
+    #[test]
+    fn a_warm_start_from_too_far_is_refused() {
+        let (model, loops) = falcon();
+        let parameters = model.nominal_parameters();
+        // The shipped radius passes; a whole radian (the thighs' range) does not.
+        assert!(loops.sampled_newton_steps(&model, &parameters, WARM_START_RADIUS).is_ok());
+        let problem = loops.sampled_newton_steps(&model, &parameters, 1.0).expect_err("refused");
+        assert!(problem.message.contains("warm-started"), "{}", problem.message);
     }
 }

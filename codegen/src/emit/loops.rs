@@ -10,7 +10,7 @@ use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
 
 use crate::dynamics::mechanics::Mechanics;
-use crate::dynamics::spatial_loops::SpatialLoops;
+use crate::dynamics::spatial_loops::{SpatialLoops, WARM_START_RADIUS};
 use crate::model::Model;
 use crate::sym::dag::{Node, NodeId, OpCounts};
 use crate::sym::poly::{Atom, Poly};
@@ -18,11 +18,6 @@ use crate::sym::poly::{Atom, Poly};
 use super::literal::{unsuffixed, Scalar};
 use super::lower::{BodyEmitter, EmitOptions};
 use super::naming::SharedNames;
-
-/// How far (rad, or m) the actuated coordinates may have moved since the last solution for
-/// Newton to start from it: 50 rad/s at a 1 kHz tick, and within Newton's quadratic range on
-/// the devices here (the guess is off by about `|A|` times this).
-const WARM_START_RADIUS: f64 = 0.05;
 
 /// The machine epsilon of `scalar`.
 fn epsilon(scalar: Scalar) -> f64 {
