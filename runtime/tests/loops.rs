@@ -149,6 +149,10 @@ fn failures_are_reported_never_returned_as_numbers() {
 #[derive(Default)]
 struct FourBar<const STEPS: u32> {
     cache: LoopCache<f64, 1, 2>,
+    /// How many times the solver evaluated `Φ`.
+    evaluations: core::cell::Cell<u32>,
+    /// Beyond this crank angle `Φ_a` reads NaN (a fault in the actuated Jacobian only).
+    broken_above: core::cell::Cell<Option<f64>>,
 }
 
 /// `∂Φ/∂(β, γ)` at `passive`, differentiated once more along `passive_rate`, and `∂Φ_a/∂q · q̇`.
@@ -177,10 +181,14 @@ impl<const STEPS: u32> LoopConstraints<f64, 1, 2> for FourBar<STEPS> {
         &self.cache
     }
     fn loop_constraints(&self, q: &[f64; 1], passive: &[f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
+        self.evaluations.set(self.evaluations.get() + 1);
         constraints(q[0], passive)
     }
     fn loop_actuated_jacobian(&self, q: &[f64; 1], _passive: &[f64; 2]) -> [[f64; 1]; 2] {
-        actuated_jacobian(q[0])
+        match self.broken_above.get() {
+            Some(limit) if q[0] > limit => [[f64::NAN], [f64::NAN]],
+            _ => actuated_jacobian(q[0]),
+        }
     }
     fn loop_jacobian_rates(
         &self,
@@ -305,7 +313,61 @@ fn closed_loops_are_reused_at_the_same_state_and_warm_started_near_it() {
     assert!(far.steps > 2, "{} steps", far.steps);
     assert!((far.passive[0] - closed_form(0.7)[0]).abs() < 1e-12);
     // A clone carries the cache along, and compares equal to an empty one.
-    let cloned = FourBar::<8> { cache: rig.cache.clone() };
+    let cloned = FourBar::<8> { cache: rig.cache.clone(), ..FourBar::default() };
     assert_eq!(close_loops(&cloned, &[0.7], LoopLevel::Position, None).steps, 0);
     assert_eq!(cloned.cache, LoopCache::new());
+}
+
+#[test]
+fn the_guess_is_the_last_solution_near_it_and_the_assemblys_tangent_elsewhere() {
+    // From the tangent: exactly the solver's run from `q_p0 + A₀ (q − q_a0)` (same steps, same
+    // bits), for a fresh rig and for one whose last solution is beyond the warm-start radius.
+    type Rig = FourBar<8>;
+    let tangent = |q: f64| -> [f64; 2] {
+        core::array::from_fn(|r| {
+            Rig::ASSEMBLY_PASSIVE[r] + Rig::ASSEMBLY_SENSITIVITY[r][0] * (q - Rig::ASSEMBLY_ACTUATED[0])
+        })
+    };
+    let far_from_last = Rig::default();
+    close_loops(&far_from_last, &[1.3], LoopLevel::Sensitivity, None);
+    for rig in [Rig::default(), far_from_last] {
+        let q = 1.6;
+        let closed = close_loops(&rig, &[q], LoopLevel::Position, None);
+        let expected = solve_passive(|p| constraints(q, p), &tangent(q), &Rig::LOOP_SOLVER).expect("solves");
+        assert_eq!((closed.passive, closed.steps), (expected.passive, expected.steps));
+    }
+    // The same state again: no evaluation of Φ at all.
+    let rig = Rig::default();
+    close_loops(&rig, &[1.3], LoopLevel::Position, None);
+    let evaluations = rig.evaluations.get();
+    close_loops(&rig, &[1.3], LoopLevel::Sensitivity, Some(&[0.4]));
+    assert_eq!(rig.evaluations.get(), evaluations);
+    assert_eq!(format!("{:?}", rig.cache), "LoopCache");
+}
+
+#[test]
+fn a_solution_that_cannot_be_completed_is_nan_and_stays_so_at_that_state() {
+    let rig = FourBar::<8>::default();
+    rig.broken_above.set(Some(1.2));
+    // The passive angles solve; A does not (Φ_a is NaN): everything NaN, with the reason.
+    let position = close_loops(&rig, &[1.3], LoopLevel::Position, None);
+    assert_eq!(position.error, None);
+    let all_nan = |closed: &hapticgen_runtime::loops::ClosedLoops<f64, 1, 2>| {
+        closed.passive.iter().chain(&closed.passive_rate).all(|x| x.is_nan())
+            && closed.sensitivity.iter().chain(&closed.sensitivity_rate).all(|r| r[0].is_nan())
+            && closed.margin.is_nan()
+    };
+    let closed = close_loops(&rig, &[1.3], LoopLevel::Sensitivity, Some(&[0.4]));
+    assert_eq!(closed.error, Some(LoopError::NonFinite));
+    assert!(all_nan(&closed));
+    // The failure is what that state gives until the state changes, even with the fault gone.
+    rig.broken_above.set(None);
+    for (level, qd) in
+        [(LoopLevel::Sensitivity, None), (LoopLevel::Sensitivity, Some(&[0.4])), (LoopLevel::Position, None)]
+    {
+        let again = close_loops(&rig, &[1.3], level, qd);
+        assert_eq!(again.error, Some(LoopError::NonFinite));
+        assert!(all_nan(&again), "{level:?}, {qd:?}");
+    }
+    assert_eq!(close_loops(&rig, &[1.31], LoopLevel::Sensitivity, None).error, None);
 }
