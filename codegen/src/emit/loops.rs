@@ -37,7 +37,6 @@ fn length_scale(spatial: &SpatialLoops) -> f64 {
         .filter(|(_, name)| !name.ends_with(".perpendicular"))
         .flat_map(|(poly, _)| poly.terms().map(|(_, c)| c.abs()).collect::<Vec<_>>())
         .fold(0.0, f64::max)
-        .max(1e-3)
 }
 
 /// The entries of a matrix of polynomials, row-major.

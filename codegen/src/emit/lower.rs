@@ -387,32 +387,32 @@ impl<'m> BodyEmitter<'m> {
                 }
                 _ => None,
             };
-            let value = match node {
-                _ if loop_read.is_some() => loop_read.unwrap_or_default(),
-                Node::Input(Atom::Sin(j)) => {
+            let value = match (loop_read, node) {
+                (Some(read), _) => read,
+                (None, Node::Input(Atom::Sin(j))) => {
                     let angle = self.angle_tokens(j);
                     quote!(::hapticgen_runtime::Real::sin(#angle))
                 }
-                Node::Input(Atom::Cos(j)) => {
+                (None, Node::Input(Atom::Cos(j))) => {
                     let angle = self.angle_tokens(j);
                     quote!(::hapticgen_runtime::Real::cos(#angle))
                 }
-                Node::Input(Atom::Q(j)) => {
+                (None, Node::Input(Atom::Q(j))) => {
                     let j = unsuffixed(usize::from(j));
                     quote!(q[#j])
                 }
-                Node::Input(Atom::Qd(j)) => {
+                (None, Node::Input(Atom::Qd(j))) => {
                     let j = unsuffixed(usize::from(j));
                     quote!(qd[#j])
                 }
-                Node::Input(Atom::Qdd(j)) => {
+                (None, Node::Input(Atom::Qdd(j))) => {
                     let j = unsuffixed(usize::from(j));
                     quote!(qdd[#j])
                 }
-                Node::Input(Atom::External(k)) => {
+                (None, Node::Input(Atom::External(k))) => {
                     self.naming.externals.get(usize::from(k)).map(|e| e.1.clone()).unwrap_or_default()
                 }
-                _ => expression.unwrap_or_default(),
+                (None, _) => expression.unwrap_or_default(),
             };
             statements.extend(quote!(let #ident = #value;));
             if let Some(text) = text {
