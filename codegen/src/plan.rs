@@ -74,7 +74,26 @@ pub(crate) fn derivation_note(outputs: &[Output<'_>], choice: Choice) -> &'stati
         (Quantity::Point(..) | Quantity::Frame(..), _, Derivation::Recursive) => {
             " Built by composing the joint frames."
         }
+        (Quantity::Point(_, PointQuantity::Position), _, Derivation::Projected) => "",
+        (Quantity::Point(_, PointQuantity::Jacobian), _, Derivation::Projected) => {
+            " Projected from the open tree's: `J S`, with `S = ∂q/∂q_a` from the loop solution."
+        }
+        (Quantity::Point(..) | Quantity::Frame(..), _, Derivation::Projected) => {
+            " Projected from the open tree's: `J̇ q̇ + J (Ṡ q̇_a)`, with `S = ∂q/∂q_a` from the loop solution."
+        }
         (Quantity::Point(..) | Quantity::Frame(..), _, Derivation::Polynomial) => "",
+        (Quantity::InertiaMatrix, Derivation::Projected, _) => {
+            " Projected from the open tree's: `Sᵀ D S`, with `S = ∂q/∂q_a` from the loop solution."
+        }
+        (Quantity::CoriolisMatrix, Derivation::Projected, _) => {
+            " Projected from the open tree's: `Sᵀ (C S + D Ṡ)`, with `S = ∂q/∂q_a` from the loop solution."
+        }
+        (Quantity::Gravity, Derivation::Projected, _) => {
+            " Projected from the open tree's: `Sᵀ g`, with `S = ∂q/∂q_a` from the loop solution."
+        }
+        (_, Derivation::Projected, _) => {
+            " Projected from the open tree's: `Sᵀ D S`, `Sᵀ (C q̇ + D (Ṡ q̇_a))`, `Sᵀ g`, with `S = ∂q/∂q_a` from the loop solution."
+        }
         (Quantity::InertiaMatrix, Derivation::Recursive, _) => {
             " Built by the composite-rigid-body algorithm."
         }

@@ -17,6 +17,7 @@ use super::kinematics::{
     body_frames, frame_kinematics, mat_vec, point_world, vec_add, FrameKinematics, PointKinematics,
 };
 use super::lagrangian::{christoffel, lagrangian_inertia_matrix};
+use crate::dynamics::projection::{OpenTree, Projection};
 use crate::dynamics::recursive::{self, FrameQuantity, PointQuantity, Quantity};
 use crate::model::{Model, TaskSpec};
 use crate::sym::dag::{Dag, NodeId};
@@ -44,6 +45,9 @@ pub enum Derivation {
     Polynomial,
     /// With the recursive algorithms of [`crate::dynamics::recursive`] on the expression DAG.
     Recursive,
+    /// A spatial closed chain's open-tree polynomials projected on the expression DAG with the
+    /// loop solution's `S = [I; A]` ([`crate::dynamics::projection`]), not multiplied out.
+    Projected,
 }
 
 /// All derived quantities of a model.
@@ -183,21 +187,37 @@ pub(crate) fn derive_tree(model: &Model, all_polynomials: bool) -> Mechanics {
 /// recursive dynamics without comparison: their polynomials are not even expanded.
 pub(crate) fn choose_derivations(model: &Model, mechanics: &mut Mechanics) {
     let both = [Derivation::Polynomial, Derivation::Recursive];
+    let projected = [Derivation::Polynomial, Derivation::Projected];
     let serial = recursive::applies(model);
-    let dynamics: &[Derivation] = if !serial {
+    let dynamics: &[Derivation] = if mechanics.projectable() {
+        &projected
+    } else if !serial {
         &both[..1]
     } else if model.joints.len() >= RECURSIVE_FROM_JOINTS {
         &both[1..]
     } else {
         &both
     };
-    let kinematics: &[Derivation] = if serial && mechanics.task_point.is_some() { &both } else { &both[..1] };
+    let kinematics: &[Derivation] = if mechanics.projectable() {
+        &projected
+    } else if serial && mechanics.task_point.is_some() {
+        &both
+    } else {
+        &both[..1]
+    };
+    // The Christoffel form needs `D` in the coordinates of `q̇`, which a closed chain's reduced
+    // `D` is not built from.
+    let closed = mechanics.closures.is_some();
     let mut best: Option<(usize, Derivation, Derivation, bool)> = None;
     let options: Vec<(Derivation, bool)> = dynamics
         .iter()
-        .flat_map(
-            |&d| if d == Derivation::Polynomial { vec![(d, false), (d, true)] } else { vec![(d, false)] },
-        )
+        .flat_map(|&d| {
+            if d == Derivation::Polynomial && !closed {
+                vec![(d, false), (d, true)]
+            } else {
+                vec![(d, false)]
+            }
+        })
         .collect();
     for &(d, structured) in &options {
         for &k in kinematics {
@@ -226,6 +246,33 @@ pub(crate) fn choose_derivations(model: &Model, mechanics: &mut Mechanics) {
 }
 
 impl Mechanics {
+    /// Whether this can be built by projection ([`Derivation::Projected`]): a reduced spatial
+    /// chain that keeps its open tree.
+    pub(crate) fn projectable(&self) -> bool {
+        self.tree.is_some() && self.closures.as_ref().is_some_and(|c| c.spatial.is_some())
+    }
+
+    /// The projection of this reduced chain's open tree, if [`Self::projectable`].
+    fn projection(&self) -> Option<Projection<'_>> {
+        match (&self.tree, &self.closures) {
+            (Some(tree), Some(closures)) if self.projectable() => {
+                debug_assert_eq!(tree.derivation, Derivation::Polynomial);
+                Some(Projection {
+                    tree: OpenTree {
+                        joints: tree.joints,
+                        inertia_matrix: &tree.inertia_matrix,
+                        coriolis_matrix: &tree.coriolis_matrix,
+                        coriolis_times_qdot: &tree.coriolis_times_qdot,
+                        gravity: &tree.gravity,
+                        points: &tree.points,
+                    },
+                    closures,
+                })
+            }
+            _ => None,
+        }
+    }
+
     /// `C q̇ = Σ_k Σ_{i≤j} Γ_kij q̇_i q̇_j` with the Christoffel combinations
     /// `Γ_kij = ∂_i D_kj + ∂_j D_ki − ∂_k D_ij` (`i < j`) and `∂_i D_ki − ½ ∂_k D_ii` (`i = j`) built
     /// from the partial derivatives of `D` as shared nodes (the diagonal ones as
@@ -298,16 +345,23 @@ impl Mechanics {
         let serial = recursive::applies(model);
         let polynomial_dynamics =
             self.closures.is_some() || !self.inertia_matrix.is_empty() || self.joints == 0;
+        let projected = self.projectable();
+        let all = [Derivation::Polynomial, Derivation::Recursive, Derivation::Projected];
         let mut out = Vec::new();
-        for dynamics in [Derivation::Polynomial, Derivation::Recursive] {
-            for kinematics in [Derivation::Polynomial, Derivation::Recursive] {
+        for dynamics in all {
+            for kinematics in all {
                 for structured_coriolis in [false, true] {
-                    let ok = match dynamics {
+                    let dynamics_ok = match dynamics {
                         Derivation::Polynomial => polynomial_dynamics,
                         Derivation::Recursive => serial && !structured_coriolis,
-                    } && (kinematics == Derivation::Polynomial || serial)
-                        && (!structured_coriolis || self.closures.is_none());
-                    if ok {
+                        Derivation::Projected => projected && !structured_coriolis,
+                    };
+                    let kinematics_ok = match kinematics {
+                        Derivation::Polynomial => true,
+                        Derivation::Recursive => serial,
+                        Derivation::Projected => projected,
+                    };
+                    if dynamics_ok && kinematics_ok && (!structured_coriolis || self.closures.is_none()) {
                         out.push(Choice { dynamics, kinematics, structured_coriolis });
                     }
                 }
@@ -329,12 +383,16 @@ impl Mechanics {
         quantity: Quantity,
         choice: Choice,
     ) -> Vec<NodeId> {
-        let recursive = match quantity {
-            Quantity::Point(..) | Quantity::Frame(..) => choice.kinematics == Derivation::Recursive,
-            _ => choice.dynamics == Derivation::Recursive,
+        let derivation = match quantity {
+            Quantity::Point(..) | Quantity::Frame(..) => choice.kinematics,
+            _ => choice.dynamics,
         };
-        if recursive {
-            return recursive::build(dag, model, quantity);
+        match derivation {
+            Derivation::Recursive => return recursive::build(dag, model, quantity),
+            Derivation::Projected => {
+                return self.projection().map_or_else(Vec::new, |p| p.build(dag, quantity))
+            }
+            Derivation::Polynomial => {}
         }
         let polys = |dag: &mut Dag, list: &[Poly]| -> Vec<NodeId> {
             list.iter().map(|p| dag.polynomial(p)).collect()

@@ -13,6 +13,7 @@ pub mod closure;
 pub mod kinematics;
 mod lagrangian;
 pub mod mechanics;
+mod projection;
 #[doc(hidden)]
 pub mod recursive;
 mod reduction;
@@ -40,8 +41,11 @@ fn derive_with(model: &Model, closures: Option<&Closures>, all_polynomials: bool
     if let Some(closures) = closures {
         // A closed chain: reduced to the actuated coordinates as polynomials (see
         // `crate::dynamics::closure`), from the open tree's; the emitted code uses those
-        // polynomials as they are.
-        return reduce(derive_tree(model, true), closures);
+        // polynomials as they are, or a spatial chain's tree projected on the DAG
+        // (`projection`), whichever is cheaper.
+        let mut mechanics = reduce(derive_tree(model, true), closures);
+        choose_derivations(model, &mut mechanics);
+        return mechanics;
     }
     let mut mechanics = derive_tree(model, all_polynomials);
     choose_derivations(model, &mut mechanics);

@@ -76,7 +76,9 @@ pub fn reduce(tree: Mechanics, closures: &Closures) -> Mechanics {
         // The reduced polynomials contain the closure atoms: emitted as they are.
         derivation: Derivation::Polynomial,
         kinematics: Derivation::Polynomial,
-        task_point: None,
+        // A spatial chain's task point is built by projection from the tree's
+        // (`super::projection`); a planar chain's task stays the reduced polynomials.
+        task_point: if closures.spatial.is_some() { tree.task_point } else { None },
         structured_coriolis: false,
         joints: n,
         task_dim: tree.task_dim,
