@@ -7,7 +7,11 @@
 //! `Φ_p Δq_p = −Φ` with `Φ_p = ∂Φ/∂q_p`, from a guess (the previous tick's solution: a warm
 //! start, so that one or two steps suffice at a haptic rate), with a fixed bound on the steps;
 //! [`passive_sensitivity`] gives `A = −Φ_p⁻¹ Φ_a`, so that `q̇_p = A q̇_a`, from the factors of
-//! the last step. Both are allocation-free and panic-free, and report failure as a
+//! the last step. At the velocity level the reduced dynamics need `Ȧ q̇_a`, the passive
+//! coordinates' acceleration when the actuated ones do not accelerate (the convective term):
+//! differentiating `Φ_p q̇_p + Φ_a q̇_a = 0` once more at `q̈_a = 0` gives
+//! `Ȧ q̇_a = −Φ_p⁻¹ γ`, `γ = Φ̇_p q̇_p + Φ̇_a q̇_a`, one solve of a vector, where `Ȧ` itself
+//! (`−Φ_p⁻¹ (Φ̇_p A + Φ̇_a)`, a solve per actuated coordinate) is computed only when asked for. Both are allocation-free and panic-free, and report failure as a
 //! [`LoopError`] instead of returning a plausible-looking number: a loop that does not close
 //! (the actuated coordinates out of reach), a singular loop (`Φ_p` losing rank, where the
 //! reduced inertia grows without bound) and non-finite inputs.
@@ -153,6 +157,9 @@ pub trait LoopConstraints<S: Real, const N: usize, const P: usize> {
     fn loop_actuated_jacobian(&self, q: &[S; N], passive: &[S; P]) -> [[S; N]; P];
     /// The rig's record of the loops it closed last ([`LoopCache`]).
     fn loop_cache(&self) -> &LoopCache<S, N, P>;
+    /// `γ = Φ̇_p q̇_p + Φ̇_a q̇_a` at `(q, passive)` moving with `(qd, passive_rate)`: `Φ̈` at
+    /// zero accelerations.
+    fn loop_convective(&self, q: &[S; N], qd: &[S; N], passive: &[S; P], passive_rate: &[S; P]) -> [S; P];
     /// `Φ̇_p` and `Φ̇_a` at `(q, passive)` moving with `(qd, passive_rate)`.
     fn loop_jacobian_rates(
         &self,
@@ -172,7 +179,11 @@ pub struct ClosedLoops<S, const N: usize, const P: usize> {
     pub passive_rate: [S; P],
     /// `A = ∂q_p/∂q_a = −Φ_p⁻¹ Φ_a` (NaN when only [`LoopLevel::Position`] was asked for).
     pub sensitivity: [[S; N]; P],
-    /// `Ȧ = −Φ_p⁻¹ (Φ̇_p A + Φ̇_a)` (NaN when no velocity was given).
+    /// `Ȧ q̇_a = −Φ_p⁻¹ (Φ̇_p q̇_p + Φ̇_a q̇_a)`, the passive coordinates' acceleration at
+    /// `q̈_a = 0` (NaN when no velocity was given).
+    pub passive_convective: [S; P],
+    /// `Ȧ = −Φ_p⁻¹ (Φ̇_p A + Φ̇_a)` (NaN unless [`LoopLevel::SensitivityRate`] was asked for
+    /// with a velocity).
     pub sensitivity_rate: [[S; N]; P],
     /// `Φ_p`'s reciprocal condition estimate at the solution ([`LoopSolution::margin`]): 0 where
     /// the loops are singular, NaN where they could not be solved.
@@ -192,6 +203,7 @@ impl<S: Real, const N: usize, const P: usize> ClosedLoops<S, N, P> {
             passive: [nan; P],
             passive_rate: [nan; P],
             sensitivity: [[nan; N]; P],
+            passive_convective: [nan; P],
             sensitivity_rate: [[nan; N]; P],
             margin: nan,
             error: Some(error),
@@ -205,8 +217,11 @@ impl<S: Real, const N: usize, const P: usize> ClosedLoops<S, N, P> {
 pub enum LoopLevel {
     /// The passive coordinates only (positions, the margin).
     Position,
-    /// Those and `A = ∂q_p/∂q_a`.
+    /// Those and `A = ∂q_p/∂q_a` (with a velocity also `q̇_p` and `Ȧ q̇_a`).
     Sensitivity,
+    /// Those and, with a velocity, `Ȧ` (a solve per actuated coordinate: for `C` itself, not
+    /// for `C q̇`).
+    SensitivityRate,
 }
 
 /// The loops a rig closed last, kept in the rig (a field of a generated spatial closed chain):
@@ -227,8 +242,10 @@ struct CachedLoops<S, const N: usize, const P: usize> {
     factors: Option<LuFactors<S, P>>,
     /// `A` is in `closed`.
     has_sensitivity: bool,
-    /// The velocity `q̇_p` and `Ȧ` in `closed` are for.
+    /// The velocity `q̇_p` and `Ȧ q̇_a` in `closed` are for.
     rates_for: Option<[S; N]>,
+    /// The velocity `Ȧ` in `closed` is for.
+    sensitivity_rate_for: Option<[S; N]>,
 }
 
 impl<S: Real, const N: usize, const P: usize> LoopCache<S, N, P> {
@@ -264,7 +281,7 @@ impl<S, const N: usize, const P: usize> core::fmt::Debug for LoopCache<S, N, P> 
 }
 
 /// Solves `loops` at `q` to `level` (and, with `qd`, at the velocity level: `q̇_p = A q̇_a` and
-/// `Ȧ`, `A` included), within the generator's checked step bound: Newton's method from the
+/// `Ȧ q̇_a`, `A` included; `Ȧ` at [`LoopLevel::SensitivityRate`]), within the generator's checked step bound: Newton's method from the
 /// last solution (moved along its `A` if that was computed) when `q` is within
 /// [`LoopSolverSettings::warm_start_radius`] of it, else (or if that fails) from the assembly
 /// moved along its tangent, `q_p0 + A₀ (q_a − q_a0)`. At the
@@ -284,17 +301,26 @@ pub fn close_loops<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P
     };
     if let Some(factors) = entry.factors {
         let complete = |entry: &mut CachedLoops<S, N, P>| -> Result<(), LoopError> {
-            if (level == LoopLevel::Sensitivity || qd.is_some()) && !entry.has_sensitivity {
+            if (level != LoopLevel::Position || qd.is_some()) && !entry.has_sensitivity {
                 entry.closed.sensitivity =
                     passive_sensitivity(&factors, &loops.loop_actuated_jacobian(q, &entry.closed.passive))?;
                 entry.has_sensitivity = true;
             }
             if let Some(qd) = qd {
                 if entry.rates_for.as_ref() != Some(qd) {
-                    let (passive_rate, sensitivity_rate) = rates(loops, q, qd, &entry.closed, &factors)?;
+                    let (passive_rate, passive_convective) = rates(loops, q, qd, &entry.closed, &factors)?;
                     entry.closed.passive_rate = passive_rate;
-                    entry.closed.sensitivity_rate = sensitivity_rate;
+                    entry.closed.passive_convective = passive_convective;
                     entry.rates_for = Some(*qd);
+                }
+                if entry.sensitivity_rate_for.as_ref() != Some(qd) {
+                    // Never another velocity's `Ȧ`: NaN where it was not asked for.
+                    (entry.closed.sensitivity_rate, entry.sensitivity_rate_for) = match level {
+                        LoopLevel::SensitivityRate => {
+                            (sensitivity_rate(loops, q, qd, &entry.closed, &factors)?, Some(*qd))
+                        }
+                        _ => ([[S::from_f64(f64::NAN); N]; P], None),
+                    };
                 }
             }
             Ok(())
@@ -355,6 +381,7 @@ fn solve_position<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P:
                 passive: solution.passive,
                 passive_rate: [nan; P],
                 sensitivity: [[nan; N]; P],
+                passive_convective: [nan; P],
                 sensitivity_rate: [[nan; N]; P],
                 margin: solution.margin,
                 error: None,
@@ -364,25 +391,46 @@ fn solve_position<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P:
         }
         Err(error) => (ClosedLoops::failed(error), None),
     };
-    CachedLoops { q: *q, closed, factors, has_sensitivity: false, rates_for: None }
+    CachedLoops {
+        q: *q,
+        closed,
+        factors,
+        has_sensitivity: false,
+        rates_for: None,
+        sensitivity_rate_for: None,
+    }
 }
 
-/// `q̇_p = A q̇_a` and `Ȧ = −Φ_p⁻¹ (Φ̇_p A + Φ̇_a)` at a solution with its `A`.
-#[allow(clippy::type_complexity)]
+/// `q̇_p = A q̇_a` and `Ȧ q̇_a = −Φ_p⁻¹ (Φ̇_p q̇_p + Φ̇_a q̇_a)` at a solution with its `A`.
 fn rates<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P: usize>(
     loops: &L,
     q: &[S; N],
     qd: &[S; N],
     closed: &ClosedLoops<S, N, P>,
     factors: &LuFactors<S, P>,
-) -> Result<([S; P], [[S; N]; P]), LoopError> {
-    let sensitivity = &closed.sensitivity;
+) -> Result<([S; P], [S; P]), LoopError> {
     let mut passive_rate = [S::ZERO; P];
-    for (rate, row) in passive_rate.iter_mut().zip(sensitivity.iter()) {
+    for (rate, row) in passive_rate.iter_mut().zip(closed.sensitivity.iter()) {
         *rate = dot(row, qd);
     }
+    let mut negated_convective = loops.loop_convective(q, qd, &closed.passive, &passive_rate);
+    for entry in &mut negated_convective {
+        *entry = -*entry;
+    }
+    Ok((passive_rate, factors.solve(&negated_convective, S::ZERO).map_err(loop_error)?))
+}
+
+/// `Ȧ = −Φ_p⁻¹ (Φ̇_p A + Φ̇_a)` at a solution with its `A` and `q̇_p`.
+fn sensitivity_rate<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P: usize>(
+    loops: &L,
+    q: &[S; N],
+    qd: &[S; N],
+    closed: &ClosedLoops<S, N, P>,
+    factors: &LuFactors<S, P>,
+) -> Result<[[S; N]; P], LoopError> {
+    let sensitivity = &closed.sensitivity;
     let (passive_jacobian_rate, actuated_jacobian_rate) =
-        loops.loop_jacobian_rates(q, qd, &closed.passive, &passive_rate);
+        loops.loop_jacobian_rates(q, qd, &closed.passive, &closed.passive_rate);
     // Φ̇_p A + Φ̇_a.
     let mut right = actuated_jacobian_rate;
     for (row, rate_row) in right.iter_mut().zip(passive_jacobian_rate.iter()) {
@@ -392,7 +440,7 @@ fn rates<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P: usize>(
             }
         }
     }
-    Ok((passive_rate, negated_solve(factors, &right)?))
+    negated_solve(factors, &right)
 }
 
 fn loop_error(error: SolveError) -> LoopError {

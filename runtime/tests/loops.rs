@@ -190,6 +190,22 @@ impl<const STEPS: u32> LoopConstraints<f64, 1, 2> for FourBar<STEPS> {
             _ => actuated_jacobian(q[0]),
         }
     }
+    fn loop_convective(
+        &self,
+        q: &[f64; 1],
+        qd: &[f64; 1],
+        passive: &[f64; 2],
+        passive_rate: &[f64; 2],
+    ) -> [f64; 2] {
+        // γ = Φ̇_p q̇_p + Φ̇_a q̇_a, from the rates' matrices (the generated code's is its own
+        // polynomial).
+        let (passive_part, actuated_part) = jacobian_rates(q[0], qd[0], passive, passive_rate);
+        core::array::from_fn(|r| {
+            passive_part[r][0] * passive_rate[0]
+                + passive_part[r][1] * passive_rate[1]
+                + actuated_part[r][0] * qd[0]
+        })
+    }
     fn loop_jacobian_rates(
         &self,
         q: &[f64; 1],
@@ -210,7 +226,7 @@ fn closed_loops_give_the_closed_form_and_its_first_and_second_derivatives() {
     };
     for q in [0.6, 0.9, 1.0, 1.3, 1.6] {
         let qd = 0.7;
-        let closed = close_loops(&FourBar::<8>::default(), &[q], LoopLevel::Sensitivity, Some(&[qd]));
+        let closed = close_loops(&FourBar::<8>::default(), &[q], LoopLevel::SensitivityRate, Some(&[qd]));
         assert_eq!(closed.error, None);
         let expected = closed_form(q);
         let slope = derivative(&closed_form, q);
@@ -226,7 +242,22 @@ fn closed_loops_give_the_closed_form_and_its_first_and_second_derivatives() {
                 closed.sensitivity_rate,
                 curvature
             );
+            // `Ȧ q̇_a`, from its own single solve: the second derivative along the path.
+            assert!(
+                (closed.passive_convective[i] - curvature[i] * qd * qd).abs() < 1e-4,
+                "q = {q}: {:?} vs {:?}",
+                closed.passive_convective,
+                curvature
+            );
+            assert!((closed.passive_convective[i] - closed.sensitivity_rate[i][0] * qd).abs() < 1e-12);
         }
+        // At the `Sensitivity` level with a velocity: `q̇_p` and `Ȧ q̇_a`, not `Ȧ`.
+        let without_rate = close_loops(&FourBar::<8>::default(), &[q], LoopLevel::Sensitivity, Some(&[qd]));
+        assert_eq!(
+            (without_rate.passive_rate, without_rate.passive_convective),
+            (closed.passive_rate, closed.passive_convective)
+        );
+        assert!(without_rate.sensitivity_rate.iter().all(|r| r[0].is_nan()));
         assert!(closed.margin > 1e-3 && closed.margin <= 1.0);
         // Without a velocity the rates are not computed (NaN), the rest is the same; at the
         // position level, `A` is not either.
@@ -239,6 +270,7 @@ fn closed_loops_give_the_closed_form_and_its_first_and_second_derivatives() {
             .sensitivity_rate
             .iter()
             .chain(&without_velocity.passive_rate.map(|r| [r]))
+            .chain(&without_velocity.passive_convective.map(|r| [r]))
             .all(|r| r[0].is_nan()));
         let position = close_loops(&FourBar::<8>::default(), &[q], LoopLevel::Position, None);
         assert_eq!(position.passive, closed.passive);
@@ -251,7 +283,7 @@ fn closed_loops_that_cannot_be_solved_are_nan_with_the_reason() {
     // A NaN angle; and an angle too far from the assembly for the one step allowed.
     let cases = [
         (
-            close_loops(&FourBar::<8>::default(), &[f64::NAN], LoopLevel::Sensitivity, Some(&[0.5])),
+            close_loops(&FourBar::<8>::default(), &[f64::NAN], LoopLevel::SensitivityRate, Some(&[0.5])),
             LoopError::NonFinite,
         ),
         (
@@ -261,7 +293,12 @@ fn closed_loops_that_cannot_be_solved_are_nan_with_the_reason() {
     ];
     for (closed, reason) in cases {
         assert_eq!(closed.error, Some(reason));
-        assert!(closed.passive.iter().chain(closed.passive_rate.iter()).all(|x| x.is_nan()));
+        assert!(closed
+            .passive
+            .iter()
+            .chain(closed.passive_rate.iter())
+            .chain(closed.passive_convective.iter())
+            .all(|x| x.is_nan()));
         assert!(closed
             .sensitivity
             .iter()
@@ -279,16 +316,23 @@ fn closed_loops_are_reused_at_the_same_state_and_warm_started_near_it() {
     assert!(first.steps >= 2, "from the tangent: {} steps", first.steps);
     // The same state: the same solution, no step, only what is new computed — and the same
     // values as a rig that computed everything at once.
-    let full = close_loops(&rig, &[1.3], LoopLevel::Sensitivity, Some(&[0.7]));
+    let full = close_loops(&rig, &[1.3], LoopLevel::SensitivityRate, Some(&[0.7]));
     assert_eq!((full.passive, full.steps), (first.passive, 0));
-    let at_once = close_loops(&FourBar::<8>::default(), &[1.3], LoopLevel::Sensitivity, Some(&[0.7]));
-    assert_eq!((full.sensitivity, full.sensitivity_rate), (at_once.sensitivity, at_once.sensitivity_rate));
-    let other_velocity = close_loops(&rig, &[1.3], LoopLevel::Sensitivity, Some(&[-0.2]));
-    let expected = close_loops(&FourBar::<8>::default(), &[1.3], LoopLevel::Sensitivity, Some(&[-0.2]));
+    let at_once = close_loops(&FourBar::<8>::default(), &[1.3], LoopLevel::SensitivityRate, Some(&[0.7]));
     assert_eq!(
-        (other_velocity.passive_rate, other_velocity.sensitivity_rate),
-        (expected.passive_rate, expected.sensitivity_rate)
+        (full.sensitivity, full.sensitivity_rate, full.passive_convective),
+        (at_once.sensitivity, at_once.sensitivity_rate, at_once.passive_convective)
     );
+    // Another velocity at the same state: the rates and `Ȧ` anew, each only when asked for.
+    let other_velocity = close_loops(&rig, &[1.3], LoopLevel::Sensitivity, Some(&[-0.2]));
+    let expected = close_loops(&FourBar::<8>::default(), &[1.3], LoopLevel::SensitivityRate, Some(&[-0.2]));
+    assert_eq!(
+        (other_velocity.passive_rate, other_velocity.passive_convective),
+        (expected.passive_rate, expected.passive_convective)
+    );
+    assert!(other_velocity.sensitivity_rate.iter().all(|r| r[0].is_nan()), "Ȧ of another velocity");
+    let other_rate = close_loops(&rig, &[1.3], LoopLevel::SensitivityRate, Some(&[-0.2]));
+    assert_eq!(other_rate.sensitivity_rate, expected.sensitivity_rate);
     // A tick's motion away: at most two steps from the last solution, and the closed form.
     let mut q = 1.3;
     for _ in 0..50 {
@@ -355,6 +399,7 @@ fn a_solution_that_cannot_be_completed_is_nan_and_stays_so_at_that_state() {
     let all_nan = |closed: &hapticgen_runtime::loops::ClosedLoops<f64, 1, 2>| {
         closed.passive.iter().chain(&closed.passive_rate).all(|x| x.is_nan())
             && closed.sensitivity.iter().chain(&closed.sensitivity_rate).all(|r| r[0].is_nan())
+            && closed.passive_convective.iter().all(|x| x.is_nan())
             && closed.margin.is_nan()
     };
     let closed = close_loops(&rig, &[1.3], LoopLevel::Sensitivity, Some(&[0.4]));

@@ -124,6 +124,14 @@ impl Closures {
         (r < spatial.passive).then(|| spatial.sensitivity(self.spatial_first_atom(), r, j, rate))
     }
 
+    /// The atom of `(Ȧ q̇_a)_i`, the acceleration at `q̈_a = 0`, for a passive tree coordinate
+    /// `i` of a spatial chain; `None` otherwise (a planar loop's is `Σ_j Ȧ_ij q̇_j`).
+    pub(crate) fn convective_atom(&self, i: usize) -> Option<Atom> {
+        let spatial = self.spatial.as_ref()?;
+        let r = i.checked_sub(self.actuated)?;
+        (r < spatial.passive).then(|| spatial.convective(self.spatial_first_atom(), r))
+    }
+
     /// The first atom number of the spatial loops' sensitivities: after the planar loops'.
     fn spatial_first_atom(&self) -> usize {
         self.loops.len() * 4 * self.actuated

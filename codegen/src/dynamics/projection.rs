@@ -11,7 +11,8 @@
 //! multiplies them as the run-time code of a projection would, with the tree's zeros (legs
 //! that do not move each other) dropped by the graph's constant folding. The tree's
 //! quantities read the passive joints' velocities directly (`q̇_p = A q̇_a` comes from the loop
-//! solution), and `Ṡ q̇_a` is one vector, shared by `C q̇` and `J̇ q̇`.
+//! solution), and `Ṡ q̇_a` is one vector, shared by `C q̇` and `J̇ q̇`, which the runtime solves
+//! for directly (`Ȧ q̇_a = −Φ_p⁻¹ γ`), so that only `C` itself reads `Ȧ`.
 
 use super::closure::Closures;
 use super::kinematics::PointKinematics;
@@ -62,11 +63,20 @@ impl Projection<'_> {
             .collect()
     }
 
-    /// `Ṡ q̇_a`, the tree coordinates' acceleration at `q̈_a = 0`.
+    /// `Ṡ q̇_a`, the tree coordinates' acceleration at `q̈_a = 0`: zero on the actuated rows,
+    /// the loop solution's `Ȧ q̇_a` (one solve at run time) on the passive ones.
     fn sensitivity_rate_times_qdot(&self, dag: &mut Dag) -> Vec<NodeId> {
         let s_dot = self.sensitivity(dag, true);
         let qd: Vec<NodeId> = (0..self.closures.actuated).map(|j| dag.input(Atom::Qd(j as u16))).collect();
-        matrix_vec(dag, &s_dot, &qd)
+        let products = matrix_vec(dag, &s_dot, &qd);
+        products
+            .into_iter()
+            .enumerate()
+            .map(|(i, product)| match self.closures.convective_atom(i) {
+                Some(atom) => dag.input(atom),
+                None => product,
+            })
+            .collect()
     }
 
     fn nodes(dag: &mut Dag, polys: &[Poly]) -> Vec<NodeId> {
@@ -95,7 +105,7 @@ impl Projection<'_> {
         match quantity {
             Quantity::InertiaMatrix => {
                 let s = self.sensitivity(dag, false);
-                let tree_inertia = Self::matrix(dag, &tree.inertia_matrix);
+                let tree_inertia = Self::matrix(dag, tree.inertia_matrix);
                 let inertia_times_s = matrix_mul(dag, &tree_inertia, &s);
                 // `(Sᵀ D S)_ij = Σ_k S_ki (D S)_kj`, built for `i ≤ j` only; the lower triangle
                 // mirrors it, so that rounding cannot make the matrix unsymmetric.
@@ -115,8 +125,8 @@ impl Projection<'_> {
             Quantity::CoriolisMatrix => {
                 let s = self.sensitivity(dag, false);
                 let s_dot = self.sensitivity(dag, true);
-                let tree_coriolis = Self::matrix(dag, &tree.coriolis_matrix);
-                let tree_inertia = Self::matrix(dag, &tree.inertia_matrix);
+                let tree_coriolis = Self::matrix(dag, tree.coriolis_matrix);
+                let tree_inertia = Self::matrix(dag, tree.inertia_matrix);
                 let coriolis_s = matrix_mul(dag, &tree_coriolis, &s);
                 let inertia_s_dot = matrix_mul(dag, &tree_inertia, &s_dot);
                 let sum: Vec<Vec<NodeId>> =
@@ -124,15 +134,15 @@ impl Projection<'_> {
                 matrix_mul(dag, &matrix_transpose(&s), &sum).into_iter().flatten().collect()
             }
             Quantity::CoriolisTimesQdot => {
-                let tree_cqd = Self::nodes(dag, &tree.coriolis_times_qdot);
-                let tree_inertia = Self::matrix(dag, &tree.inertia_matrix);
+                let tree_cqd = Self::nodes(dag, tree.coriolis_times_qdot);
+                let tree_inertia = Self::matrix(dag, tree.inertia_matrix);
                 let bias = self.sensitivity_rate_times_qdot(dag);
                 let inertia_bias = matrix_vec(dag, &tree_inertia, &bias);
                 let sum = Self::add(dag, &tree_cqd, &inertia_bias);
                 self.project(dag, &sum)
             }
             Quantity::Gravity => {
-                let tree_gravity = Self::nodes(dag, &tree.gravity);
+                let tree_gravity = Self::nodes(dag, tree.gravity);
                 self.project(dag, &tree_gravity)
             }
             Quantity::InverseDynamics => {

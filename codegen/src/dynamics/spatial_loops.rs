@@ -434,9 +434,17 @@ impl SpatialLoops {
         Atom::Closure((first_atom + usize::from(rate) * p * n + r * n + j) as u16)
     }
 
+    /// The atom of `(Ȧ q̇_a)[r]`, passive coordinate `r`'s acceleration at `q̈_a = 0`, numbered
+    /// from `first_atom` after `A` and `Ȧ`.
+    pub fn convective(&self, first_atom: usize, r: usize) -> Atom {
+        let (n, p) = (self.actuated, self.passive);
+        Atom::Closure((first_atom + 2 * p * n + r) as u16)
+    }
+
     /// The atoms [`SpatialLoops::values_from`] gives values of, in its order: per passive
     /// coordinate its sine, cosine, angle and rate; then `A` and `Ȧ` row-major
-    /// ([`SpatialLoops::sensitivity`], numbered from `first_atom`).
+    /// ([`SpatialLoops::sensitivity`], numbered from `first_atom`); then `Ȧ q̇_a`
+    /// ([`SpatialLoops::convective`]).
     pub fn atoms(&self, first_atom: usize) -> Vec<Atom> {
         let (n, p) = (self.actuated, self.passive);
         let mut atoms: Vec<Atom> = (0..p)
@@ -452,6 +460,7 @@ impl SpatialLoops {
                     .map(|(r, j)| self.sensitivity(first_atom, r, j, rate)),
             );
         }
+        atoms.extend((0..p).map(|r| self.convective(first_atom, r)));
         atoms
     }
 
@@ -473,7 +482,7 @@ impl SpatialLoops {
         guess: Option<&[f64]>,
     ) -> (Vec<f64>, Option<Vec<f64>>) {
         let (n, p) = (self.actuated, self.passive);
-        let failed = || (vec![f64::NAN; 4 * p + 2 * p * n], None);
+        let failed = || (vec![f64::NAN; 5 * p + 2 * p * n], None);
         let actuated = &q[..n.min(q.len())];
         let warm = guess.filter(|g| g.len() == p).and_then(|g| self.newton(actuated, g, parameters));
         let Some(passive) = warm.or_else(|| self.passive_coordinates(actuated, parameters)) else {
@@ -498,11 +507,12 @@ impl SpatialLoops {
             })
             .collect();
         let Some(a_dot) = solve(phi_p, right) else { return failed() };
-        let mut values = Vec::with_capacity(4 * p + 2 * p * n);
+        let mut values = Vec::with_capacity(5 * p + 2 * p * n);
         for (&angle, &velocity) in passive.iter().zip(&passive_velocity) {
             values.extend([angle.sin(), angle.cos(), angle, velocity]);
         }
         values.extend(a.iter().chain(&a_dot).flatten());
+        values.extend(a_dot.iter().map(|row| row.iter().zip(qd).map(|(x, v)| x * v).sum::<f64>()));
         (values, Some(passive))
     }
 }

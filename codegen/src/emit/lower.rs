@@ -457,8 +457,16 @@ impl<'m> BodyEmitter<'m> {
         } else {
             quote!(::core::option::Option::None)
         };
-        // `A` only where a value reads it (positions need the passive angles alone).
-        let level = if inputs().any(|atom| matches!(loops.read(atom), Some(LoopRead::Sensitivity { .. }))) {
+        // `A` only where a value reads it (positions need the passive angles alone), `Ȧ` only
+        // where `C` itself does (`C q̇` reads `Ȧ q̇_a`).
+        let reads = |rate: bool| {
+            inputs().any(
+                |atom| matches!(loops.read(atom), Some(LoopRead::Sensitivity { rate: r, .. }) if r || !rate),
+            )
+        };
+        let level = if reads(true) {
+            quote!(SensitivityRate)
+        } else if reads(false) {
             quote!(Sensitivity)
         } else {
             quote!(Position)

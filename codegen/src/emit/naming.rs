@@ -49,6 +49,8 @@ pub(crate) enum LoopRead {
     PassiveRate(usize),
     /// `A[r][j]` (`rate`: `Ȧ[r][j]`).
     Sensitivity { r: usize, j: usize, rate: bool },
+    /// `(Ȧ q̇_a)[r]`, passive coordinate `r`'s acceleration at `q̈_a = 0`.
+    Convective(usize),
 }
 
 impl LoopInputs {
@@ -61,7 +63,11 @@ impl LoopInputs {
             Atom::Qd(j) => passive(j).map(LoopRead::PassiveRate),
             Atom::Closure(k) => {
                 let k = usize::from(k);
-                (k < 2 * p * n).then(|| LoopRead::Sensitivity { r: (k / n) % p, j: k % n, rate: k >= p * n })
+                if k < 2 * p * n {
+                    Some(LoopRead::Sensitivity { r: (k / n) % p, j: k % n, rate: k >= p * n })
+                } else {
+                    (k < 2 * p * n + p).then(|| LoopRead::Convective(k - 2 * p * n))
+                }
             }
             _ => None,
         }
@@ -76,11 +82,13 @@ impl LoopInputs {
             LoopRead::PassiveRate(r) => ("passive_rate", r, None),
             LoopRead::Sensitivity { r, j, rate: false } => ("sensitivity", r, Some(j)),
             LoopRead::Sensitivity { r, j, rate: true } => ("sensitivity_rate", r, Some(j)),
+            LoopRead::Convective(r) => ("passive_convective", r, None),
         };
         let array = format_ident!("{}", array);
-        // The constraint functions take the passive values as arguments; `A` and `Ȧ` are only
-        // ever read from a solution.
-        let array = if self.solved || column.is_some() { quote!(loops.#array) } else { quote!(#array) };
+        // The constraint functions take the passive values as arguments; `A`, `Ȧ` and `Ȧ q̇_a`
+        // are only ever read from a solution.
+        let from_solution = self.solved || !matches!(read, LoopRead::Passive(_) | LoopRead::PassiveRate(_));
+        let array = if from_solution { quote!(loops.#array) } else { quote!(#array) };
         let r = index(r);
         match column.map(index) {
             Some(j) => quote!(#array[#r][#j]),
@@ -94,7 +102,9 @@ impl Naming<'_> {
     /// computed from them.
     pub(crate) fn reads_velocity(&self, atom: Atom) -> bool {
         match self.loops.and_then(|l| l.read(atom)) {
-            Some(LoopRead::PassiveRate(_)) | Some(LoopRead::Sensitivity { rate: true, .. }) => true,
+            Some(
+                LoopRead::PassiveRate(_) | LoopRead::Sensitivity { rate: true, .. } | LoopRead::Convective(_),
+            ) => true,
             _ => matches!(atom, Atom::Qd(_)),
         }
     }
@@ -120,6 +130,9 @@ impl Naming<'_> {
                     joint(j as u16),
                     if rate { "_rate" } else { "" }
                 ),
+                Some(LoopRead::Convective(r)) => {
+                    format!("{}_convective", joint((self.model.joints.len() + r) as u16))
+                }
                 _ => format!("closure_{k}"),
             },
             Atom::External(k) => self

@@ -437,7 +437,8 @@ fn run(cli: Cli) -> Result<(), String> {
                         "note: the functions above read the loops' solution; solving them is the runtime's\n\
                          (`hapticgen_runtime::loops::close_loops`, once per state): up to {} Newton steps, each\n\
                          `loop_constraints` and a {p} × {p} LU factorisation; then `loop_actuated_jacobian` and\n\
-                         {n} solves for `A`; with velocities `loop_jacobian_rates` and {n} solves for `Ȧ`",
+                         {n} solves for `A`; with velocities `loop_convective` and one solve for `Ȧ q̇_a`\n\
+                         (`C q̇`, `J̇ q̇`), and only for `C` itself `loop_jacobian_rates` and {n} solves for `Ȧ`",
                         spatial.newton_step_bound(),
                         p = spatial.passive,
                         n = spatial.actuated,
