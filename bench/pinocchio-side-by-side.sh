@@ -177,6 +177,7 @@ awk -v closed="$closed" '
             row("J̇·q̇", "`getFrameClassicalAcceleration` + J Ṡq̇_a (`jacobian_dot_times_qdot`)", "Jdqd", "Jdqd")
             row("bundle: D, C·q̇, g, p, J, J̇·q̇", "one loop solve, then the calls above (`terms`)", "bundle", "terms")
             row("bundle: D, C·q̇, g, p, J, J̇·q̇", "one loop solve, `computeAllTerms(q, q̇)` for the tree and the bias, then the projections (`terms`)", "allterms", "terms")
+            printf "\nPinocchio'"'"'s loop solve alone (Newton, A, q̇ and the bias Ṡq̇_a, as in the bundle): %.1f ns (wheel library), %.1f ns (headers); %.2f Newton steps per solve.\n", best["library loops"], best["headers loops"], best["library newton_steps_per_solve"]
             exit
         }
         print "| quantity | Pinocchio calls (hapticgen function) | Pinocchio ns, wheel library | Pinocchio ns, headers compiled here | hapticgen ns | Pinocchio / hapticgen |"
@@ -191,5 +192,8 @@ awk -v closed="$closed" '
         row("bundle: D, C·q̇, g, p, J, J̇·q̇", "`computeAllTerms` + `updateFramePlacement` + `getFrameJacobian` + `getFrameClassicalAcceleration` (`terms`)", "allterms", "terms")
     }
 ' "$run/timings.txt"
+if [ "$model" = models/falcon_delta.yaml ]; then
+    echo "hapticgen's loop solve (close_loops at the velocity level, as in \`terms\`): $("$rust" loop-steps "$model" "$variant" "$run/states.txt" | sed -n 's/^newton_steps_per_solve //p') Newton steps per solve."
+fi
 echo
 echo "raw timings: $run/timings.txt"

@@ -271,6 +271,7 @@ class LoopClosure {
       }
     }
     if (!newton(qa, passive, sensitivity)) fail("the loops do not close (Newton's method did not converge)");
+    ++solves;
   }
 
   // After close(q_a, true): q̇ = S q̇_a into `v`, the bias Ṡq̇_a into `bias`. The tree's
@@ -334,6 +335,7 @@ class LoopClosure {
   }
 
   Vec q, v, bias;       // the tree's configuration, velocity and Ṡq̇_a (Pinocchio's order)
+  long solves = 0, newton_steps = 0;  // calls of close, Newton steps of their last solves
   Selection selection;  // S: the tree's velocity per actuated velocity
 
  private:
@@ -361,6 +363,7 @@ class LoopClosure {
       constraint_jacobian();
       if (converged) break;
       passive.noalias() -= lu_.solve(phi);
+      ++newton_steps;
     }
     last_actuated_ = qa;
     last_passive_ = passive;
@@ -523,6 +526,15 @@ int run_closed_chain(const pinocchio::Model& model, const States& s, const std::
   volatile double sink = 0;
   double total = 0;
   auto report = [](const char* key, double ns) { std::printf("%s %.2f\n", key, ns); };
+  // The loop solve alone (with A and the bias, as in the bundles), and Newton's steps per solve
+  // in it (the continuation from the assembly at the first state, before, not counted).
+  loops.solves = loops.newton_steps = 0;
+  report("loops", nanoseconds(S, [&](std::size_t k) {
+           loops.close(qa[k], true);
+           loops.close_rates(qda[k], false);
+           total += loops.bias[0];
+         }));
+  report("newton_steps_per_solve", double(loops.newton_steps) / double(loops.solves));
   report("D", nanoseconds(S, [&](std::size_t k) {
            loops.close(qa[k], true);
            crba(model, data, loops.q);

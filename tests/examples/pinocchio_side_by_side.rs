@@ -34,6 +34,10 @@
 //! must agree to 1e-9 relative to the quantity's largest entry (no absolute floor). It exits
 //! with status 1 otherwise.
 //!
+//! `loop-steps` (the Falcon-like Delta only) prints the mean number of Newton steps the
+//! generated code's loop solve (`close_loops`, as `terms` calls it) takes per state along the
+//! states, for the benchmark's note on where the time goes.
+//!
 //! `time` prints `KEY NS` lines: nanoseconds per call of each generated function and of
 //! `terms`, the best of 25 batches of 2,000 calls cycling over the states (as the C++ side). A
 //! closed chain's functions are called as a user calls them: each solves the loops at its state
@@ -428,6 +432,30 @@ fn time<R: FusedImpedance<N, M, Scalar = f64>, const N: usize, const M: usize>(
     report!("terms", |q, qd| rig.terms(q, qd));
 }
 
+/// The generated code's mean Newton steps per state, closing the Falcon-like Delta's loops
+/// along the states in order (each from the solution of the state before, as in `time`).
+fn falcon_loop_steps(states: &str) -> Result<(), String> {
+    use hapticgen_runtime::loops::{close_loops, LoopLevel};
+    use hapticgen_tests::falcon_delta_f64::FalconDelta;
+    let states = read_states::<3>(states)?;
+    let rig = FalconDelta::NOMINAL;
+    // Once around to warm up (the first state continues from the assembly), once counted.
+    let mut steps = 0u64;
+    for round in 0..2 {
+        for (q, qd) in &states {
+            let closed = close_loops(&rig, q, LoopLevel::Sensitivity, Some(qd));
+            if let Some(error) = closed.error {
+                return Err(format!("the generated code's loops do not close at {q:?}: {error:?}"));
+            }
+            if round == 1 {
+                steps += u64::from(closed.steps);
+            }
+        }
+    }
+    println!("newton_steps_per_solve {:.2}", steps as f64 / states.len() as f64);
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let usage =
@@ -448,6 +476,9 @@ fn main() -> ExitCode {
                 Action::Check { states: states.clone(), results: results.clone() }
             }
             ("time", [states]) => Action::Time { states: states.clone() },
+            ("loop-steps", [states]) if file == "models/falcon_delta.yaml" => {
+                return falcon_loop_steps(states)
+            }
             _ => return Err(usage.into()),
         };
         let mut run = Run { file: file.clone(), variant, action, found: false, outcome: Ok(()) };
