@@ -147,3 +147,123 @@ fn a_small_urdf_imports_and_loads() {
     assert_eq!(m.joints[1].drive.torque_limit, 3.0, "no effort: the template's");
     assert!(yaml.starts_with("# Imported by hapticgen"));
 }
+
+/// A rigid transform: rotation and translation.
+type Pose = ([[f64; 3]; 3], [f64; 3]);
+
+fn compose((ra, pa): &Pose, (rb, pb): &Pose) -> Pose {
+    let r = std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| ra[i][k] * rb[k][j]).sum()));
+    let p = std::array::from_fn(|i| pa[i] + (0..3).map(|k| ra[i][k] * pb[k]).sum::<f64>());
+    (r, p)
+}
+
+/// URDF's `rpy`: `Rz(yaw) · Ry(pitch) · Rx(roll)`.
+fn rpy_rotation([roll, pitch, yaw]: [f64; 3]) -> [[f64; 3]; 3] {
+    let (sr, cr, sp, cp, sy, cy) = (roll.sin(), roll.cos(), pitch.sin(), pitch.cos(), yaw.sin(), yaw.cos());
+    [
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ]
+}
+
+/// Rotation by `angle` about the unit `axis` (Rodrigues).
+fn axis_rotation(axis: [f64; 3], angle: f64) -> [[f64; 3]; 3] {
+    let (s, c) = (angle.sin(), angle.cos());
+    let [x, y, z] = axis;
+    [
+        [c + x * x * (1.0 - c), x * y * (1.0 - c) - z * s, x * z * (1.0 - c) + y * s],
+        [y * x * (1.0 - c) + z * s, c + y * y * (1.0 - c), y * z * (1.0 - c) - x * s],
+        [z * x * (1.0 - c) - y * s, z * y * (1.0 - c) + x * s, c + z * z * (1.0 - c)],
+    ]
+}
+
+/// Every link's world pose in a URDF at joint angles given by name (the URDF's own reading,
+/// independent of the exporter's transforms).
+fn urdf_link_poses(text: &str, angle: impl Fn(&str) -> f64) -> std::collections::HashMap<String, Pose> {
+    let triple = |s: Option<&str>| -> [f64; 3] {
+        let v: Vec<f64> = s.unwrap_or("0 0 0").split_whitespace().map(|x| x.parse().unwrap()).collect();
+        [v[0], v[1], v[2]]
+    };
+    let document = roxmltree::Document::parse(text).unwrap();
+    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let mut poses = std::collections::HashMap::from([("base".to_string(), (identity, [0.0; 3]))]);
+    // The exporter writes each joint after its parent link's joint.
+    for joint in document.root_element().children().filter(|n| n.has_tag_name("joint")) {
+        let child_named = |tag: &str| joint.children().find(|n| n.has_tag_name(tag));
+        let parent = child_named("parent").and_then(|n| n.attribute("link")).unwrap();
+        let child = child_named("child").and_then(|n| n.attribute("link")).unwrap();
+        let origin = child_named("origin");
+        let at = (
+            rpy_rotation(triple(origin.and_then(|o| o.attribute("rpy")))),
+            triple(origin.and_then(|o| o.attribute("xyz"))),
+        );
+        let mut pose = compose(&poses[parent], &at);
+        if joint.attribute("type") == Some("revolute") {
+            let axis = triple(child_named("axis").and_then(|a| a.attribute("xyz")));
+            let name = joint.attribute("name").unwrap();
+            pose = compose(&pose, &(axis_rotation(axis, angle(name)), [0.0; 3]));
+        }
+        poses.insert(child.to_string(), pose);
+    }
+    poses
+}
+
+#[test]
+fn a_closed_chains_open_tree_exports_with_the_closures_it_cut() {
+    use hapticgen_codegen::dynamics::kinematics::point_positions;
+    use hapticgen_codegen::sym::poly::State;
+
+    let file = "models/falcon_delta.yaml";
+    let checked = load_file(&root().join(file), file, None).unwrap_or_else(|d| panic!("{d}"));
+    let model = &checked.model;
+    // Users asking for the rig's URDF are refused: a URDF cannot state the loops.
+    let refused = urdf::export(model).expect_err("a closed chain has no URDF");
+    assert!(refused.contains("passive"), "{refused}");
+    let tree = urdf::export_open_tree(model).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(tree.actuated, model.joints.len());
+    assert_eq!(tree.coordinates.len(), model.tree_coordinates());
+    assert_eq!(tree.closures.len(), model.spatial_closures.len());
+    let parameters = model.nominal_parameters();
+    let points = point_positions(model);
+    let poses_at = |q: &[f64]| {
+        urdf_link_poses(&tree.urdf, |name| {
+            let j = tree.coordinates.iter().position(|c| c == name).unwrap_or_else(|| panic!("joint {name}"));
+            q[j]
+        })
+    };
+    // The open tree moves as the model's tree, at any tree coordinates.
+    for k in 0..10 {
+        let q: Vec<f64> =
+            (0..tree.coordinates.len()).map(|j| (1.3 * k as f64 + 0.7 * j as f64).sin()).collect();
+        let poses = poses_at(&q);
+        for (point, world) in model.points.iter().zip(&points) {
+            let state = State { q: &q, qd: &[], parameters: &parameters };
+            let (_, urdf_world) = poses[&urdf::point_link_name(&point.name)];
+            for (axis, (u, v)) in world.iter().map(|p| p.eval(&state)).zip(urdf_world).enumerate() {
+                assert!((u - v).abs() < 1e-12, "point {} axis {axis}: {u} vs {v} at {q:?}", point.name);
+            }
+        }
+    }
+    // Where the loops close, the cut closures' points meet and their axes are square.
+    let spatial = checked.analyses.closures.as_ref().and_then(|c| c.spatial.as_ref()).expect("spatial loops");
+    for actuated in [[0.35, 0.35, 0.35], [0.1, 0.6, 0.3], [0.7, 0.0, 0.5]] {
+        let passive = spatial.passive_coordinates(&actuated, &parameters).expect("the loops close");
+        let q: Vec<f64> = actuated.iter().chain(&passive).copied().collect();
+        let poses = poses_at(&q);
+        for closure in &tree.closures {
+            let [(_, a), (_, b)] = closure.point_links.clone().map(|link| poses[&link]);
+            let gap = (0..3).map(|i| (a[i] - b[i]).abs()).fold(0.0, f64::max);
+            assert!(gap < 1e-12, "closure {}: the points are {gap} m apart at {q:?}", closure.name);
+            let [(x, u), (y, v)] =
+                closure.perpendicular_axes.clone().expect("the Falcon's closures keep axes square");
+            let world = |link: &String, axis: [f64; 3]| -> [f64; 3] {
+                let r = poses[link].0;
+                std::array::from_fn(|i| (0..3).map(|k| r[i][k] * axis[k]).sum())
+            };
+            let (u, v) = (world(&x, u), world(&y, v));
+            let cosine: f64 = (0..3).map(|i| u[i] * v[i]).sum();
+            assert!(cosine.abs() < 1e-12, "closure {}: the axes' cosine is {cosine}", closure.name);
+        }
+    }
+}

@@ -2,46 +2,72 @@
 //! (`bench/pinocchio-side-by-side.sh`, not part of the test command).
 //!
 //! ```text
+//! pinocchio_side_by_side urdf   MODEL VARIANT|- OUT      # the URDF Pinocchio loads
 //! pinocchio_side_by_side states MODEL VARIANT|- OUT      # the states both sides use
 //! pinocchio_side_by_side check  MODEL VARIANT|- STATES PINOCCHIO_RESULTS
 //! pinocchio_side_by_side time   MODEL VARIANT|- STATES
 //! ```
 //!
 //! MODEL is a shipped model file relative to the workspace root (`models/phantom_3dof.yaml`):
-//! the code timed is what this crate's build script generates from it (f64), so the benchmark
-//! follows the model file and the generator, not a copy of generated code.
+//! the code timed is what this crate's build script generates from it (f64, without fused
+//! multiply-adds), so the benchmark follows the model file and the generator, not a copy of
+//! generated code.
+//!
+//! `urdf` writes what `hapticgen export-urdf` writes for a serial model
+//! (`hapticgen_codegen::urdf::export`). For a spatial closed chain, which `export-urdf` refuses
+//! (a URDF cannot state the loops), it writes the open tree the loops were cut into
+//! (`hapticgen_codegen::urdf::export_open_tree`: every joint, the passive ones included); what
+//! closes the loops goes into the states file.
 //!
 //! `states` writes the joint names, gravity, rotor inertias `N²·J_m` (Pinocchio's armature),
-//! the task point's URDF frame and 64 random states within the joint limits (velocities in ±2)
-//! in a plain text format that `bench/pinocchio/side_by_side.cpp` reads.
+//! the task point's URDF frame and the states, in a plain text format that
+//! `bench/pinocchio/side_by_side.cpp` reads: for a serial model 64 random states within the
+//! joint limits (velocities in ±2); for a spatial closed chain also the open tree's coordinates
+//! (actuated first), the assembly its Newton's method starts from (the middle of the actuated
+//! ranges, the file's `assembly` angles), the generated code's loop-solver bounds and the cut
+//! closures, and 1,000 states along a smooth closed trajectory of the actuated coordinates
+//! inside their ranges ([`trajectory`]), so that each state's loop solve starts, on both sides,
+//! from the previous state's solution, as in a control loop.
 //!
 //! `check` compares Pinocchio's D, C·q̇ + g, g, p, J and J̇·q̇ at every state (all three ways the
 //! C++ program computes them) with the generated functions and the fused `terms`: every entry
-//! must agree to 1e-9, relative to the quantity's largest entry when that exceeds 1. It exits
+//! must agree to 1e-9 relative to the quantity's largest entry (no absolute floor). It exits
 //! with status 1 otherwise.
 //!
+//! `loop-steps` (the Falcon-like Delta only) prints the mean number of Newton steps the
+//! generated code's loop solve (`close_loops`, as `terms` calls it) takes per state along the
+//! states, for the benchmark's note on where the time goes.
+//!
 //! `time` prints `KEY NS` lines: nanoseconds per call of each generated function and of
-//! `terms`, the best of 25 batches of 2,000 calls cycling over the states (as the C++ side).
+//! `terms`, the best of 25 batches of 2,000 calls cycling over the states (as the C++ side). A
+//! closed chain's functions are called as a user calls them: each solves the loops at its state
+//! (`hapticgen_runtime::loops::close_loops`, from the solution of the state before; functions
+//! called at the same state reuse it).
 
 use std::hint::black_box;
 use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
 
+use hapticgen_codegen::dynamics::spatial_loops::{SpatialLoops, WARM_START_RADIUS};
 use hapticgen_codegen::model::{Model, TaskSpec};
 use hapticgen_codegen::urdf;
+use hapticgen_codegen::CheckedModel;
 use hapticgen_runtime::fused::FusedImpedance;
 use hapticgen_tests::check::random_state;
 use hapticgen_tests::{visit_all, workspace_root, RigInfo, RigVisitor};
 use rand::rngs::SmallRng;
 use rand::SeedableRng;
 
-/// States written by `states`.
+/// Random states written by `states` for a serial model.
 const STATES: usize = 64;
+/// States along the closed trajectory written by `states` for a closed chain.
+const TRAJECTORY_STATES: usize = 1000;
 /// Calls per batch and batches (the same as the C++ side).
 const CALLS: usize = 2000;
 const BATCHES: usize = 25;
-/// Agreement required between Pinocchio and the generated code.
+/// Agreement required between Pinocchio and the generated code, relative to each quantity's
+/// largest entry.
 const TOLERANCE: f64 = 1e-9;
 
 /// Nanoseconds per call, best batch.
@@ -57,13 +83,77 @@ fn nanoseconds(states: usize, mut call: impl FnMut(usize)) -> f64 {
     best
 }
 
-fn load(file: &str, variant: Option<&str>) -> Result<Model, String> {
-    hapticgen_codegen::load_file(&workspace_root().join(file), file, variant)
-        .map(|m| m.model)
-        .map_err(|e| e.to_string())
+fn load(file: &str, variant: Option<&str>) -> Result<CheckedModel, String> {
+    hapticgen_codegen::load_file(&workspace_root().join(file), file, variant).map_err(|e| e.to_string())
 }
 
-fn write_states(m: &Model, out: &Path) -> Result<(), String> {
+/// The URDF Pinocchio loads: the serial model, or a spatial closed chain's open tree.
+fn write_urdf(m: &Model, out: &Path) -> Result<(), String> {
+    let text = if m.passive.is_empty() { urdf::export(m)? } else { urdf::export_open_tree(m)?.urdf };
+    std::fs::write(out, text).map_err(|e| format!("{}: {e}", out.display()))
+}
+
+/// A smooth closed trajectory of the actuated coordinates about the middle of their ranges,
+/// `k` of `count` states, one period in a second: each coordinate
+/// `q_i = mid_i + h_i (0.6 sin(2πt + 2πi/N) + 0.15 sin(4πt))` with `h_i` half its range, so
+/// every state stays within 75 % of the ranges, consecutive states are 2π·0.9·h/count apart
+/// (2.8 mrad for the Falcon's 0.5 rad half ranges, far within the generated code's warm-start
+/// radius), and the last state leads back to the first. Positions and velocities (rad/s).
+fn trajectory(m: &Model, k: usize, count: usize) -> (Vec<f64>, Vec<f64>) {
+    use std::f64::consts::TAU;
+    let t = k as f64 / count as f64;
+    let n = m.joints.len() as f64;
+    m.joints
+        .iter()
+        .enumerate()
+        .map(|(i, j)| {
+            let (middle, half) = (0.5 * (j.lower + j.upper), 0.5 * (j.upper - j.lower));
+            let phase = TAU * t + TAU * i as f64 / n;
+            let position = middle + half * (0.6 * phase.sin() + 0.15 * (2.0 * TAU * t).sin());
+            let velocity = half * (0.6 * TAU * phase.cos() + 0.15 * 2.0 * TAU * (2.0 * TAU * t).cos());
+            (position, velocity)
+        })
+        .unzip()
+}
+
+/// The closed-chain lines of the states file: the open tree's coordinates, the assembly, the
+/// generated code's loop-solver bounds, the cut closures.
+fn closed_chain_header(checked: &CheckedModel, spatial: &SpatialLoops) -> Result<String, String> {
+    let m = &checked.model;
+    let tree = urdf::export_open_tree(m)?;
+    let mut text = format!("tree {}\n", tree.coordinates.join(" "));
+    // Newton starts from the file's assembly angles at the middle of the actuated ranges (the
+    // model's data, not hapticgen's solution) and continues to the first state.
+    let assembly: Vec<String> = m
+        .joints
+        .iter()
+        .map(|j| 0.5 * (j.lower + j.upper))
+        .chain(m.passive.iter().map(|p| p.assembly))
+        .map(|x| format!("{x:e}"))
+        .collect();
+    text += &format!("assembly {}\n", assembly.join(" "));
+    // The generated f64 code's bounds (`LoopConstraints::LOOP_SOLVER`, codegen/src/emit/loops.rs).
+    text += &format!(
+        "loop_solver {:e} {} {:e}\n",
+        32.0 * f64::EPSILON * spatial.length_scale(),
+        spatial.newton_step_bound(),
+        WARM_START_RADIUS
+    );
+    for closure in &tree.closures {
+        text += &format!("closure {} {} {}", closure.name, closure.point_links[0], closure.point_links[1]);
+        if let Some(axes) = &closure.perpendicular_axes {
+            text += " perpendicular";
+            for (link, axis) in axes {
+                text += &format!(" {link} {:e} {:e} {:e}", axis[0], axis[1], axis[2]);
+            }
+        }
+        text.push('\n');
+    }
+    Ok(text)
+}
+
+fn write_states(checked: &CheckedModel, out: &Path) -> Result<(), String> {
+    let m = &checked.model;
     let TaskSpec::Point(point) = m.task else {
         return Err(format!("{}: the task must be a point for a frame Jacobian", m.file));
     };
@@ -82,12 +172,32 @@ fn write_states(m: &Model, out: &Path) -> Result<(), String> {
         "armature {}\n",
         numbers(&mut m.joints.iter().map(|j| j.drive.gear_ratio.powi(2) * j.drive.motor.rotor_inertia))
     );
-    text += &format!("states {STATES}\n");
-    let mut rng = SmallRng::seed_from_u64(0x51de_b51d);
-    for _ in 0..STATES {
-        let (q, qd) = random_state(m, &mut rng);
-        text += &numbers(&mut q.iter().chain(&qd).copied());
-        text.push('\n');
+    let spatial = checked.analyses.closures.as_ref().and_then(|c| c.spatial.as_ref());
+    match spatial {
+        Some(spatial) => {
+            text += &closed_chain_header(checked, spatial)?;
+            text += &format!("states {TRAJECTORY_STATES}\n");
+            for k in 0..TRAJECTORY_STATES {
+                let (q, qd) = trajectory(m, k, TRAJECTORY_STATES);
+                text += &numbers(&mut q.iter().chain(&qd).copied());
+                text.push('\n');
+            }
+        }
+        None if !m.passive.is_empty() => {
+            return Err(format!(
+                "{}: a planar closed chain; the benchmark's loop solve is for spatial closures",
+                m.file
+            ))
+        }
+        None => {
+            text += &format!("states {STATES}\n");
+            let mut rng = SmallRng::seed_from_u64(0x51de_b51d);
+            for _ in 0..STATES {
+                let (q, qd) = random_state(m, &mut rng);
+                text += &numbers(&mut q.iter().chain(&qd).copied());
+                text.push('\n');
+            }
+        }
     }
     std::fs::write(out, text).map_err(|e| format!("{}: {e}", out.display()))
 }
@@ -130,8 +240,8 @@ fn read_states<const N: usize>(path: &str) -> Result<States<N>, String> {
     Ok(states)
 }
 
-/// The largest error of each quantity (relative to its scale: its largest entry, when above
-/// 1) and every disagreement.
+/// The largest error of each quantity (relative to its scale: its largest entry) and every
+/// disagreement.
 #[derive(Default)]
 struct Worst {
     errors: Vec<(String, f64)>,
@@ -141,8 +251,14 @@ struct Worst {
 impl Worst {
     fn compare(&mut self, what: &str, tag: &str, state: usize, pinocchio: &[f64], generated: &[f64]) {
         assert_eq!(pinocchio.len(), generated.len(), "{what}: lengths");
-        let scale = generated.iter().chain(pinocchio).fold(1.0f64, |m, x| m.max(x.abs()));
-        let error = pinocchio.iter().zip(generated).map(|(a, b)| (a - b).abs() / scale).fold(0.0, f64::max);
+        // Relative to the largest entry of either side, without an absolute floor; a quantity
+        // that is exactly zero on both sides agrees.
+        let scale = generated.iter().chain(pinocchio).fold(0.0f64, |m, x| m.max(x.abs()));
+        let error = if scale == 0.0 {
+            0.0
+        } else {
+            pinocchio.iter().zip(generated).map(|(a, b)| (a - b).abs() / scale).fold(0.0, f64::max)
+        };
         // A NaN anywhere fails (f64::max would skip it).
         let error = if pinocchio.iter().chain(generated).any(|x| !x.is_finite()) { f64::NAN } else { error };
         if error.is_nan() || error > TOLERANCE {
@@ -191,7 +307,9 @@ impl RigVisitor for Run {
         info: &RigInfo,
         rig: &R,
     ) {
-        if info.file == self.file && info.variant == self.variant.as_deref() {
+        // The unfused code (the build script also generates each rig with fused multiply-adds).
+        if info.file == self.file && info.variant == self.variant.as_deref() && !info.module.ends_with("_fma")
+        {
             self.found = true;
             self.outcome = self.run(rig);
         }
@@ -314,9 +432,34 @@ fn time<R: FusedImpedance<N, M, Scalar = f64>, const N: usize, const M: usize>(
     report!("terms", |q, qd| rig.terms(q, qd));
 }
 
+/// The generated code's mean Newton steps per state, closing the Falcon-like Delta's loops
+/// along the states in order (each from the solution of the state before, as in `time`).
+fn falcon_loop_steps(states: &str) -> Result<(), String> {
+    use hapticgen_runtime::loops::{close_loops, LoopLevel};
+    use hapticgen_tests::falcon_delta_f64::FalconDelta;
+    let states = read_states::<3>(states)?;
+    let rig = FalconDelta::NOMINAL;
+    // Once around to warm up (the first state continues from the assembly), once counted.
+    let mut steps = 0u64;
+    for round in 0..2 {
+        for (q, qd) in &states {
+            let closed = close_loops(&rig, q, LoopLevel::Sensitivity, Some(qd));
+            if let Some(error) = closed.error {
+                return Err(format!("the generated code's loops do not close at {q:?}: {error:?}"));
+            }
+            if round == 1 {
+                steps += u64::from(closed.steps);
+            }
+        }
+    }
+    println!("newton_steps_per_solve {:.2}", steps as f64 / states.len() as f64);
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: pinocchio_side_by_side states|check|time MODEL VARIANT|- [STATES [RESULTS]] | OUT";
+    let usage =
+        "usage: pinocchio_side_by_side urdf|states|check|time MODEL VARIANT|- [STATES [RESULTS]] | OUT";
     let outcome = (|| -> Result<(), String> {
         let [command, file, variant, rest @ ..] = args.as_slice() else {
             return Err(usage.into());
@@ -327,11 +470,15 @@ fn main() -> ExitCode {
             return Err(format!("{file} has variants: name one of {}", m.variants.join(", ")));
         }
         let action = match (command.as_str(), rest) {
+            ("urdf", [out]) => return write_urdf(&m, Path::new(out)),
             ("states", [out]) => return write_states(&m, Path::new(out)),
             ("check", [states, results]) => {
                 Action::Check { states: states.clone(), results: results.clone() }
             }
             ("time", [states]) => Action::Time { states: states.clone() },
+            ("loop-steps", [states]) if file == "models/falcon_delta.yaml" => {
+                return falcon_loop_steps(states)
+            }
             _ => return Err(usage.into()),
         };
         let mut run = Run { file: file.clone(), variant, action, found: false, outcome: Ok(()) };

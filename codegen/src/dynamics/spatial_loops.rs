@@ -244,6 +244,17 @@ impl SpatialLoops {
         self.newton_steps + EXTRA_NEWTON_STEPS
     }
 
+    /// The largest length in the loops' point equations (their largest coefficient): the scale
+    /// of their residuals (the generated code's Newton tolerance is 32 ε times it).
+    pub fn length_scale(&self) -> f64 {
+        self.residual
+            .iter()
+            .zip(&self.equation_names)
+            .filter(|(_, name)| !name.ends_with(".perpendicular"))
+            .flat_map(|(poly, _)| poly.terms().map(|(_, c)| c.abs()).collect::<Vec<_>>())
+            .fold(0.0, f64::max)
+    }
+
     /// `A = −Φ_p⁻¹ Φ_a` at `(q_a, q_p)`; `None` where `Φ_p` is singular.
     fn sensitivity_at(&self, actuated: &[f64], passive: &[f64], parameters: &[f64]) -> Option<Vec<Vec<f64>>> {
         let state = self.tree_state(actuated, passive);

@@ -11,7 +11,7 @@ use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
 
 use crate::dynamics::mechanics::Mechanics;
-use crate::dynamics::spatial_loops::{SpatialLoops, WARM_START_RADIUS};
+use crate::dynamics::spatial_loops::WARM_START_RADIUS;
 use crate::model::Model;
 use crate::sym::dag::{Dag, Node, NodeId, OpCounts};
 use crate::sym::poly::{Atom, Poly};
@@ -26,18 +26,6 @@ fn epsilon(scalar: Scalar) -> f64 {
         Scalar::F32 => f64::from(f32::EPSILON),
         Scalar::F64 => f64::EPSILON,
     }
-}
-
-/// The largest length in the loops' point equations (their largest coefficient): the scale of
-/// their residuals.
-fn length_scale(spatial: &SpatialLoops) -> f64 {
-    spatial
-        .residual
-        .iter()
-        .zip(&spatial.equation_names)
-        .filter(|(_, name)| !name.ends_with(".perpendicular"))
-        .flat_map(|(poly, _)| poly.terms().map(|(_, c)| c.abs()).collect::<Vec<_>>())
-        .fold(0.0, f64::max)
 }
 
 /// Builds each of `polys` on a graph.
@@ -75,7 +63,7 @@ pub(crate) fn loop_constraints_impl(
     // Converged at a few tens of roundings of the loops' lengths (an order of magnitude above
     // the residual's own rounding); singular (refused) only
     // near the precision's end, the safety monitor's loop-margin threshold coming far earlier.
-    let tolerance = literal(32.0 * epsilon(scalar) * length_scale(spatial));
+    let tolerance = literal(32.0 * epsilon(scalar) * spatial.length_scale());
     let min_pivot_ratio = literal(1e3 * epsilon(scalar));
     let warm_start_radius = literal(WARM_START_RADIUS);
     let tolerance_doc = format!(

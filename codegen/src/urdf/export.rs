@@ -1,4 +1,5 @@
-//! URDF export of serial models, for independent checks (Pinocchio) and other tools.
+//! URDF export of serial models, for independent checks (Pinocchio) and other tools, and of a
+//! closed chain's open tree ([`export_open_tree`]), for a tool that closes the loops itself.
 //!
 //! A URDF link's frame is its joint's frame, and a model body's frame is that too, except for
 //! standard Denavit–Hartenberg links, whose frame lies a fixed `tail` (`Tx(a) · Rx(alpha)`)
@@ -10,6 +11,11 @@
 //! body's tail). Tunable parameters take their nominal values. What URDF has no place for (the
 //! drives' rotor inertia, gear ratio and motor data, the task, the rates) is listed in a
 //! comment at the top; viscous damping goes into `<dynamics damping>`.
+//!
+//! A URDF describes a tree, so it cannot state a closed chain's loops: [`export`] refuses closed
+//! chains (what a user asking for the rig's URDF gets), and [`export_open_tree`] writes the tree
+//! the loops were cut into (every joint, the passive ones included) and returns beside it what
+//! the URDF leaves out: which joints are actuated and the cut closures ([`OpenTree`]).
 
 use std::fmt::Write as _;
 
@@ -100,8 +106,9 @@ pub fn frame_link_name(frame: &str) -> String {
     format!("frame_{frame}")
 }
 
-/// Writes a serial model as URDF (the robot is named after the model). Models with direct
-/// poses are closed chains in disguise and are rejected with a message naming the body.
+/// Writes a serial model as URDF (the robot is named after the model). Closed chains (passive
+/// joints) are rejected, and so are models with direct poses, closed chains in disguise, with a
+/// message naming the body.
 pub fn export(model: &Model) -> Result<String, String> {
     if let Some(passive) = model.passive.first() {
         return Err(format!(
@@ -109,19 +116,103 @@ pub fn export(model: &Model) -> Result<String, String> {
             passive.name
         ));
     }
-    let parameters = model.nominal_parameters();
-    let mut tails = Vec::with_capacity(model.bodies.len());
-    for body in &model.bodies {
-        match &body.motion {
-            Motion::Serial { tail, .. } => tails.push(tail_transform(tail, &parameters)),
-            Motion::Direct { .. } => {
-                return Err(format!(
-                    "body `{}` is directly posed (`pose`): URDF describes trees of joints, and a directly posed body closes a loop",
-                    body.name
-                ))
-            }
-        }
+    write_tree(model)
+}
+
+/// A closed chain's open tree as URDF ([`export_open_tree`]), with what the URDF cannot state.
+#[derive(Clone, Debug)]
+pub struct OpenTree {
+    /// The URDF: every body and joint of the tree, the passive joints as revolute joints.
+    pub urdf: String,
+    /// The URDF names of the tree's joints in the order of the mechanics' coordinates: the
+    /// actuated joints (`q` of the generated code) first, then the passive ones.
+    pub coordinates: Vec<String>,
+    /// How many of `coordinates` are actuated (the first ones).
+    pub actuated: usize,
+    /// The loop closures that were cut, in the model's order.
+    pub closures: Vec<CutClosure>,
+}
+
+/// One loop closure of an [`OpenTree`], in the URDF's terms: the two links (named points)
+/// whose origins coincide when the loop is closed, and for a spatial closure that keeps two
+/// body axes square, those axes.
+#[derive(Clone, Debug)]
+pub struct CutClosure {
+    /// The closure's name in the model.
+    pub name: String,
+    /// The URDF links of the two points that coincide ([`point_link_name`]).
+    pub point_links: [String; 2],
+    /// Two axes kept perpendicular, if the closure asks for it: each the URDF link it is fixed
+    /// in (`base` for the base) and its unit direction in that link's frame.
+    pub perpendicular_axes: Option<[(String, [f64; 3]); 2]>,
+}
+
+/// Writes a closed chain's open tree as URDF: every joint of the tree, the passive ones
+/// included (as revolute joints within ±π, which the model does not bound), with the loops cut
+/// where the model's closures cut them. The URDF alone describes a different mechanism (the
+/// tree's passive joints move freely); what closes it, which joints are actuated and the cut
+/// closures, is returned beside it and listed in the URDF's top comment. A model without
+/// closures is refused (use [`export`]).
+pub fn export_open_tree(model: &Model) -> Result<OpenTree, String> {
+    if model.passive.is_empty() {
+        return Err("the model has no passive joints: it is serial, export it with `export`".to_string());
     }
+    let parameters = model.nominal_parameters();
+    let tails = serial_tails(model, &parameters)?;
+    let link_of = |body: Option<usize>| match body {
+        Some(b) => (model.bodies[b].name.clone(), tails[b]),
+        None => ("base".to_string(), Transform::IDENTITY),
+    };
+    let point_links = |points: &[usize; 2]| points.map(|p| point_link_name(&model.points[p].name));
+    let mut closures: Vec<CutClosure> = model
+        .closures
+        .iter()
+        .map(|c| CutClosure {
+            name: c.name.clone(),
+            point_links: point_links(&c.points),
+            perpendicular_axes: None,
+        })
+        .collect();
+    closures.extend(model.spatial_closures.iter().map(|c| CutClosure {
+        name: c.name.clone(),
+        point_links: point_links(&c.points),
+        perpendicular_axes: c.perpendicular.map(|axes| {
+            axes.map(|(body, axis)| {
+                // The axis is in the body frame; the link frame lies the body's tail before it.
+                let (link, tail) = link_of(body);
+                (link, mat_vec(&tail.rotation, &axis))
+            })
+        }),
+    }));
+    Ok(OpenTree {
+        urdf: write_tree(model)?,
+        coordinates: (0..model.tree_coordinates()).map(|j| model.coordinate_name(j).to_string()).collect(),
+        actuated: model.joints.len(),
+        closures,
+    })
+}
+
+/// The tail of every body (identity but for standard DH links); an error for a directly
+/// posed body.
+fn serial_tails(model: &Model, parameters: &[f64]) -> Result<Vec<Transform>, String> {
+    model
+        .bodies
+        .iter()
+        .map(|body| match &body.motion {
+            Motion::Serial { tail, .. } => Ok(tail_transform(tail, parameters)),
+            Motion::Direct { .. } => Err(format!(
+                "body `{}` is directly posed (`pose`): URDF describes trees of joints, and a directly posed body closes a loop",
+                body.name
+            )),
+        })
+        .collect()
+}
+
+/// The URDF of the model's tree: every body and joint (passive joints included), the named
+/// points and frames.
+fn write_tree(model: &Model) -> Result<String, String> {
+    let parameters = model.nominal_parameters();
+    let tails = serial_tails(model, &parameters)?;
     let mut out = String::new();
     let _ = writeln!(out, "<?xml version=\"1.0\"?>");
     let _ = writeln!(
@@ -146,6 +237,29 @@ pub fn export(model: &Model) -> Result<String, String> {
             number(d.motor.rotor_inertia),
             number(d.gear_ratio * d.gear_ratio * d.motor.rotor_inertia)
         );
+    }
+    for passive in &model.passive {
+        let _ = writeln!(out, "     joint {}: passive (a closed chain's loop moves it)", passive.name);
+    }
+    for closure in &model.closures {
+        let [a, b] = closure.points.map(|p| point_link_name(&model.points[p].name));
+        let _ = writeln!(
+            out,
+            "     loop closure {} (cut; not part of URDF): {a} meets {b}",
+            escape(&closure.name)
+        );
+    }
+    for closure in &model.spatial_closures {
+        let [a, b] = closure.points.map(|p| point_link_name(&model.points[p].name));
+        let _ =
+            write!(out, "     loop closure {} (cut; not part of URDF): {a} meets {b}", escape(&closure.name));
+        if let Some(axes) = &closure.perpendicular {
+            let [(x, u), (y, v)] =
+                axes.map(|(body, axis)| (body.map_or("base", |b| model.bodies[b].name.as_str()), axis));
+            let _ =
+                write!(out, ", {x}'s axis ({}) square to {y}'s ({}) (body frames)", triple(&u), triple(&v));
+        }
+        let _ = writeln!(out);
     }
     let _ = writeln!(out, "-->");
     let _ = writeln!(out, "<robot name=\"{}\">", model.name);
@@ -181,6 +295,24 @@ pub fn export(model: &Model) -> Result<String, String> {
         };
         let origin = parent_tail.then(&Transform { xyz: nominal3(xyz, &parameters), rotation: *rotation });
         match joint {
+            Some(j) if *j >= model.joints.len() => {
+                // A passive joint of a closed chain's open tree: revolute, undamped, no drive.
+                let passive = model.passive.get(*j - model.joints.len()).ok_or_else(|| {
+                    format!("body `{}`: coordinate {j} is neither an actuated nor a passive joint", body.name)
+                })?;
+                let _ = writeln!(out, "  <joint name=\"{}\" type=\"revolute\">", passive.name);
+                let _ = writeln!(out, "    <parent link=\"{parent_link}\"/>");
+                let _ = writeln!(out, "    <child link=\"{}\"/>", body.name);
+                let _ = writeln!(out, "    {}", origin.origin_element());
+                let _ = writeln!(out, "    <axis xyz=\"{}\"/>", triple(&passive.axis));
+                // The model bounds a passive joint by nothing; URDF requires limits.
+                let pi = number(std::f64::consts::PI);
+                let _ = writeln!(
+                    out,
+                    "    <limit lower=\"-{pi}\" upper=\"{pi}\" effort=\"0.0\" velocity=\"100.0\"/>"
+                );
+                let _ = writeln!(out, "  </joint>");
+            }
             Some(j) => {
                 let joint = &model.joints[*j];
                 let kind = match joint.kind {
