@@ -347,19 +347,7 @@ fn solve_position<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P:
             && last.q.iter().zip(q.iter()).all(|(a, b)| (*a - *b).abs() <= settings.warm_start_radius)
     };
     let warm = match last {
-        Some(last) if near(&last) => {
-            // The last solution moved along its tangent where `A` is known: off by `O(|Δq_a|²)`,
-            // which for a tick's motion is often within the tolerance already.
-            let mut guess = last.closed.passive;
-            if last.has_sensitivity {
-                for (slot, row) in guess.iter_mut().zip(last.closed.sensitivity.iter()) {
-                    for ((a, q), q0) in row.iter().zip(q.iter()).zip(last.q.iter()) {
-                        *slot += *a * (*q - *q0);
-                    }
-                }
-            }
-            solve_passive(constraints, &guess, settings).ok()
-        }
+        Some(last) if near(&last) => solve_passive(constraints, &warm_start(&last, q), settings).ok(),
         _ => None,
     };
     let solved = match warm {
@@ -399,6 +387,40 @@ fn solve_position<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P:
         rates_for: None,
         sensitivity_rate_for: None,
     }
+}
+
+/// Newton's guess at `q` from the last solution: moved along its tangent where `A` is known
+/// (off by `O(|Δq_a|²)`), and along its curvature where `Ȧ q̇_a` is too. The path from the
+/// last state at constant velocity `q̇_a`, `q_a(τ) = q_a0 + q̇_a τ`, has
+/// `q_p(τ) = q_p0 + A q̇_a τ + ½ (Ȧ q̇_a) τ² + O(τ³)`; `Δq_a = q − q_a0` is taken as that
+/// motion for `τ = (Δq_a · q̇_a) / |q̇_a|²`, so that the correction is `½ τ² Ȧ q̇_a`. Where the
+/// motion was along the last velocity (a control loop's ticks) the guess is off by
+/// `O(|Δq_a|³)`, often within the tolerance at once; in any other direction the correction
+/// is itself `O(|Δq_a|²)`, the size of the tangent's error (`|τ| |q̇_a| ≤ |Δq_a|`).
+fn warm_start<S: Real, const N: usize, const P: usize>(last: &CachedLoops<S, N, P>, q: &[S; N]) -> [S; P] {
+    let mut guess = last.closed.passive;
+    if !last.has_sensitivity {
+        return guess;
+    }
+    let mut moved = [S::ZERO; N];
+    for ((d, q), q0) in moved.iter_mut().zip(q.iter()).zip(last.q.iter()) {
+        *d = *q - *q0;
+    }
+    for (slot, row) in guess.iter_mut().zip(last.closed.sensitivity.iter()) {
+        *slot += dot(row, &moved);
+    }
+    if let Some(velocity) = &last.rates_for {
+        let speed_squared = dot(velocity, velocity);
+        // Written so that a zero or NaN speed adds nothing.
+        if speed_squared > S::ZERO {
+            let time = dot(&moved, velocity) / speed_squared;
+            let half_time_squared = S::from_f64(0.5) * time * time;
+            for (slot, convective) in guess.iter_mut().zip(last.closed.passive_convective.iter()) {
+                *slot += half_time_squared * *convective;
+            }
+        }
+    }
+    guess
 }
 
 /// `q̇_p = A q̇_a` and `Ȧ q̇_a = −Φ_p⁻¹ (Φ̇_p q̇_p + Φ̇_a q̇_a)` at a solution with its `A`.
