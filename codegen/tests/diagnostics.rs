@@ -1063,6 +1063,8 @@ fn spatial_loops_that_cannot_close() {
     assert!(hint(&d.0[0]).contains("`assembly` angle"), "{d}");
 }
 
+/// A planar loop's passive joint that slides (a spatial loop may have one:
+/// `tests/prismatic_loop.rs`).
 #[test]
 fn passive_joint_that_slides() {
     check(
@@ -1072,7 +1074,7 @@ fn passive_joint_that_slides() {
             context: "type: prismatic",
             token: "prismatic",
             path: "joints[3].type",
-            message: "passive joint `right_elbow` must be revolute",
+            message: "passive joint `right_elbow` of a planar loop must be revolute",
         },
     );
 }

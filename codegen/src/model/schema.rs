@@ -200,7 +200,8 @@ pub struct Joint {
     /// not a coordinate of the generated code.
     #[serde(default)]
     pub passive: bool,
-    /// Spatial closed chains: the passive joint's angle (rad) in the assembly the file chooses,
+    /// Spatial closed chains: the passive joint's angle (rad; a prismatic joint's travel, m) in
+    /// the assembly the file chooses,
     /// at the middle of the actuated joints' ranges, to within the loops' convergence basin.
     /// The elimination starts from it, so it picks the branch (assembly mode). Planar loops
     /// choose theirs with the closure's `branch`.

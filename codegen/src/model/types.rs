@@ -185,10 +185,12 @@ pub struct PassiveJoint {
     pub name: String,
     /// Documentation.
     pub description: Option<String>,
+    /// Revolute, or (spatial loops only) prismatic.
+    pub kind: JointKind,
     /// Unit axis in the joint frame (`[0, 0, ±1]` in planar models).
     pub axis: [f64; 3],
-    /// Spatial closed chains: the angle in the file's assembly at the middle of the actuated
-    /// ranges (where the elimination starts; 0 unless given).
+    /// Spatial closed chains: the angle (a prismatic joint's travel) in the file's assembly at
+    /// the middle of the actuated ranges (where the elimination starts; 0 unless given).
     pub assembly: f64,
 }
 
@@ -253,10 +255,10 @@ impl Model {
     pub fn coordinate_axis(&self, j: usize) -> (JointKind, [f64; 3]) {
         match self.joints.get(j) {
             Some(joint) => (joint.kind, joint.axis),
-            None => {
-                let axis = self.passive.get(j - self.joints.len()).map(|p| p.axis).unwrap_or([0.0, 0.0, 1.0]);
-                (JointKind::Revolute, axis)
-            }
+            None => self
+                .passive
+                .get(j - self.joints.len())
+                .map_or((JointKind::Revolute, [0.0, 0.0, 1.0]), |p| (p.kind, p.axis)),
         }
     }
 

@@ -296,16 +296,21 @@ fn write_tree(model: &Model) -> Result<String, String> {
         let origin = parent_tail.then(&Transform { xyz: nominal3(xyz, &parameters), rotation: *rotation });
         match joint {
             Some(j) if *j >= model.joints.len() => {
-                // A passive joint of a closed chain's open tree: revolute, undamped, no drive.
+                // A passive joint of a closed chain's open tree: undamped, no drive.
                 let passive = model.passive.get(*j - model.joints.len()).ok_or_else(|| {
                     format!("body `{}`: coordinate {j} is neither an actuated nor a passive joint", body.name)
                 })?;
-                let _ = writeln!(out, "  <joint name=\"{}\" type=\"revolute\">", passive.name);
+                let kind = match passive.kind {
+                    JointKind::Revolute => "revolute",
+                    JointKind::Prismatic => "prismatic",
+                };
+                let _ = writeln!(out, "  <joint name=\"{}\" type=\"{kind}\">", passive.name);
                 let _ = writeln!(out, "    <parent link=\"{parent_link}\"/>");
                 let _ = writeln!(out, "    <child link=\"{}\"/>", body.name);
                 let _ = writeln!(out, "    {}", origin.origin_element());
                 let _ = writeln!(out, "    <axis xyz=\"{}\"/>", triple(&passive.axis));
-                // The model bounds a passive joint by nothing; URDF requires limits.
+                // The model bounds a passive joint by nothing; URDF requires limits (±π, read
+                // as metres for a prismatic joint: wider than any rig's loops reach).
                 let pi = number(std::f64::consts::PI);
                 let _ = writeln!(
                     out,

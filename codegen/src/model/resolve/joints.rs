@@ -81,11 +81,13 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
                     "model the friction at the actuated joints",
                 );
             }
-            if j.kind != JointKind::Revolute {
+            // A planar closure's closed form intersects two circles: its passive joints turn.
+            // Spatial loops are solved numerically over any coordinate.
+            if planar && j.kind != JointKind::Revolute {
                 r.error_hint(
                     &at("type"),
-                    format!("passive joint `{}` must be revolute", j.name),
-                    "closures eliminate revolute joints (a universal joint is two, about perpendicular axes, with a massless cross between them)",
+                    format!("passive joint `{}` of a planar loop must be revolute", j.name),
+                    "a planar closure eliminates the two revolute joints of a dyad in closed form; a spatial model's loops may have passive prismatic joints",
                 );
             }
             if planar && j.assembly.is_some() {
@@ -104,7 +106,8 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
         }
         let assembly = j.assembly.unwrap_or(0.0);
         if !assembly.is_finite() {
-            r.error(&at("assembly"), "must be a finite angle");
+            let what = if j.kind == JointKind::Prismatic { "a finite travel" } else { "a finite angle" };
+            r.error(&at("assembly"), format!("must be {what}"));
         }
         let damping = match &j.damping {
             Some(v) => {
@@ -183,6 +186,7 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
             passive.push(PassiveJoint {
                 name: j.name.clone(),
                 description: j.description.clone(),
+                kind: j.kind,
                 axis,
                 assembly,
             });

@@ -1,0 +1,128 @@
+//! A passive prismatic joint in a spatial loop (issue 16): the spatial slider-crank
+//! (`codegen/tests/closed-chains/slider_crank_spatial.yaml`: a crank about z drives a slider
+//! along x, `h` above the crank's plane, through a rod with a universal joint at the crank pin
+//! and a ball joint at the slider, the closure) reduced to its crank angle by the generator's
+//! numerical elimination, against the mechanism's closed form written here, which shares no
+//! code with the generator:
+//!
+//! - **Kinematics**: the slider at `s = c cos θ + √(L² − c² sin² θ − h²)` (the rod's end on the
+//!   slide's line), the rod's tilt `−asin(h/L)` whatever the crank angle, its swing the
+//!   azimuth of `end − pin` less `θ`; the loop's residual ≤ 1e-12 m;
+//! - **Dynamics** from the bodies' kinetic energies with the exact derivatives of those
+//!   positions: the crank turning about its axis (`m c²/3`, plus the reflected rotor `N² J_m`),
+//!   the rod a uniform slender rod with ends `A`, `B` (`T = m/6 (v_A² + v_A·v_B + v_B²)`), the
+//!   slider a point mass on its line; `C q̇ = ½ D′(θ) θ̇²` by central differences of that `D`;
+//!   `g = 0`, as no centre of mass changes height (the rod's stays at `h/2`).
+
+use std::path::Path;
+
+use hapticgen_codegen::eval::{evaluate, State};
+use hapticgen_codegen::sym::poly::Atom;
+
+const FILE: &str = "codegen/tests/closed-chains/slider_crank_spatial.yaml";
+/// Crank, rod and the slide's height, m (the model file's parameters, copied).
+const CRANK: f64 = 0.03;
+const ROD: f64 = 0.08;
+const HEIGHT: f64 = 0.02;
+const CRANK_MASS: f64 = 0.015;
+const ROD_MASS: f64 = 0.012;
+const SLIDER_MASS: f64 = 0.05;
+/// `N² J_m` of the crank's drive.
+const REFLECTED_ROTOR: f64 = 7.72 * 7.72 * 1.7e-7;
+
+/// The slider's travel and its derivative by the crank angle.
+fn slider(theta: f64) -> (f64, f64) {
+    let (sin, cos) = theta.sin_cos();
+    let root = (ROD * ROD - CRANK * CRANK * sin * sin - HEIGHT * HEIGHT).sqrt();
+    (CRANK * cos + root, -CRANK * sin - CRANK * CRANK * sin * cos / root)
+}
+
+/// `D(θ)` from the bodies' kinetic energies.
+fn independent_inertia(theta: f64) -> f64 {
+    let (sin, cos) = theta.sin_cos();
+    let (_, slider_rate) = slider(theta);
+    // Velocities per unit crank rate: the crank pin, and the rod's far end on the slider.
+    let pin_rate = [-CRANK * sin, CRANK * cos, 0.0];
+    let end_rate = [slider_rate, 0.0, 0.0];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let rod = ROD_MASS / 3.0 * (dot(pin_rate, pin_rate) + dot(pin_rate, end_rate) + dot(end_rate, end_rate));
+    CRANK_MASS * CRANK * CRANK / 3.0 + REFLECTED_ROTOR + rod + SLIDER_MASS * slider_rate * slider_rate
+}
+
+#[test]
+fn a_passive_prismatic_joint_closes_a_spatial_loop_and_its_dynamics_are_the_bodies() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(FILE);
+    let model = hapticgen_codegen::load_file(&path, FILE, None).unwrap_or_else(|e| panic!("{e}"));
+    let mech = hapticgen_codegen::derive(&model);
+    let closures = mech.closures.as_ref().expect("a closed chain");
+    let spatial = closures.spatial.as_ref().expect("spatial loops");
+    assert_eq!((spatial.actuated, spatial.passive), (1, 3));
+    let (lower, upper) = (model.joints[0].lower, model.joints[0].upper);
+    let mut checked = 0;
+    for k in 0..=40 {
+        let theta = lower + (upper - lower) * f64::from(k) / 40.0;
+        let theta_rate = 1.5 - 0.07 * f64::from(k);
+        let values = closures.values(&[theta], &[theta_rate], &[]);
+        let coordinate = |j: u16| {
+            values.iter().find(|(a, _)| *a == Atom::Q(j)).map(|&(_, v)| v).expect("a passive coordinate")
+        };
+        let (swing, tilt, travel) = (coordinate(1), coordinate(2), coordinate(3));
+        // The kinematics against the closed form.
+        let (expected_travel, _) = slider(theta);
+        assert!((travel - expected_travel).abs() <= 1e-12, "s at θ = {theta}: {travel} vs {expected_travel}");
+        assert!((tilt + (HEIGHT / ROD).asin()).abs() <= 1e-12, "tilt at θ = {theta}: {tilt}");
+        let azimuth = (-CRANK * theta.sin()).atan2(expected_travel - CRANK * theta.cos());
+        assert!((swing - (azimuth - theta)).abs() <= 1e-12, "swing at θ = {theta}: {swing}");
+        // The loop's residual at the solution.
+        let tree = [theta, swing, tilt, travel];
+        struct Tree<'a>(&'a [f64; 4]);
+        impl hapticgen_codegen::sym::poly::AtomValues for Tree<'_> {
+            fn value(&self, atom: Atom) -> f64 {
+                match atom {
+                    Atom::Sin(j) => self.0[usize::from(j)].sin(),
+                    Atom::Cos(j) => self.0[usize::from(j)].cos(),
+                    Atom::Q(j) => self.0[usize::from(j)],
+                    _ => 0.0,
+                }
+            }
+        }
+        for (name, residual) in spatial.equation_names.iter().zip(&spatial.residual) {
+            let value = residual.eval(&Tree(&tree));
+            assert!(value.abs() <= 1e-12, "{name} at θ = {theta}: {value:e}");
+        }
+        // The dynamics against the bodies' energies.
+        let evaluated = evaluate(&mech, &State { q: &[theta], qd: &[theta_rate], parameters: &[] }, None);
+        let inertia = evaluated.inertia_matrix[0][0];
+        let expected = independent_inertia(theta);
+        assert!((inertia - expected).abs() <= 1e-9 * expected, "D at θ = {theta}: {inertia} vs {expected}");
+        let step = 1e-5;
+        let slope = (independent_inertia(theta + step) - independent_inertia(theta - step)) / (2.0 * step);
+        let coriolis = 0.5 * slope * theta_rate * theta_rate;
+        let tolerance = 1e-7 * expected * (1.0 + theta_rate * theta_rate);
+        assert!(
+            (evaluated.coriolis_times_qdot[0] - coriolis).abs() <= tolerance,
+            "C q̇ at θ = {theta}: {} vs {coriolis}",
+            evaluated.coriolis_times_qdot[0]
+        );
+        assert!(evaluated.g[0].abs() <= 1e-12, "g at θ = {theta}: {}", evaluated.g[0]);
+        checked += 1;
+    }
+    assert_eq!(checked, 41);
+}
+
+/// The emitted code of the loop: the passive travel is read as a length, never through a sine
+/// or cosine, and the loop is solved at run time like the Delta's.
+#[test]
+fn a_passive_prismatic_joint_is_emitted_as_a_length() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(FILE);
+    let model = hapticgen_codegen::load_file(&path, FILE, None).unwrap_or_else(|e| panic!("{e}"));
+    let text = hapticgen_codegen::generate_model_with(
+        model,
+        hapticgen_codegen::Scalar::F64,
+        hapticgen_codegen::EmitOptions::default(),
+    )
+    .file_text();
+    assert!(text.contains("LoopConstraints<f64, 1, 3> for SliderCrankSpatial"), "{text}");
+    assert!(text.contains("let slide = passive[2];"), "the travel read in the constraints");
+    assert!(!text.contains("sin_slide") && !text.contains("cos_slide"), "a sine of a length");
+}
