@@ -140,7 +140,10 @@ fn negated_solve<S: Real, const P: usize, const N: usize>(
 
 /// A rig's closed loops, as its generated code describes them to [`close_loops`]: the
 /// constraints `Φ(q_a, q_p) = 0` over `N` actuated and `P` passive coordinates, their
-/// Jacobians and rates, and the assembly the guess starts from.
+/// Jacobians and rates, and the assembly the guess starts from. Each function takes the
+/// passive coordinates and their sines and cosines (`passive_sin_cos`, what a revolute
+/// joint's terms read; computed once per Newton step by [`close_loops`] and kept with the
+/// solution, so that no function at that state computes them again).
 pub trait LoopConstraints<S: Real, const N: usize, const P: usize> {
     /// The actuated coordinates of the assembly (the middle of their ranges), `q_a0`.
     const ASSEMBLY_ACTUATED: [S; N];
@@ -152,20 +155,38 @@ pub trait LoopConstraints<S: Real, const N: usize, const P: usize> {
     /// ranges).
     const LOOP_SOLVER: LoopSolverSettings<S>;
     /// `Φ` and `Φ_p = ∂Φ/∂q_p` at `(q, passive)`.
-    fn loop_constraints(&self, q: &[S; N], passive: &[S; P]) -> ([S; P], [[S; P]; P]);
+    fn loop_constraints(
+        &self,
+        q: &[S; N],
+        passive: &[S; P],
+        passive_sin_cos: &[(S, S); P],
+    ) -> ([S; P], [[S; P]; P]);
     /// `Φ_a = ∂Φ/∂q_a` at `(q, passive)`.
-    fn loop_actuated_jacobian(&self, q: &[S; N], passive: &[S; P]) -> [[S; N]; P];
+    fn loop_actuated_jacobian(
+        &self,
+        q: &[S; N],
+        passive: &[S; P],
+        passive_sin_cos: &[(S, S); P],
+    ) -> [[S; N]; P];
     /// The rig's record of the loops it closed last ([`LoopCache`]).
     fn loop_cache(&self) -> &LoopCache<S, N, P>;
     /// `γ = Φ̇_p q̇_p + Φ̇_a q̇_a` at `(q, passive)` moving with `(qd, passive_rate)`: `Φ̈` at
     /// zero accelerations.
-    fn loop_convective(&self, q: &[S; N], qd: &[S; N], passive: &[S; P], passive_rate: &[S; P]) -> [S; P];
+    fn loop_convective(
+        &self,
+        q: &[S; N],
+        qd: &[S; N],
+        passive: &[S; P],
+        passive_sin_cos: &[(S, S); P],
+        passive_rate: &[S; P],
+    ) -> [S; P];
     /// `Φ̇_p` and `Φ̇_a` at `(q, passive)` moving with `(qd, passive_rate)`.
     fn loop_jacobian_rates(
         &self,
         q: &[S; N],
         qd: &[S; N],
         passive: &[S; P],
+        passive_sin_cos: &[(S, S); P],
         passive_rate: &[S; P],
     ) -> ([[S; P]; P], [[S; N]; P]);
 }
@@ -175,6 +196,9 @@ pub trait LoopConstraints<S: Real, const N: usize, const P: usize> {
 pub struct ClosedLoops<S, const N: usize, const P: usize> {
     /// The passive coordinates `q_p`.
     pub passive: [S; P],
+    /// Their sines and cosines (meaningless for a prismatic joint, whose terms do not read
+    /// them).
+    pub passive_sin_cos: [(S, S); P],
     /// Their rates `q̇_p = A q̇_a` (NaN when no velocity was given).
     pub passive_rate: [S; P],
     /// `A = ∂q_p/∂q_a = −Φ_p⁻¹ Φ_a` (NaN when only [`LoopLevel::Position`] was asked for).
@@ -201,6 +225,7 @@ impl<S: Real, const N: usize, const P: usize> ClosedLoops<S, N, P> {
         let nan = S::from_f64(f64::NAN);
         ClosedLoops {
             passive: [nan; P],
+            passive_sin_cos: [(nan, nan); P],
             passive_rate: [nan; P],
             sensitivity: [[nan; N]; P],
             passive_convective: [nan; P],
@@ -302,8 +327,10 @@ pub fn close_loops<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P
     if let Some(factors) = entry.factors {
         let complete = |entry: &mut CachedLoops<S, N, P>| -> Result<(), LoopError> {
             if (level != LoopLevel::Position || qd.is_some()) && !entry.has_sensitivity {
-                entry.closed.sensitivity =
-                    passive_sensitivity(&factors, &loops.loop_actuated_jacobian(q, &entry.closed.passive))?;
+                entry.closed.sensitivity = passive_sensitivity(
+                    &factors,
+                    &loops.loop_actuated_jacobian(q, &entry.closed.passive, &entry.closed.passive_sin_cos),
+                )?;
                 entry.has_sensitivity = true;
             }
             if let Some(qd) = qd {
@@ -341,13 +368,22 @@ fn solve_position<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P:
     last: Option<CachedLoops<S, N, P>>,
 ) -> CachedLoops<S, N, P> {
     let settings = &L::LOOP_SOLVER;
-    let constraints = |passive: &[S; P]| loops.loop_constraints(q, passive);
+    // The sines and cosines of the last point evaluated: the solution's where Newton returns
+    // one (it returns the point it evaluated last).
+    let nan = S::from_f64(f64::NAN);
+    let mut last_sin_cos = [(nan, nan); P];
+    let mut constraints = |passive: &[S; P]| {
+        for (slot, angle) in last_sin_cos.iter_mut().zip(passive.iter()) {
+            *slot = angle.sin_cos();
+        }
+        loops.loop_constraints(q, passive, &last_sin_cos)
+    };
     let near = |last: &CachedLoops<S, N, P>| {
         last.closed.error.is_none()
             && last.q.iter().zip(q.iter()).all(|(a, b)| (*a - *b).abs() <= settings.warm_start_radius)
     };
     let warm = match last {
-        Some(last) if near(&last) => solve_passive(constraints, &warm_start(&last, q), settings).ok(),
+        Some(last) if near(&last) => solve_passive(&mut constraints, &warm_start(&last, q), settings).ok(),
         _ => None,
     };
     let solved = match warm {
@@ -359,14 +395,14 @@ fn solve_position<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P:
                     *slot += *a * (*q - *q0);
                 }
             }
-            solve_passive(constraints, &tangent, settings)
+            solve_passive(&mut constraints, &tangent, settings)
         }
     };
     let (closed, factors) = match solved {
         Ok(solution) => {
-            let nan = S::from_f64(f64::NAN);
             let closed = ClosedLoops {
                 passive: solution.passive,
+                passive_sin_cos: last_sin_cos,
                 passive_rate: [nan; P],
                 sensitivity: [[nan; N]; P],
                 passive_convective: [nan; P],
@@ -435,7 +471,8 @@ fn rates<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P: usize>(
     for (rate, row) in passive_rate.iter_mut().zip(closed.sensitivity.iter()) {
         *rate = dot(row, qd);
     }
-    let mut negated_convective = loops.loop_convective(q, qd, &closed.passive, &passive_rate);
+    let mut negated_convective =
+        loops.loop_convective(q, qd, &closed.passive, &closed.passive_sin_cos, &passive_rate);
     for entry in &mut negated_convective {
         *entry = -*entry;
     }
@@ -452,7 +489,7 @@ fn sensitivity_rate<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const 
 ) -> Result<[[S; N]; P], LoopError> {
     let sensitivity = &closed.sensitivity;
     let (passive_jacobian_rate, actuated_jacobian_rate) =
-        loops.loop_jacobian_rates(q, qd, &closed.passive, &closed.passive_rate);
+        loops.loop_jacobian_rates(q, qd, &closed.passive, &closed.passive_sin_cos, &closed.passive_rate);
     // Φ̇_p A + Φ̇_a.
     let mut right = actuated_jacobian_rate;
     for (row, rate_row) in right.iter_mut().zip(passive_jacobian_rate.iter()) {

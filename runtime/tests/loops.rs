@@ -180,11 +180,25 @@ impl<const STEPS: u32> LoopConstraints<f64, 1, 2> for FourBar<STEPS> {
     fn loop_cache(&self) -> &LoopCache<f64, 1, 2> {
         &self.cache
     }
-    fn loop_constraints(&self, q: &[f64; 1], passive: &[f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
+    fn loop_constraints(
+        &self,
+        q: &[f64; 1],
+        passive: &[f64; 2],
+        passive_sin_cos: &[(f64, f64); 2],
+    ) -> ([f64; 2], [[f64; 2]; 2]) {
         self.evaluations.set(self.evaluations.get() + 1);
+        // The solver hands over the sines and cosines of the point it evaluates.
+        assert_eq!(*passive_sin_cos, passive.map(Real::sin_cos));
         constraints(q[0], passive)
     }
-    fn loop_actuated_jacobian(&self, q: &[f64; 1], _passive: &[f64; 2]) -> [[f64; 1]; 2] {
+    fn loop_actuated_jacobian(
+        &self,
+        q: &[f64; 1],
+        passive: &[f64; 2],
+        passive_sin_cos: &[(f64, f64); 2],
+    ) -> [[f64; 1]; 2] {
+        // At a solution: its sines and cosines, kept from the solve.
+        assert_eq!(*passive_sin_cos, passive.map(Real::sin_cos));
         match self.broken_above.get() {
             Some(limit) if q[0] > limit => [[f64::NAN], [f64::NAN]],
             _ => actuated_jacobian(q[0]),
@@ -195,6 +209,7 @@ impl<const STEPS: u32> LoopConstraints<f64, 1, 2> for FourBar<STEPS> {
         q: &[f64; 1],
         qd: &[f64; 1],
         passive: &[f64; 2],
+        _passive_sin_cos: &[(f64, f64); 2],
         passive_rate: &[f64; 2],
     ) -> [f64; 2] {
         // γ = Φ̇_p q̇_p + Φ̇_a q̇_a, from the rates' matrices (the generated code's is its own
@@ -211,6 +226,7 @@ impl<const STEPS: u32> LoopConstraints<f64, 1, 2> for FourBar<STEPS> {
         q: &[f64; 1],
         qd: &[f64; 1],
         passive: &[f64; 2],
+        _passive_sin_cos: &[(f64, f64); 2],
         passive_rate: &[f64; 2],
     ) -> ([[f64; 2]; 2], [[f64; 1]; 2]) {
         jacobian_rates(q[0], qd[0], passive, passive_rate)
@@ -259,6 +275,7 @@ fn closed_loops_give_the_closed_form_and_its_first_and_second_derivatives() {
         );
         assert!(without_rate.sensitivity_rate.iter().all(|r| r[0].is_nan()));
         assert!(closed.margin > 1e-3 && closed.margin <= 1.0);
+        assert_eq!(closed.passive_sin_cos, closed.passive.map(Real::sin_cos));
         // Without a velocity the rates are not computed (NaN), the rest is the same; at the
         // position level, `A` is not either.
         let without_velocity = close_loops(&FourBar::<8>::default(), &[q], LoopLevel::Sensitivity, None);
@@ -356,7 +373,9 @@ fn closed_loops_are_reused_at_the_same_state_and_warm_started_near_it() {
     // (Steps of 0.01 rad: at 0.002 both need one step per solve, as above.)
     let along = |velocity: Option<&[f64; 1]>| -> u32 {
         let rig = FourBar::<8>::default();
-        (0..20).map(|k| close_loops(&rig, &[1.3 + 0.01 * f64::from(k)], LoopLevel::Sensitivity, velocity).steps).sum()
+        (0..20)
+            .map(|k| close_loops(&rig, &[1.3 + 0.01 * f64::from(k)], LoopLevel::Sensitivity, velocity).steps)
+            .sum()
     };
     let (tangent_only, curved) = (along(None), along(Some(&[10.0])));
     assert!(curved < tangent_only, "{curved} steps with Ȧ q̇_a against {tangent_only} with A only");

@@ -82,24 +82,29 @@ pub(crate) fn loop_constraints_impl(
         let roots = roots(&mut body.dag);
         let (statements, outputs, op_counts) = body.emit_named(&roots, name, &output_names);
         counts.push((name.to_string(), op_counts));
-        // Which arguments the body reads: actuated or passive angles, and their rates.
-        let mut reads = [false; 4];
+        // Which arguments the body reads: actuated angles, passive coordinates, the passive
+        // angles' sines and cosines, and the rates.
+        let (mut actuated, mut passive, mut passive_trig, mut actuated_rate, mut passive_rate) =
+            (false, false, false, false, false);
         for id in body.dag.reachable(&roots) {
             if let Node::Input(atom) = body.dag.nodes()[id] {
-                let (coordinate, rate) = match atom {
-                    Atom::Q(j) | Atom::Sin(j) | Atom::Cos(j) => (usize::from(j), false),
-                    Atom::Qd(j) => (usize::from(j), true),
-                    _ => continue,
-                };
-                reads[usize::from(coordinate >= n) + 2 * usize::from(rate)] = true;
+                match atom {
+                    Atom::Q(j) | Atom::Sin(j) | Atom::Cos(j) if usize::from(j) < n => actuated = true,
+                    Atom::Q(_) => passive = true,
+                    Atom::Sin(_) | Atom::Cos(_) => passive_trig = true,
+                    Atom::Qd(j) if usize::from(j) < n => actuated_rate = true,
+                    Atom::Qd(_) => passive_rate = true,
+                    _ => {}
+                }
             }
         }
         let argument = |read: bool, name: &str| format_ident!("{}{}", if read { "" } else { "_" }, name);
         let arguments = [
-            argument(reads[0], "q"),
-            argument(reads[1], "passive"),
-            argument(reads[2], "qd"),
-            argument(reads[3], "passive_rate"),
+            argument(actuated, "q"),
+            argument(passive, "passive"),
+            argument(passive_trig, "passive_sin_cos"),
+            argument(actuated_rate, "qd"),
+            argument(passive_rate, "passive_rate"),
         ];
         (statements, outputs, arguments)
     };
@@ -117,18 +122,24 @@ pub(crate) fn loop_constraints_impl(
     let residual_names = equation_names("residual");
     let polys: Vec<&Poly> = spatial.residual.iter().chain(flat(&spatial.passive_jacobian)).collect();
     let names_all = residual_names.into_iter().chain(matrix_names("passive_jacobian", p)).collect();
-    let (statements, outputs, [q, passive, ..]) = function("loop_constraints", &nodes(&polys), names_all);
+    let (statements, outputs, [q, passive, passive_sin_cos, ..]) =
+        function("loop_constraints", &nodes(&polys), names_all);
     let (residual, passive_jacobian) = outputs.split_at(p);
     let passive_jacobian = rows(passive_jacobian, p);
     let constraints = quote! {
         #[inline]
-        fn loop_constraints(&self, #q: &[#s; #n_lit], #passive: &[#s; #p_lit]) -> ([#s; #p_lit], [[#s; #p_lit]; #p_lit]) {
+        fn loop_constraints(
+            &self,
+            #q: &[#s; #n_lit],
+            #passive: &[#s; #p_lit],
+            #passive_sin_cos: &[(#s, #s); #p_lit],
+        ) -> ([#s; #p_lit], [[#s; #p_lit]; #p_lit]) {
             #statements
             ([#(#residual),*], #passive_jacobian)
         }
     };
 
-    let (statements, outputs, [q, passive, ..]) = function(
+    let (statements, outputs, [q, passive, passive_sin_cos, ..]) = function(
         "loop_actuated_jacobian",
         &nodes(&flat(&spatial.actuated_jacobian)),
         matrix_names("actuated_jacobian", n),
@@ -136,7 +147,12 @@ pub(crate) fn loop_constraints_impl(
     let actuated_jacobian = rows(&outputs, n);
     let actuated = quote! {
         #[inline]
-        fn loop_actuated_jacobian(&self, #q: &[#s; #n_lit], #passive: &[#s; #p_lit]) -> [[#s; #n_lit]; #p_lit] {
+        fn loop_actuated_jacobian(
+            &self,
+            #q: &[#s; #n_lit],
+            #passive: &[#s; #p_lit],
+            #passive_sin_cos: &[(#s, #s); #p_lit],
+        ) -> [[#s; #n_lit]; #p_lit] {
             #statements
             #actuated_jacobian
         }
@@ -166,7 +182,7 @@ pub(crate) fn loop_constraints_impl(
             })
             .collect()
     };
-    let (statements, outputs, [q, passive, qd, passive_rate]) =
+    let (statements, outputs, [q, passive, passive_sin_cos, qd, passive_rate]) =
         function("loop_convective", &convective_roots, equation_names("convective"));
     let convective = quote! {
         #[inline]
@@ -175,6 +191,7 @@ pub(crate) fn loop_constraints_impl(
             #q: &[#s; #n_lit],
             #qd: &[#s; #n_lit],
             #passive: &[#s; #p_lit],
+            #passive_sin_cos: &[(#s, #s); #p_lit],
             #passive_rate: &[#s; #p_lit],
         ) -> [#s; #p_lit] {
             #statements
@@ -188,7 +205,7 @@ pub(crate) fn loop_constraints_impl(
         .into_iter()
         .chain(matrix_names("actuated_jacobian_rate", n))
         .collect();
-    let (statements, outputs, [q, passive, qd, passive_rate]) =
+    let (statements, outputs, [q, passive, passive_sin_cos, qd, passive_rate]) =
         function("loop_jacobian_rates", &nodes(&polys), names_all);
     let (passive_rate_rows, actuated_rate_rows) = outputs.split_at(p * p);
     let (passive_rate_rows, actuated_rate_rows) = (rows(passive_rate_rows, p), rows(actuated_rate_rows, n));
@@ -199,6 +216,7 @@ pub(crate) fn loop_constraints_impl(
             #q: &[#s; #n_lit],
             #qd: &[#s; #n_lit],
             #passive: &[#s; #p_lit],
+            #passive_sin_cos: &[(#s, #s); #p_lit],
             #passive_rate: &[#s; #p_lit],
         ) -> ([[#s; #p_lit]; #p_lit], [[#s; #n_lit]; #p_lit]) {
             #statements

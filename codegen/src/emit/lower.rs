@@ -334,10 +334,13 @@ impl<'m> BodyEmitter<'m> {
                         (self.naming.atom_name(Atom::Sin(j)), self.naming.atom_name(Atom::Cos(j)));
                     let (sin_ident, cos_ident) =
                         (format_ident!("{}", sin_name), format_ident!("{}", cos_name));
-                    let angle = self.angle_tokens(j);
-                    statements.extend(
-                        quote!(let (#sin_ident, #cos_ident) = ::hapticgen_runtime::Real::sin_cos(#angle);),
-                    );
+                    statements.extend(match self.passive_sin_cos(j) {
+                        Some(pair) => quote!(let (#sin_ident, #cos_ident) = #pair;),
+                        None => {
+                            let angle = self.angle_tokens(j);
+                            quote!(let (#sin_ident, #cos_ident) = ::hapticgen_runtime::Real::sin_cos(#angle);)
+                        }
+                    });
                     names.insert(id, sin_name.clone());
                     taken.insert(sin_name, 1);
                     if let Some(c) = cos_id {
@@ -391,11 +394,17 @@ impl<'m> BodyEmitter<'m> {
                 (Some(read), _) => read,
                 (None, Node::Input(Atom::Sin(j))) => {
                     let angle = self.angle_tokens(j);
-                    quote!(::hapticgen_runtime::Real::sin(#angle))
+                    match self.passive_sin_cos(j) {
+                        Some(pair) => quote!(#pair.0),
+                        None => quote!(::hapticgen_runtime::Real::sin(#angle)),
+                    }
                 }
                 (None, Node::Input(Atom::Cos(j))) => {
                     let angle = self.angle_tokens(j);
-                    quote!(::hapticgen_runtime::Real::cos(#angle))
+                    match self.passive_sin_cos(j) {
+                        Some(pair) => quote!(#pair.1),
+                        None => quote!(::hapticgen_runtime::Real::cos(#angle)),
+                    }
                 }
                 (None, Node::Input(Atom::Q(j))) => {
                     let j = unsuffixed(usize::from(j));
@@ -427,6 +436,16 @@ impl<'m> BodyEmitter<'m> {
     }
 
     /// The angle of coordinate `j`: `q[j]`, or a passive coordinate solved at run time.
+    /// A spatial closed chain's passive angle `j`: its sine and cosine, computed with the
+    /// loops' solution (`None` for any other angle).
+    fn passive_sin_cos(&self, j: u16) -> Option<TokenStream> {
+        let loops = self.naming.loops?;
+        match loops.read(Atom::Q(j))? {
+            LoopRead::Passive(r) => Some(loops.sin_cos_tokens(r)),
+            _ => None,
+        }
+    }
+
     fn angle_tokens(&self, j: u16) -> TokenStream {
         match self.naming.loops.and_then(|l| Some(l.tokens(l.read(Atom::Q(j))?))) {
             Some(read) => read,

@@ -73,6 +73,17 @@ impl LoopInputs {
         }
     }
 
+    /// The sine and cosine of passive coordinate `r`, a pair computed with the solution: a
+    /// field of the solution `loops`, or the argument `passive_sin_cos`.
+    pub(crate) fn sin_cos_tokens(&self, r: usize) -> TokenStream {
+        let r = super::literal::unsuffixed(r);
+        if self.solved {
+            quote::quote!(loops.passive_sin_cos[#r])
+        } else {
+            quote::quote!(passive_sin_cos[#r])
+        }
+    }
+
     /// The expression reading a loop value: a field of the solution `loops`, or an argument.
     pub(crate) fn tokens(&self, read: LoopRead) -> TokenStream {
         use quote::{format_ident, quote};
