@@ -430,8 +430,20 @@ impl<'m> BodyEmitter<'m> {
             names.insert(id, name);
         }
         let outputs = roots.iter().map(|&r| self.expression(r, &names, false).0).collect();
-        let counts =
+        let mut counts =
             if self.options.fused_multiply_add { self.dag.count_fused(roots) } else { self.dag.count(roots) };
+        // A spatial closed chain's passive sines and cosines are read from the loops' solution
+        // (or the argument `passive_sin_cos`), not computed here.
+        let read_trig = self
+            .dag
+            .reachable(roots)
+            .into_iter()
+            .filter(|&id| match self.dag.nodes()[id] {
+                Node::Input(Atom::Sin(j) | Atom::Cos(j)) => self.passive_sin_cos(j).is_some(),
+                _ => false,
+            })
+            .count();
+        counts.trigonometric -= read_trig;
         (statements, outputs, counts)
     }
 
