@@ -19,6 +19,9 @@ use std::path::Path;
 use hapticgen_codegen::eval::{evaluate, State};
 use hapticgen_codegen::sym::poly::Atom;
 
+mod support;
+use support::TreePositions;
+
 const FILE: &str = "codegen/tests/closed-chains/slider_crank_spatial.yaml";
 /// Crank, rod and the slide's height, m (the model file's parameters, copied).
 const CRANK: f64 = 0.03;
@@ -75,19 +78,8 @@ fn a_passive_prismatic_joint_closes_a_spatial_loop_and_its_dynamics_are_the_bodi
         assert!((swing - (azimuth - theta)).abs() <= 1e-12, "swing at θ = {theta}: {swing}");
         // The loop's residual at the solution.
         let tree = [theta, swing, tilt, travel];
-        struct Tree<'a>(&'a [f64; 4]);
-        impl hapticgen_codegen::sym::poly::AtomValues for Tree<'_> {
-            fn value(&self, atom: Atom) -> f64 {
-                match atom {
-                    Atom::Sin(j) => self.0[usize::from(j)].sin(),
-                    Atom::Cos(j) => self.0[usize::from(j)].cos(),
-                    Atom::Q(j) => self.0[usize::from(j)],
-                    _ => 0.0,
-                }
-            }
-        }
         for (name, residual) in spatial.equation_names.iter().zip(&spatial.residual) {
-            let value = residual.eval(&Tree(&tree));
+            let value = residual.eval(&TreePositions(&tree));
             assert!(value.abs() <= 1e-12, "{name} at θ = {theta}: {value:e}");
         }
         // The dynamics against the bodies' energies.

@@ -29,6 +29,9 @@ use hapticgen_codegen::sym::dag::{Dag, NodeId};
 use hapticgen_codegen::sym::poly::{Atom, AtomValues};
 use hapticgen_codegen::CheckedModel;
 
+mod support;
+use support::TreePositions;
+
 /// A Delta's data, copied from its model file's sources (not read from it).
 struct Device {
     file: &'static str,
@@ -382,20 +385,9 @@ fn the_loops_close_the_platform_translates_and_d_is_positive_definite_of(device:
         };
         let passive: Vec<f64> = (0..spatial.passive).map(angle).collect();
         // The residual of every loop equation at the solution.
-        struct Tree<'a>(&'a [f64]);
-        impl AtomValues for Tree<'_> {
-            fn value(&self, atom: Atom) -> f64 {
-                match atom {
-                    Atom::Sin(j) => self.0[usize::from(j)].sin(),
-                    Atom::Cos(j) => self.0[usize::from(j)].cos(),
-                    Atom::Q(j) => self.0[usize::from(j)],
-                    _ => 0.0,
-                }
-            }
-        }
         let tree: Vec<f64> = q.iter().chain(&passive).copied().collect();
         for (name, r) in spatial.equation_names.iter().zip(&spatial.residual) {
-            let value = r.eval(&Tree(&tree));
+            let value = r.eval(&TreePositions(&tree));
             assert!(value.abs() <= 1e-12, "{name} at {q:?}: {value:e}");
         }
         // The platform's orientation, composed here from the joint angles along leg 1:

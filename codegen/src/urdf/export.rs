@@ -96,6 +96,27 @@ fn escape(text: &str) -> String {
         .replace("--", "- -")
 }
 
+/// The opening of a moving joint's element: its name, type, links, origin and axis.
+struct JointHead<'a> {
+    name: &'a str,
+    kind: JointKind,
+    axis: &'a [f64; 3],
+}
+
+impl JointHead<'_> {
+    fn write(&self, out: &mut String, parent_link: &str, child_link: &str, origin: &Transform) {
+        let kind = match self.kind {
+            JointKind::Revolute => "revolute",
+            JointKind::Prismatic => "prismatic",
+        };
+        let _ = writeln!(out, "  <joint name=\"{}\" type=\"{kind}\">", self.name);
+        let _ = writeln!(out, "    <parent link=\"{parent_link}\"/>");
+        let _ = writeln!(out, "    <child link=\"{child_link}\"/>");
+        let _ = writeln!(out, "    {}", origin.origin_element());
+        let _ = writeln!(out, "    <axis xyz=\"{}\"/>", triple(self.axis));
+    }
+}
+
 /// The name of the URDF link that carries a named point.
 pub fn point_link_name(point: &str) -> String {
     format!("point_{point}")
@@ -300,15 +321,8 @@ fn write_tree(model: &Model) -> Result<String, String> {
                 let passive = model.passive.get(*j - model.joints.len()).ok_or_else(|| {
                     format!("body `{}`: coordinate {j} is neither an actuated nor a passive joint", body.name)
                 })?;
-                let kind = match passive.kind {
-                    JointKind::Revolute => "revolute",
-                    JointKind::Prismatic => "prismatic",
-                };
-                let _ = writeln!(out, "  <joint name=\"{}\" type=\"{kind}\">", passive.name);
-                let _ = writeln!(out, "    <parent link=\"{parent_link}\"/>");
-                let _ = writeln!(out, "    <child link=\"{}\"/>", body.name);
-                let _ = writeln!(out, "    {}", origin.origin_element());
-                let _ = writeln!(out, "    <axis xyz=\"{}\"/>", triple(&passive.axis));
+                let head = JointHead { name: &passive.name, kind: passive.kind, axis: &passive.axis };
+                head.write(&mut out, &parent_link, &body.name, &origin);
                 // The model bounds a passive joint by nothing; URDF requires limits (±π, read
                 // as metres for a prismatic joint: wider than any rig's loops reach).
                 let pi = number(std::f64::consts::PI);
@@ -320,15 +334,8 @@ fn write_tree(model: &Model) -> Result<String, String> {
             }
             Some(j) => {
                 let joint = &model.joints[*j];
-                let kind = match joint.kind {
-                    JointKind::Revolute => "revolute",
-                    JointKind::Prismatic => "prismatic",
-                };
-                let _ = writeln!(out, "  <joint name=\"{}\" type=\"{kind}\">", joint.name);
-                let _ = writeln!(out, "    <parent link=\"{parent_link}\"/>");
-                let _ = writeln!(out, "    <child link=\"{}\"/>", body.name);
-                let _ = writeln!(out, "    {}", origin.origin_element());
-                let _ = writeln!(out, "    <axis xyz=\"{}\"/>", triple(&joint.axis));
+                let head = JointHead { name: &joint.name, kind: joint.kind, axis: &joint.axis };
+                head.write(&mut out, &parent_link, &body.name, &origin);
                 // URDF requires a velocity limit; the model has none, so a generous one.
                 let _ = writeln!(
                     out,
