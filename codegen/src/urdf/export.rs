@@ -322,7 +322,7 @@ fn write_tree(model: &Model) -> Result<String, String> {
                     format!("body `{}`: coordinate {j} is neither an actuated nor a passive joint", body.name)
                 })?;
                 let head = JointHead { name: &passive.name, kind: passive.kind, axis: &passive.axis };
-                head.write(&mut out, &parent_link, &body.name, &origin);
+                head.write(&mut out, parent_link, &body.name, &origin);
                 // The model bounds a passive joint by nothing; URDF requires limits (±π, read
                 // as metres for a prismatic joint: wider than any rig's loops reach).
                 let pi = number(std::f64::consts::PI);
@@ -335,7 +335,7 @@ fn write_tree(model: &Model) -> Result<String, String> {
             Some(j) => {
                 let joint = &model.joints[*j];
                 let head = JointHead { name: &joint.name, kind: joint.kind, axis: &joint.axis };
-                head.write(&mut out, &parent_link, &body.name, &origin);
+                head.write(&mut out, parent_link, &body.name, &origin);
                 // URDF requires a velocity limit; the model has none, so a generous one.
                 let _ = writeln!(
                     out,
