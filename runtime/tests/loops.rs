@@ -419,6 +419,14 @@ fn the_guess_is_the_last_solution_near_it_and_the_assemblys_tangent_elsewhere() 
     let closed = close_loops(&rig, &[q], LoopLevel::Position, None);
     let expected = solve_passive(|p| constraints(q, p), &guess, &Rig::LOOP_SOLVER).expect("solves");
     assert_eq!((closed.passive, closed.steps), (expected.passive, expected.steps));
+    // At rest (`q̇_a = 0`, so no `τ`): the tangent alone, not a 0/0 that would send Newton back
+    // to the assembly's tangent.
+    let rig = Rig::default();
+    let last = close_loops(&rig, &[q0], LoopLevel::Sensitivity, Some(&[0.0]));
+    let guess: [f64; 2] = core::array::from_fn(|r| last.passive[r] + last.sensitivity[r][0] * (q - q0));
+    let closed = close_loops(&rig, &[q], LoopLevel::Position, None);
+    let expected = solve_passive(|p| constraints(q, p), &guess, &Rig::LOOP_SOLVER).expect("solves");
+    assert_eq!((closed.passive, closed.steps), (expected.passive, expected.steps));
     // The same state again: no evaluation of Φ at all.
     let rig = Rig::default();
     close_loops(&rig, &[1.3], LoopLevel::Position, None);

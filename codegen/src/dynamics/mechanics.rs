@@ -46,7 +46,7 @@ pub enum Derivation {
     /// With the recursive algorithms of [`crate::dynamics::recursive`] on the expression DAG.
     Recursive,
     /// A spatial closed chain's open-tree polynomials projected on the expression DAG with the
-    /// loop solution's `S = [I; A]` ([`crate::dynamics::projection`]), not multiplied out.
+    /// loop solution's `S = [I; A]` (`codegen/src/dynamics/projection.rs`), not multiplied out.
     Projected,
 }
 
