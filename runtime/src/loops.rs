@@ -205,7 +205,7 @@ pub struct ClosedLoops<S, const N: usize, const P: usize> {
     pub sensitivity: [[S; N]; P],
     /// `Ȧ q̇_a = −Φ_p⁻¹ (Φ̇_p q̇_p + Φ̇_a q̇_a)`, the passive coordinates' acceleration at
     /// `q̈_a = 0` (NaN when no velocity was given).
-    pub passive_convective: [S; P],
+    pub passive_convective_acceleration: [S; P],
     /// `Ȧ = −Φ_p⁻¹ (Φ̇_p A + Φ̇_a)` (NaN unless [`LoopLevel::SensitivityRate`] was asked for
     /// with a velocity).
     pub sensitivity_rate: [[S; N]; P],
@@ -228,7 +228,7 @@ impl<S: Real, const N: usize, const P: usize> ClosedLoops<S, N, P> {
             passive_sin_cos: [(nan, nan); P],
             passive_rate: [nan; P],
             sensitivity: [[nan; N]; P],
-            passive_convective: [nan; P],
+            passive_convective_acceleration: [nan; P],
             sensitivity_rate: [[nan; N]; P],
             margin: nan,
             error: Some(error),
@@ -335,9 +335,10 @@ pub fn close_loops<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P
             }
             if let Some(qd) = qd {
                 if entry.rates_for.as_ref() != Some(qd) {
-                    let (passive_rate, passive_convective) = rates(loops, q, qd, &entry.closed, &factors)?;
+                    let (passive_rate, passive_convective_acceleration) =
+                        rates(loops, q, qd, &entry.closed, &factors)?;
                     entry.closed.passive_rate = passive_rate;
-                    entry.closed.passive_convective = passive_convective;
+                    entry.closed.passive_convective_acceleration = passive_convective_acceleration;
                     entry.rates_for = Some(*qd);
                 }
                 if entry.sensitivity_rate_for.as_ref() != Some(qd) {
@@ -405,7 +406,7 @@ fn solve_position<S: Real, L: LoopConstraints<S, N, P>, const N: usize, const P:
                 passive_sin_cos: last_sin_cos,
                 passive_rate: [nan; P],
                 sensitivity: [[nan; N]; P],
-                passive_convective: [nan; P],
+                passive_convective_acceleration: [nan; P],
                 sensitivity_rate: [[nan; N]; P],
                 margin: solution.margin,
                 error: None,
@@ -451,7 +452,8 @@ fn warm_start<S: Real, const N: usize, const P: usize>(last: &CachedLoops<S, N, 
         if speed_squared > S::ZERO {
             let time = dot(&moved, velocity) / speed_squared;
             let half_time_squared = S::from_f64(0.5) * time * time;
-            for (slot, convective) in guess.iter_mut().zip(last.closed.passive_convective.iter()) {
+            for (slot, convective) in guess.iter_mut().zip(last.closed.passive_convective_acceleration.iter())
+            {
                 *slot += half_time_squared * *convective;
             }
         }

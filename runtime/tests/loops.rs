@@ -260,18 +260,21 @@ fn closed_loops_give_the_closed_form_and_its_first_and_second_derivatives() {
             );
             // `Ȧ q̇_a`, from its own single solve: the second derivative along the path.
             assert!(
-                (closed.passive_convective[i] - curvature[i] * qd * qd).abs() < 1e-4,
+                (closed.passive_convective_acceleration[i] - curvature[i] * qd * qd).abs() < 1e-4,
                 "q = {q}: {:?} vs {:?}",
-                closed.passive_convective,
+                closed.passive_convective_acceleration,
                 curvature
             );
-            assert!((closed.passive_convective[i] - closed.sensitivity_rate[i][0] * qd).abs() < 1e-12);
+            assert!(
+                (closed.passive_convective_acceleration[i] - closed.sensitivity_rate[i][0] * qd).abs()
+                    < 1e-12
+            );
         }
         // At the `Sensitivity` level with a velocity: `q̇_p` and `Ȧ q̇_a`, not `Ȧ`.
         let without_rate = close_loops(&FourBar::<8>::default(), &[q], LoopLevel::Sensitivity, Some(&[qd]));
         assert_eq!(
-            (without_rate.passive_rate, without_rate.passive_convective),
-            (closed.passive_rate, closed.passive_convective)
+            (without_rate.passive_rate, without_rate.passive_convective_acceleration),
+            (closed.passive_rate, closed.passive_convective_acceleration)
         );
         assert!(without_rate.sensitivity_rate.iter().all(|r| r[0].is_nan()));
         assert!(closed.margin > 1e-3 && closed.margin <= 1.0);
@@ -287,7 +290,7 @@ fn closed_loops_give_the_closed_form_and_its_first_and_second_derivatives() {
             .sensitivity_rate
             .iter()
             .chain(&without_velocity.passive_rate.map(|r| [r]))
-            .chain(&without_velocity.passive_convective.map(|r| [r]))
+            .chain(&without_velocity.passive_convective_acceleration.map(|r| [r]))
             .all(|r| r[0].is_nan()));
         let position = close_loops(&FourBar::<8>::default(), &[q], LoopLevel::Position, None);
         assert_eq!(position.passive, closed.passive);
@@ -314,7 +317,7 @@ fn closed_loops_that_cannot_be_solved_are_nan_with_the_reason() {
             .passive
             .iter()
             .chain(closed.passive_rate.iter())
-            .chain(closed.passive_convective.iter())
+            .chain(closed.passive_convective_acceleration.iter())
             .all(|x| x.is_nan()));
         assert!(closed
             .sensitivity
@@ -337,15 +340,15 @@ fn closed_loops_are_reused_at_the_same_state_and_warm_started_near_it() {
     assert_eq!((full.passive, full.steps), (first.passive, 0));
     let at_once = close_loops(&FourBar::<8>::default(), &[1.3], LoopLevel::SensitivityRate, Some(&[0.7]));
     assert_eq!(
-        (full.sensitivity, full.sensitivity_rate, full.passive_convective),
-        (at_once.sensitivity, at_once.sensitivity_rate, at_once.passive_convective)
+        (full.sensitivity, full.sensitivity_rate, full.passive_convective_acceleration),
+        (at_once.sensitivity, at_once.sensitivity_rate, at_once.passive_convective_acceleration)
     );
     // Another velocity at the same state: the rates and `Ȧ` anew, each only when asked for.
     let other_velocity = close_loops(&rig, &[1.3], LoopLevel::Sensitivity, Some(&[-0.2]));
     let expected = close_loops(&FourBar::<8>::default(), &[1.3], LoopLevel::SensitivityRate, Some(&[-0.2]));
     assert_eq!(
-        (other_velocity.passive_rate, other_velocity.passive_convective),
-        (expected.passive_rate, expected.passive_convective)
+        (other_velocity.passive_rate, other_velocity.passive_convective_acceleration),
+        (expected.passive_rate, expected.passive_convective_acceleration)
     );
     assert!(other_velocity.sensitivity_rate.iter().all(|r| r[0].is_nan()), "Ȧ of another velocity");
     let other_rate = close_loops(&rig, &[1.3], LoopLevel::SensitivityRate, Some(&[-0.2]));
@@ -414,7 +417,9 @@ fn the_guess_is_the_last_solution_near_it_and_the_assemblys_tangent_elsewhere() 
     let last = close_loops(&rig, &[q0], LoopLevel::Sensitivity, Some(&[velocity]));
     let time = (q - q0) * velocity / (velocity * velocity);
     let guess: [f64; 2] = core::array::from_fn(|r| {
-        last.passive[r] + last.sensitivity[r][0] * (q - q0) + 0.5 * time * time * last.passive_convective[r]
+        last.passive[r]
+            + last.sensitivity[r][0] * (q - q0)
+            + 0.5 * time * time * last.passive_convective_acceleration[r]
     });
     let closed = close_loops(&rig, &[q], LoopLevel::Position, None);
     let expected = solve_passive(|p| constraints(q, p), &guess, &Rig::LOOP_SOLVER).expect("solves");
@@ -446,7 +451,7 @@ fn a_solution_that_cannot_be_completed_is_nan_and_stays_so_at_that_state() {
     let all_nan = |closed: &hapticgen_runtime::loops::ClosedLoops<f64, 1, 2>| {
         closed.passive.iter().chain(&closed.passive_rate).all(|x| x.is_nan())
             && closed.sensitivity.iter().chain(&closed.sensitivity_rate).all(|r| r[0].is_nan())
-            && closed.passive_convective.iter().all(|x| x.is_nan())
+            && closed.passive_convective_acceleration.iter().all(|x| x.is_nan())
             && closed.margin.is_nan()
     };
     let closed = close_loops(&rig, &[1.3], LoopLevel::Sensitivity, Some(&[0.4]));

@@ -249,28 +249,25 @@ impl Mechanics {
     /// Whether this can be built by projection ([`Derivation::Projected`]): a reduced spatial
     /// chain that keeps its open tree.
     pub(crate) fn projectable(&self) -> bool {
-        self.tree.is_some() && self.closures.as_ref().is_some_and(|c| c.spatial.is_some())
+        self.projection().is_some()
     }
 
-    /// The projection of this reduced chain's open tree, if [`Self::projectable`].
+    /// The projection of this reduced chain's open tree: a spatial closed chain's, else `None`.
     fn projection(&self) -> Option<Projection<'_>> {
-        match (&self.tree, &self.closures) {
-            (Some(tree), Some(closures)) if self.projectable() => {
-                debug_assert_eq!(tree.derivation, Derivation::Polynomial);
-                Some(Projection {
-                    tree: OpenTree {
-                        joints: tree.joints,
-                        inertia_matrix: &tree.inertia_matrix,
-                        coriolis_matrix: &tree.coriolis_matrix,
-                        coriolis_times_qdot: &tree.coriolis_times_qdot,
-                        gravity: &tree.gravity,
-                        points: &tree.points,
-                    },
-                    closures,
-                })
-            }
-            _ => None,
-        }
+        let (tree, closures) = (self.tree.as_deref()?, self.closures.as_ref()?);
+        closures.spatial.as_ref()?;
+        debug_assert_eq!(tree.derivation, Derivation::Polynomial);
+        Some(Projection {
+            tree: OpenTree {
+                joints: tree.joints,
+                inertia_matrix: &tree.inertia_matrix,
+                coriolis_matrix: &tree.coriolis_matrix,
+                coriolis_times_qdot: &tree.coriolis_times_qdot,
+                gravity: &tree.gravity,
+                points: &tree.points,
+            },
+            closures,
+        })
     }
 
     /// `C q̇ = Σ_k Σ_{i≤j} Γ_kij q̇_i q̇_j` with the Christoffel combinations

@@ -392,20 +392,20 @@ impl<'m> BodyEmitter<'m> {
             };
             let value = match (loop_read, node) {
                 (Some(read), _) => read,
-                (None, Node::Input(Atom::Sin(j))) => {
-                    let angle = self.angle_tokens(j);
-                    match self.passive_sin_cos(j) {
-                        Some(pair) => quote!(#pair.0),
-                        None => quote!(::hapticgen_runtime::Real::sin(#angle)),
+                (None, Node::Input(Atom::Sin(j))) => match self.passive_sin_cos(j) {
+                    Some(pair) => quote!(#pair.0),
+                    None => {
+                        let angle = self.angle_tokens(j);
+                        quote!(::hapticgen_runtime::Real::sin(#angle))
                     }
-                }
-                (None, Node::Input(Atom::Cos(j))) => {
-                    let angle = self.angle_tokens(j);
-                    match self.passive_sin_cos(j) {
-                        Some(pair) => quote!(#pair.1),
-                        None => quote!(::hapticgen_runtime::Real::cos(#angle)),
+                },
+                (None, Node::Input(Atom::Cos(j))) => match self.passive_sin_cos(j) {
+                    Some(pair) => quote!(#pair.1),
+                    None => {
+                        let angle = self.angle_tokens(j);
+                        quote!(::hapticgen_runtime::Real::cos(#angle))
                     }
-                }
+                },
                 (None, Node::Input(Atom::Q(j))) => {
                     let j = unsuffixed(usize::from(j));
                     quote!(q[#j])
@@ -447,7 +447,6 @@ impl<'m> BodyEmitter<'m> {
         (statements, outputs, counts)
     }
 
-    /// The angle of coordinate `j`: `q[j]`, or a passive coordinate solved at run time.
     /// A spatial closed chain's passive angle `j`: its sine and cosine, computed with the
     /// loops' solution (`None` for any other angle).
     fn passive_sin_cos(&self, j: u16) -> Option<TokenStream> {
@@ -458,6 +457,7 @@ impl<'m> BodyEmitter<'m> {
         }
     }
 
+    /// The angle of coordinate `j`: `q[j]`, or a passive coordinate solved at run time.
     fn angle_tokens(&self, j: u16) -> TokenStream {
         match self.naming.loops.and_then(|l| Some(l.tokens(l.read(Atom::Q(j))?))) {
             Some(read) => read,

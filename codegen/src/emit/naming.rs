@@ -93,7 +93,7 @@ impl LoopInputs {
             LoopRead::PassiveRate(r) => ("passive_rate", r, None),
             LoopRead::Sensitivity { r, j, rate: false } => ("sensitivity", r, Some(j)),
             LoopRead::Sensitivity { r, j, rate: true } => ("sensitivity_rate", r, Some(j)),
-            LoopRead::Convective(r) => ("passive_convective", r, None),
+            LoopRead::Convective(r) => ("passive_convective_acceleration", r, None),
         };
         let array = format_ident!("{}", array);
         // The constraint functions take the passive values as arguments; `A`, `Ȧ` and `Ȧ q̇_a`
@@ -142,7 +142,7 @@ impl Naming<'_> {
                     if rate { "_rate" } else { "" }
                 ),
                 Some(LoopRead::Convective(r)) => {
-                    format!("{}_convective", joint((self.model.joints.len() + r) as u16))
+                    format!("{}_convective_acceleration", joint((self.model.joints.len() + r) as u16))
                 }
                 _ => format!("closure_{k}"),
             },
