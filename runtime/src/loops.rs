@@ -11,9 +11,10 @@
 //! coordinates' acceleration when the actuated ones do not accelerate (the convective term):
 //! differentiating `Φ_p q̇_p + Φ_a q̇_a = 0` once more at `q̈_a = 0` gives
 //! `Ȧ q̇_a = −Φ_p⁻¹ γ`, `γ = Φ̇_p q̇_p + Φ̇_a q̇_a`, one solve of a vector, where `Ȧ` itself
-//! (`−Φ_p⁻¹ (Φ̇_p A + Φ̇_a)`, a solve per actuated coordinate) is computed only when asked for. Both are allocation-free and panic-free, and report failure as a
-//! [`LoopError`] instead of returning a plausible-looking number: a loop that does not close
-//! (the actuated coordinates out of reach), a singular loop (`Φ_p` losing rank, where the
+//! (`−Φ_p⁻¹ (Φ̇_p A + Φ̇_a)`, a solve per actuated coordinate) is computed only when asked
+//! for. Both are allocation-free and panic-free, and report failure as a [`LoopError`]
+//! instead of returning a plausible-looking number: a loop that does not close (the actuated
+//! coordinates out of reach), a singular loop (`Φ_p` losing rank, where the
 //! reduced inertia grows without bound) and non-finite inputs.
 
 use core::cell::Cell;
@@ -306,8 +307,9 @@ impl<S, const N: usize, const P: usize> core::fmt::Debug for LoopCache<S, N, P> 
 }
 
 /// Solves `loops` at `q` to `level` (and, with `qd`, at the velocity level: `q̇_p = A q̇_a` and
-/// `Ȧ q̇_a`, `A` included; `Ȧ` at [`LoopLevel::SensitivityRate`]), within the generator's checked step bound: Newton's method from the
-/// last solution (moved along its `A` if that was computed) when `q` is within
+/// `Ȧ q̇_a`, `A` included; `Ȧ` at [`LoopLevel::SensitivityRate`]), within the generator's
+/// checked step bound: Newton's method from the last solution (moved along its `A` and
+/// `Ȧ q̇_a` where those were computed, see `warm_start`) when `q` is within
 /// [`LoopSolverSettings::warm_start_radius`] of it, else (or if that fails) from the assembly
 /// moved along its tangent, `q_p0 + A₀ (q_a − q_a0)`. At the
 /// last call's `q` the solution is reused and only what it lacks is computed. Values not asked
