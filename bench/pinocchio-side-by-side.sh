@@ -193,7 +193,9 @@ awk -v closed="$closed" '
     }
 ' "$run/timings.txt"
 if [ "$model" = models/falcon_delta.yaml ]; then
-    echo "hapticgen's loop solve (close_loops at the velocity level, as in \`terms\`): $("$rust" loop-steps "$model" "$variant" "$run/states.txt" | sed -n 's/^newton_steps_per_solve //p') Newton steps per solve."
+    # The same rig with its loops solved by Newton's method (the solver of every spatial chain
+    # without a closed form), timed once after the rounds above.
+    echo "hapticgen with the loops solved by Newton's method instead of the closed form (close_loops at the velocity level, as in \`terms\`; $("$rust" loop-steps "$model" "$variant" "$run/states.txt" | sed -n 's/^newton_steps_per_solve //p') Newton steps per solve): \`terms\` $("$rust" time-newton "$model" "$variant" "$run/states.txt" | sed -n 's/^terms //p') ns."
 fi
 echo
 echo "raw timings: $run/timings.txt"

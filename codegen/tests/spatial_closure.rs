@@ -459,11 +459,19 @@ fn the_loops_close_the_platform_translates_and_d_is_positive_definite_of(device:
 }
 
 #[test]
-fn a_spatial_closed_chain_emits_code_that_solves_its_loops_at_run_time() {
+fn a_delta_solves_its_loops_in_closed_form_and_on_request_by_newton_at_run_time() {
     for device in &DEVICES {
         let (model, _) = load(device);
-        let newton_steps =
-            model.analyses.closures.as_ref().and_then(|c| c.spatial.as_ref()).map(|s| s.newton_steps);
+        let spatial =
+            model.analyses.closures.as_ref().and_then(|c| c.spatial.as_ref()).expect("spatial loops");
+        assert!(spatial.closed_form.is_some(), "{}: {:?}", device.file, spatial.newton_reason);
+        let steps = spatial.newton_steps;
+        let closed_form =
+            hapticgen_codegen::generate_model(model.clone(), hapticgen_codegen::Scalar::F64).file_text();
+        assert!(!closed_form.contains("close_loops"), "{}", device.file);
+        assert!(!closed_form.contains("LoopConstraints"), "{}", device.file);
+        assert!(closed_form.contains("::hapticgen_runtime::Real::sqrt("), "{}", device.file);
+        let model = model.with_loops_solved_numerically();
         let text = hapticgen_codegen::generate_model(model, hapticgen_codegen::Scalar::F64).file_text();
         assert!(
             text.contains("impl ::hapticgen_runtime::loops::LoopConstraints<f64, 3, 8> for"),
@@ -472,7 +480,6 @@ fn a_spatial_closed_chain_emits_code_that_solves_its_loops_at_run_time() {
         );
         assert!(text.contains("let loops = ::hapticgen_runtime::loops::close_loops("), "{}", device.file);
         // The solver's bound: the most steps seen over the actuated ranges, plus two.
-        let steps = newton_steps.expect("spatial loops");
         assert!((1..=8).contains(&steps), "{}: {steps} steps", device.file);
         assert!(text.contains(&format!("max_steps: {},", steps + 2)), "{}", device.file);
     }

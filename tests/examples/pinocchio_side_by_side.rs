@@ -34,15 +34,16 @@
 //! must agree to 1e-9 relative to the quantity's largest entry (no absolute floor). It exits
 //! with status 1 otherwise.
 //!
-//! `loop-steps` (the Falcon-like Delta only) prints the mean number of Newton steps the
-//! generated code's loop solve (`close_loops`, as `terms` calls it) takes per state along the
-//! states, for the benchmark's note on where the time goes.
-//!
 //! `time` prints `KEY NS` lines: nanoseconds per call of each generated function and of
 //! `terms`, the best of 25 batches of 2,000 calls cycling over the states (as the C++ side). A
 //! closed chain's functions are called as a user calls them: each solves the loops at its state
-//! (`hapticgen_runtime::loops::close_loops`, from the solution of the state before; functions
-//! called at the same state reuse it).
+//! (the Falcon-like Delta's in closed form).
+//!
+//! `time-newton` (the Falcon-like Delta only) times the same rig generated with its loops
+//! solved by Newton's method instead (`CheckedModel::with_loops_solved_numerically`, the solver
+//! of every other spatial chain: `hapticgen_runtime::loops::close_loops`, from the solution of
+//! the state before; functions called at the same state reuse it), and `loop-steps` prints the
+//! mean number of Newton steps that rig's loop solve takes per state along the states.
 
 use std::hint::black_box;
 use std::path::Path;
@@ -282,6 +283,8 @@ struct Run {
     file: String,
     variant: Option<String>,
     action: Action,
+    /// Time the rig generated with its loops solved by Newton's method (`time-newton`).
+    numerical: bool,
     found: bool,
     outcome: Result<(), String>,
 }
@@ -308,7 +311,11 @@ impl RigVisitor for Run {
         rig: &R,
     ) {
         // The unfused code (the build script also generates each rig with fused multiply-adds).
-        if info.file == self.file && info.variant == self.variant.as_deref() && !info.module.ends_with("_fma")
+        // The closed form where a rig has one, unless Newton's method was asked for.
+        if info.file == self.file
+            && info.variant == self.variant.as_deref()
+            && !info.module.ends_with("_fma")
+            && info.module.contains("_newton_") == self.numerical
         {
             self.found = true;
             self.outcome = self.run(rig);
@@ -436,9 +443,9 @@ fn time<R: FusedImpedance<N, M, Scalar = f64>, const N: usize, const M: usize>(
 /// along the states in order (each from the solution of the state before, as in `time`).
 fn falcon_loop_steps(states: &str) -> Result<(), String> {
     use hapticgen_runtime::loops::{close_loops, LoopLevel};
-    use hapticgen_tests::falcon_delta_f64::FalconDelta;
+    use hapticgen_tests::falcon_delta_newton_f64::FalconDeltaNewton;
     let states = read_states::<3>(states)?;
-    let rig = FalconDelta::NOMINAL;
+    let rig = FalconDeltaNewton::NOMINAL;
     // Once around to warm up (the first state continues from the assembly), once counted.
     let mut steps = 0u64;
     for round in 0..2 {
@@ -459,7 +466,7 @@ fn falcon_loop_steps(states: &str) -> Result<(), String> {
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let usage =
-        "usage: pinocchio_side_by_side urdf|states|check|time MODEL VARIANT|- [STATES [RESULTS]] | OUT";
+        "usage: pinocchio_side_by_side urdf|states|check|time|time-newton|loop-steps MODEL VARIANT|- [STATES [RESULTS]] | OUT";
     let outcome = (|| -> Result<(), String> {
         let [command, file, variant, rest @ ..] = args.as_slice() else {
             return Err(usage.into());
@@ -475,13 +482,14 @@ fn main() -> ExitCode {
             ("check", [states, results]) => {
                 Action::Check { states: states.clone(), results: results.clone() }
             }
-            ("time", [states]) => Action::Time { states: states.clone() },
+            ("time" | "time-newton", [states]) => Action::Time { states: states.clone() },
             ("loop-steps", [states]) if file == "models/falcon_delta.yaml" => {
                 return falcon_loop_steps(states)
             }
             _ => return Err(usage.into()),
         };
-        let mut run = Run { file: file.clone(), variant, action, found: false, outcome: Ok(()) };
+        let numerical = command == "time-newton";
+        let mut run = Run { file: file.clone(), variant, action, numerical, found: false, outcome: Ok(()) };
         visit_all(&mut run);
         if !run.found {
             return Err(format!(

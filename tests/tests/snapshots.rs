@@ -25,18 +25,22 @@ struct Case {
     variant: Option<String>,
     scalar: Scalar,
     options: EmitOptions,
+    /// Its spatial loops solved by Newton's method even where they have a closed form.
+    numerical: bool,
 }
 
 impl Case {
     fn generate(&self) -> String {
         let m = hapticgen_codegen::load_file(&self.path, &self.display, self.variant.as_deref())
             .unwrap_or_else(|e| panic!("{e}"));
+        let m = if self.numerical { m.with_loops_solved_numerically() } else { m };
         hapticgen_codegen::generate_model_with(m, self.scalar, self.options).file_text()
     }
 }
 
-/// Every snapshot the tests assert: each shipped model, variant and scalar type (unfused), and
-/// the parallel link with fused multiply-adds in the firmware's `f32`.
+/// Every snapshot the tests assert: each shipped model, variant and scalar type (unfused), a
+/// Delta with its loops solved by Newton's method (`f64`), and the parallel link with fused
+/// multiply-adds in the firmware's `f32`.
 fn cases() -> Vec<Case> {
     let mut cases = Vec::new();
     let models =
@@ -59,8 +63,27 @@ fn cases() -> Vec<Case> {
                     variant: variant.clone(),
                     scalar,
                     options: EmitOptions { fused_multiply_add: false },
+                    numerical: false,
                 });
             }
+        }
+        // A Delta also with its loops solved by Newton's method (the solver of every other
+        // spatial chain), as the build script generates it.
+        if m.analyses
+            .closures
+            .as_ref()
+            .and_then(|c| c.spatial.as_ref())
+            .is_some_and(|s| s.closed_form.is_some())
+        {
+            cases.push(Case {
+                name: format!("{}_newton_f64", m.name),
+                path: entry.path.clone(),
+                display: entry.display.clone(),
+                variant: None,
+                scalar: Scalar::F64,
+                options: EmitOptions { fused_multiply_add: false },
+                numerical: true,
+            });
         }
     }
     for variant in ["vertical", "horizontal"] {
@@ -71,6 +94,7 @@ fn cases() -> Vec<Case> {
             variant: Some(variant.into()),
             scalar: Scalar::F32,
             options: EmitOptions { fused_multiply_add: true },
+            numerical: false,
         });
     }
     cases

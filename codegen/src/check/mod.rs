@@ -33,6 +33,22 @@ pub struct CheckedModel {
     pub analyses: Analyses,
 }
 
+impl CheckedModel {
+    /// The same model with its spatial loops solved by Newton's method in the generated code
+    /// even where they have a closed form (`dynamics::three_spheres`): the numerical solver's
+    /// code, for comparing the two and for testing the solver on a shipped mechanism. The
+    /// rig's name gets the suffix `_newton`. Any other model is returned unchanged.
+    pub fn with_loops_solved_numerically(mut self) -> CheckedModel {
+        let spatial = self.analyses.closures.as_mut().and_then(|c| c.spatial.as_mut());
+        if let Some(spatial) = spatial.filter(|s| s.closed_form.is_some()) {
+            spatial.newton_reason = Some("asked for (`CheckedModel::with_loops_solved_numerically`)".into());
+            spatial.closed_form = None;
+            self.model.name.push_str("_newton");
+        }
+        self
+    }
+}
+
 /// A checked model reads as its model: `checked.joints`, `&checked` where a `&Model` is asked.
 impl std::ops::Deref for CheckedModel {
     type Target = Model;

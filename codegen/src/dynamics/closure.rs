@@ -36,6 +36,7 @@
 
 use super::kinematics::point_positions;
 use super::spatial_loops::SpatialLoops;
+use super::three_spheres::ClosedFormAtoms;
 use crate::model::{Branch, LoopClosure, Model};
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::{Atom, AtomValues, Poly, State};
@@ -135,6 +136,12 @@ impl Closures {
     /// The first atom number of the spatial loops' sensitivities: after the planar loops'.
     fn spatial_first_atom(&self) -> usize {
         self.loops.len() * 4 * self.actuated
+    }
+
+    /// The spatial loops, if the generated code solves them at run time by Newton's method
+    /// (`None` for planar loops and for spatial ones in closed form).
+    pub fn solved_at_run_time(&self) -> Option<&SpatialLoops> {
+        self.spatial.as_ref().filter(|spatial| spatial.closed_form.is_none())
     }
 
     /// Loop and row of a passive coordinate.
@@ -378,6 +385,23 @@ pub fn install(dag: &mut Dag, closures: Option<&Closures>) -> Installed {
     let mut out = Installed::default();
     let Some(closures) = closures else { return out };
     let n = closures.actuated;
+    if let Some(spatial) = &closures.spatial {
+        if let Some(closed_form) = &spatial.closed_form {
+            let first_atom = closures.spatial_first_atom();
+            let sensitivity = |r: usize, j: usize, rate: bool| spatial.sensitivity(first_atom, r, j, rate);
+            let convective = |r: usize| spatial.convective(first_atom, r);
+            let atoms = ClosedFormAtoms {
+                actuated: n,
+                sensitivity: &sensitivity,
+                convective: &convective,
+                names: &closures.names,
+            };
+            let nodes = closed_form.install(dag, &atoms);
+            out.hints = nodes.hints;
+            out.atoms = nodes.atoms;
+            out.margins = nodes.margins;
+        }
+    }
     for (c, l) in closures.loops.iter().enumerate() {
         let name = |dag: &Dag, id: NodeId, text: String, out: &mut Installed| {
             if dag.constant_value(id).is_none() {

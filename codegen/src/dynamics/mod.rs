@@ -5,8 +5,9 @@
 //! derivations of the dynamics (expanded polynomials; Newton–Euler and composite rigid body on
 //! the expression DAG); [`mechanics`] holds the derived quantities and builds them into a DAG
 //! by either derivation; [`closure`] analyses a closed chain's loops (planar ones in closed
-//! form, spatial ones numerically in [`spatial_loops`]) and `reduction` reduces the open
-//! tree's mechanics to the actuated coordinates.
+//! form, spatial ones numerically in [`spatial_loops`], or in closed form where they are a
+//! Delta's, [`three_spheres`]) and `reduction` reduces the open tree's mechanics to the
+//! actuated coordinates.
 
 #[doc(hidden)]
 pub mod closure;
@@ -18,6 +19,7 @@ mod projection;
 pub mod recursive;
 mod reduction;
 pub mod spatial_loops;
+pub mod three_spheres;
 
 use crate::model::Model;
 use closure::Closures;

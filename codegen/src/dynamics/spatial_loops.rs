@@ -27,6 +27,7 @@
 use std::sync::OnceLock;
 
 use super::kinematics::{body_frames, mat_vec, point_positions};
+use super::three_spheres::{ClosedFormAtoms, ThreeSpheres};
 use crate::math::dense::{independent_columns, solve};
 use crate::model::{Model, SpatialClosure};
 use crate::sym::dag::{Dag, NodeId};
@@ -88,6 +89,12 @@ pub struct SpatialLoops {
     /// [`WARM_START_RADIUS`]) needed at any of the states sampled over the actuated ranges
     /// ([`SpatialLoops::analyse`] checks that it always reaches the file's branch).
     pub newton_steps: usize,
+    /// The loops in closed form, where they are a Delta's ([`ThreeSpheres::recognise`]) and the
+    /// closed form agrees with Newton's solutions at states sampled over the actuated ranges:
+    /// the generated code then solves them so, without Newton's method.
+    pub closed_form: Option<ThreeSpheres>,
+    /// Why the loops have no closed form (when [`SpatialLoops::closed_form`] is `None`).
+    pub newton_reason: Option<String>,
     /// The polynomials as expression DAGs (shared subterms evaluated once), built on first
     /// use: `[Φ, Φ_p, Φ_a]` for Newton's steps, `[Φ̇_p, Φ̇_a]` once per state.
     compiled: OnceLock<[Compiled; 2]>,
@@ -175,6 +182,8 @@ impl SpatialLoops {
             assembly: model.passive.iter().map(|j| j.assembly).collect(),
             assembly_sensitivity: Vec::new(),
             newton_steps: 0,
+            closed_form: None,
+            newton_reason: None,
             compiled: OnceLock::new(),
         };
         let parameters = model.nominal_parameters();
@@ -235,7 +244,72 @@ impl SpatialLoops {
         loops.newton_steps = loops
             .sampled_newton_steps(model, &parameters, WARM_START_RADIUS)
             .map_err(|problem| vec![problem])?;
+        let tree = loops.tree_state(&loops.nominal_actuated, &loops.assembly);
+        match ThreeSpheres::recognise(model, closures, &tree, &parameters)
+            .and_then(|closed_form| loops.check_closed_form(model, &parameters, closed_form))
+        {
+            Ok(closed_form) => loops.closed_form = Some(closed_form),
+            Err(reason) => loops.newton_reason = Some(reason),
+        }
         Ok(loops)
+    }
+
+    /// `closed_form` if it agrees with Newton's solutions (the passive sines, cosines and
+    /// rates, `A`, `Ȧ` and `Ȧ q̇_a`) at states spread over the actuated ranges, moving.
+    fn check_closed_form(
+        &self,
+        model: &Model,
+        parameters: &[f64],
+        closed_form: ThreeSpheres,
+    ) -> Result<ThreeSpheres, String> {
+        let n = self.actuated;
+        let names: Vec<String> =
+            (0..model.tree_coordinates()).map(|j| model.coordinate_name(j).to_string()).collect();
+        let sensitivity = |r: usize, j: usize, rate: bool| self.sensitivity(0, r, j, rate);
+        let convective = |r: usize| self.convective(0, r);
+        let mut dag = Dag::new();
+        let installed = closed_form.install(
+            &mut dag,
+            &ClosedFormAtoms {
+                actuated: n,
+                sensitivity: &sensitivity,
+                convective: &convective,
+                names: &names,
+            },
+        );
+        let per_axis: usize = 3;
+        for index in 0..per_axis.pow(n as u32) {
+            let fraction = |j: usize| {
+                0.1 + 0.8 * ((index / per_axis.pow(j as u32)) % per_axis) as f64 / (per_axis - 1) as f64
+            };
+            let q: Vec<f64> = model
+                .joints
+                .iter()
+                .enumerate()
+                .map(|(j, joint)| joint.lower + (joint.upper - joint.lower) * fraction(j))
+                .collect();
+            let qd: Vec<f64> = (0..n).map(|j| 0.7 - 0.45 * j as f64).collect();
+            let expected = self.values(&q, &qd, parameters, 0);
+            let state = State { q: &q, qd: &qd, parameters };
+            let values = dag.eval_all(&|atom| state.value(atom));
+            for (atom, value) in &expected {
+                if matches!(atom, Atom::Q(_)) {
+                    continue;
+                }
+                let Some(&(_, node)) = installed.atoms.iter().find(|(a, _)| a == atom) else {
+                    return Err(format!("the closed form does not define {atom:?}"));
+                };
+                let found = values[node];
+                // A NaN on either side disagrees.
+                let agrees = (found - value).abs() <= 1e-7 * (1.0 + value.abs());
+                if !agrees {
+                    return Err(format!(
+                        "the closed form gives {found} for {atom:?} where Newton's method gives {value}"
+                    ));
+                }
+            }
+        }
+        Ok(closed_form)
     }
 
     /// The bound on Newton's steps in the generated code: the most seen over the actuated

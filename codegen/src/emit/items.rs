@@ -92,7 +92,7 @@ pub fn items(
     });
     // A spatial closed chain keeps the loops it closed last (reused within a tick, the next
     // tick's warm start): a cache, so the rig is `Clone` but not `Copy`.
-    let spatial_loops = mech.closures.as_ref().and_then(|c| c.spatial.as_ref());
+    let spatial_loops = mech.closures.as_ref().and_then(|c| c.solved_at_run_time());
     let (cache_field, cache_nominal, derives) = match spatial_loops {
         Some(spatial) => {
             let p = unsuffixed(spatial.passive);
@@ -219,18 +219,36 @@ pub fn items(
             let spatial = c.spatial.as_ref().map(|s| (s.actuated, s.passive)).unwrap_or_default();
             let passive: Vec<String> =
                 (spatial.0..spatial.0 + spatial.1).map(|j| format!("`{}`", c.names[j])).collect();
-            vec![
+            let mut lines = vec![
                 String::new(),
                 format!(
                     " A spatial closed chain reduced to its actuated joints; its passive joints {} are solved",
                     passive.join(", ")
                 ),
-                " at the top of each function by Newton's method on the loops' constraints".into(),
-                " (`hapticgen_runtime::loops::close_loops`, with the `LoopConstraints` implementation below).".into(),
-                " Where the loops cannot be solved (out of reach, singular, non-finite input) the functions".into(),
-                " return NaN (they never panic), which the runtime's safety monitor latches as a fault with".into(),
+            ];
+            if c.solved_at_run_time().is_some() {
+                lines.extend([
+                    " at the top of each function by Newton's method on the loops' constraints".into(),
+                    " (`hapticgen_runtime::loops::close_loops`, with the `LoopConstraints` implementation below).".into(),
+                    " Where the loops cannot be solved (out of reach, singular, non-finite input) the functions".into(),
+                ]);
+            } else {
+                lines.extend([
+                    " in closed form at the top of each function: the platform where three spheres about the"
+                        .into(),
+                    " knees meet, the knees' and the platform joint's sines and cosines from the shins'"
+                        .into(),
+                    " directions, their rates and `Ȧ q̇_a` by differentiating that. Where the loops cannot"
+                        .into(),
+                    " close (out of reach, singular, non-finite input) the functions".into(),
+                ]);
+            }
+            lines.extend([
+                " return NaN (they never panic), which the runtime's safety monitor latches as a fault with"
+                    .into(),
                 " zero torque.".into(),
-            ]
+            ]);
+            lines
         }
         Some(c) => {
             let loops: Vec<String> = c

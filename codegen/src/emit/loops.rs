@@ -47,7 +47,7 @@ pub(crate) fn loop_constraints_impl(
     options: EmitOptions,
     names: &SharedNames,
 ) -> Option<(TokenStream, Vec<(String, OpCounts)>)> {
-    let spatial = mech.closures.as_ref()?.spatial.as_ref()?;
+    let spatial = mech.closures.as_ref()?.solved_at_run_time()?;
     let (n, p) = (spatial.actuated, spatial.passive);
     let (n_lit, p_lit) = (unsuffixed(n), unsuffixed(p));
     let s = scalar.tokens();

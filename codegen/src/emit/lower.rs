@@ -65,8 +65,9 @@ impl<'m> BodyEmitter<'m> {
         let mut dag = Dag::new();
         let hints =
             crate::dynamics::closure::install(&mut dag, mech.closures.as_ref()).hints.into_iter().collect();
-        // A spatial chain's are solved at run time instead, at the top of each function.
-        let loops = mech.closures.as_ref().and_then(|c| c.spatial.as_ref()).map(|spatial| LoopInputs {
+        // A spatial chain's without a closed form are solved at run time instead, at the top of
+        // each function.
+        let loops = mech.closures.as_ref().and_then(|c| c.solved_at_run_time()).map(|spatial| LoopInputs {
             actuated: spatial.actuated,
             passive: spatial.passive,
             solved: true,

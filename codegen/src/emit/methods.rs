@@ -196,7 +196,7 @@ pub(crate) fn closure_margin_function(
     names: &SharedNames,
 ) -> Option<(TokenStream, OpCounts)> {
     let closures = mech.closures.as_ref()?;
-    if closures.spatial.is_some() {
+    if closures.solved_at_run_time().is_some() {
         return Some(spatial_loop_margin_function(model, scalar));
     }
     let mut body = BodyEmitter::new(model, mech, scalar, options);
@@ -207,10 +207,14 @@ pub(crate) fn closure_margin_function(
     let (n, k) = (unsuffixed(model.joints.len()), unsuffixed(roots.len()));
     let s = scalar.tokens();
     let names: Vec<String> = closures.loops.iter().map(|l| format!("`{}`", l.name)).collect();
-    let doc = format!(
+    let doc = if closures.spatial.is_some() {
+        " The loops' margins, each 1 at best and 0 where the loops are singular: first the platform's, `det² U / Π b_k²` (`U` the rows of the three shins' reaches, 0 with the shins parallel to one plane), then each knee's, `1 − (a₁·w)² / b_k²` (the squared sine of the angle between the shin and its knee's first axis, 0 where the universal joint locks); NaN where the loops cannot close. Guard the workspace with it: the dynamics grow without bound as it approaches 0.".to_string()
+    } else {
+        format!(
         " Assembly margin of each closure ({}): the squared sine of the angle between its two distal links; 1 with the links square to each other, 0 where the loop is singular (the links aligned, at the workspace boundary or with the passive joints' axes coincident), negative where the loop cannot close. Guard the workspace with it: the dynamics grow without bound as it approaches 0.",
         names.join(", ")
-    );
+    )
+    };
     let tokens = quote! {
         #[doc = #doc]
         #[inline]

@@ -331,8 +331,17 @@ fn run(cli: Cli) -> Result<(), String> {
             let passive = match &m.analyses.closures {
                 Some(c) => {
                     let closures = c.loops.len() + m.spatial_closures.len();
+                    // A spatial chain's: in closed form, or by Newton's method and why.
+                    let solver = match &c.spatial {
+                        Some(s) if s.closed_form.is_some() => ", in closed form".to_string(),
+                        Some(s) => format!(
+                            ", by Newton's method at run time; no closed form: {}",
+                            s.newton_reason.as_deref().unwrap_or("not a Delta")
+                        ),
+                        None => String::new(),
+                    };
                     format!(
-                        " (+{} passive, eliminated by {closures} closure{})",
+                        " (+{} passive, eliminated by {closures} closure{}{solver})",
                         m.passive.len(),
                         if closures == 1 { "" } else { "s" }
                     )
@@ -431,7 +440,12 @@ fn run(cli: Cli) -> Result<(), String> {
                     );
                 }
                 let spatial = generated.mechanics.closures.as_ref().and_then(|c| c.spatial.as_ref());
-                if let Some(spatial) = spatial {
+                if spatial.is_some_and(|s| s.closed_form.is_some()) {
+                    println!(
+                        "note: each function above solves the loops in closed form first (three spheres, no\n\
+                         Newton step); its counts include that"
+                    );
+                } else if let Some(spatial) = spatial {
                     // Its functions' counts leave out the loop solve, which is the runtime's.
                     println!(
                         "note: the functions above read the loops' solution; solving them is the runtime's\n\

@@ -254,14 +254,16 @@ fn pil_names_what_is_missing() {
 }
 
 /// A spatial closed chain (the Falcon-like Delta): `check` and `eval` work, with the platform
-/// where the legs' geometry puts it; `generate` and `simulate` stop at `closures` with the
-/// file's line, never with garbage.
+/// where the legs' geometry puts it; `generate` solves its loops in closed form, `stats` says
+/// so, and `simulate` runs a step. A spatial chain of another shape is solved by Newton's
+/// method, and `check` says why.
 #[test]
 fn a_spatial_closed_chain_checks_evaluates_generates_and_simulates() {
     let model = "models/falcon_delta.yaml";
     let check = hapticgen(&["check", model]);
     assert!(check.status.success(), "{}", String::from_utf8_lossy(&check.stderr));
-    assert!(String::from_utf8_lossy(&check.stdout).contains("(+8 passive, eliminated by 2 closures)"));
+    assert!(String::from_utf8_lossy(&check.stdout)
+        .contains("(+8 passive, eliminated by 2 closures, in closed form)"));
     // All thighs at θ = 0.35 rad: the platform straight below the centre, at the knee's height
     // less the shin's vertical reach, z = −a sin θ − √(b² − (r + a cos θ − s)²).
     let eval = hapticgen(&["eval", model, "--q", "0.35,0.35,0.35", "--qd", "0,0,0"]);
@@ -272,16 +274,24 @@ fn a_spatial_closed_chain_checks_evaluates_generates_and_simulates() {
     let (r, a, b, s, theta) = (0.037233758_f64, 0.060_f64, 0.1025_f64, 0.027330909_f64, 0.35_f64);
     let z = -a * theta.sin() - (b * b - (r + a * theta.cos() - s).powi(2)).sqrt();
     assert!(p[0].abs() < 1e-12 && p[1].abs() < 1e-12 && (p[2] - z).abs() < 1e-12, "{p:?} vs z = {z}");
-    // The generated code solves the loops at run time.
+    let slider = hapticgen(&["check", "codegen/tests/closed-chains/slider_crank_spatial.yaml"]);
+    assert!(
+        String::from_utf8_lossy(&slider.stdout).contains(
+            "by Newton's method at run time; no closed form: not a Delta: 1 closure and 3 passive joints"
+        ),
+        "{}",
+        String::from_utf8_lossy(&slider.stdout)
+    );
+    // The generated code solves the loops in closed form, no Newton solver.
     let generated = hapticgen(&["generate", model]);
     assert!(generated.status.success(), "{}", String::from_utf8_lossy(&generated.stderr));
     let text = String::from_utf8_lossy(&generated.stdout);
-    assert!(text.contains("impl ::hapticgen_runtime::loops::LoopConstraints<f64, 3, 8> for FalconDelta"));
-    // `stats` says that its counts leave the loop solve out, and what the solve costs.
+    assert!(!text.contains("LoopConstraints") && text.contains("let cos_knee1_twist ="));
+    // `stats` says that its counts include the closed form.
     let stats = hapticgen(&["stats", model]);
     assert!(stats.status.success(), "{}", String::from_utf8_lossy(&stats.stderr));
     let stats = String::from_utf8_lossy(&stats.stdout);
-    assert!(stats.contains("loop_constraints") && stats.contains("up to 6 Newton steps"), "{stats}");
+    assert!(!stats.contains("loop_constraints") && stats.contains("in closed form first"), "{stats}");
     // A 1 N step on x against a 200 N/m task-space spring: the grip settles 5 mm along x.
     let output = scratch("delta");
     let output_text = output.to_string_lossy().into_owned();

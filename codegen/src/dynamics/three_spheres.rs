@@ -1,0 +1,807 @@
+//! The closed form of a Delta's loops: a platform that only translates, hung on three legs
+//! each of which keeps a point of the platform at a fixed distance from a point its actuated
+//! joints move (a shin between two universal joints). Where a spatial chain has this shape
+//! ([`ThreeSpheres::recognise`]) the generated code solves its loops in closed form, with no
+//! Newton step and no matrix factorisation; any other spatial chain keeps the numerical
+//! elimination of [`super::spatial_loops`].
+//!
+//! **The shape.** One leg carries the platform (its shin, then a universal joint whose centre
+//! is the platform's frame origin `O`); each of the two other legs is cut open where its shin
+//! meets the platform (a closure). On leg `k` the knee is a universal joint (two passive
+//! revolute axes through its centre `K_k`, a function of the actuated coordinates alone); the
+//! shin's far point `F_k` is at the fixed distance `b_k` from `K_k`. The platform keeps the
+//! orientation `R_P` it has at the assembly (checked at sampled states: Tsai's conditions, which
+//! the closures' `perpendicular` axes impose), so `F_k = O + R_P c_k` with `c_k` the platform
+//! point, and
+//!
+//! `|O − C_k| = b_k`, `C_k = K_k − R_P c_k`, `k = 1, 2, 3`:
+//!
+//! three spheres. With `e₁ = C₂ − C₁`, `e₂ = C₃ − C₁`, `x = O − C₁`: `x·e₁ = h₁`,
+//! `x·e₂ = h₂` (`h_i = (b₁² − b_{i+1}² + |e_i|²) / 2`) give `x₀`, the part of `x` in the plane of
+//! `e₁`, `e₂`, from their Gram matrix (determinant `G = |e₁ × e₂|²`), and
+//! `x = x₀ + σ √((b₁² − |x₀|²) / G) e₁ × e₂`, `σ = ±1` the assembly's side.
+//!
+//! **The passive angles** follow without inverse trigonometry. A knee turns the shin's reach
+//! `d` (from `K_k` to `F_k`, in the shin's frame) onto `u_k = O − C_k`:
+//! `R(a₁, α) R(a₂, β) d = w` with `w` the reach in the first axis' frame. The component along
+//! `a₁` fixes `β`: `A cos β + B sin β = C` (`A = a₁·d⊥`, `B = a₁·(a₂ × d⊥)`,
+//! `C = a₁·w − a₁·d∥`, `d∥`, `d⊥` the parts of `d` along and across `a₂`), so
+//! `(cos β, sin β) = (A C − τ B √(R² − C²), B C + τ A √(R² − C²)) / R²`, `R² = A² + B²`,
+//! `τ = ±1` the assembly's; then `α` turns `v = R(a₂, β) d` onto `w` about `a₁`:
+//! `cos α = (v·w − (a₁·v)(a₁·w)) / (|w|² − (a₁·w)²)`, `sin α = a₁·(v × w) / (…)`. The
+//! platform's universal joint (axes `a₃`, then `a₄`) has the known relative rotation
+//! `M = R(a₃, γ) R(a₄, δ)`: `γ` turns `a₄` onto `m = M a₄` about `a₃`, and `δ` turns a vector
+//! `e ⊥ a₄` onto `M e` after undoing `γ`.
+//!
+//! **Velocity and acceleration level** by forward differentiation of those expressions on the
+//! expression graph ([`Dag::derivative`]), the platform's motion from the spheres' implicit
+//! relation instead of differentiating the square root: `u_k·(Ȯ − K̇_k) = 0`, so
+//! `U Ȯ = [u_k·K̇_k]` with `U` the rows `u_kᵀ` (`U⁻¹` from the cross products of its rows and
+//! its determinant), and at `q̈_a = 0`, `U Ö = [u_k·K̈_k − |Ȯ − K̇_k|²]`. A passive angle with
+//! sine `s` and cosine `c` then has `∂q_p/∂q_aj = c ∂s/∂q_aj − s ∂c/∂q_aj` (an entry of `A`),
+//! `q̇_p = Σ_j A_pj q̇_j` and `Ȧ q̇_a = c s̈ − s c̈`.
+//!
+//! **Singularity.** The loops are singular where `U` is (the three shins parallel to a plane:
+//! the Delta's parallel singularity, `det U = 0`) or where a shin lies along its knee's first
+//! axis (the universal joint's own singularity); the margins are `det² U / Π b_k²` and, per
+//! knee, `1 − (a₁·w)² / b_k²`, squared sines in `[0, 1]`, 0 exactly there.
+
+use rustc_hash::FxHashMap as HashMap;
+
+use super::kinematics::{body_frames, constant_matrix, mat_mul, mat_vec, vec_add};
+use crate::model::{JointKind, Model, Motion, SpatialClosure};
+use crate::sym::dag::{Dag, NodeId};
+use crate::sym::poly::{Atom, Poly, State};
+
+/// A vector of three nodes.
+type Vector = [NodeId; 3];
+/// A vector of three polynomials.
+type PolyVector = [Poly; 3];
+
+/// A knee: a universal joint turning a shin's reach `d` onto the direction of its platform
+/// point, with the polynomials of the module documentation's solution.
+#[derive(Clone, Debug)]
+struct Knee {
+    /// The tree coordinates of its two joints (first axis, second axis).
+    joints: [usize; 2],
+    /// `a₁`, in the frame of `frame`.
+    first_axis: [f64; 3],
+    /// The world rotation of the frame `a₁` is fixed in (the thigh's times the cross's fixed
+    /// rotation).
+    frame: [PolyVector; 3],
+    /// `d∥`, `d⊥` and `a₂ × d⊥`, in the cross's frame (the second joint's fixed rotation
+    /// applied).
+    reach_along: PolyVector,
+    reach_across: PolyVector,
+    reach_across_turned: PolyVector,
+    /// `A = a₁·d⊥`, `B = a₁·(a₂ × d⊥)`, `a₁·d∥` and `R² = A² + B²`.
+    cos_coefficient: Poly,
+    sin_coefficient: Poly,
+    axial_offset: Poly,
+    coefficients_squared: Poly,
+    /// `τ`: which of the two solutions the assembly has.
+    side: f64,
+}
+
+/// One leg: its knee and the sphere its platform point lies on.
+#[derive(Clone, Debug)]
+struct Leg {
+    /// The shin's name (names intermediates).
+    shin: String,
+    knee: Knee,
+    /// `K_k`, the knee's centre (a function of the actuated coordinates).
+    knee_centre: PolyVector,
+    /// `C_k = K_k − R_P c_k`.
+    sphere_centre: PolyVector,
+    /// `b_k² = |d|²`.
+    reach_squared: Poly,
+}
+
+/// The platform's universal joint on the carrier's shin: `R(a₃, γ) R(a₄, δ) = M`, with
+/// `m = M a₄` and `M e` as polynomials (of the carrier's knee angles).
+#[derive(Clone, Debug)]
+struct PlatformJoint {
+    joints: [usize; 2],
+    /// `e ⊥ a₄` (unnormalised), `a₃ × e`, `a₃ (a₃·e)` and `|e|²`.
+    normal: [f64; 3],
+    normal_turned: [f64; 3],
+    normal_axial: [f64; 3],
+    normal_squared: f64,
+    /// `cos γ = p·m / |p|²` and `sin γ = (a₃ × p)·m / |p|²`, `p` the part of `a₄` across `a₃`.
+    first_cos: Poly,
+    first_sin: Poly,
+    /// `m = M a₄` and `M e`.
+    turned_axis: PolyVector,
+    turned_normal: PolyVector,
+}
+
+/// A Delta's loops in closed form (see the module documentation).
+#[derive(Clone, Debug)]
+pub struct ThreeSpheres {
+    /// The platform body's name.
+    platform: String,
+    /// The legs, the platform's carrier first.
+    legs: [Leg; 3],
+    platform_joint: PlatformJoint,
+    /// `σ`: which of the spheres' two intersections.
+    sphere_side: f64,
+}
+
+/// What [`ThreeSpheres::install`] added to a graph.
+#[derive(Clone, Debug, Default)]
+pub struct ClosedFormNodes {
+    /// Names for the nodes of the elimination.
+    pub hints: Vec<(NodeId, String)>,
+    /// Every atom substituted, with its node.
+    pub atoms: Vec<(Atom, NodeId)>,
+    /// The margins: the parallel singularity's, then each knee's (module documentation).
+    pub margins: Vec<NodeId>,
+}
+
+/// The atoms the elimination defines, as the caller numbers them.
+pub struct ClosedFormAtoms<'a> {
+    /// Number of actuated coordinates `N` (the passive ones are the tree's `N …`).
+    pub actuated: usize,
+    /// `A[r][j]` (`rate`: `Ȧ[r][j]`) for passive coordinate `r`, actuated coordinate `j`.
+    pub sensitivity: &'a dyn Fn(usize, usize, bool) -> Atom,
+    /// `(Ȧ q̇_a)[r]`.
+    pub convective: &'a dyn Fn(usize) -> Atom,
+    /// Coordinate names (actuated, then passive), for the hints.
+    pub names: &'a [String],
+}
+
+/// The serial parts of a body's motion: parent, offset, fixed rotation, joint, and whether
+/// it has a fixed transform after the joint.
+type SerialParts<'m> = (Option<usize>, &'m PolyVector, [[f64; 3]; 3], Option<usize>, bool);
+
+fn serial(model: &Model, body: usize) -> Option<SerialParts<'_>> {
+    match &model.bodies[body].motion {
+        Motion::Serial { parent, xyz, rotation, joint, tail } => {
+            Some((*parent, xyz, *rotation, *joint, tail.is_some()))
+        }
+        Motion::Direct { .. } => None,
+    }
+}
+
+fn times(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|i| (0..3).map(|k| m[i][k] * v[k]).sum())
+}
+
+fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+fn scaled3(k: f64, v: [f64; 3]) -> [f64; 3] {
+    v.map(|x| k * x)
+}
+
+fn minus3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// `x`, or the value among 0, ±½, ±√2/2, ±√3/2 and ±1 within 10⁻⁹ of it.
+fn clean(x: f64) -> f64 {
+    let magnitudes = [0.0, 0.5, std::f64::consts::FRAC_1_SQRT_2, 0.75_f64.sqrt(), 1.0];
+    magnitudes.iter().map(|m| m.copysign(x)).find(|c| (x - c).abs() < 1e-9).unwrap_or(x)
+}
+
+/// `a·v` of a constant vector and polynomials.
+fn constant_dot(a: [f64; 3], v: &PolyVector) -> Poly {
+    Poly::sum(&[v[0].scale(a[0]), v[1].scale(a[1]), v[2].scale(a[2])])
+}
+
+/// `Mᵀ a` of a matrix of polynomials and a constant vector.
+fn transposed_times(m: &[PolyVector; 3], a: [f64; 3]) -> PolyVector {
+    std::array::from_fn(|i| Poly::sum(&[m[0][i].scale(a[0]), m[1][i].scale(a[1]), m[2][i].scale(a[2])]))
+}
+
+/// `a × v` of a constant vector and polynomials.
+fn constant_cross(a: [f64; 3], v: &PolyVector) -> PolyVector {
+    [
+        v[2].scale(a[1]).sub(&v[1].scale(a[2])),
+        v[0].scale(a[2]).sub(&v[2].scale(a[0])),
+        v[1].scale(a[0]).sub(&v[0].scale(a[1])),
+    ]
+}
+
+fn poly_times(m: &[[f64; 3]; 3], v: &PolyVector) -> PolyVector {
+    std::array::from_fn(|i| Poly::sum(&[v[0].scale(m[i][0]), v[1].scale(m[i][1]), v[2].scale(m[i][2])]))
+}
+
+/// `|v|²` of polynomials.
+fn norm_squared(v: &PolyVector) -> Poly {
+    Poly::sum(&[v[0].mul(&v[0]), v[1].mul(&v[1]), v[2].mul(&v[2])])
+}
+
+/// Node arithmetic on vectors.
+struct Nodes<'d> {
+    dag: &'d mut Dag,
+}
+
+impl Nodes<'_> {
+    fn poly(&mut self, p: &Poly) -> NodeId {
+        self.dag.polynomial(p)
+    }
+
+    fn polys(&mut self, v: &PolyVector) -> Vector {
+        [self.poly(&v[0]), self.poly(&v[1]), self.poly(&v[2])]
+    }
+
+    fn constant(&mut self, x: f64) -> NodeId {
+        self.dag.constant(x)
+    }
+
+    fn constants(&mut self, v: [f64; 3]) -> Vector {
+        v.map(|x| self.dag.constant(x))
+    }
+
+    fn add(&mut self, a: Vector, b: Vector) -> Vector {
+        [self.dag.add(a[0], b[0]), self.dag.add(a[1], b[1]), self.dag.add(a[2], b[2])]
+    }
+
+    fn sub(&mut self, a: Vector, b: Vector) -> Vector {
+        [self.dag.sub(a[0], b[0]), self.dag.sub(a[1], b[1]), self.dag.sub(a[2], b[2])]
+    }
+
+    fn scale(&mut self, k: NodeId, v: Vector) -> Vector {
+        [self.dag.mul(k, v[0]), self.dag.mul(k, v[1]), self.dag.mul(k, v[2])]
+    }
+
+    fn dot(&mut self, a: Vector, b: Vector) -> NodeId {
+        let products = [self.dag.mul(a[0], b[0]), self.dag.mul(a[1], b[1]), self.dag.mul(a[2], b[2])];
+        let partial = self.dag.add(products[0], products[1]);
+        self.dag.add(partial, products[2])
+    }
+
+    fn cross(&mut self, a: Vector, b: Vector) -> Vector {
+        let mut component = |i: usize, j: usize| {
+            let first = self.dag.mul(a[i], b[j]);
+            let second = self.dag.mul(a[j], b[i]);
+            self.dag.sub(first, second)
+        };
+        [component(1, 2), component(2, 0), component(0, 1)]
+    }
+
+    /// `Mᵀ v`.
+    fn transposed_times(&mut self, m: &[Vector; 3], v: Vector) -> Vector {
+        std::array::from_fn(|i| self.dot([m[0][i], m[1][i], m[2][i]], v))
+    }
+}
+
+impl ThreeSpheres {
+    /// The closed form of `closures` on `model`'s tree, if the chain has the shape of the
+    /// module documentation; else why not (its loops are then solved by Newton's method). The
+    /// platform's orientation and the assembly's sides are read at `tree`, the assembly (every
+    /// tree coordinate); the caller checks the closed form against the numerical solution
+    /// before using it.
+    pub fn recognise(
+        model: &Model,
+        closures: &[SpatialClosure],
+        tree: &[f64],
+        parameters: &[f64],
+    ) -> Result<ThreeSpheres, String> {
+        let n = model.joints.len();
+        if closures.len() != 2 || model.passive.len() != 8 {
+            return Err(format!(
+                "not a Delta: {} closure{} and {} passive joint{} where a Delta's three legs have 2 and 8",
+                closures.len(),
+                if closures.len() == 1 { "" } else { "s" },
+                model.passive.len(),
+                if model.passive.len() == 1 { "" } else { "s" }
+            ));
+        }
+        if model.passive.iter().any(|p| p.kind != JointKind::Revolute) {
+            return Err("a passive joint is prismatic".into());
+        }
+        let state = State { q: tree, qd: &[], parameters };
+        let value = |p: &Poly| p.eval(&state);
+        let point_body = |point: usize| model.points[point].body;
+        // The platform: the body every closure has a point on.
+        let platform = closures[0]
+            .points
+            .iter()
+            .filter_map(|&p| point_body(p))
+            .find(|&b| closures.iter().all(|c| c.points.iter().any(|&p| point_body(p) == Some(b))))
+            .ok_or("no body has a point of every closure")?;
+        // A universal joint ending at `body` (which sits at the centre): its two passive joints,
+        // its cross and the body above the cross.
+        let universal = |body: usize| -> Result<([usize; 2], usize, usize), String> {
+            let name = &model.bodies[body].name;
+            let parts = serial(model, body).ok_or(format!("`{name}` is placed directly"))?;
+            let (Some(cross), xyz, _, Some(second), false) = parts else {
+                return Err(format!("`{name}` does not hang on a passive universal joint"));
+            };
+            let cross_parts =
+                serial(model, cross).ok_or(format!("the cross above `{name}` is placed directly"))?;
+            let (Some(above), _, _, Some(first), false) = cross_parts else {
+                return Err(format!("`{name}` does not hang on a passive universal joint"));
+            };
+            if first < n || second < n || !xyz.iter().all(Poly::is_zero) {
+                return Err(format!("`{name}` does not hang at the centre of a passive universal joint"));
+            }
+            Ok(([first, second], cross, above))
+        };
+        let frames = body_frames(model);
+        let moves_passively = |p: &Poly| {
+            p.atoms().any(|a| matches!(a, Atom::Sin(j) | Atom::Cos(j) | Atom::Q(j) if usize::from(j) >= n))
+        };
+        let axis = |coordinate: usize| model.coordinate_axis(coordinate).1;
+        // A leg's knee and centre from its shin, and the shin's reach.
+        let leg = |shin: usize, reach: PolyVector, offset: &PolyVector| -> Result<Leg, String> {
+            let (joints, cross, thigh) = universal(shin)?;
+            let frame = &frames[thigh];
+            if frame.rotation.iter().flatten().chain(&frame.origin).any(moves_passively) {
+                return Err(format!("the knee of `{}` moves with passive joints", model.bodies[shin].name));
+            }
+            let (_, cross_xyz, cross_rotation, _, _) =
+                serial(model, cross).ok_or("a cross is placed directly")?;
+            let (_, _, shin_rotation, _, _) = serial(model, shin).ok_or("a shin is placed directly")?;
+            let knee_frame = mat_mul(&frame.rotation, &constant_matrix(cross_rotation));
+            let knee_centre = vec_add(&frame.origin, &mat_vec(&frame.rotation, cross_xyz));
+            let first_axis = axis(joints[0]);
+            let second_axis = times(&shin_rotation, axis(joints[1]));
+            let reach_in_cross = poly_times(&shin_rotation, &reach);
+            let along = constant_dot(second_axis, &reach_in_cross);
+            let reach_along: PolyVector = second_axis.map(|a| along.scale(a));
+            let reach_across: PolyVector = std::array::from_fn(|i| reach_in_cross[i].sub(&reach_along[i]));
+            let reach_across_turned = constant_cross(second_axis, &reach_across);
+            let cos_coefficient = constant_dot(first_axis, &reach_across);
+            let sin_coefficient = constant_dot(first_axis, &reach_across_turned);
+            let coefficients_squared =
+                cos_coefficient.mul(&cos_coefficient).add(&sin_coefficient.mul(&sin_coefficient));
+            // τ = sign(A sin β − B cos β) at the assembly (module documentation).
+            let beta = tree[joints[1]];
+            let side = value(&cos_coefficient) * beta.sin() - value(&sin_coefficient) * beta.cos();
+            let sphere_centre = std::array::from_fn(|i| knee_centre[i].sub(&offset[i]));
+            Ok(Leg {
+                shin: model.bodies[shin].name.clone(),
+                knee: Knee {
+                    joints,
+                    first_axis,
+                    frame: knee_frame,
+                    axial_offset: constant_dot(first_axis, &reach_along),
+                    reach_along,
+                    reach_across,
+                    reach_across_turned,
+                    cos_coefficient,
+                    sin_coefficient,
+                    coefficients_squared,
+                    side: if side >= 0.0 { 1.0 } else { -1.0 },
+                },
+                knee_centre,
+                sphere_centre,
+                reach_squared: norm_squared(&reach),
+            })
+        };
+        // The platform's world rotation, constant (checked by the caller at sampled states).
+        // The file's numbers, rounded to a dozen digits, leave it off a clean value by about
+        // 10⁻¹³, which would enter the code as noise terms: entries that close to 0, ±½, ±√2/2,
+        // ±√3/2 or ±1 are taken as those.
+        let platform_rotation: [[f64; 3]; 3] =
+            std::array::from_fn(|i| std::array::from_fn(|j| clean(value(&frames[platform].rotation[i][j]))));
+        let offset = |local: &PolyVector| poly_times(&platform_rotation, local);
+        // The carrier: the platform's universal joint on its shin.
+        let (platform_joints, platform_cross, carrier_shin) = universal(platform)?;
+        let (_, platform_cross_xyz, platform_cross_rotation, _, _) =
+            serial(model, platform_cross).ok_or("a cross is placed directly")?;
+        let (_, _, platform_own_rotation, _, _) =
+            serial(model, platform).ok_or("the platform is placed directly")?;
+        let zero = [Poly::zero(), Poly::zero(), Poly::zero()];
+        let mut legs = vec![leg(carrier_shin, platform_cross_xyz.clone(), &zero)?];
+        let mut shins = vec![carrier_shin, platform];
+        for closure in closures {
+            let [first, second] = closure.points;
+            let (on_shin, on_platform) =
+                if point_body(second) == Some(platform) { (first, second) } else { (second, first) };
+            let shin = point_body(on_shin).ok_or("a closure's point is on the base")?;
+            if shins.contains(&shin) {
+                return Err("two legs end on one body".into());
+            }
+            shins.push(shin);
+            legs.push(leg(
+                shin,
+                model.points[on_shin].position.clone(),
+                &offset(&model.points[on_platform].position),
+            )?);
+        }
+        let mut used: Vec<usize> = legs.iter().flat_map(|l| l.knee.joints).chain(platform_joints).collect();
+        used.sort_unstable();
+        used.dedup();
+        if used.len() != 8 {
+            return Err("the legs' universal joints are not the eight passive joints".into());
+        }
+        // The platform's joint: R(a₃, γ) R(a₄, δ) = M = (R_S O₃)ᵀ R_P O₄ᵀ, with R(a₄, δ) O₄ =
+        // O₄ R(O₄ᵀ… ): written with a₄ turned by O₄ (`second`), M = Fᵀ R_P O₄ᵀ.
+        let first_axis = axis(platform_joints[0]);
+        let second = times(&platform_own_rotation, axis(platform_joints[1]));
+        let across = minus3(second, scaled3(dot3(first_axis, second), first_axis));
+        let across_squared = dot3(across, across);
+        if across_squared < 1e-12 {
+            return Err("the platform's universal joint has parallel axes".into());
+        }
+        let normal = minus3(first_axis, scaled3(dot3(first_axis, second), second));
+        // R_P O₄ᵀ applied to a₄ and to e.
+        let platform_unturned: [[f64; 3]; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
+                (0..3).map(|k| platform_rotation[i][k] * platform_own_rotation[j][k]).sum()
+            })
+        });
+        let frame = mat_mul(&frames[carrier_shin].rotation, &constant_matrix(platform_cross_rotation));
+        let turned_axis = transposed_times(&frame, times(&platform_unturned, second));
+        let turned_normal = transposed_times(&frame, times(&platform_unturned, normal));
+        let platform_joint = PlatformJoint {
+            joints: platform_joints,
+            normal,
+            normal_turned: cross3(first_axis, normal),
+            normal_axial: scaled3(dot3(first_axis, normal), first_axis),
+            normal_squared: dot3(normal, normal),
+            first_cos: constant_dot(scaled3(1.0 / across_squared, across), &turned_axis),
+            first_sin: constant_dot(scaled3(1.0 / across_squared, cross3(first_axis, across)), &turned_axis),
+            turned_axis,
+            turned_normal,
+        };
+        let legs: [Leg; 3] = legs.try_into().map_err(|_| "not three legs".to_string())?;
+        // σ: the side of the spheres' plane of centres the assembly's platform is on.
+        let centres = legs.clone().map(|l| l.sphere_centre.map(|p| value(&p)));
+        let origin = frames[platform].origin.clone().map(|p| value(&p));
+        let normal_of_centres = cross3(minus3(centres[1], centres[0]), minus3(centres[2], centres[0]));
+        let height = dot3(minus3(origin, centres[0]), normal_of_centres);
+        if !height.is_finite() || height == 0.0 {
+            return Err("the platform lies in the plane of the spheres' centres at the assembly".into());
+        }
+        Ok(ThreeSpheres {
+            platform: model.bodies[platform].name.clone(),
+            legs,
+            platform_joint,
+            sphere_side: height.signum(),
+        })
+    }
+}
+
+impl ThreeSpheres {
+    /// Adds the closed form to `dag`: from then on the passive joints' sines, cosines and
+    /// velocities and the atoms of `A`, `Ȧ` and `Ȧ q̇_a` stand for nodes computed from the
+    /// actuated coordinates and velocities.
+    pub fn install(&self, dag: &mut Dag, atoms: &ClosedFormAtoms<'_>) -> ClosedFormNodes {
+        let mut out = ClosedFormNodes::default();
+        let n = atoms.actuated;
+        // A node that is two values (the platform's swing undoes the carrier's knee twist:
+        // one cosine) keeps its first name.
+        let hint = |dag: &Dag, out: &mut ClosedFormNodes, id: NodeId, name: String| {
+            if dag.constant_value(id).is_none() && out.hints.iter().all(|(named, _)| *named != id) {
+                out.hints.push((id, name));
+            }
+        };
+        let axes = ["x", "y", "z"];
+        let mut v = Nodes { dag };
+        // Position level: the three spheres.
+        let centres = self.legs.clone().map(|l| v.polys(&l.sphere_centre));
+        let radii_squared = self.legs.clone().map(|l| v.poly(&l.reach_squared));
+        let first_side = v.sub(centres[1], centres[0]);
+        let second_side = v.sub(centres[2], centres[0]);
+        let g11 = v.dot(first_side, first_side);
+        let g12 = v.dot(first_side, second_side);
+        let g22 = v.dot(second_side, second_side);
+        for (k, (leg, centre)) in self.legs.iter().zip(&centres).enumerate() {
+            for (axis, &id) in axes.iter().zip(centre) {
+                hint(v.dag, &mut out, id, format!("{}_sphere_centre_{axis}", leg.shin));
+            }
+            if k > 0 {
+                let side = if k == 1 { first_side } else { second_side };
+                for (axis, &id) in axes.iter().zip(&side) {
+                    hint(
+                        v.dag,
+                        &mut out,
+                        id,
+                        format!("{}_from_{}_sphere_{axis}", leg.shin, self.legs[0].shin),
+                    );
+                }
+            }
+        }
+        hint(v.dag, &mut out, g12, "sphere_sides_dot".into());
+        let half = v.constant(0.5);
+        let along = |v: &mut Nodes, other: NodeId, norm: NodeId| {
+            let difference = v.dag.sub(radii_squared[0], other);
+            let sum = v.dag.add(difference, norm);
+            v.dag.mul(half, sum)
+        };
+        let h1 = along(&mut v, radii_squared[1], g11);
+        let h2 = along(&mut v, radii_squared[2], g22);
+        let g11g22 = v.dag.mul(g11, g22);
+        let g12g12 = v.dag.mul(g12, g12);
+        let gram = v.dag.sub(g11g22, g12g12);
+        hint(v.dag, &mut out, gram, "sphere_sides_gram".into());
+        let solve = |v: &mut Nodes, a: NodeId, b: NodeId, c: NodeId, d: NodeId| {
+            let ab = v.dag.mul(a, b);
+            let cd = v.dag.mul(c, d);
+            let numerator = v.dag.sub(ab, cd);
+            v.dag.div(numerator, gram)
+        };
+        let first_weight = solve(&mut v, h1, g22, h2, g12);
+        let second_weight = solve(&mut v, h2, g11, h1, g12);
+        let in_plane_first = v.scale(first_weight, first_side);
+        let in_plane_second = v.scale(second_weight, second_side);
+        let in_plane = v.add(in_plane_first, in_plane_second);
+        let normal = v.cross(first_side, second_side);
+        hint(v.dag, &mut out, first_weight, format!("{}_sphere_weight", self.legs[1].shin));
+        hint(v.dag, &mut out, second_weight, format!("{}_sphere_weight", self.legs[2].shin));
+        for (axis, (&along, &across)) in axes.iter().zip(in_plane.iter().zip(&normal)) {
+            hint(v.dag, &mut out, along, format!("{}_in_centres_plane_{axis}", self.platform));
+            hint(v.dag, &mut out, across, format!("sphere_centres_normal_{axis}"));
+        }
+        let in_plane_squared = v.dot(in_plane, in_plane);
+        let height_squared_scaled = v.dag.sub(radii_squared[0], in_plane_squared);
+        let height_squared = v.dag.div(height_squared_scaled, gram);
+        let height = v.dag.sqrt(height_squared);
+        let height = if self.sphere_side < 0.0 { v.dag.neg(height) } else { height };
+        hint(v.dag, &mut out, height, format!("{}_height", self.platform));
+        let off_plane = v.scale(height, normal);
+        let from_first = v.add(in_plane, off_plane);
+        let origin = v.add(centres[0], from_first);
+        for (axis, &id) in axes.iter().zip(&origin) {
+            hint(v.dag, &mut out, id, format!("{}_origin_{axis}", self.platform));
+        }
+        // The shins' reaches `u_k = O − C_k`, and the knees.
+        let reaches = centres.map(|c| v.sub(origin, c));
+        let mut angles: Vec<(usize, NodeId, NodeId)> = Vec::new();
+        for (leg, &reach) in self.legs.iter().zip(&reaches) {
+            for (axis, &id) in axes.iter().zip(&reach) {
+                hint(v.dag, &mut out, id, format!("{}_reach_{axis}", leg.shin));
+            }
+            let knee = &leg.knee;
+            let frame = knee.frame.clone().map(|row| v.polys(&row));
+            let w = v.transposed_times(&frame, reach);
+            let first_axis = v.constants(knee.first_axis);
+            let axial = v.dot(first_axis, w);
+            let swing = &atoms.names[knee.joints[0]];
+            for (axis, &id) in axes.iter().zip(&w) {
+                hint(v.dag, &mut out, id, format!("{}_reach_at_{swing}_{axis}", leg.shin));
+            }
+            hint(v.dag, &mut out, axial, format!("{}_reach_along_{swing}", leg.shin));
+            let offset = v.poly(&knee.axial_offset);
+            let c = v.dag.sub(axial, offset);
+            let [a, b, r2] =
+                [&knee.cos_coefficient, &knee.sin_coefficient, &knee.coefficients_squared].map(|p| v.poly(p));
+            let cc = v.dag.mul(c, c);
+            let discriminant = v.dag.sub(r2, cc);
+            let root = v.dag.sqrt(discriminant);
+            hint(v.dag, &mut out, root, format!("{}_knee_root", leg.shin));
+            let root = if knee.side < 0.0 { v.dag.neg(root) } else { root };
+            // With a constant `R²` (lengths that are not tunable) the coefficients are divided
+            // by it here, not in the generated code.
+            let (a, b, r2) = match knee.coefficients_squared.as_constant() {
+                Some(k) => {
+                    let [a, b] =
+                        [&knee.cos_coefficient, &knee.sin_coefficient].map(|p| v.poly(&p.scale(1.0 / k)));
+                    (a, b, v.constant(1.0))
+                }
+                None => (a, b, r2),
+            };
+            let [ac, bc, ar, br] = [(a, c), (b, c), (a, root), (b, root)].map(|(x, y)| v.dag.mul(x, y));
+            let cos_numerator = v.dag.sub(ac, br);
+            let sin_numerator = v.dag.add(bc, ar);
+            let cos_beta = v.dag.div(cos_numerator, r2);
+            let sin_beta = v.dag.div(sin_numerator, r2);
+            // v = d∥ + cos β d⊥ + sin β (a₂ × d⊥): the reach turned by the second joint.
+            let [along, across, turned] =
+                [&knee.reach_along, &knee.reach_across, &knee.reach_across_turned].map(|p| v.polys(p));
+            let across = v.scale(cos_beta, across);
+            let turned = v.scale(sin_beta, turned);
+            let partial = v.add(along, across);
+            let swung = v.add(partial, turned);
+            let reach_squared = v.poly(&leg.reach_squared);
+            let axial_squared = v.dag.mul(axial, axial);
+            let denominator = v.dag.sub(reach_squared, axial_squared);
+            hint(v.dag, &mut out, denominator, format!("{}_reach_across_{swing}_sq", leg.shin));
+            let swung_w = v.dot(swung, w);
+            let cos_alpha_numerator = v.dag.sub(swung_w, axial_squared);
+            let w_cross_axis = v.cross(w, first_axis);
+            let sin_alpha_numerator = v.dot(swung, w_cross_axis);
+            let cos_alpha = v.dag.div(cos_alpha_numerator, denominator);
+            let sin_alpha = v.dag.div(sin_alpha_numerator, denominator);
+            angles.push((knee.joints[0], sin_alpha, cos_alpha));
+            angles.push((knee.joints[1], sin_beta, cos_beta));
+            for (joint, sin, cos) in
+                [(knee.joints[1], sin_beta, cos_beta), (knee.joints[0], sin_alpha, cos_alpha)]
+            {
+                hint(v.dag, &mut out, sin, format!("sin_{}", atoms.names[joint]));
+                hint(v.dag, &mut out, cos, format!("cos_{}", atoms.names[joint]));
+                v.dag.substitute(Atom::Sin(joint as u16), sin);
+                v.dag.substitute(Atom::Cos(joint as u16), cos);
+            }
+            let margin = v.dag.div(denominator, reach_squared);
+            hint(v.dag, &mut out, margin, format!("{}_knee_margin", leg.shin));
+            out.margins.push(margin);
+        }
+        // The platform's joint, from the carrier's knee angles (substituted above).
+        let joint = &self.platform_joint;
+        let cos_gamma = v.poly(&joint.first_cos);
+        let sin_gamma = v.poly(&joint.first_sin);
+        hint(v.dag, &mut out, sin_gamma, format!("sin_{}", atoms.names[joint.joints[0]]));
+        hint(v.dag, &mut out, cos_gamma, format!("cos_{}", atoms.names[joint.joints[0]]));
+        let turned_axis = v.polys(&joint.turned_axis);
+        let turned_normal = v.polys(&joint.turned_normal);
+        let second = &atoms.names[joint.joints[1]];
+        for (axis, (&a, &e)) in axes.iter().zip(turned_axis.iter().zip(&turned_normal)) {
+            hint(v.dag, &mut out, a, format!("{second}_axis_{axis}"));
+            hint(v.dag, &mut out, e, format!("{second}_normal_{axis}"));
+        }
+        let [normal, normal_turned, normal_axial] =
+            [joint.normal, joint.normal_turned, joint.normal_axial].map(|c| v.constants(c));
+        let one = v.constant(1.0);
+        let versine = v.dag.sub(one, cos_gamma);
+        let normal_cos = v.scale(cos_gamma, normal);
+        let normal_sin = v.scale(sin_gamma, normal_turned);
+        let normal_versine = v.scale(versine, normal_axial);
+        let partial = v.add(normal_cos, normal_sin);
+        let normal_swung = v.add(partial, normal_versine);
+        let normal_squared = v.constant(joint.normal_squared);
+        let cos_delta_numerator = v.dot(normal_swung, turned_normal);
+        let cross = v.cross(normal_swung, turned_normal);
+        let sin_delta_numerator = v.dot(turned_axis, cross);
+        let cos_delta = v.dag.div(cos_delta_numerator, normal_squared);
+        let sin_delta = v.dag.div(sin_delta_numerator, normal_squared);
+        angles.push((joint.joints[0], sin_gamma, cos_gamma));
+        angles.push((joint.joints[1], sin_delta, cos_delta));
+        hint(v.dag, &mut out, sin_delta, format!("sin_{}", atoms.names[joint.joints[1]]));
+        hint(v.dag, &mut out, cos_delta, format!("cos_{}", atoms.names[joint.joints[1]]));
+        for (joint, sin, cos) in
+            [(joint.joints[0], sin_gamma, cos_gamma), (joint.joints[1], sin_delta, cos_delta)]
+        {
+            v.dag.substitute(Atom::Sin(joint as u16), sin);
+            v.dag.substitute(Atom::Cos(joint as u16), cos);
+        }
+        angles.sort_by_key(|a| a.0);
+        for &(joint, sin, cos) in &angles {
+            out.atoms.push((Atom::Sin(joint as u16), sin));
+            out.atoms.push((Atom::Cos(joint as u16), cos));
+        }
+        // U⁻¹ = [u₂ × u₃, u₃ × u₁, u₁ × u₂] / det U: the platform's motion from the knees'.
+        let row_crosses = [
+            v.cross(reaches[1], reaches[2]),
+            v.cross(reaches[2], reaches[0]),
+            v.cross(reaches[0], reaches[1]),
+        ];
+        let determinant = v.dot(reaches[0], row_crosses[0]);
+        hint(v.dag, &mut out, determinant, format!("{}_reaches_determinant", self.platform));
+        let inverse_determinant = v.dag.div(one, determinant);
+        let inverse_columns = row_crosses.map(|c| v.scale(inverse_determinant, c));
+        // Margin: det² U / Π b_k².
+        let determinant_squared = v.dag.mul(determinant, determinant);
+        let r01 = v.dag.mul(radii_squared[0], radii_squared[1]);
+        let radii_product = v.dag.mul(r01, radii_squared[2]);
+        let parallel_margin = v.dag.div(determinant_squared, radii_product);
+        hint(v.dag, &mut out, parallel_margin, format!("{}_parallel_margin", self.platform));
+        out.margins.insert(0, parallel_margin);
+        let knee_centres = self.legs.clone().map(|l| v.polys(&l.knee_centre));
+        // `U⁻¹ r` for a right-hand side `r`.
+        let implicit = |v: &mut Nodes, right: [NodeId; 3]| -> Vector {
+            let terms = [0, 1, 2].map(|k| v.scale(right[k], inverse_columns[k]));
+            let partial = v.add(terms[0], terms[1]);
+            v.add(partial, terms[2])
+        };
+        // Velocity level: A column by column, each by differentiating along one actuated
+        // coordinate with the platform's motion `U⁻¹ [u_k·∂K_k/∂q_j]` given.
+        let mut columns: Vec<Vec<NodeId>> = Vec::new();
+        let mut platform_columns: Vec<Vector> = Vec::new();
+        for j in 0..n {
+            let mut known = HashMap::default();
+            let mut rule = |dag: &mut Dag, atom: Atom| match atom {
+                Atom::Sin(k) if usize::from(k) == j => dag.input(Atom::Cos(k)),
+                Atom::Cos(k) if usize::from(k) == j => {
+                    let sin = dag.input(Atom::Sin(k));
+                    dag.neg(sin)
+                }
+                Atom::Q(k) if usize::from(k) == j => dag.constant(1.0),
+                _ => dag.constant(0.0),
+            };
+            let right = [0, 1, 2].map(|k| {
+                let moved = knee_centres[k].map(|id| v.dag.derivative(id, &mut known, &mut rule));
+                v.dot(reaches[k], moved)
+            });
+            let platform_motion = implicit(&mut v, right);
+            for (&id, &d) in origin.iter().zip(&platform_motion) {
+                known.insert(id, d);
+            }
+            platform_columns.push(platform_motion);
+            let column = angles
+                .iter()
+                .map(|&(_, sin, cos)| {
+                    let d_sin = v.dag.derivative(sin, &mut known, &mut rule);
+                    let d_cos = v.dag.derivative(cos, &mut known, &mut rule);
+                    let first = v.dag.mul(cos, d_sin);
+                    let second = v.dag.mul(sin, d_cos);
+                    v.dag.sub(first, second)
+                })
+                .collect();
+            columns.push(column);
+        }
+        let velocities: Vec<NodeId> = (0..n).map(|j| v.dag.input(Atom::Qd(j as u16))).collect();
+        let combine = |v: &mut Nodes, entries: &[NodeId]| -> NodeId {
+            let mut sum = v.constant(0.0);
+            for (&entry, &velocity) in entries.iter().zip(&velocities) {
+                let term = v.dag.mul(entry, velocity);
+                sum = v.dag.add(sum, term);
+            }
+            sum
+        };
+        for (r, &(joint, _, _)) in angles.iter().enumerate() {
+            let row: Vec<NodeId> = columns.iter().map(|column| column[r]).collect();
+            for (j, &entry) in row.iter().enumerate() {
+                hint(v.dag, &mut out, entry, format!("{}_per_{}", atoms.names[joint], atoms.names[j]));
+                let atom = (atoms.sensitivity)(joint - n, j, false);
+                v.dag.substitute(atom, entry);
+                out.atoms.push((atom, entry));
+            }
+            let rate = combine(&mut v, &row);
+            hint(v.dag, &mut out, rate, format!("{}_dot", atoms.names[joint]));
+            let atom = Atom::Qd(joint as u16);
+            v.dag.substitute(atom, rate);
+            out.atoms.push((atom, rate));
+        }
+        // Acceleration level, along the velocity: Ȯ = Σ_j (∂O/∂q_j) q̇_j, and at q̈_a = 0
+        // U Ö = [u_k·K̈_k − |Ȯ − K̇_k|²].
+        let mut known = HashMap::default();
+        let mut along_velocity = |dag: &mut Dag, atom: Atom| match atom {
+            Atom::Sin(k) if usize::from(k) < n => {
+                let cos = dag.input(Atom::Cos(k));
+                let velocity = dag.input(Atom::Qd(k));
+                dag.mul(cos, velocity)
+            }
+            Atom::Cos(k) if usize::from(k) < n => {
+                let sin = dag.input(Atom::Sin(k));
+                let velocity = dag.input(Atom::Qd(k));
+                let product = dag.mul(sin, velocity);
+                dag.neg(product)
+            }
+            Atom::Q(k) if usize::from(k) < n => dag.input(Atom::Qd(k)),
+            _ => dag.constant(0.0),
+        };
+        let platform_velocity: Vector = std::array::from_fn(|i| {
+            combine(&mut v, &platform_columns.iter().map(|c| c[i]).collect::<Vec<_>>())
+        });
+        for (axis, &id) in axes.iter().zip(&platform_velocity) {
+            hint(v.dag, &mut out, id, format!("{}_origin_{axis}_dot", self.platform));
+        }
+        let right = [0, 1, 2].map(|k| {
+            let knee_velocity =
+                knee_centres[k].map(|id| v.dag.derivative(id, &mut known, &mut along_velocity));
+            let knee_acceleration =
+                knee_velocity.map(|id| v.dag.derivative(id, &mut known, &mut along_velocity));
+            let relative = v.sub(platform_velocity, knee_velocity);
+            let relative_squared = v.dot(relative, relative);
+            let reach_acceleration = v.dot(reaches[k], knee_acceleration);
+            v.dag.sub(reach_acceleration, relative_squared)
+        });
+        let platform_acceleration = implicit(&mut v, right);
+        for ((&id, &d), &dd) in origin.iter().zip(&platform_velocity).zip(&platform_acceleration) {
+            known.insert(id, d);
+            known.insert(d, dd);
+        }
+        for (r, &(joint, sin, cos)) in angles.iter().enumerate() {
+            let d_sin = v.dag.derivative(sin, &mut known, &mut along_velocity);
+            let d_cos = v.dag.derivative(cos, &mut known, &mut along_velocity);
+            let dd_sin = v.dag.derivative(d_sin, &mut known, &mut along_velocity);
+            let dd_cos = v.dag.derivative(d_cos, &mut known, &mut along_velocity);
+            let first = v.dag.mul(cos, dd_sin);
+            let second = v.dag.mul(sin, dd_cos);
+            let convective = v.dag.sub(first, second);
+            hint(v.dag, &mut out, convective, format!("{}_convective_acceleration", atoms.names[joint]));
+            let atom = (atoms.convective)(joint - n);
+            v.dag.substitute(atom, convective);
+            out.atoms.push((atom, convective));
+            for (j, column) in columns.iter().enumerate() {
+                let rate = v.dag.derivative(column[r], &mut known, &mut along_velocity);
+                hint(v.dag, &mut out, rate, format!("{}_per_{}_rate", atoms.names[joint], atoms.names[j]));
+                let atom = (atoms.sensitivity)(joint - n, j, true);
+                v.dag.substitute(atom, rate);
+                out.atoms.push((atom, rate));
+            }
+        }
+        out
+    }
+}
