@@ -122,7 +122,10 @@ pub(crate) fn cheapest_choice(
         return mech.choice();
     }
     let cost = |choice: Choice| {
+        // With a closed chain's elimination in front, as the emitted function has it: its
+        // cost counts where a derivation reads it.
         let mut dag = Dag::new();
+        crate::dynamics::closure::install(&mut dag, mech.closures.as_ref());
         let roots = output_roots_with(&mut dag, model, mech, outputs, choice);
         let counts = dag.optimised_count_with(&roots, fused_multiply_add);
         counts.arithmetic() + counts.trigonometric

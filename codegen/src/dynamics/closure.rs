@@ -36,7 +36,7 @@
 
 use super::kinematics::point_positions;
 use super::spatial_loops::SpatialLoops;
-use super::three_spheres::ClosedFormAtoms;
+use super::three_spheres::{ClosedFormAtoms, PlatformMotion};
 use crate::model::{Branch, LoopClosure, Model};
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::{Atom, AtomValues, Poly, State};
@@ -182,6 +182,8 @@ pub struct Installed {
     /// boundary, or the passive joints' axes coincident), negative where the loop cannot
     /// close.
     pub margins: Vec<NodeId>,
+    /// A Delta's platform motion (its loops in closed form), for the points on the platform.
+    pub platform: Option<PlatformMotion>,
 }
 
 fn poly_of_monomial(monomial: &[(Atom, u32)], coefficient: f64) -> Poly {
@@ -400,6 +402,7 @@ pub fn install(dag: &mut Dag, closures: Option<&Closures>) -> Installed {
             out.hints = nodes.hints;
             out.atoms = nodes.atoms;
             out.margins = nodes.margins;
+            out.platform = Some(nodes.platform);
         }
     }
     for (c, l) in closures.loops.iter().enumerate() {

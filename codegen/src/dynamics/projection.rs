@@ -98,6 +98,28 @@ impl Projection<'_> {
         a.iter().zip(b).map(|(&x, &y)| dag.add(x, y)).collect()
     }
 
+    /// For a point on a Delta's platform (its loops in closed form), `what` from the platform's
+    /// motion: the platform only translates, so the point is its origin plus a constant,
+    /// `J = ∂O/∂q_a` and `J̇ q̇ = Ö`, none of which needs the passive joints or `S`.
+    fn platform_point(&self, dag: &mut Dag, point: usize, what: PointQuantity) -> Option<Vec<NodeId>> {
+        let closed_form = self.closures.spatial.as_ref()?.closed_form.as_ref()?;
+        let offset = closed_form.platform_point(point)?;
+        // Installed again on the same graph: the same nodes, which the emitter named already.
+        let motion = super::closure::install(dag, Some(self.closures)).platform?;
+        Some(match what {
+            PointQuantity::Position => (0..3)
+                .map(|r| {
+                    let offset = dag.polynomial(&offset[r]);
+                    dag.add(motion.origin[r], offset)
+                })
+                .collect(),
+            PointQuantity::Jacobian => {
+                (0..3).flat_map(|r| motion.jacobian.iter().map(move |column| column[r])).collect()
+            }
+            PointQuantity::JacobianDotTimesQdot => motion.convective_acceleration.to_vec(),
+        })
+    }
+
     /// Builds `quantity` of the reduced chain as the projection of the open tree's (see the
     /// module docs); matrices row-major.
     pub(crate) fn build(&self, dag: &mut Dag, quantity: Quantity) -> Vec<NodeId> {
@@ -163,6 +185,9 @@ impl Projection<'_> {
                     .collect()
             }
             Quantity::Point(i, what) => {
+                if let Some(nodes) = self.platform_point(dag, i, what) {
+                    return nodes;
+                }
                 let point = &tree.points[i];
                 match what {
                     PointQuantity::Position => Self::nodes(dag, &point.position),

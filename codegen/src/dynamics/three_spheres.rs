@@ -120,6 +120,9 @@ struct PlatformJoint {
 pub struct ThreeSpheres {
     /// The platform body's name.
     platform: String,
+    /// The model's points on the platform, each with its offset from the platform's origin in
+    /// the world frame (`R_P c`, constant): they move with the origin.
+    platform_points: Vec<(usize, PolyVector)>,
     /// The legs, the platform's carrier first.
     legs: [Leg; 3],
     platform_joint: PlatformJoint,
@@ -136,6 +139,21 @@ pub struct ClosedFormNodes {
     pub atoms: Vec<(Atom, NodeId)>,
     /// The margins: the parallel singularity's, then each knee's (module documentation).
     pub margins: Vec<NodeId>,
+    /// The platform's origin and its motion.
+    pub platform: PlatformMotion,
+}
+
+/// The platform's origin `O`, its Jacobian `∂O/∂q_a` (one column per actuated coordinate) and
+/// its acceleration at `q̈_a = 0`, `Ö`: what every point on the platform has, the platform only
+/// translating.
+#[derive(Clone, Debug, Default)]
+pub struct PlatformMotion {
+    /// `O`.
+    pub origin: Vector,
+    /// `∂O/∂q_aj`, by `j`.
+    pub jacobian: Vec<Vector>,
+    /// `Ö` at `q̈_a = 0`.
+    pub convective_acceleration: Vector,
 }
 
 /// The atoms the elimination defines, as the caller numbers them.
@@ -453,8 +471,13 @@ impl ThreeSpheres {
         if !height.is_finite() || height == 0.0 {
             return Err("the platform lies in the plane of the spheres' centres at the assembly".into());
         }
+        let platform_points = (0..model.points.len())
+            .filter(|&i| model.points[i].body == Some(platform))
+            .map(|i| (i, poly_times(&platform_rotation, &model.points[i].position)))
+            .collect();
         Ok(ThreeSpheres {
             platform: model.bodies[platform].name.clone(),
+            platform_points,
             legs,
             platform_joint,
             sphere_side: height.signum(),
@@ -463,6 +486,12 @@ impl ThreeSpheres {
 }
 
 impl ThreeSpheres {
+    /// The offset `R_P c` of model point `point` from the platform's origin, if the point is on
+    /// the platform (it then moves as the origin does).
+    pub fn platform_point(&self, point: usize) -> Option<&[Poly; 3]> {
+        self.platform_points.iter().find(|(i, _)| *i == point).map(|(_, offset)| offset)
+    }
+
     /// Adds the closed form to `dag`: from then on the passive joints' sines, cosines and
     /// velocities and the atoms of `A`, `Ȧ` and `Ȧ q̇_a` stand for nodes computed from the
     /// actuated coordinates and velocities.
@@ -778,6 +807,11 @@ impl ThreeSpheres {
             v.dag.sub(reach_acceleration, relative_squared)
         });
         let platform_acceleration = implicit(&mut v, right);
+        out.platform = PlatformMotion {
+            origin,
+            jacobian: platform_columns.clone(),
+            convective_acceleration: platform_acceleration,
+        };
         for ((&id, &d), &dd) in origin.iter().zip(&platform_velocity).zip(&platform_acceleration) {
             known.insert(id, d);
             known.insert(d, dd);

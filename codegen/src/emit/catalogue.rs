@@ -39,7 +39,7 @@ pub struct FunctionSpec<'a> {
     pub takes_qdd: bool,
     /// The task function with the same outputs (a function of the task's point), which this
     /// one calls instead of repeating its body.
-    pub same_as: Option<&'static str>,
+    pub same_as: Option<String>,
 }
 
 /// Entries `0..len` of a quantity.
@@ -203,7 +203,29 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
         // The task's own point: its functions are the task's `position`, `jacobian` and
         // `jacobian_dot_times_qdot`, which these call.
         let is_task = matches!(model.task, crate::model::TaskSpec::Point(i) if i == index) && d == m;
-        let task_fn = |name: &'static str| is_task.then_some(name);
+        let task_fn = |name: &'static str| is_task.then(|| name.to_string());
+        // On a Delta's platform (its loops in closed form) every point moves as the platform's
+        // origin: its Jacobian and `J̇ q̇` are those of the task's point if that is on the
+        // platform too, else those of the first point on it.
+        let on_platform = |i: usize| {
+            mech.closures
+                .as_ref()
+                .and_then(|c| c.spatial.as_ref())
+                .and_then(|s| s.closed_form.as_ref())
+                .is_some_and(|closed_form| closed_form.platform_point(i).is_some())
+        };
+        let motion_fn = |what: &'static str| -> Option<String> {
+            if is_task || !on_platform(index) {
+                return task_fn(what);
+            }
+            match (mech.task_point, (0..model.points.len()).find(|&i| on_platform(i))) {
+                (Some(task), _) if on_platform(task) && mech.points[task].position.len() == m => {
+                    Some(what.to_string())
+                }
+                (_, Some(first)) if first != index => Some(format!("{}_{what}", model.points[first].name)),
+                _ => None,
+            }
+        };
         specs.push(FunctionSpec {
             name: format!("{}_position", point.name),
             doc: format!(" Position of {what} in the base frame."),
@@ -220,7 +242,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: point_outputs(PointQuantity::Jacobian, d * n),
             takes_qd: false,
             takes_qdd: false,
-            same_as: task_fn("jacobian"),
+            same_as: motion_fn("jacobian"),
         });
         specs.push(FunctionSpec {
             name: format!("{}_jacobian_dot_times_qdot", point.name),
@@ -229,7 +251,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: point_outputs(PointQuantity::JacobianDotTimesQdot, d),
             takes_qd: true,
             takes_qdd: false,
-            same_as: task_fn("jacobian_dot_times_qdot"),
+            same_as: motion_fn("jacobian_dot_times_qdot"),
         });
     }
     for (index, frame) in model.frames.iter().enumerate() {

@@ -105,7 +105,7 @@ pub(crate) fn function_sharing(
     } else {
         quote!(&self, #q: &[#s; #n])
     };
-    let body = match spec.same_as {
+    let body = match &spec.same_as {
         // The same outputs as a task function: call it (same arithmetic, same counts).
         Some(target) => {
             let target = format_ident!("{}", target);
