@@ -33,13 +33,19 @@
 //! `M = R(a₃, γ) R(a₄, δ)`: `γ` turns `a₄` onto `m = M a₄` about `a₃`, and `δ` turns a vector
 //! `e ⊥ a₄` onto `M e` after undoing `γ`.
 //!
-//! **Velocity and acceleration level** by forward differentiation of those expressions on the
-//! expression graph ([`Dag::derivative`]), the platform's motion from the spheres' implicit
-//! relation instead of differentiating the square root: `u_k·(Ȯ − K̇_k) = 0`, so
+//! **Velocity and acceleration level** by forward differentiation on the expression graph
+//! ([`Dag::derivative`]), in the order the angles are computed, each angle's derivative taken
+//! from how its sine and cosine are formed, with the platform's and the earlier angles' motion
+//! given (so that no derivative passes through a division or square root of the position
+//! level): the platform from the spheres' implicit relation, `u_k·(Ȯ − K̇_k) = 0`, so
 //! `U Ȯ = [u_k·K̇_k]` with `U` the rows `u_kᵀ` (`U⁻¹` from the cross products of its rows and
-//! its determinant), and at `q̈_a = 0`, `U Ö = [u_k·K̈_k − |Ȯ − K̇_k|²]`. A passive angle with
-//! sine `s` and cosine `c` then has `∂q_p/∂q_aj = c ∂s/∂q_aj − s ∂c/∂q_aj` (an entry of `A`),
-//! `q̇_p = Σ_j A_pj q̇_j` and `Ȧ q̇_a = c s̈ − s c̈`.
+//! its determinant), and at `q̈_a = 0` `U Ö = [u_k·K̈_k − |Ȯ − K̇_k|²]`; a knee's second angle
+//! from `A cos β + B sin β = C`, `β̇ = Ċ / (B cos β − A sin β)`,
+//! `β̈ = (C̈ + C β̇²) / (B cos β − A sin β)`; an angle given as `(N_s, N_c) / r`, `r > 0` (a knee's
+//! first angle, the platform joint's second), `φ̇ = (N_c Ṅ_s − N_s Ṅ_c) / Y`, `Y = N_c² + N_s²`,
+//! `φ̈ = (N_c N̈_s − N_s N̈_c − φ̇ Ẏ) / Y`. Along one actuated coordinate these are the columns of
+//! `A`; along the velocity at `q̈_a = 0`, `q̇_p = A q̇_a` and `Ȧ q̇_a`; `Ȧ` itself (for `C`) by
+//! differentiating `A` along the velocity.
 //!
 //! **Singularity.** The loops are singular where `U` is (the three shins parallel to a plane:
 //! the Delta's parallel singularity, `det U = 0`) or where a shin lies along its knee's first
@@ -128,6 +134,141 @@ pub struct ThreeSpheres {
     platform_joint: PlatformJoint,
     /// `σ`: which of the spheres' two intersections.
     sphere_side: f64,
+}
+
+/// How an angle's sine and cosine are computed, which is how its derivatives are taken.
+#[derive(Clone, Copy, Debug)]
+enum AngleForm {
+    /// The sine and cosine themselves are smooth expressions (polynomials of earlier angles):
+    /// `φ' = c s' − s c'`.
+    Unit,
+    /// `(sin φ, cos φ) = (N_s, N_c) / r` with `r > 0`: `φ' = (N_c N_s' − N_s N_c') / Y`,
+    /// `Y = N_c² + N_s²`, and at `q̈_a = 0` `φ'' = (N_c N_s'' − N_s N_c'' − φ' Y') / Y`.
+    Ratio { sin_numerator: NodeId, cos_numerator: NodeId },
+    /// `A cos φ + B sin φ = C` with `A`, `B` constant: `φ' = C' / (B cos φ − A sin φ)` and
+    /// `φ'' = (C'' + C φ'²) / (B cos φ − A sin φ)`.
+    Implicit { right: NodeId, cos_coefficient: NodeId, sin_coefficient: NodeId },
+}
+
+/// A passive angle of the closed form: its joint, its sine and cosine nodes, and their form.
+#[derive(Clone, Copy, Debug)]
+struct Angle {
+    joint: usize,
+    sin: NodeId,
+    cos: NodeId,
+    form: AngleForm,
+}
+
+impl Angle {
+    /// The angle's derivative along the direction `known` and `input` define.
+    fn rate(
+        &self,
+        dag: &mut Dag,
+        known: &mut HashMap<NodeId, NodeId>,
+        input: &mut dyn FnMut(&mut Dag, Atom) -> NodeId,
+    ) -> NodeId {
+        match self.form {
+            AngleForm::Unit => {
+                let (d_sin, d_cos) =
+                    (dag.derivative(self.sin, known, input), dag.derivative(self.cos, known, input));
+                let first = dag.mul(self.cos, d_sin);
+                let second = dag.mul(self.sin, d_cos);
+                dag.sub(first, second)
+            }
+            AngleForm::Ratio { sin_numerator, cos_numerator } => {
+                let d_sin = dag.derivative(sin_numerator, known, input);
+                let d_cos = dag.derivative(cos_numerator, known, input);
+                let first = dag.mul(cos_numerator, d_sin);
+                let second = dag.mul(sin_numerator, d_cos);
+                let numerator = dag.sub(first, second);
+                let scale = Self::scale_squared(dag, sin_numerator, cos_numerator);
+                dag.div(numerator, scale)
+            }
+            AngleForm::Implicit { right, .. } => {
+                let d_right = dag.derivative(right, known, input);
+                let slope = self.implicit_slope(dag);
+                dag.div(d_right, slope)
+            }
+        }
+    }
+
+    /// The angle's acceleration at `q̈_a = 0` along the velocity (`known` and `input` the
+    /// derivative along it, `rate` the angle's rate).
+    fn convective_acceleration(
+        &self,
+        dag: &mut Dag,
+        known: &mut HashMap<NodeId, NodeId>,
+        input: &mut dyn FnMut(&mut Dag, Atom) -> NodeId,
+        rate: NodeId,
+    ) -> NodeId {
+        let second = |dag: &mut Dag,
+                      known: &mut HashMap<NodeId, NodeId>,
+                      input: &mut dyn FnMut(&mut Dag, Atom) -> NodeId,
+                      x: NodeId| {
+            let d = dag.derivative(x, known, input);
+            (d, dag.derivative(d, known, input))
+        };
+        match self.form {
+            AngleForm::Unit => {
+                let (_, dd_sin) = second(dag, known, input, self.sin);
+                let (_, dd_cos) = second(dag, known, input, self.cos);
+                let first = dag.mul(self.cos, dd_sin);
+                let second = dag.mul(self.sin, dd_cos);
+                dag.sub(first, second)
+            }
+            AngleForm::Ratio { sin_numerator, cos_numerator } => {
+                let (d_sin, dd_sin) = second(dag, known, input, sin_numerator);
+                let (d_cos, dd_cos) = second(dag, known, input, cos_numerator);
+                let first = dag.mul(cos_numerator, dd_sin);
+                let second_term = dag.mul(sin_numerator, dd_cos);
+                let curvature = dag.sub(first, second_term);
+                // Y' = 2 (N_c N_c' + N_s N_s').
+                let cos_part = dag.mul(cos_numerator, d_cos);
+                let sin_part = dag.mul(sin_numerator, d_sin);
+                let half_scale_rate = dag.add(cos_part, sin_part);
+                let two = dag.constant(2.0);
+                let scale_rate = dag.mul(two, half_scale_rate);
+                let damping = dag.mul(rate, scale_rate);
+                let numerator = dag.sub(curvature, damping);
+                let scale = Self::scale_squared(dag, sin_numerator, cos_numerator);
+                dag.div(numerator, scale)
+            }
+            AngleForm::Implicit { right, .. } => {
+                let (_, dd_right) = second(dag, known, input, right);
+                let rate_squared = dag.mul(rate, rate);
+                let centripetal = dag.mul(right, rate_squared);
+                let numerator = dag.add(dd_right, centripetal);
+                let slope = self.implicit_slope(dag);
+                dag.div(numerator, slope)
+            }
+        }
+    }
+
+    /// From now on, along this direction, the sine and cosine move with the angle's `rate`.
+    fn given_rate(&self, dag: &mut Dag, known: &mut HashMap<NodeId, NodeId>, rate: NodeId) {
+        let d_sin = dag.mul(self.cos, rate);
+        let sin_rate = dag.mul(self.sin, rate);
+        let d_cos = dag.neg(sin_rate);
+        known.entry(self.sin).or_insert(d_sin);
+        known.entry(self.cos).or_insert(d_cos);
+    }
+
+    /// `N_c² + N_s²`.
+    fn scale_squared(dag: &mut Dag, sin_numerator: NodeId, cos_numerator: NodeId) -> NodeId {
+        let cos_squared = dag.mul(cos_numerator, cos_numerator);
+        let sin_squared = dag.mul(sin_numerator, sin_numerator);
+        dag.add(cos_squared, sin_squared)
+    }
+
+    /// `B cos φ − A sin φ` of an implicit angle.
+    fn implicit_slope(&self, dag: &mut Dag) -> NodeId {
+        let AngleForm::Implicit { cos_coefficient, sin_coefficient, .. } = self.form else {
+            return dag.constant(f64::NAN);
+        };
+        let b_cos = dag.mul(sin_coefficient, self.cos);
+        let a_sin = dag.mul(cos_coefficient, self.sin);
+        dag.sub(b_cos, a_sin)
+    }
 }
 
 /// What [`ThreeSpheres::install`] added to a graph.
@@ -577,6 +718,8 @@ impl ThreeSpheres {
         // The shins' reaches `u_k = O − C_k`, and the knees.
         let reaches = centres.map(|c| v.sub(origin, c));
         let mut angles: Vec<(usize, NodeId, NodeId)> = Vec::new();
+        // The angles in the order they are computed (each reads only earlier ones), with how.
+        let mut forms: Vec<Angle> = Vec::new();
         for (leg, &reach) in self.legs.iter().zip(&reaches) {
             for (axis, &id) in axes.iter().zip(&reach) {
                 hint(v.dag, &mut out, id, format!("{}_reach_{axis}", leg.shin));
@@ -595,6 +738,7 @@ impl ThreeSpheres {
             let c = v.dag.sub(axial, offset);
             let [a, b, r2] =
                 [&knee.cos_coefficient, &knee.sin_coefficient, &knee.coefficients_squared].map(|p| v.poly(p));
+            let implicit_form = AngleForm::Implicit { right: c, cos_coefficient: a, sin_coefficient: b };
             let cc = v.dag.mul(c, c);
             let discriminant = v.dag.sub(r2, cc);
             let root = v.dag.sqrt(discriminant);
@@ -634,6 +778,16 @@ impl ThreeSpheres {
             let sin_alpha = v.dag.div(sin_alpha_numerator, denominator);
             angles.push((knee.joints[0], sin_alpha, cos_alpha));
             angles.push((knee.joints[1], sin_beta, cos_beta));
+            forms.push(Angle { joint: knee.joints[1], sin: sin_beta, cos: cos_beta, form: implicit_form });
+            forms.push(Angle {
+                joint: knee.joints[0],
+                sin: sin_alpha,
+                cos: cos_alpha,
+                form: AngleForm::Ratio {
+                    sin_numerator: sin_alpha_numerator,
+                    cos_numerator: cos_alpha_numerator,
+                },
+            });
             for (joint, sin, cos) in
                 [(knee.joints[1], sin_beta, cos_beta), (knee.joints[0], sin_alpha, cos_alpha)]
             {
@@ -676,6 +830,13 @@ impl ThreeSpheres {
         let sin_delta = v.dag.div(sin_delta_numerator, normal_squared);
         angles.push((joint.joints[0], sin_gamma, cos_gamma));
         angles.push((joint.joints[1], sin_delta, cos_delta));
+        forms.push(Angle { joint: joint.joints[0], sin: sin_gamma, cos: cos_gamma, form: AngleForm::Unit });
+        forms.push(Angle {
+            joint: joint.joints[1],
+            sin: sin_delta,
+            cos: cos_delta,
+            form: AngleForm::Ratio { sin_numerator: sin_delta_numerator, cos_numerator: cos_delta_numerator },
+        });
         hint(v.dag, &mut out, sin_delta, format!("sin_{}", atoms.names[joint.joints[1]]));
         hint(v.dag, &mut out, cos_delta, format!("cos_{}", atoms.names[joint.joints[1]]));
         for (joint, sin, cos) in
@@ -714,7 +875,9 @@ impl ThreeSpheres {
             v.add(partial, terms[2])
         };
         // Velocity level: A column by column, each by differentiating along one actuated
-        // coordinate with the platform's motion `U⁻¹ [u_k·∂K_k/∂q_j]` given.
+        // coordinate, the platform's motion `U⁻¹ [u_k·∂K_k/∂q_j]` given, and each angle's rate
+        // from its form (`Angle::rate`) with the earlier angles' as given: the derivatives
+        // never pass through a division or square root of the position level.
         let mut columns: Vec<Vec<NodeId>> = Vec::new();
         let mut platform_columns: Vec<Vector> = Vec::new();
         for j in 0..n {
@@ -737,17 +900,14 @@ impl ThreeSpheres {
                 known.insert(id, d);
             }
             platform_columns.push(platform_motion);
-            let column = angles
-                .iter()
-                .map(|&(_, sin, cos)| {
-                    let d_sin = v.dag.derivative(sin, &mut known, &mut rule);
-                    let d_cos = v.dag.derivative(cos, &mut known, &mut rule);
-                    let first = v.dag.mul(cos, d_sin);
-                    let second = v.dag.mul(sin, d_cos);
-                    v.dag.sub(first, second)
-                })
-                .collect();
-            columns.push(column);
+            let mut column = Vec::new();
+            for angle in &forms {
+                let rate = angle.rate(v.dag, &mut known, &mut rule);
+                angle.given_rate(v.dag, &mut known, rate);
+                column.push((angle.joint, rate));
+            }
+            column.sort_by_key(|&(joint, _)| joint);
+            columns.push(column.into_iter().map(|(_, rate)| rate).collect());
         }
         let velocities: Vec<NodeId> = (0..n).map(|j| v.dag.input(Atom::Qd(j as u16))).collect();
         let combine = |v: &mut Nodes, entries: &[NodeId]| -> NodeId {
@@ -816,18 +976,23 @@ impl ThreeSpheres {
             known.insert(id, d);
             known.insert(d, dd);
         }
-        for (r, &(joint, sin, cos)) in angles.iter().enumerate() {
-            let d_sin = v.dag.derivative(sin, &mut known, &mut along_velocity);
-            let d_cos = v.dag.derivative(cos, &mut known, &mut along_velocity);
-            let dd_sin = v.dag.derivative(d_sin, &mut known, &mut along_velocity);
-            let dd_cos = v.dag.derivative(d_cos, &mut known, &mut along_velocity);
-            let first = v.dag.mul(cos, dd_sin);
-            let second = v.dag.mul(sin, dd_cos);
-            let convective = v.dag.sub(first, second);
-            hint(v.dag, &mut out, convective, format!("{}_convective_acceleration", atoms.names[joint]));
-            let atom = (atoms.convective)(joint - n);
+        // Each angle's acceleration at `q̈_a = 0` from its form, the earlier angles' rates and
+        // accelerations given.
+        let rate_of =
+            |joint: usize| out.atoms.iter().find(|(atom, _)| *atom == Atom::Qd(joint as u16)).map(|a| a.1);
+        let rates: Vec<NodeId> =
+            forms.iter().map(|angle| rate_of(angle.joint).unwrap_or(angle.sin)).collect();
+        for (angle, &rate) in forms.iter().zip(&rates) {
+            let convective = angle.convective_acceleration(v.dag, &mut known, &mut along_velocity, rate);
+            angle.given_rate(v.dag, &mut known, rate);
+            known.entry(rate).or_insert(convective);
+            let name = &atoms.names[angle.joint];
+            hint(v.dag, &mut out, convective, format!("{name}_convective_acceleration"));
+            let atom = (atoms.convective)(angle.joint - n);
             v.dag.substitute(atom, convective);
             out.atoms.push((atom, convective));
+        }
+        for (r, &(joint, _, _)) in angles.iter().enumerate() {
             for (j, column) in columns.iter().enumerate() {
                 let rate = v.dag.derivative(column[r], &mut known, &mut along_velocity);
                 hint(v.dag, &mut out, rate, format!("{}_per_{}_rate", atoms.names[joint], atoms.names[j]));
