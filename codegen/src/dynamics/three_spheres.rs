@@ -143,8 +143,8 @@ enum AngleForm {
     /// `φ' = c s' − s c'`.
     Unit,
     /// `(sin φ, cos φ) = (N_s, N_c) / r` with `r > 0`: `φ' = (N_c N_s' − N_s N_c') / Y`,
-    /// `Y = N_c² + N_s²`, and at `q̈_a = 0` `φ'' = (N_c N_s'' − N_s N_c'' − φ' Y') / Y`.
-    Ratio { sin_numerator: NodeId, cos_numerator: NodeId },
+    /// `Y = N_c² + N_s² = r²`, and at `q̈_a = 0` `φ'' = (N_c N_s'' − N_s N_c'' − φ' Y') / Y`.
+    Ratio { sin_numerator: NodeId, cos_numerator: NodeId, scale: NodeId },
     /// `A cos φ + B sin φ = C` with `A`, `B` constant: `φ' = C' / (B cos φ − A sin φ)` and
     /// `φ'' = (C'' + C φ'²) / (B cos φ − A sin φ)`.
     Implicit { right: NodeId, cos_coefficient: NodeId, sin_coefficient: NodeId },
@@ -175,14 +175,14 @@ impl Angle {
                 let second = dag.mul(self.sin, d_cos);
                 dag.sub(first, second)
             }
-            AngleForm::Ratio { sin_numerator, cos_numerator } => {
+            AngleForm::Ratio { sin_numerator, cos_numerator, scale } => {
                 let d_sin = dag.derivative(sin_numerator, known, input);
                 let d_cos = dag.derivative(cos_numerator, known, input);
                 let first = dag.mul(cos_numerator, d_sin);
                 let second = dag.mul(sin_numerator, d_cos);
                 let numerator = dag.sub(first, second);
-                let scale = Self::scale_squared(dag, sin_numerator, cos_numerator);
-                dag.div(numerator, scale)
+                let scale_squared = dag.mul(scale, scale);
+                dag.div(numerator, scale_squared)
             }
             AngleForm::Implicit { right, .. } => {
                 let d_right = dag.derivative(right, known, input);
@@ -216,7 +216,7 @@ impl Angle {
                 let second = dag.mul(self.sin, dd_cos);
                 dag.sub(first, second)
             }
-            AngleForm::Ratio { sin_numerator, cos_numerator } => {
+            AngleForm::Ratio { sin_numerator, cos_numerator, scale } => {
                 let (d_sin, dd_sin) = second(dag, known, input, sin_numerator);
                 let (d_cos, dd_cos) = second(dag, known, input, cos_numerator);
                 let first = dag.mul(cos_numerator, dd_sin);
@@ -230,8 +230,8 @@ impl Angle {
                 let scale_rate = dag.mul(two, half_scale_rate);
                 let damping = dag.mul(rate, scale_rate);
                 let numerator = dag.sub(curvature, damping);
-                let scale = Self::scale_squared(dag, sin_numerator, cos_numerator);
-                dag.div(numerator, scale)
+                let scale_squared = dag.mul(scale, scale);
+                dag.div(numerator, scale_squared)
             }
             AngleForm::Implicit { right, .. } => {
                 let (_, dd_right) = second(dag, known, input, right);
@@ -251,13 +251,6 @@ impl Angle {
         let d_cos = dag.neg(sin_rate);
         known.entry(self.sin).or_insert(d_sin);
         known.entry(self.cos).or_insert(d_cos);
-    }
-
-    /// `N_c² + N_s²`.
-    fn scale_squared(dag: &mut Dag, sin_numerator: NodeId, cos_numerator: NodeId) -> NodeId {
-        let cos_squared = dag.mul(cos_numerator, cos_numerator);
-        let sin_squared = dag.mul(sin_numerator, sin_numerator);
-        dag.add(cos_squared, sin_squared)
     }
 
     /// `B cos φ − A sin φ` of an implicit angle.
@@ -786,6 +779,7 @@ impl ThreeSpheres {
                 form: AngleForm::Ratio {
                     sin_numerator: sin_alpha_numerator,
                     cos_numerator: cos_alpha_numerator,
+                    scale: denominator,
                 },
             });
             for (joint, sin, cos) in
@@ -835,7 +829,11 @@ impl ThreeSpheres {
             joint: joint.joints[1],
             sin: sin_delta,
             cos: cos_delta,
-            form: AngleForm::Ratio { sin_numerator: sin_delta_numerator, cos_numerator: cos_delta_numerator },
+            form: AngleForm::Ratio {
+                sin_numerator: sin_delta_numerator,
+                cos_numerator: cos_delta_numerator,
+                scale: normal_squared,
+            },
         });
         hint(v.dag, &mut out, sin_delta, format!("sin_{}", atoms.names[joint.joints[1]]));
         hint(v.dag, &mut out, cos_delta, format!("cos_{}", atoms.names[joint.joints[1]]));
