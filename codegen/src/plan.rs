@@ -124,16 +124,27 @@ pub(crate) fn cheapest_choice(
     let cost = |choice: Choice| {
         // With a closed chain's elimination in front, as the emitted function has it: its
         // cost counts where a derivation reads it.
-        let mut dag = Dag::new();
-        crate::dynamics::closure::install(&mut dag, mech.closures.as_ref());
+        let (mut dag, _) = crate::dynamics::closure::graph_with(mech.closures.as_ref());
         let roots = output_roots_with(&mut dag, model, mech, outputs, choice);
         let counts = dag.optimised_count_with(&roots, fused_multiply_add);
         counts.arithmetic() + counts.trigonometric
     };
-    // The default first, so that a tie keeps it.
-    let mut best = (cost(mech.choice()), mech.choice());
-    for choice in mech.choices(model) {
-        let c = cost(choice);
+    // The default first, so that a tie keeps it. The candidates are costed on two threads
+    // (each builds and optimises its own graph; the machine this targets has two cores).
+    let candidates: Vec<Choice> = std::iter::once(mech.choice()).chain(mech.choices(model)).collect();
+    let costs: Vec<usize> = if candidates.len() > 2 {
+        let (first, second) = candidates.split_at(candidates.len() / 2);
+        std::thread::scope(|scope| {
+            let other = scope.spawn(|| second.iter().map(|&c| cost(c)).collect::<Vec<_>>());
+            let mut costs: Vec<usize> = first.iter().map(|&c| cost(c)).collect();
+            costs.extend(other.join().unwrap_or_else(|_| second.iter().map(|&c| cost(c)).collect()));
+            costs
+        })
+    } else {
+        candidates.iter().map(|&c| cost(c)).collect()
+    };
+    let mut best = (costs[0], candidates[0]);
+    for (&c, &choice) in costs.iter().zip(&candidates).skip(1) {
         if c < best.0 {
             best = (c, choice);
         }

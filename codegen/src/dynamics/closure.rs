@@ -97,7 +97,7 @@ pub struct Closures {
     /// The closures of a spatial chain, eliminated together and numerically (their atoms are
     /// numbered after the planar loops').
     pub spatial: Option<SpatialLoops>,
-    /// The elimination as a DAG, built on first use by [`Closures::values`].
+    /// The elimination as a DAG, built on first use ([`Closures::installed`]).
     evaluator: std::sync::OnceLock<(Dag, Installed)>,
 }
 
@@ -138,6 +138,17 @@ impl Closures {
         self.loops.len() * 4 * self.actuated
     }
 
+    /// A graph holding only the elimination ([`install`] on an empty graph), and what it
+    /// installed: built once, then shared (every function's graph starts as a clone of it, see
+    /// [`graph_with`]).
+    pub fn installed(&self) -> &(Dag, Installed) {
+        self.evaluator.get_or_init(|| {
+            let mut dag = Dag::new();
+            let installed = install(&mut dag, Some(self));
+            (dag, installed)
+        })
+    }
+
     /// The spatial loops, if the generated code solves them at run time by Newton's method
     /// (`None` for planar loops and for spatial ones in closed form).
     pub fn solved_at_run_time(&self) -> Option<&SpatialLoops> {
@@ -158,11 +169,7 @@ impl Closures {
         if let Some(spatial) = &self.spatial {
             return spatial.values(q, qd, parameters, self.spatial_first_atom());
         }
-        let (dag, installed) = self.evaluator.get_or_init(|| {
-            let mut dag = Dag::new();
-            let installed = install(&mut dag, Some(self));
-            (dag, installed)
-        });
+        let (dag, installed) = self.installed();
         let state = State { q, qd, parameters };
         let values = dag.eval_all(&|a: Atom| state.value(a));
         installed.atoms.iter().map(|&(atom, id)| (atom, values[id])).collect()
@@ -378,6 +385,16 @@ pub fn analyse_spatial(
         spatial: Some(spatial),
         evaluator: std::sync::OnceLock::new(),
     })
+}
+
+/// A new graph with the elimination of `closures` in front (an empty one without closures),
+/// and what it installed: [`install`] on an empty graph, cloned from the one
+/// [`Closures::installed`] keeps (a Delta's closed form and its derivatives are built once).
+pub fn graph_with(closures: Option<&Closures>) -> (Dag, Installed) {
+    match closures {
+        Some(closures) => closures.installed().clone(),
+        None => (Dag::new(), Installed::default()),
+    }
 }
 
 /// Adds the elimination of every closure to `dag`: from then on the passive joints' sines,

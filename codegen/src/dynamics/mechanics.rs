@@ -225,8 +225,7 @@ pub(crate) fn choose_derivations(model: &Model, mechanics: &mut Mechanics) {
             mechanics.kinematics = k;
             mechanics.structured_coriolis = structured;
             // With a closed chain's elimination in front, as the emitted code has it.
-            let mut dag = Dag::new();
-            super::closure::install(&mut dag, mechanics.closures.as_ref());
+            let (mut dag, _) = super::closure::graph_with(mechanics.closures.as_ref());
             let mut roots = mechanics.build(&mut dag, model, Quantity::InertiaMatrix);
             roots.extend(mechanics.build(&mut dag, model, Quantity::CoriolisTimesQdot));
             roots.extend(mechanics.build(&mut dag, model, Quantity::Gravity));

@@ -104,8 +104,15 @@ impl Projection<'_> {
     fn platform_point(&self, dag: &mut Dag, point: usize, what: PointQuantity) -> Option<Vec<NodeId>> {
         let closed_form = self.closures.spatial.as_ref()?.closed_form.as_ref()?;
         let offset = closed_form.platform_point(point)?;
-        // Installed again on the same graph: the same nodes, which the emitter named already.
-        let motion = super::closure::install(dag, Some(self.closures)).platform?;
+        // A graph that starts as the shared one with the elimination (`closure::graph_with`,
+        // as every emitted function's does) has its nodes; any other gets them installed (the
+        // same nodes if they are there already).
+        let (shared, installed) = self.closures.installed();
+        let motion = if dag.nodes().starts_with(shared.nodes()) {
+            installed.platform.clone()?
+        } else {
+            super::closure::install(dag, Some(self.closures)).platform?
+        };
         Some(match what {
             PointQuantity::Position => (0..3)
                 .map(|r| {

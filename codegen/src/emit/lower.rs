@@ -62,9 +62,8 @@ impl<'m> BodyEmitter<'m> {
     pub(crate) fn new(model: &'m Model, mech: &Mechanics, scalar: Scalar, options: EmitOptions) -> Self {
         // A closed chain's passive coordinates enter every polynomial as nodes computed from
         // the actuated ones (`crate::dynamics::closure`), named after their role.
-        let mut dag = Dag::new();
-        let hints =
-            crate::dynamics::closure::install(&mut dag, mech.closures.as_ref()).hints.into_iter().collect();
+        let (dag, installed) = crate::dynamics::closure::graph_with(mech.closures.as_ref());
+        let hints = installed.hints.into_iter().collect();
         // A spatial chain's without a closed form are solved at run time instead, at the top of
         // each function.
         let loops = mech.closures.as_ref().and_then(|c| c.solved_at_run_time()).map(|spatial| LoopInputs {

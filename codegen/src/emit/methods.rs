@@ -201,8 +201,8 @@ pub(crate) fn closure_margin_function(
     }
     let mut body = BodyEmitter::new(model, mech, scalar, options);
     body.share_names(names);
-    // Installing again into the same DAG re-interns the same nodes: it only reports them.
-    let roots = crate::dynamics::closure::install(&mut body.dag, Some(closures)).margins;
+    // The body's graph starts as the shared one with the elimination, whose margins these are.
+    let roots = closures.installed().1.margins.clone();
     let (statements, values, counts) = body.emit(&roots, "closure_margin");
     let (n, k) = (unsuffixed(model.joints.len()), unsuffixed(roots.len()));
     let s = scalar.tokens();
