@@ -171,16 +171,12 @@ impl Angle {
             AngleForm::Unit => {
                 let (d_sin, d_cos) =
                     (dag.derivative(self.sin, known, input), dag.derivative(self.cos, known, input));
-                let first = dag.mul(self.cos, d_sin);
-                let second = dag.mul(self.sin, d_cos);
-                dag.sub(first, second)
+                product_difference(dag, [self.cos, d_sin], [self.sin, d_cos])
             }
             AngleForm::Ratio { sin_numerator, cos_numerator, scale } => {
                 let d_sin = dag.derivative(sin_numerator, known, input);
                 let d_cos = dag.derivative(cos_numerator, known, input);
-                let first = dag.mul(cos_numerator, d_sin);
-                let second = dag.mul(sin_numerator, d_cos);
-                let numerator = dag.sub(first, second);
+                let numerator = product_difference(dag, [cos_numerator, d_sin], [sin_numerator, d_cos]);
                 let scale_squared = dag.mul(scale, scale);
                 dag.div(numerator, scale_squared)
             }
@@ -212,16 +208,12 @@ impl Angle {
             AngleForm::Unit => {
                 let (_, dd_sin) = second(dag, known, input, self.sin);
                 let (_, dd_cos) = second(dag, known, input, self.cos);
-                let first = dag.mul(self.cos, dd_sin);
-                let second = dag.mul(self.sin, dd_cos);
-                dag.sub(first, second)
+                product_difference(dag, [self.cos, dd_sin], [self.sin, dd_cos])
             }
             AngleForm::Ratio { sin_numerator, cos_numerator, scale } => {
                 let (d_sin, dd_sin) = second(dag, known, input, sin_numerator);
                 let (d_cos, dd_cos) = second(dag, known, input, cos_numerator);
-                let first = dag.mul(cos_numerator, dd_sin);
-                let second_term = dag.mul(sin_numerator, dd_cos);
-                let curvature = dag.sub(first, second_term);
+                let curvature = product_difference(dag, [cos_numerator, dd_sin], [sin_numerator, dd_cos]);
                 // Y' = 2 (N_c N_c' + N_s N_s').
                 let cos_part = dag.mul(cos_numerator, d_cos);
                 let sin_part = dag.mul(sin_numerator, d_sin);
@@ -258,9 +250,7 @@ impl Angle {
         let AngleForm::Implicit { cos_coefficient, sin_coefficient, .. } = self.form else {
             return dag.constant(f64::NAN);
         };
-        let b_cos = dag.mul(sin_coefficient, self.cos);
-        let a_sin = dag.mul(cos_coefficient, self.sin);
-        dag.sub(b_cos, a_sin)
+        product_difference(dag, [sin_coefficient, self.cos], [cos_coefficient, self.sin])
     }
 }
 
@@ -341,6 +331,13 @@ fn clean(x: f64) -> f64 {
     magnitudes.iter().map(|m| m.copysign(x)).find(|c| (x - c).abs() < 1e-9).unwrap_or(x)
 }
 
+/// `a b − c d`, built in that order.
+fn product_difference(dag: &mut Dag, [a, b]: [NodeId; 2], [c, d]: [NodeId; 2]) -> NodeId {
+    let first = dag.mul(a, b);
+    let second = dag.mul(c, d);
+    dag.sub(first, second)
+}
+
 /// `a·v` of a constant vector and polynomials.
 fn constant_dot(a: [f64; 3], v: &PolyVector) -> Poly {
     Poly::sum(&[v[0].scale(a[0]), v[1].scale(a[1]), v[2].scale(a[2])])
@@ -410,11 +407,7 @@ impl Nodes<'_> {
     }
 
     fn cross(&mut self, a: Vector, b: Vector) -> Vector {
-        let mut component = |i: usize, j: usize| {
-            let first = self.dag.mul(a[i], b[j]);
-            let second = self.dag.mul(a[j], b[i]);
-            self.dag.sub(first, second)
-        };
+        let mut component = |i: usize, j: usize| product_difference(self.dag, [a[i], b[j]], [a[j], b[i]]);
         [component(1, 2), component(2, 0), component(0, 1)]
     }
 
@@ -679,9 +672,7 @@ impl ThreeSpheres {
         let gram = v.dag.sub(g11g22, g12g12);
         hint(v.dag, &mut out, gram, "sphere_sides_gram".into());
         let solve = |v: &mut Nodes, a: NodeId, b: NodeId, c: NodeId, d: NodeId| {
-            let ab = v.dag.mul(a, b);
-            let cd = v.dag.mul(c, d);
-            let numerator = v.dag.sub(ab, cd);
+            let numerator = product_difference(v.dag, [a, b], [c, d]);
             v.dag.div(numerator, gram)
         };
         let first_weight = solve(&mut v, h1, g22, h2, g12);
