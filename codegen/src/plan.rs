@@ -137,7 +137,8 @@ pub(crate) fn cheapest_choice(
         std::thread::scope(|scope| {
             let other = scope.spawn(|| second.iter().map(|&c| cost(c)).collect::<Vec<_>>());
             let mut costs: Vec<usize> = first.iter().map(|&c| cost(c)).collect();
-            costs.extend(other.join().unwrap_or_else(|_| second.iter().map(|&c| cost(c)).collect()));
+            // A panic on the other thread is the generator's bug: passed on as it is.
+            costs.extend(other.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)));
             costs
         })
     } else {

@@ -313,9 +313,9 @@ fn links(model: &Model) -> Vec<Link> {
         .collect()
 }
 
-/// Vector algebra on DAG nodes.
-struct Builder<'d> {
-    dag: &'d mut Dag,
+/// Vector algebra on DAG nodes (also for the Delta's closed form, `super::three_spheres`).
+pub(super) struct Builder<'d> {
+    pub(super) dag: &'d mut Dag,
 }
 
 /// The part of a value's name that says which recursive pass built it: none for the full one
@@ -362,11 +362,11 @@ impl Builder<'_> {
         [z, z, z]
     }
 
-    fn poly(&mut self, p: &Poly) -> NodeId {
+    pub(super) fn poly(&mut self, p: &Poly) -> NodeId {
         self.dag.polynomial(p)
     }
 
-    fn poly3(&mut self, v: &[Poly; 3]) -> V3 {
+    pub(super) fn poly3(&mut self, v: &[Poly; 3]) -> V3 {
         std::array::from_fn(|i| self.poly(&v[i]))
     }
 
@@ -378,20 +378,24 @@ impl Builder<'_> {
         acc
     }
 
-    fn add3(&mut self, a: &V3, b: &V3) -> V3 {
+    pub(super) fn add3(&mut self, a: &V3, b: &V3) -> V3 {
         std::array::from_fn(|i| self.dag.add(a[i], b[i]))
     }
 
-    fn scale3(&mut self, k: NodeId, v: &V3) -> V3 {
+    pub(super) fn sub3(&mut self, a: &V3, b: &V3) -> V3 {
+        std::array::from_fn(|i| self.dag.sub(a[i], b[i]))
+    }
+
+    pub(super) fn scale3(&mut self, k: NodeId, v: &V3) -> V3 {
         std::array::from_fn(|i| self.dag.mul(k, v[i]))
     }
 
-    fn dot(&mut self, a: &V3, b: &V3) -> NodeId {
+    pub(super) fn dot(&mut self, a: &V3, b: &V3) -> NodeId {
         let products: Vec<NodeId> = (0..3).map(|i| self.dag.mul(a[i], b[i])).collect();
         self.sum(&products)
     }
 
-    fn cross(&mut self, a: &V3, b: &V3) -> V3 {
+    pub(super) fn cross(&mut self, a: &V3, b: &V3) -> V3 {
         std::array::from_fn(|i| {
             let (j, k) = ((i + 1) % 3, (i + 2) % 3);
             let x = self.dag.mul(a[j], b[k]);
@@ -404,14 +408,14 @@ impl Builder<'_> {
         std::array::from_fn(|i| self.dot(&m[i], v))
     }
 
-    fn mat_t_vec(&mut self, m: &M3, v: &V3) -> V3 {
+    pub(super) fn mat_t_vec(&mut self, m: &M3, v: &V3) -> V3 {
         std::array::from_fn(|i| {
             let column = [m[0][i], m[1][i], m[2][i]];
             self.dot(&column, v)
         })
     }
 
-    fn const3(&mut self, v: [f64; 3]) -> V3 {
+    pub(super) fn const3(&mut self, v: [f64; 3]) -> V3 {
         v.map(|x| self.dag.constant(x))
     }
 

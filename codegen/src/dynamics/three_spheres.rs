@@ -55,6 +55,8 @@
 use rustc_hash::FxHashMap as HashMap;
 
 use super::kinematics::{body_frames, constant_matrix, mat_mul, mat_vec, vec_add};
+use super::recursive::Builder;
+use crate::math::matrix::{mat3_vec, transpose3, Numbers};
 use crate::model::{JointKind, Model, Motion, SpatialClosure};
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::{Atom, Poly, State};
@@ -305,10 +307,6 @@ fn serial(model: &Model, body: usize) -> Option<SerialParts<'_>> {
     }
 }
 
-fn times(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
-    std::array::from_fn(|i| (0..3).map(|k| m[i][k] * v[k]).sum())
-}
-
 fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
@@ -343,11 +341,6 @@ fn constant_dot(a: [f64; 3], v: &PolyVector) -> Poly {
     Poly::sum(&[v[0].scale(a[0]), v[1].scale(a[1]), v[2].scale(a[2])])
 }
 
-/// `Mᵀ a` of a matrix of polynomials and a constant vector.
-fn transposed_times(m: &[PolyVector; 3], a: [f64; 3]) -> PolyVector {
-    std::array::from_fn(|i| Poly::sum(&[m[0][i].scale(a[0]), m[1][i].scale(a[1]), m[2][i].scale(a[2])]))
-}
-
 /// `a × v` of a constant vector and polynomials.
 fn constant_cross(a: [f64; 3], v: &PolyVector) -> PolyVector {
     [
@@ -357,64 +350,9 @@ fn constant_cross(a: [f64; 3], v: &PolyVector) -> PolyVector {
     ]
 }
 
-fn poly_times(m: &[[f64; 3]; 3], v: &PolyVector) -> PolyVector {
-    std::array::from_fn(|i| Poly::sum(&[v[0].scale(m[i][0]), v[1].scale(m[i][1]), v[2].scale(m[i][2])]))
-}
-
 /// `|v|²` of polynomials.
 fn norm_squared(v: &PolyVector) -> Poly {
     Poly::sum(&[v[0].mul(&v[0]), v[1].mul(&v[1]), v[2].mul(&v[2])])
-}
-
-/// Node arithmetic on vectors.
-struct Nodes<'d> {
-    dag: &'d mut Dag,
-}
-
-impl Nodes<'_> {
-    fn poly(&mut self, p: &Poly) -> NodeId {
-        self.dag.polynomial(p)
-    }
-
-    fn polys(&mut self, v: &PolyVector) -> Vector {
-        [self.poly(&v[0]), self.poly(&v[1]), self.poly(&v[2])]
-    }
-
-    fn constant(&mut self, x: f64) -> NodeId {
-        self.dag.constant(x)
-    }
-
-    fn constants(&mut self, v: [f64; 3]) -> Vector {
-        v.map(|x| self.dag.constant(x))
-    }
-
-    fn add(&mut self, a: Vector, b: Vector) -> Vector {
-        [self.dag.add(a[0], b[0]), self.dag.add(a[1], b[1]), self.dag.add(a[2], b[2])]
-    }
-
-    fn sub(&mut self, a: Vector, b: Vector) -> Vector {
-        [self.dag.sub(a[0], b[0]), self.dag.sub(a[1], b[1]), self.dag.sub(a[2], b[2])]
-    }
-
-    fn scale(&mut self, k: NodeId, v: Vector) -> Vector {
-        [self.dag.mul(k, v[0]), self.dag.mul(k, v[1]), self.dag.mul(k, v[2])]
-    }
-
-    fn dot(&mut self, a: Vector, b: Vector) -> NodeId {
-        let products = [self.dag.mul(a[0], b[0]), self.dag.mul(a[1], b[1]), self.dag.mul(a[2], b[2])];
-        let partial = self.dag.add(products[0], products[1]);
-        self.dag.add(partial, products[2])
-    }
-
-    fn cross(&mut self, a: Vector, b: Vector) -> Vector {
-        let mut component = |i: usize, j: usize| product_difference(self.dag, [a[i], b[j]], [a[j], b[i]]);
-        [component(1, 2), component(2, 0), component(0, 1)]
-    }
-
-    /// `Mᵀ v`.
-    fn transposed_times(&mut self, m: &[Vector; 3], v: Vector) -> Vector {
-        std::array::from_fn(|i| self.dot([m[0][i], m[1][i], m[2][i]], v))
-    }
 }
 
 impl ThreeSpheres {
@@ -488,8 +426,8 @@ impl ThreeSpheres {
             let knee_frame = mat_mul(&frame.rotation, &constant_matrix(cross_rotation));
             let knee_centre = vec_add(&frame.origin, &mat_vec(&frame.rotation, cross_xyz));
             let first_axis = axis(joints[0]);
-            let second_axis = times(&shin_rotation, axis(joints[1]));
-            let reach_in_cross = poly_times(&shin_rotation, &reach);
+            let second_axis = mat3_vec(&mut Numbers, &shin_rotation, &axis(joints[1]));
+            let reach_in_cross = mat_vec(&constant_matrix(shin_rotation), &reach);
             let along = constant_dot(second_axis, &reach_in_cross);
             let reach_along: PolyVector = second_axis.map(|a| along.scale(a));
             let reach_across: PolyVector = std::array::from_fn(|i| reach_in_cross[i].sub(&reach_along[i]));
@@ -528,7 +466,7 @@ impl ThreeSpheres {
         // ±√3/2 or ±1 are taken as those.
         let platform_rotation: [[f64; 3]; 3] =
             std::array::from_fn(|i| std::array::from_fn(|j| clean(value(&frames[platform].rotation[i][j]))));
-        let offset = |local: &PolyVector| poly_times(&platform_rotation, local);
+        let offset = |local: &PolyVector| mat_vec(&constant_matrix(platform_rotation), local);
         // The carrier: the platform's universal joint on its shin.
         let (platform_joints, platform_cross, carrier_shin) = universal(platform)?;
         let (_, platform_cross_xyz, platform_cross_rotation, _, _) =
@@ -562,7 +500,7 @@ impl ThreeSpheres {
         // The platform's joint: R(a₃, γ) R(a₄, δ) = M = (R_S O₃)ᵀ R_P O₄ᵀ, with R(a₄, δ) O₄ =
         // O₄ R(O₄ᵀ… ): written with a₄ turned by O₄ (`second`), M = Fᵀ R_P O₄ᵀ.
         let first_axis = axis(platform_joints[0]);
-        let second = times(&platform_own_rotation, axis(platform_joints[1]));
+        let second = mat3_vec(&mut Numbers, &platform_own_rotation, &axis(platform_joints[1]));
         let across = minus3(second, scaled3(dot3(first_axis, second), first_axis));
         let across_squared = dot3(across, across);
         if across_squared < 1e-12 {
@@ -576,8 +514,14 @@ impl ThreeSpheres {
             })
         });
         let frame = mat_mul(&frames[carrier_shin].rotation, &constant_matrix(platform_cross_rotation));
-        let turned_axis = transposed_times(&frame, times(&platform_unturned, second));
-        let turned_normal = transposed_times(&frame, times(&platform_unturned, normal));
+        let turned_axis = mat_vec(
+            &transpose3(&frame),
+            &mat3_vec(&mut Numbers, &platform_unturned, &second).map(Poly::constant),
+        );
+        let turned_normal = mat_vec(
+            &transpose3(&frame),
+            &mat3_vec(&mut Numbers, &platform_unturned, &normal).map(Poly::constant),
+        );
         let platform_joint = PlatformJoint {
             joints: platform_joints,
             normal,
@@ -600,7 +544,7 @@ impl ThreeSpheres {
         }
         let platform_points = (0..model.points.len())
             .filter(|&i| model.points[i].body == Some(platform))
-            .map(|i| (i, poly_times(&platform_rotation, &model.points[i].position)))
+            .map(|i| (i, mat_vec(&constant_matrix(platform_rotation), &model.points[i].position)))
             .collect();
         Ok(ThreeSpheres {
             platform: model.bodies[platform].name.clone(),
@@ -633,15 +577,15 @@ impl ThreeSpheres {
             }
         };
         let axes = ["x", "y", "z"];
-        let mut v = Nodes { dag };
+        let mut v = Builder { dag };
         // Position level: the three spheres.
-        let centres = self.legs.clone().map(|l| v.polys(&l.sphere_centre));
+        let centres = self.legs.clone().map(|l| v.poly3(&l.sphere_centre));
         let radii_squared = self.legs.clone().map(|l| v.poly(&l.reach_squared));
-        let first_side = v.sub(centres[1], centres[0]);
-        let second_side = v.sub(centres[2], centres[0]);
-        let g11 = v.dot(first_side, first_side);
-        let g12 = v.dot(first_side, second_side);
-        let g22 = v.dot(second_side, second_side);
+        let first_side = v.sub3(&centres[1], &centres[0]);
+        let second_side = v.sub3(&centres[2], &centres[0]);
+        let g11 = v.dot(&first_side, &first_side);
+        let g12 = v.dot(&first_side, &second_side);
+        let g22 = v.dot(&second_side, &second_side);
         for (k, (leg, centre)) in self.legs.iter().zip(&centres).enumerate() {
             for (axis, &id) in axes.iter().zip(centre) {
                 hint(v.dag, &mut out, id, format!("{}_sphere_centre_{axis}", leg.shin));
@@ -659,8 +603,8 @@ impl ThreeSpheres {
             }
         }
         hint(v.dag, &mut out, g12, "sphere_sides_dot".into());
-        let half = v.constant(0.5);
-        let along = |v: &mut Nodes, other: NodeId, norm: NodeId| {
+        let half = v.dag.constant(0.5);
+        let along = |v: &mut Builder, other: NodeId, norm: NodeId| {
             let difference = v.dag.sub(radii_squared[0], other);
             let sum = v.dag.add(difference, norm);
             v.dag.mul(half, sum)
@@ -671,36 +615,36 @@ impl ThreeSpheres {
         let g12g12 = v.dag.mul(g12, g12);
         let gram = v.dag.sub(g11g22, g12g12);
         hint(v.dag, &mut out, gram, "sphere_sides_gram".into());
-        let solve = |v: &mut Nodes, a: NodeId, b: NodeId, c: NodeId, d: NodeId| {
+        let solve = |v: &mut Builder, a: NodeId, b: NodeId, c: NodeId, d: NodeId| {
             let numerator = product_difference(v.dag, [a, b], [c, d]);
             v.dag.div(numerator, gram)
         };
         let first_weight = solve(&mut v, h1, g22, h2, g12);
         let second_weight = solve(&mut v, h2, g11, h1, g12);
-        let in_plane_first = v.scale(first_weight, first_side);
-        let in_plane_second = v.scale(second_weight, second_side);
-        let in_plane = v.add(in_plane_first, in_plane_second);
-        let normal = v.cross(first_side, second_side);
+        let in_plane_first = v.scale3(first_weight, &first_side);
+        let in_plane_second = v.scale3(second_weight, &second_side);
+        let in_plane = v.add3(&in_plane_first, &in_plane_second);
+        let normal = v.cross(&first_side, &second_side);
         hint(v.dag, &mut out, first_weight, format!("{}_sphere_weight", self.legs[1].shin));
         hint(v.dag, &mut out, second_weight, format!("{}_sphere_weight", self.legs[2].shin));
         for (axis, (&along, &across)) in axes.iter().zip(in_plane.iter().zip(&normal)) {
             hint(v.dag, &mut out, along, format!("{}_in_centres_plane_{axis}", self.platform));
             hint(v.dag, &mut out, across, format!("sphere_centres_normal_{axis}"));
         }
-        let in_plane_squared = v.dot(in_plane, in_plane);
+        let in_plane_squared = v.dot(&in_plane, &in_plane);
         let height_squared_scaled = v.dag.sub(radii_squared[0], in_plane_squared);
         let height_squared = v.dag.div(height_squared_scaled, gram);
         let height = v.dag.sqrt(height_squared);
         let height = if self.sphere_side < 0.0 { v.dag.neg(height) } else { height };
         hint(v.dag, &mut out, height, format!("{}_height", self.platform));
-        let off_plane = v.scale(height, normal);
-        let from_first = v.add(in_plane, off_plane);
-        let origin = v.add(centres[0], from_first);
+        let off_plane = v.scale3(height, &normal);
+        let from_first = v.add3(&in_plane, &off_plane);
+        let origin = v.add3(&centres[0], &from_first);
         for (axis, &id) in axes.iter().zip(&origin) {
             hint(v.dag, &mut out, id, format!("{}_origin_{axis}", self.platform));
         }
         // The shins' reaches `u_k = O − C_k`, and the knees.
-        let reaches = centres.map(|c| v.sub(origin, c));
+        let reaches = centres.map(|c| v.sub3(&origin, &c));
         let mut angles: Vec<(usize, NodeId, NodeId)> = Vec::new();
         // The angles in the order they are computed (each reads only earlier ones), with how.
         let mut forms: Vec<Angle> = Vec::new();
@@ -709,10 +653,10 @@ impl ThreeSpheres {
                 hint(v.dag, &mut out, id, format!("{}_reach_{axis}", leg.shin));
             }
             let knee = &leg.knee;
-            let frame = knee.frame.clone().map(|row| v.polys(&row));
-            let w = v.transposed_times(&frame, reach);
-            let first_axis = v.constants(knee.first_axis);
-            let axial = v.dot(first_axis, w);
+            let frame = knee.frame.clone().map(|row| v.poly3(&row));
+            let w = v.mat_t_vec(&frame, &reach);
+            let first_axis = v.const3(knee.first_axis);
+            let axial = v.dot(&first_axis, &w);
             let swing = &atoms.names[knee.joints[0]];
             for (axis, &id) in axes.iter().zip(&w) {
                 hint(v.dag, &mut out, id, format!("{}_reach_at_{swing}_{axis}", leg.shin));
@@ -734,7 +678,7 @@ impl ThreeSpheres {
                 Some(k) => {
                     let [a, b] =
                         [&knee.cos_coefficient, &knee.sin_coefficient].map(|p| v.poly(&p.scale(1.0 / k)));
-                    (a, b, v.constant(1.0))
+                    (a, b, v.dag.constant(1.0))
                 }
                 None => (a, b, r2),
             };
@@ -745,19 +689,19 @@ impl ThreeSpheres {
             let sin_beta = v.dag.div(sin_numerator, r2);
             // v = d∥ + cos β d⊥ + sin β (a₂ × d⊥): the reach turned by the second joint.
             let [along, across, turned] =
-                [&knee.reach_along, &knee.reach_across, &knee.reach_across_turned].map(|p| v.polys(p));
-            let across = v.scale(cos_beta, across);
-            let turned = v.scale(sin_beta, turned);
-            let partial = v.add(along, across);
-            let swung = v.add(partial, turned);
+                [&knee.reach_along, &knee.reach_across, &knee.reach_across_turned].map(|p| v.poly3(p));
+            let across = v.scale3(cos_beta, &across);
+            let turned = v.scale3(sin_beta, &turned);
+            let partial = v.add3(&along, &across);
+            let swung = v.add3(&partial, &turned);
             let reach_squared = v.poly(&leg.reach_squared);
             let axial_squared = v.dag.mul(axial, axial);
             let denominator = v.dag.sub(reach_squared, axial_squared);
             hint(v.dag, &mut out, denominator, format!("{}_reach_across_{swing}_sq", leg.shin));
-            let swung_w = v.dot(swung, w);
+            let swung_w = v.dot(&swung, &w);
             let cos_alpha_numerator = v.dag.sub(swung_w, axial_squared);
-            let w_cross_axis = v.cross(w, first_axis);
-            let sin_alpha_numerator = v.dot(swung, w_cross_axis);
+            let w_cross_axis = v.cross(&w, &first_axis);
+            let sin_alpha_numerator = v.dot(&swung, &w_cross_axis);
             let cos_alpha = v.dag.div(cos_alpha_numerator, denominator);
             let sin_alpha = v.dag.div(sin_alpha_numerator, denominator);
             angles.push((knee.joints[0], sin_alpha, cos_alpha));
@@ -791,26 +735,26 @@ impl ThreeSpheres {
         let sin_gamma = v.poly(&joint.first_sin);
         hint(v.dag, &mut out, sin_gamma, format!("sin_{}", atoms.names[joint.joints[0]]));
         hint(v.dag, &mut out, cos_gamma, format!("cos_{}", atoms.names[joint.joints[0]]));
-        let turned_axis = v.polys(&joint.turned_axis);
-        let turned_normal = v.polys(&joint.turned_normal);
+        let turned_axis = v.poly3(&joint.turned_axis);
+        let turned_normal = v.poly3(&joint.turned_normal);
         let second = &atoms.names[joint.joints[1]];
         for (axis, (&a, &e)) in axes.iter().zip(turned_axis.iter().zip(&turned_normal)) {
             hint(v.dag, &mut out, a, format!("{second}_axis_{axis}"));
             hint(v.dag, &mut out, e, format!("{second}_normal_{axis}"));
         }
         let [normal, normal_turned, normal_axial] =
-            [joint.normal, joint.normal_turned, joint.normal_axial].map(|c| v.constants(c));
-        let one = v.constant(1.0);
+            [joint.normal, joint.normal_turned, joint.normal_axial].map(|c| v.const3(c));
+        let one = v.dag.constant(1.0);
         let versine = v.dag.sub(one, cos_gamma);
-        let normal_cos = v.scale(cos_gamma, normal);
-        let normal_sin = v.scale(sin_gamma, normal_turned);
-        let normal_versine = v.scale(versine, normal_axial);
-        let partial = v.add(normal_cos, normal_sin);
-        let normal_swung = v.add(partial, normal_versine);
-        let normal_squared = v.constant(joint.normal_squared);
-        let cos_delta_numerator = v.dot(normal_swung, turned_normal);
-        let cross = v.cross(normal_swung, turned_normal);
-        let sin_delta_numerator = v.dot(turned_axis, cross);
+        let normal_cos = v.scale3(cos_gamma, &normal);
+        let normal_sin = v.scale3(sin_gamma, &normal_turned);
+        let normal_versine = v.scale3(versine, &normal_axial);
+        let partial = v.add3(&normal_cos, &normal_sin);
+        let normal_swung = v.add3(&partial, &normal_versine);
+        let normal_squared = v.dag.constant(joint.normal_squared);
+        let cos_delta_numerator = v.dot(&normal_swung, &turned_normal);
+        let cross = v.cross(&normal_swung, &turned_normal);
+        let sin_delta_numerator = v.dot(&turned_axis, &cross);
         let cos_delta = v.dag.div(cos_delta_numerator, normal_squared);
         let sin_delta = v.dag.div(sin_delta_numerator, normal_squared);
         angles.push((joint.joints[0], sin_gamma, cos_gamma));
@@ -841,14 +785,15 @@ impl ThreeSpheres {
         }
         // U⁻¹ = [u₂ × u₃, u₃ × u₁, u₁ × u₂] / det U: the platform's motion from the knees'.
         let row_crosses = [
-            v.cross(reaches[1], reaches[2]),
-            v.cross(reaches[2], reaches[0]),
-            v.cross(reaches[0], reaches[1]),
+            v.cross(&reaches[1], &reaches[2]),
+            v.cross(&reaches[2], &reaches[0]),
+            v.cross(&reaches[0], &reaches[1]),
         ];
-        let determinant = v.dot(reaches[0], row_crosses[0]);
+        let determinant = v.dot(&reaches[0], &row_crosses[0]);
         hint(v.dag, &mut out, determinant, format!("{}_reaches_determinant", self.platform));
         let inverse_determinant = v.dag.div(one, determinant);
-        let inverse_columns = row_crosses.map(|c| v.scale(inverse_determinant, c));
+        hint(v.dag, &mut out, inverse_determinant, format!("{}_reaches_inverse_determinant", self.platform));
+        let inverse_columns = row_crosses.map(|c| v.scale3(inverse_determinant, &c));
         // Margin: det² U / Π b_k².
         let determinant_squared = v.dag.mul(determinant, determinant);
         let r01 = v.dag.mul(radii_squared[0], radii_squared[1]);
@@ -856,12 +801,12 @@ impl ThreeSpheres {
         let parallel_margin = v.dag.div(determinant_squared, radii_product);
         hint(v.dag, &mut out, parallel_margin, format!("{}_parallel_margin", self.platform));
         out.margins.insert(0, parallel_margin);
-        let knee_centres = self.legs.clone().map(|l| v.polys(&l.knee_centre));
+        let knee_centres = self.legs.clone().map(|l| v.poly3(&l.knee_centre));
         // `U⁻¹ r` for a right-hand side `r`.
-        let implicit = |v: &mut Nodes, right: [NodeId; 3]| -> Vector {
-            let terms = [0, 1, 2].map(|k| v.scale(right[k], inverse_columns[k]));
-            let partial = v.add(terms[0], terms[1]);
-            v.add(partial, terms[2])
+        let implicit = |v: &mut Builder, right: [NodeId; 3]| -> Vector {
+            let terms = [0, 1, 2].map(|k| v.scale3(right[k], &inverse_columns[k]));
+            let partial = v.add3(&terms[0], &terms[1]);
+            v.add3(&partial, &terms[2])
         };
         // Velocity level: A column by column, each by differentiating along one actuated
         // coordinate, the platform's motion `U⁻¹ [u_k·∂K_k/∂q_j]` given, and each angle's rate
@@ -882,7 +827,7 @@ impl ThreeSpheres {
             };
             let right = [0, 1, 2].map(|k| {
                 let moved = knee_centres[k].map(|id| v.dag.derivative(id, &mut known, &mut rule));
-                v.dot(reaches[k], moved)
+                v.dot(&reaches[k], &moved)
             });
             let platform_motion = implicit(&mut v, right);
             for (&id, &d) in origin.iter().zip(&platform_motion) {
@@ -899,8 +844,8 @@ impl ThreeSpheres {
             columns.push(column.into_iter().map(|(_, rate)| rate).collect());
         }
         let velocities: Vec<NodeId> = (0..n).map(|j| v.dag.input(Atom::Qd(j as u16))).collect();
-        let combine = |v: &mut Nodes, entries: &[NodeId]| -> NodeId {
-            let mut sum = v.constant(0.0);
+        let combine = |v: &mut Builder, entries: &[NodeId]| -> NodeId {
+            let mut sum = v.dag.constant(0.0);
             for (&entry, &velocity) in entries.iter().zip(&velocities) {
                 let term = v.dag.mul(entry, velocity);
                 sum = v.dag.add(sum, term);
@@ -950,9 +895,9 @@ impl ThreeSpheres {
                 knee_centres[k].map(|id| v.dag.derivative(id, &mut known, &mut along_velocity));
             let knee_acceleration =
                 knee_velocity.map(|id| v.dag.derivative(id, &mut known, &mut along_velocity));
-            let relative = v.sub(platform_velocity, knee_velocity);
-            let relative_squared = v.dot(relative, relative);
-            let reach_acceleration = v.dot(reaches[k], knee_acceleration);
+            let relative = v.sub3(&platform_velocity, &knee_velocity);
+            let relative_squared = v.dot(&relative, &relative);
+            let reach_acceleration = v.dot(&reaches[k], &knee_acceleration);
             v.dag.sub(reach_acceleration, relative_squared)
         });
         let platform_acceleration = implicit(&mut v, right);
