@@ -57,6 +57,13 @@ const CASES: &[(&str, Option<&str>)] = &[
     ("passive-with-drive", None),
     ("pose-parent-cycle", None),
     ("scalar-inertia-spatial", None),
+    ("spherical-angle-as-joint", None),
+    ("spherical-assembly-count", None),
+    ("spherical-axes-in-one-plane", None),
+    ("spherical-axis-zero", None),
+    ("spherical-damped", None),
+    ("spherical-coordinate-name", None),
+    ("spherical-not-passive", None),
     ("task-unknown-point", None),
     ("undefined-drive", None),
     ("undefined-joint", None),
@@ -233,7 +240,7 @@ fn unknown_value_of_a_fixed_set() {
             message: "unknown value `rotary`",
         },
     );
-    assert_eq!(hint(&d.0[0]), "expected `revolute` or `prismatic`");
+    assert_eq!(hint(&d.0[0]), "expected one of `revolute`, `prismatic`, `universal`, `spherical`");
 }
 
 #[test]
@@ -1010,6 +1017,117 @@ fn planar_closure_keys_in_a_spatial_model() {
             .any(|d| d.path == "closures[0].branch" && d.message == "a spatial closure has no `branch`"),
         "{d}"
     );
+}
+
+/// A spherical joint written as one entry: its rules, and the rules of its three revolute
+/// angles, reported at the entry as written (`axes[1]`, `coordinates[1]`), not at the expanded
+/// joints the loader makes of it.
+#[test]
+fn spherical_joint_axes_in_one_plane() {
+    let d = check(
+        "spherical-axes-in-one-plane",
+        None,
+        Expect {
+            context: "axes: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]]",
+            token: "[[1.0",
+            path: "joints[1].axes",
+            message: "the axes of spherical joint `ball` are in one plane: it would lose a rotation",
+        },
+    );
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn spherical_joint_zero_axis_is_reported_at_that_axis() {
+    let d = check(
+        "spherical-axis-zero",
+        None,
+        Expect {
+            context: "[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]",
+            token: "[0.0, 0.0, 0.0]",
+            path: "joints[1].axes[1]",
+            message: "must not be the zero vector",
+        },
+    );
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn spherical_joint_assembly_has_one_angle_per_axis() {
+    check(
+        "spherical-assembly-count",
+        None,
+        Expect {
+            context: "assembly: [0.0, -0.2527]\n",
+            token: "[0.0",
+            path: "joints[1].assembly",
+            message: "a spherical joint takes 3 assembly angles, one per axis, got 2",
+        },
+    );
+}
+
+#[test]
+fn spherical_joint_angle_names_are_checked_where_written() {
+    let d = check(
+        "spherical-coordinate-name",
+        None,
+        Expect {
+            context: "coordinates: [ball_x, Ball_y, ball_z]",
+            token: "Ball_y",
+            path: "joints[1].coordinates[1]",
+            message: "`Ball_y` is not a valid joint name",
+        },
+    );
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn spherical_joint_damped_is_reported_once_not_once_per_angle() {
+    let d = check(
+        "spherical-damped",
+        None,
+        Expect {
+            context: "damping: 1.0e-5\n    assembly",
+            token: "1.0e-5",
+            path: "joints[1].damping",
+            message: "spherical joint `ball` is passive: damping of passive joints is not supported",
+        },
+    );
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn spherical_joint_must_be_passive() {
+    let d = check(
+        "spherical-not-passive",
+        None,
+        Expect {
+            context: "  - name: ball\n",
+            token: "name: ball",
+            path: "joints[1]",
+            message: "spherical joint `ball` must be passive",
+        },
+    );
+    assert!(hint(&d.0[0]).starts_with("add `passive: true`"), "{d}");
+}
+
+#[test]
+fn a_body_names_the_spherical_joint_not_one_of_its_angles() {
+    let d = check(
+        "spherical-angle-as-joint",
+        None,
+        Expect {
+            context: "    joint: ball_2",
+            token: "ball_2",
+            path: "bodies[2].joint",
+            message: "`ball_2` is an angle of joint `ball`, not a joint",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "name the joint: `joint: ball`");
+    // The joint itself is then unused, reported once by its own name, not once per angle.
+    let unused: Vec<&str> =
+        d.0.iter().filter(|d| d.message.contains("moves no body")).map(|d| d.message.as_str()).collect();
+    assert_eq!(unused, ["spherical joint `ball` moves no body"], "{d}");
 }
 
 /// The spatial loops' mobility count and assembly, on the Falcon-like Delta with one change.

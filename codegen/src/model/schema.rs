@@ -158,7 +158,7 @@ pub struct Encoder {
     pub counts_per_turn: u32,
 }
 
-/// Kind of joint.
+/// Kind of a one-coordinate joint: what every joint of a resolved model is.
 #[derive(Clone, Copy, Debug, Deserialize, JsonSchema, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum JointKind {
@@ -168,6 +168,44 @@ pub enum JointKind {
     Prismatic,
 }
 
+/// Kind of joint as the file writes it: a one-coordinate joint, or a passive joint of two or
+/// three rotations that the loader expands into revolute joints joined by massless crosses.
+#[derive(Clone, Copy, Debug, Deserialize, JsonSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum JointType {
+    /// Rotation about `axis`; the coordinate is an angle in rad.
+    Revolute,
+    /// Translation along `axis`; the coordinate is a length in m.
+    Prismatic,
+    /// Two rotations about the two `axes` (a Hooke or Cardan joint); spatial models, passive.
+    Universal,
+    /// Three rotations about the three `axes` (a ball joint as three revolute joints, singular
+    /// where the first and third axes line up); spatial models, passive.
+    Spherical,
+}
+
+impl JointType {
+    /// The kind of a one-coordinate joint; `None` for a universal or spherical joint.
+    pub fn single(self) -> Option<JointKind> {
+        match self {
+            JointType::Revolute => Some(JointKind::Revolute),
+            JointType::Prismatic => Some(JointKind::Prismatic),
+            JointType::Universal | JointType::Spherical => None,
+        }
+    }
+}
+
+/// A passive joint's position in the assembly the file chooses: one number for a one-coordinate
+/// joint, a list with one per axis for a universal or spherical joint.
+#[derive(Clone, Debug, Deserialize, JsonSchema, PartialEq)]
+#[serde(untagged)]
+pub enum Assembly {
+    /// A revolute joint's angle (rad) or a prismatic joint's travel (m).
+    Single(f64),
+    /// A universal or spherical joint's angles about its axes, in order (rad).
+    PerAxis(Vec<f64>),
+}
+
 /// One joint: an actuated generalised coordinate with its drive, or a passive joint of a
 /// closed chain (`passive: true`, no drive), eliminated by a [`Closure`].
 #[derive(Clone, Debug, Deserialize, JsonSchema)]
@@ -175,9 +213,9 @@ pub enum JointKind {
 pub struct Joint {
     /// Name of the coordinate (used in generated code, e.g. `sin_q1`).
     pub name: String,
-    /// `revolute` or `prismatic`.
+    /// `revolute`, `prismatic`, or (passive, spatial models) `universal` or `spherical`.
     #[serde(rename = "type")]
-    pub kind: JointKind,
+    pub kind: JointType,
     /// What the coordinate measures.
     #[serde(default)]
     pub description: Option<String>,
@@ -185,6 +223,16 @@ pub struct Joint {
     /// `[0, 0, -1]` for revolute joints and a 2-vector for prismatic ones.
     #[serde(default)]
     pub axis: Option<Vec<f64>>,
+    /// Universal (two) and spherical (three) joints: the axes of their rotations, unit or not,
+    /// in the joint frame with every angle zero. Each axis turns with the rotations before it:
+    /// the first is fixed in the parent, the last in the child. A spherical joint's default is
+    /// x, y, z.
+    #[serde(default)]
+    pub axes: Option<Vec<Vec<f64>>>,
+    /// Universal and spherical joints: the names of their angles, one per axis, as they appear
+    /// in the generated code (default `NAME_1`, `NAME_2`, ...).
+    #[serde(default)]
+    pub coordinates: Option<Vec<String>>,
     /// Range of motion (required for actuated joints; optional, documentation only, for
     /// passive ones).
     #[serde(default)]
@@ -204,9 +252,10 @@ pub struct Joint {
     /// the assembly the file chooses,
     /// at the middle of the actuated joints' ranges, to within the loops' convergence basin.
     /// The elimination starts from it, so it picks the branch (assembly mode). Planar loops
-    /// choose theirs with the closure's `branch`.
+    /// choose theirs with the closure's `branch`. A universal or spherical joint takes a list,
+    /// one angle per axis.
     #[serde(default)]
-    pub assembly: Option<f64>,
+    pub assembly: Option<Assembly>,
 }
 
 /// A loop-closure constraint.

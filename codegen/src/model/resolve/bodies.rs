@@ -8,7 +8,7 @@ use crate::math::eigen::symmetric_eigenvalues_3x3;
 use crate::math::matrix::{mat3_mul, Numbers};
 use crate::math::rotation::{exact_sin_cos, rotation_rpy, rotation_x, rotation_z, snap};
 use crate::model::positions::Segment;
-use crate::model::schema::{DhConvention, Inertia, JointKind, ModelFile, Value};
+use crate::model::schema::{DhConvention, Inertia, JointType, ModelFile, Value};
 use crate::model::types::{FixedTransform, Motion, ResolvedBody, ResolvedFrame, ResolvedPoint, TaskSpec};
 use crate::sym::poly::Poly;
 use std::collections::HashMap;
@@ -275,7 +275,7 @@ pub(super) fn bodies(
                     continue;
                 };
                 joint_used[angle_joint] = true;
-                if file.joints[angle_joint].kind != JointKind::Revolute {
+                if file.joints[angle_joint].kind != JointType::Revolute {
                     r.error(&at(&["pose", "angle"]), format!("joint `{}` is not revolute", pose.angle));
                 }
                 depends_on.push(origin_body);
@@ -296,11 +296,15 @@ pub(super) fn bodies(
     let bodies_resolved = bodies.iter().all(Option::is_some) && !r.unresolved_joint_reference;
     for (j, used) in joint_used.iter().enumerate() {
         if bodies_resolved && !used && j < file.joints.len() && !r.duplicate_joints.contains(&j) {
-            r.error_hint(
-                &[key("joints"), Segment::Index(j), key("name")],
-                format!("joint `{}` moves no body", file.joints[j].name),
-                "name it as a body's `joint` or a direct pose's `angle`",
-            );
+            // A universal or spherical joint is reported once, by its name.
+            if !r.sources.is_later_angle(j) {
+                let label = r.sources.joint_label(j, &file.joints[j].name);
+                r.error_hint(
+                    &[key("joints"), Segment::Index(j), key("name")],
+                    format!("{label} moves no body"),
+                    "name it as a body's `joint` or a direct pose's `angle`",
+                );
+            }
         }
     }
 

@@ -3,7 +3,7 @@
 
 use super::{is_identifier, key, Resolver};
 use crate::model::positions::Segment;
-use crate::model::schema::{JointKind, ModelFile};
+use crate::model::schema::{Assembly, JointKind, ModelFile};
 use crate::model::types::{PassiveJoint, ResolvedJoint};
 use crate::sym::poly::Poly;
 
@@ -27,6 +27,8 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
         r.error(&[key("joints")], "a model needs at least one joint");
     }
     for (i, j) in file.joints.iter().enumerate() {
+        // Universal and spherical joints are revolute joints by now (`compound`).
+        let kind = j.kind.single().unwrap_or(JointKind::Revolute);
         let base = vec![key("joints"), Segment::Index(i)];
         let at = |k: &str| {
             let mut p = base.clone();
@@ -37,7 +39,7 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
             r.error_hint(
                 &at("name"),
                 format!("`{}` is not a valid joint name", j.name),
-                "use snake_case letters, digits and underscores, starting with a letter ",
+                "use snake_case letters, digits and underscores, starting with a letter",
             );
         }
         if let Some(first) = r.joint_index.get(&j.name) {
@@ -45,7 +47,7 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
             r.error_hint(
                 &at("name"),
                 format!("joint `{}` is defined twice", j.name),
-                format!("the first definition is `joints[{first}]`"),
+                format!("the first definition is `joints[{}]`", r.sources.joint_entry(*first)),
             );
         } else {
             r.joint_index.insert(j.name.clone(), i);
@@ -67,23 +69,24 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
             }
         };
         if j.passive {
+            let label = r.sources.joint_label(i, &j.name);
             if j.drive.is_some() {
                 r.error_hint(
                     &at("drive"),
-                    format!("joint `{}` is passive: it has no drive", j.name),
+                    format!("{label} is passive: it has no drive"),
                     "remove `drive`, or `passive: true` if a motor turns the joint",
                 );
             }
             if j.damping.is_some() {
                 r.error_hint(
                     &at("damping"),
-                    format!("joint `{}` is passive: damping of passive joints is not supported", j.name),
+                    format!("{label} is passive: damping of passive joints is not supported"),
                     "model the friction at the actuated joints",
                 );
             }
             // A planar closure's closed form intersects two circles: its passive joints turn.
             // Spatial loops are solved numerically over any coordinate.
-            if planar && j.kind != JointKind::Revolute {
+            if planar && kind != JointKind::Revolute {
                 r.error_hint(
                     &at("type"),
                     format!("passive joint `{}` of a planar loop must be revolute", j.name),
@@ -104,9 +107,13 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
                 "the elimination starts from the middle of the actuated joints' ranges",
             );
         }
-        let assembly = j.assembly.unwrap_or(0.0);
+        let assembly = match j.assembly {
+            Some(Assembly::Single(value)) => value,
+            // A list on a one-coordinate joint is refused by `compound`.
+            Some(Assembly::PerAxis(_)) | None => 0.0,
+        };
         if !assembly.is_finite() {
-            let what = if j.kind == JointKind::Prismatic { "a finite travel" } else { "a finite angle" };
+            let what = if kind == JointKind::Prismatic { "a finite travel" } else { "a finite angle" };
             r.error(&at("assembly"), format!("must be {what}"));
         }
         let damping = match &j.damping {
@@ -144,12 +151,12 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
                 }
             },
         };
-        let axis = match (&j.axis, planar, j.kind) {
+        let axis = match (&j.axis, planar, kind) {
             (None, true, JointKind::Revolute) => [0.0, 0.0, 1.0],
             (None, true, JointKind::Prismatic) => [1.0, 0.0, 0.0],
             (None, false, _) => [0.0, 0.0, 1.0],
             (Some(a), _, _) => {
-                let full: Option<[f64; 3]> = match (a.len(), planar, j.kind) {
+                let full: Option<[f64; 3]> = match (a.len(), planar, kind) {
                     (3, _, _) => Some([a[0], a[1], a[2]]),
                     (2, true, JointKind::Prismatic) => Some([a[0], a[1], 0.0]),
                     _ => None,
@@ -166,14 +173,14 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
                             [0.0, 0.0, 1.0]
                         } else {
                             let u = [v[0] / norm, v[1] / norm, v[2] / norm];
-                            if planar && j.kind == JointKind::Revolute && (u[0] != 0.0 || u[1] != 0.0) {
+                            if planar && kind == JointKind::Revolute && (u[0] != 0.0 || u[1] != 0.0) {
                                 r.error_hint(
                                     &at("axis"),
                                     "a planar revolute joint turns about z",
                                     "use [0, 0, 1] or [0, 0, -1]",
                                 );
                             }
-                            if planar && j.kind == JointKind::Prismatic && u[2] != 0.0 {
+                            if planar && kind == JointKind::Prismatic && u[2] != 0.0 {
                                 r.error(&at("axis"), "a planar prismatic joint slides in the x–y plane");
                             }
                             u
@@ -186,7 +193,7 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
             passive.push(PassiveJoint {
                 name: j.name.clone(),
                 description: j.description.clone(),
-                kind: j.kind,
+                kind,
                 axis,
                 assembly,
             });
@@ -194,7 +201,7 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
         };
         joints.push(ResolvedJoint {
             name: j.name.clone(),
-            kind: j.kind,
+            kind,
             description: j.description.clone(),
             axis,
             lower,

@@ -9,6 +9,7 @@ use std::collections::HashMap;
 
 mod bodies;
 mod closures;
+mod compound;
 mod drives;
 mod joints;
 mod parameters;
@@ -44,17 +45,29 @@ struct Resolver<'a, 'b> {
     duplicate_joints: Vec<usize>,
     /// File index of each body by name.
     body_index: HashMap<String, usize>,
+    /// Where the expanded file's joints and bodies were written (universal and spherical
+    /// joints are expanded before everything else).
+    sources: compound::Sources,
 }
 
 impl Resolver<'_, '_> {
     fn error(&mut self, path: &[Segment], message: impl Into<String>) {
-        let d = self.locator.at(path, message);
-        self.errors.push(d);
+        let d = self.locator.at(&self.sources.original(path), message);
+        self.push(d);
     }
 
     fn error_hint(&mut self, path: &[Segment], message: impl Into<String>, hint: impl Into<String>) {
-        let d = self.locator.at(path, message).with_hint(hint);
-        self.errors.push(d);
+        let d = self.locator.at(&self.sources.original(path), message).with_hint(hint);
+        self.push(d);
+    }
+
+    /// Records a diagnostic, once per place: the angles of one universal or spherical joint
+    /// share its entry, and a rule broken by the entry is broken by each of them.
+    fn push(&mut self, d: Diagnostic) {
+        let repeated = self.errors.iter().any(|e| e.path == d.path && e.hint == d.hint && e.line == d.line);
+        if !repeated {
+            self.errors.push(d);
+        }
     }
 
     /// A value as a polynomial, and its nominal number.
@@ -203,8 +216,11 @@ pub(crate) fn resolve(
         joint_index: HashMap::new(),
         duplicate_joints: Vec::new(),
         body_index: HashMap::new(),
+        sources: compound::Sources::default(),
     };
     let (planar, dim) = (r.planar, r.dim);
+    let (file, sources) = compound::expand(&mut r, file);
+    r.sources = sources;
 
     if !is_identifier(&file.name) {
         r.error_hint(
