@@ -206,6 +206,9 @@ enum ScenarioArg {
     Singularity,
     /// No operator force: free-space drift.
     FreeDrift,
+    /// Press into a solid wall across the last task axis, 2 cm below the start (any task;
+    /// rendered by the god object).
+    Wall,
 }
 
 #[derive(clap::Args)]
@@ -558,6 +561,7 @@ fn configure(args: &SimulateArgs) -> Result<Configured, String> {
         ScenarioArg::TraceSquare => Scenario::TraceSquare,
         ScenarioArg::Singularity => Scenario::Singularity,
         ScenarioArg::FreeDrift => Scenario::FreeDrift,
+        ScenarioArg::Wall => Scenario::Wall,
     };
     let rendering = sim.model.rendering.as_ref();
     let (kd, bd) = match scenario {
@@ -620,7 +624,7 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     hapticgen_host::output::write_csv(&trace, &args.output.join("trace.csv"))?;
     let figures = paper::trace_figures(&trace, &args.output)?;
     println!(
-        "{}: {:.2} s simulated in {:.2} s ({:.0}× real time), controller on {}; wrote {} and {} figures",
+        "{}: {:.2} s simulated in {:.2} s ({:.2}× real time), controller on {}; wrote {} and {} figures",
         args.model.display(),
         trace.duration(),
         trace.wall_seconds,

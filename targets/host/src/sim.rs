@@ -25,8 +25,10 @@ use hapticgen_runtime::control::{
 use hapticgen_runtime::current_loop::CurrentLoopGains;
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::linalg;
-use hapticgen_runtime::render::{Scene, VirtualObject};
+use hapticgen_runtime::proxy::GodObject;
+use hapticgen_runtime::render::{ObjectKind, Scene, VirtualObject};
 use hapticgen_runtime::schedule::Scheduler;
+use hapticgen_runtime::shape::{Material, Object, Shape};
 use hapticgen_runtime::tick::{HapticLoop, HapticLoopSettings, ImpedanceInputs, ReferenceSource};
 use hapticgen_runtime::RigModel;
 use rand::rngs::SmallRng;
@@ -127,7 +129,8 @@ impl Operator {
     }
 }
 
-/// The impedance law's reference: a fixed `x_d`, or a haptic scene (section 4; 2-D tasks).
+/// The impedance law's reference: a fixed `x_d`, a haptic scene (section 4; 2-D tasks), or a
+/// wall rendered by the runtime's god object (any task dimension).
 #[derive(Clone, Debug)]
 pub enum Reference {
     /// `x_d` at rest; `None` = the device's initial task position.
@@ -142,6 +145,18 @@ pub enum Reference {
         free_damping: f64,
         /// Grid spacing, m (0 = pure collocation).
         grid_spacing: f64,
+    },
+    /// A solid half-space, the side of `point` that `normal` points away from, rendered by
+    /// [`GodObject`] (a point proxy that never enters it); free space with the law's gains.
+    Wall {
+        /// A point of the wall's plane, task coordinates.
+        point: Vec<f64>,
+        /// The plane's outward normal (towards free space).
+        normal: Vec<f64>,
+        /// Surface stiffness, N/m.
+        stiffness: f64,
+        /// Surface damping, N·s/m.
+        damping: f64,
     },
 }
 
@@ -294,6 +309,7 @@ impl Trace {
 pub struct SimSource<const M: usize> {
     fixed: Option<TaskReference<f64, M>>,
     scene: Option<Box<Scene<f64, SCENE_OBJECTS, SCENE_VERTICES>>>,
+    god_object: Option<Box<GodObject<'static, f64, 1, M>>>,
     /// The last reference position (proxy).
     pub last: [f64; M],
 }
@@ -304,6 +320,11 @@ impl<const M: usize> ReferenceSource<f64, M> for SimSource<M> {
         task_position: &[f64; M],
         parameters: &mut ImpedanceParameters<f64, M>,
     ) -> TaskReference<f64, M> {
+        if let Some(god_object) = &mut self.god_object {
+            let reference = god_object.update_reference(task_position, parameters);
+            self.last = reference.position;
+            return reference;
+        }
         let reference = match (&mut self.scene, self.fixed) {
             (Some(scene), _) => {
                 let hip = [task_position[0], task_position.get(1).copied().unwrap_or(0.0)];
@@ -429,7 +450,7 @@ where
 impl<const M: usize> SimSource<M> {
     /// The fixed reference position, if the reference is not a scene.
     pub fn fixed_position(&self) -> Option<[f64; M]> {
-        if self.scene.is_some() {
+        if self.scene.is_some() || self.god_object.is_some() {
             return None;
         }
         Some(self.fixed.map_or(self.last, |r| r.position))
@@ -500,7 +521,12 @@ where
                 Some(p) => array::<M>(p, "the reference position")?,
                 None => start.position,
             };
-            SimSource { fixed: Some(TaskReference::at_rest(position)), scene: None, last: position }
+            SimSource {
+                fixed: Some(TaskReference::at_rest(position)),
+                scene: None,
+                god_object: None,
+                last: position,
+            }
         }
         Reference::Scene { objects, free_stiffness, free_damping, grid_spacing } => {
             if M != 2 {
@@ -512,7 +538,24 @@ where
             for object in objects {
                 scene.add(*object).ok_or_else(|| "error: too many virtual objects".to_string())?;
             }
-            SimSource { fixed: None, scene: Some(scene), last: start.position }
+            SimSource { fixed: None, scene: Some(scene), god_object: None, last: start.position }
+        }
+        Reference::Wall { point, normal, stiffness, damping } => {
+            let plane = Shape::half_space(
+                array::<M>(point, "the wall's point")?,
+                array::<M>(normal, "the wall's normal")?,
+            )
+            .ok_or_else(|| "error: the wall's normal must be a finite, non-zero vector".to_string())?;
+            // A point proxy (radius 0) with a 1 µm contact tolerance (see `GodObject::new`).
+            let mut god_object = Box::new(GodObject::new(cfg.stiffness, cfg.damping, 0.0, 1e-6));
+            god_object
+                .add(Object {
+                    shape: plane,
+                    kind: ObjectKind::Solid,
+                    material: Material::frictionless(*stiffness, *damping),
+                })
+                .ok_or_else(|| "error: the wall does not fit the scene".to_string())?;
+            SimSource { fixed: None, scene: None, god_object: Some(god_object), last: start.position }
         }
     };
     let sensors: [SensorSpec; M] = std::array::from_fn(|k| {

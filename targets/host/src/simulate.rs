@@ -65,6 +65,9 @@ pub enum Scenario {
     Singularity,
     /// No operator force; free space with the anti-drift grid (section 4).
     FreeDrift,
+    /// A hand pressing the task point into a solid wall across the last task axis, rendered
+    /// by the runtime's god object (any task dimension: a floor under a spatial device).
+    Wall,
 }
 
 impl Scenario {
@@ -76,6 +79,7 @@ impl Scenario {
             "trace-square" => Scenario::TraceSquare,
             "singularity" => Scenario::Singularity,
             "free-drift" => Scenario::FreeDrift,
+            "wall" => Scenario::Wall,
             _ => return None,
         })
     }
@@ -175,6 +179,11 @@ impl RigVisitor for PilVisitor<'_> {
             |_, source, settings| {
                 let scene = match &self.cfg.reference {
                     Reference::Fixed(_) => None,
+                    Reference::Wall { .. } => {
+                        return Err("error: the wall scenario renders with the host's god object, which the \
+                                    firmware images do not run yet; run it without --pil"
+                            .to_string())
+                    }
                     Reference::Scene { objects, free_stiffness, free_damping, grid_spacing } => {
                         Some(PilScene {
                             objects: objects.iter().map(scene_object).collect::<Result<_, _>>()?,
@@ -494,6 +503,29 @@ impl Simulation {
                 let keys = vec![(0.0, x0.clone()), (0.3, x0.clone()), (2.3, beyond)];
                 cfg.operator = Operator::Hand { stiffness: hand_k, damping: hand_b, path: HandPath { keys } };
                 cfg.reference = Reference::Fixed(None);
+            }
+            Scenario::Wall => {
+                // The wall's surface `shape_size` beyond the start along −e_last, its solid side
+                // beyond; the hand rests, presses to `push_depth` inside the wall in 1 s, holds
+                // it for 2 s while the device settles, and lets go.
+                let last = m - 1;
+                let mut normal = vec![0.0; m];
+                normal[last] = 1.0;
+                let mut point = x0.clone();
+                point[last] -= settings.shape_size;
+                let mut pressed = point.clone();
+                pressed[last] -= settings.push_depth;
+                let keys = vec![
+                    (0.0, x0.clone()),
+                    (0.3, x0.clone()),
+                    (1.3, pressed.clone()),
+                    (3.3, pressed),
+                    (4.3, x0),
+                ];
+                cfg.operator = Operator::Hand { stiffness: hand_k, damping: hand_b, path: HandPath { keys } };
+                cfg.reference =
+                    Reference::Wall { point, normal, stiffness: cfg.stiffness, damping: cfg.damping };
+                cfg.duration = cfg.duration.max(4.8);
             }
             Scenario::FreeDrift => {
                 cfg.operator = Operator::Free;

@@ -321,3 +321,56 @@ fn a_spatial_closed_chain_checks_evaluates_generates_and_simulates() {
     let x = last[header.iter().position(|&h| h == "x0").expect("x0")];
     assert!((x - 1.0 / 200.0).abs() < 1e-4, "x = {x}");
 }
+
+/// The Delta touches a floor: `simulate --scenario wall` puts a solid half-space 2 cm below the
+/// grip, rendered by the runtime's god object, and a hand (200 N/m) presses 1 cm into it. The
+/// proxy never enters the floor, and while the hand holds still the grip sinks until the wall's
+/// spring balances the hand's, `K_w d = k_h (1 cm − d)`, with no sideways drift.
+#[test]
+fn a_spatial_device_presses_into_a_god_object_wall() {
+    let output = scratch("delta-wall");
+    let output_text = output.to_string_lossy().into_owned();
+    let run = hapticgen(&[
+        "simulate",
+        "models/falcon_delta.yaml",
+        "--controller",
+        "3",
+        "--scenario",
+        "wall",
+        "--kd",
+        "1500",
+        "--bd",
+        "5",
+        "--without",
+        "encoder,sensor,friction,backlash",
+        "--output",
+        &output_text,
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(!stderr.contains("latched"), "{stderr}");
+    let trace = std::fs::read_to_string(output.join("trace.csv")).expect("a trace");
+    let header: Vec<&str> = trace.lines().next().expect("a header").split(',').collect();
+    let column = |name: &str| header.iter().position(|&h| h == name).unwrap_or_else(|| panic!("{name}"));
+    let (t, x, y, z, proxy_z) = (column("t"), column("x0"), column("x1"), column("x2"), column("xp2"));
+    let rows: Vec<Vec<f64>> = trace
+        .lines()
+        .skip(1)
+        .map(|line| line.split(',').map(|v| v.parse().expect("a number")).collect())
+        .collect();
+    let wall = rows[0][z] - 0.02;
+    let deepest_proxy = rows.iter().map(|r| r[proxy_z] - wall).fold(f64::INFINITY, f64::min);
+    assert!(deepest_proxy >= 0.0, "the proxy entered the wall by {:e} m", -deepest_proxy);
+    let held: Vec<&Vec<f64>> = rows.iter().filter(|r| (2.3..3.3).contains(&r[t])).collect();
+    assert!(held.len() > 100, "{} rows while the hand holds", held.len());
+    let expected_depth = 200.0 * 0.01 / (1500.0 + 200.0);
+    for row in held {
+        let depth = wall - row[z];
+        assert!(
+            (depth - expected_depth).abs() < 0.03 * expected_depth,
+            "depth {depth:e} m at t = {}, expected {expected_depth:e} m",
+            row[t]
+        );
+        assert!(row[x].abs() < 1e-6 && row[y].abs() < 1e-6, "sideways drift at t = {}: {row:?}", row[t]);
+    }
+}
