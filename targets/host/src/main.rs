@@ -351,13 +351,18 @@ fn run(cli: Cli) -> Result<(), String> {
                 }
                 None => String::new(),
             };
+            // Massless bodies are the crosses of universal and spherical joints (the loader
+            // adds them for a joint written as one entry).
+            let massless = m.bodies.iter().filter(|b| b.mass.is_zero()).count();
             println!(
-                "{}: ok: rig `{}`{}, {} joints{passive}, {} bodies, task dimension {}",
+                "{}: ok: rig `{}`{}, {} joint{}{passive}, {} bodies{}, task dimension {}",
                 model.display(),
                 m.name,
                 m.variant.as_ref().map(|v| format!(" (variant {v})")).unwrap_or_default(),
                 m.joints.len(),
+                if m.joints.len() == 1 { "" } else { "s" },
                 m.bodies.len(),
+                if massless > 0 { format!(" ({massless} of them massless crosses)") } else { String::new() },
                 m.task_dim()
             );
             Ok(())
