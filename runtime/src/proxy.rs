@@ -466,6 +466,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         limit: S,
     ) -> Option<(S, [S; M])> {
         let margin = self.radius + self.skin;
+        let half_skin = self.skin * S::from_f64(0.5);
         let solid = object.kind == ObjectKind::Solid;
         match object.shape {
             Shape::Mesh(_) | Shape::MeshAt { .. } => {
@@ -491,7 +492,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                         // surface met at a grazing angle in many).
                         let step = match unit(&offset) {
                             Some(n) if gap > S::ZERO => {
-                                if convex_step(gap, dot(d, &n), bound) >= bound {
+                                if convex_step(gap, dot(d, &n), bound, half_skin) >= bound {
                                     None
                                 } else {
                                     triangle_entry(y, d, bound, margin, [&a, &b, &c])
@@ -543,7 +544,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             Shape::HalfSpace { point, normal } => {
                 let n = if solid { normal } else { negate(&normal) };
                 let gap = dot(&n, &sub(y, &point)) - margin;
-                Some((convex_step(gap, dot(d, &n), limit), n))
+                Some((convex_step(gap, dot(d, &n), limit, half_skin), n))
             }
             Shape::Polytope { planes } if solid => {
                 // Free while outside any one plane: the longest step any plane allows. A plane
@@ -554,7 +555,8 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 for plane in planes {
                     let gap = dot(&plane.normal, y) - plane.offset - margin;
                     let rate = dot(d, &plane.normal);
-                    let step = if gap > -self.skin { convex_step(gap, rate, limit) } else { S::ZERO };
+                    let step =
+                        if gap > -self.skin { convex_step(gap, rate, limit, half_skin) } else { S::ZERO };
                     if best.map_or(true, |(b, _)| step > b) {
                         best = Some((step, plane.normal));
                     }
@@ -567,7 +569,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 for plane in planes {
                     let n = negate(&plane.normal);
                     let gap = dot(&n, y) + plane.offset - margin;
-                    let step = convex_step(gap, dot(d, &n), limit);
+                    let step = convex_step(gap, dot(d, &n), limit, half_skin);
                     if best.map_or(true, |(b, _)| step < b) {
                         best = Some((step, n));
                     }
@@ -582,7 +584,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 } else {
                     (norm(&offset), unit(&offset).unwrap_or(closest.normal))
                 };
-                Some((convex_step(distance - margin, dot(d, &normal), limit), normal))
+                Some((convex_step(distance - margin, dot(d, &normal), limit, half_skin), normal))
             }
             _ => {
                 // A curved cavity: the exit from its (convex) inner parallel body.
@@ -621,16 +623,24 @@ fn negate<S: Real, const M: usize>(v: &[S; M]) -> [S; M] {
     out
 }
 
+/// `|d · n|` at most this is a grazing sweep (within 0.06° of the surface's tangent plane).
+const GRAZING: f64 = 1e-3;
+
 /// The step along a direction with rate `rate = d · n` towards a convex obstacle whose
 /// supporting plane is `gap` away along `−n`: unlimited when moving away (`rate ≥ 0`), else
-/// `gap / −rate`; 0 when already within the margin.
-fn convex_step<S: Real>(gap: S, rate: S, limit: S) -> S {
+/// `gap / −rate`; 0 when already within the margin. A grazing sweep may go on into the outer
+/// half of the skin (down to `gap = −skin/2`): a proxy resting on a surface (gap 0) slides
+/// along it towards a goal projected onto its tangent plane, whose direction rounding leaves
+/// a few ulps below the plane as often as above it (read as approaching, it could not move).
+fn convex_step<S: Real>(gap: S, rate: S, limit: S, half_skin: S) -> S {
     if rate >= S::ZERO {
-        limit
-    } else if gap <= S::ZERO {
+        return limit;
+    }
+    let allowance = if rate >= -S::from_f64(GRAZING) { gap + half_skin } else { gap };
+    if allowance <= S::ZERO {
         S::ZERO
     } else {
-        (gap / -rate).min(limit)
+        (allowance / -rate).min(limit)
     }
 }
 

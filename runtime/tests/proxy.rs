@@ -1489,3 +1489,52 @@ fn a_non_finite_first_hip_starts_no_proxy() {
     assert!(out.valid);
     assert_eq!((out.proxy, out.stiffness, out.damping, out.contact), ([0.2, 0.1, 0.0], 300.0, 2.0, None));
 }
+
+/// Frictionless sliding on the flat face of a solid box, a cylinder's cap and a capsule's
+/// side: the HIP pressed 1 mm in and moved 4 mm along the surface in 0.2 mm steps. The proxy
+/// must follow it to its projection on the surface, never entering the solid. (Before the
+/// grazing allowance of `convex_step`, rounding put the sweep along the face a few ulps below
+/// its tangent plane, read as approaching, and the proxy stayed where it first touched.)
+#[test]
+fn on_flat_faces_and_a_capsule_the_frictionless_proxy_slides_to_the_hips_projection() {
+    let x_axis_box = Shape::Box {
+        center: [0.0, 0.0, -0.01],
+        axes: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        half_extents: [0.02, 0.02, 0.01],
+    };
+    let upright_cylinder = Shape::Cylinder { a: [0.0, 0.0, -0.02], b: [0.0, 0.0, 0.0], radius: 0.03 };
+    let lying_capsule = Shape::Capsule { a: [0.0, -0.03, -0.01], b: [0.0, 0.03, -0.01], radius: 0.01 };
+    for (name, shape) in [("box", x_axis_box), ("cylinder cap", upright_cylinder), ("capsule", lying_capsule)]
+    {
+        for x in [0.0, 0.002, 0.0037] {
+            let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, 0.0, 1e-6);
+            scene
+                .add(Object { shape, kind: ObjectKind::Solid, material: Material::frictionless(1000.0, 0.0) })
+                .expect("one slot");
+            // Approach from above, then press 1 mm in.
+            for k in 0..=50 {
+                scene.render(&[x, -0.01, 0.005 - 0.006 * f64::from(k) / 50.0]);
+            }
+            for k in 1..=20 {
+                let y = -0.01 + 0.0002 * f64::from(k);
+                let proxy = scene.render(&[x, y, -0.001]).proxy;
+                let on_surface = shape.closest(&proxy).expect("a closest point");
+                assert!(!on_surface.inside, "{name}: the proxy entered the solid at {proxy:?}");
+                // The HIP's projection, a skin outside: straight up onto the flat faces (exact),
+                // radially out from the capsule's axis (within the skin: on a curved surface the
+                // proxy reaches it by tangent-plane steps in a bounded number of passes).
+                let (expected, tolerance) = match shape {
+                    Shape::Capsule { .. } => {
+                        let axis_point = [0.0, y, -0.01];
+                        (add(axis_point, scale(unit(sub([x, y, -0.001], axis_point)), 0.01 + 1e-6)), 1e-6)
+                    }
+                    _ => ([x, y, 1e-6], 1e-9),
+                };
+                assert!(
+                    norm(sub(proxy, expected)) < tolerance,
+                    "{name} at x = {x}: the proxy {proxy:?}, the HIP's projection {expected:?}"
+                );
+            }
+        }
+    }
+}

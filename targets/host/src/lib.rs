@@ -10,6 +10,8 @@
 #![deny(missing_docs)]
 
 pub mod analysis;
+pub mod contact;
+pub mod contact_report;
 pub mod faults;
 pub mod generated;
 pub mod output;
@@ -17,8 +19,10 @@ pub mod paper;
 pub mod pil;
 pub mod plant;
 pub mod plot;
+pub mod report;
 pub mod rig;
 pub mod sim;
 pub mod simulate;
+pub mod solids;
 pub mod tape;
 pub mod zwidth;

@@ -13,6 +13,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand, ValueEnum};
 use hapticgen_codegen::check::stability;
 use hapticgen_codegen::{eval, model, Scalar};
+use hapticgen_host::contact::{Contact, ContactSetup};
 use hapticgen_host::paper;
 use hapticgen_host::plant::Effects;
 use hapticgen_host::simulate::{PilTarget, Scenario, ScenarioSettings, Simulation};
@@ -136,6 +137,36 @@ enum Command {
     /// simulated plant of `simulate`, lock-step over the board's UART (one exchange per
     /// current-loop period); writes DIR/trace.csv, plots and DIR/qemu.out (the image's report).
     Pil(PilArgs),
+    /// Run every contact scenario (a floor, sliding with and without friction, a ball, a box's
+    /// edges and corner, a thin plate, meshes) on a rig with a 3-D task, with the runtime's
+    /// god object rendering; writes each run's trace and figures and DIR/report.md with a
+    /// pass/fail row per check, and fails if a check fails.
+    Contact {
+        /// The model file (3 task coordinates).
+        model: PathBuf,
+        /// The variant.
+        #[arg(long)]
+        variant: Option<String>,
+        /// The impedance controller.
+        #[arg(long, value_enum, default_value = "jacobian-transpose")]
+        controller: ControllerArg,
+        /// The static and dynamic friction coefficients of the run with friction.
+        #[arg(long, value_delimiter = ',', default_value = "0.5,0.4")]
+        friction: Vec<f64>,
+        /// One more mesh run on this OBJ or STL file (metres), e.g. scenes/meshes/knob.obj.
+        #[arg(long)]
+        mesh: Option<PathBuf>,
+        /// How far the hand presses into a surface, m (at most 0.02).
+        #[arg(long, default_value_t = 0.01)]
+        push: f64,
+        /// Only these runs, comma-separated (wall, slide, slide-friction, sphere, box-edges,
+        /// thin-plate, mesh, and mesh-NAME for --mesh NAME.obj).
+        #[arg(long, value_delimiter = ',')]
+        only: Vec<String>,
+        /// Output directory.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
     /// Run every experiment of the paper's section 6; writes figures and DIR/report.md.
     Paper {
         /// Output directory.
@@ -206,9 +237,19 @@ enum ScenarioArg {
     Singularity,
     /// No operator force: free-space drift.
     FreeDrift,
-    /// Press into a solid wall across the last task axis, 2 cm below the start (any task;
-    /// rendered by the god object).
+    /// Press into a floor 2 cm below the start, across the last task axis (any task; the
+    /// contact scenarios render with the runtime's god object).
     Wall,
+    /// Press onto the floor and slide 3 cm along it (3-D tasks; see --friction).
+    Slide,
+    /// Trace a circle on a ball of radius 3 cm, pressed 1 cm in (3-D tasks).
+    Sphere,
+    /// Press in next to a box's edge and corner, then slide off over the corner (3-D tasks).
+    BoxEdges,
+    /// Push hard through a 1 mm plate: the proxy must not pop through (3-D tasks).
+    ThinPlate,
+    /// Press on a closed triangle mesh and circle on it (3-D tasks; see --mesh).
+    Mesh,
 }
 
 #[derive(clap::Args)]
@@ -264,6 +305,14 @@ struct SimulateArgs {
     /// Seed of the sensor noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Contact scenarios: the surfaces' static and dynamic friction coefficients,
+    /// `MU_S,MU_D` (0 ≤ MU_D ≤ MU_S; default frictionless).
+    #[arg(long, value_delimiter = ',')]
+    friction: Option<Vec<f64>>,
+    /// The mesh scenario's mesh, an OBJ or STL file in metres (default: a UV sphere of radius
+    /// 3 cm, 960 triangles).
+    #[arg(long)]
+    mesh: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -498,6 +547,25 @@ fn run(cli: Cli) -> Result<(), String> {
         }
         Command::Simulate(args) => simulate(args),
         Command::Pil(args) => pil(args),
+        Command::Contact { model, variant, controller, friction: coefficients, mesh, push, only, output } => {
+            let sim = Simulation::load(&model, variant.as_deref())?;
+            let run = hapticgen_host::contact_report::ContactRun {
+                law: law(controller),
+                friction: friction(Some(&coefficients))?,
+                mesh,
+                push,
+                only,
+            };
+            std::fs::create_dir_all(&output)
+                .map_err(|e| format!("error: cannot create {}: {e}", output.display()))?;
+            let (checks, summary) = hapticgen_host::contact_report::run_all(&sim, &run, &output)?;
+            if checks.iter().all(|c| c.pass) {
+                println!("{summary}");
+                Ok(())
+            } else {
+                Err(summary)
+            }
+        }
         Command::Paper { output, quick } => {
             let summary = paper::run_all(&output, quick, true)?;
             println!("{summary}");
@@ -544,6 +612,8 @@ struct Configured {
     cfg: hapticgen_host::sim::SimConfig,
     scenario: Scenario,
     singular_start: Option<f64>,
+    /// A contact scenario's placement, for its checks.
+    contact: Option<ContactSetup>,
 }
 
 fn configure(args: &SimulateArgs) -> Result<Configured, String> {
@@ -566,7 +636,12 @@ fn configure(args: &SimulateArgs) -> Result<Configured, String> {
         ScenarioArg::TraceSquare => Scenario::TraceSquare,
         ScenarioArg::Singularity => Scenario::Singularity,
         ScenarioArg::FreeDrift => Scenario::FreeDrift,
-        ScenarioArg::Wall => Scenario::Wall,
+        ScenarioArg::Wall => Scenario::Contact(Contact::Wall),
+        ScenarioArg::Slide => Scenario::Contact(Contact::Slide),
+        ScenarioArg::Sphere => Scenario::Contact(Contact::Sphere),
+        ScenarioArg::BoxEdges => Scenario::Contact(Contact::BoxEdges),
+        ScenarioArg::ThinPlate => Scenario::Contact(Contact::ThinPlate),
+        ScenarioArg::Mesh => Scenario::Contact(Contact::Mesh),
     };
     let rendering = sim.model.rendering.as_ref();
     let (kd, bd) = match scenario {
@@ -579,12 +654,7 @@ fn configure(args: &SimulateArgs) -> Result<Configured, String> {
         None => sim.home(),
     };
     let mut cfg = hapticgen_host::sim::SimConfig::new(start.clone());
-    cfg.law = match args.controller {
-        ControllerArg::One => ImpedanceLaw::ForceFeedback,
-        ControllerArg::TwoA => ImpedanceLaw::AccelerationFeedback,
-        ControllerArg::TwoB => ImpedanceLaw::NaturalInertia,
-        ControllerArg::Three => ImpedanceLaw::JacobianTranspose,
-    };
+    cfg.law = law(args.controller);
     cfg.stiffness = args.kd.unwrap_or(kd);
     cfg.damping = args.bd.unwrap_or(bd);
     cfg.mass = args.md.unwrap_or(0.01);
@@ -598,9 +668,11 @@ fn configure(args: &SimulateArgs) -> Result<Configured, String> {
     let settings = ScenarioSettings {
         grid_spacing: args.grid,
         start: Some(start.clone()),
+        friction: friction(args.friction.as_deref())?,
+        mesh: args.mesh.as_deref().map(hapticgen_host::contact::mesh_file).transpose()?,
         ..ScenarioSettings::default()
     };
-    sim.apply_scenario(scenario, &settings, &mut cfg)?;
+    let contact = sim.apply_scenario(scenario, &settings, &mut cfg)?;
     let largest_det = sim.largest_jacobian_determinant();
     let singularity = |q: &[f64]| largest_det.map(|largest| sim.task_at(q).1.abs() / largest);
     let singular_start = singularity(&start).filter(|&m| m < SINGULAR);
@@ -618,11 +690,37 @@ fn configure(args: &SimulateArgs) -> Result<Configured, String> {
     }
     std::fs::create_dir_all(&args.output)
         .map_err(|e| format!("error: cannot create {}: {e}", args.output.display()))?;
-    Ok(Configured { sim, cfg, scenario, singular_start })
+    Ok(Configured { sim, cfg, scenario, singular_start, contact })
+}
+
+/// The impedance law a `--controller` names.
+fn law(controller: ControllerArg) -> ImpedanceLaw {
+    match controller {
+        ControllerArg::One => ImpedanceLaw::ForceFeedback,
+        ControllerArg::TwoA => ImpedanceLaw::AccelerationFeedback,
+        ControllerArg::TwoB => ImpedanceLaw::NaturalInertia,
+        ControllerArg::Three => ImpedanceLaw::JacobianTranspose,
+    }
+}
+
+/// `--friction MU_S,MU_D` as the two coefficients (none given: frictionless).
+fn friction(values: Option<&[f64]>) -> Result<(f64, f64), String> {
+    match values {
+        None => Ok((0.0, 0.0)),
+        Some(&[static_friction, dynamic_friction])
+            if static_friction.is_finite() && (0.0..=static_friction).contains(&dynamic_friction) =>
+        {
+            Ok((static_friction, dynamic_friction))
+        }
+        Some(other) => Err(format!(
+            "error: --friction takes MU_S,MU_D with 0 ≤ MU_D ≤ MU_S, got {}",
+            other.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(",")
+        )),
+    }
 }
 
 fn simulate(args: SimulateArgs) -> Result<(), String> {
-    let Configured { sim, cfg, scenario, singular_start } = configure(&args)?;
+    let Configured { sim, cfg, scenario, singular_start, contact } = configure(&args)?;
     let largest_det = sim.largest_jacobian_determinant();
     let singularity = |q: &[f64]| largest_det.map(|largest| sim.task_at(q).1.abs() / largest);
     let trace = sim.run(&cfg)?;
@@ -641,6 +739,18 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     if let Some((t, fault)) = &trace.fault {
         println!("note: the safety monitor latched {fault} at t = {t:.3} s");
     }
+    if let Some(setup) = &contact {
+        // A contact scenario's checks: printed, and written next to the trace.
+        let checks = hapticgen_host::contact::checks(setup, &trace, setup.contact.name());
+        let table = hapticgen_host::report::table(&checks);
+        print!("{table}");
+        std::fs::write(args.output.join("checks.md"), &table)
+            .map_err(|e| format!("error: cannot write {}: {e}", args.output.join("checks.md").display()))?;
+        let failures = hapticgen_host::report::failures(&checks);
+        if !failures.is_empty() {
+            return Err(format!("{}error: {} contact check(s) failed", failures, failures.lines().count()));
+        }
+    }
     if scenario != Scenario::Singularity && singular_start.is_none() {
         if let Some((t, q)) = first_singular_sample(&sim, &trace, singularity) {
             eprintln!(
@@ -654,7 +764,7 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
 }
 
 fn pil(args: PilArgs) -> Result<(), String> {
-    let Configured { sim, cfg, scenario: _, singular_start: _ } = configure(&args.run)?;
+    let Configured { sim, cfg, scenario: _, singular_start: _, contact: _ } = configure(&args.run)?;
     let run = &args.run;
     // The variant applied: the one asked for, else the model's default.
     let name = hapticgen_host::pil::image_name(&run.model, sim.model.variant.as_deref())?;
@@ -835,7 +945,10 @@ fn compare_traces(
     reference: &hapticgen_host::sim::Trace,
     until: Option<f64>,
 ) -> Comparison {
-    let columns: Vec<String> = pil.columns.iter().skip(1).cloned().collect();
+    // Every column but time and the HIP (`xh*`), which the firmware does not report.
+    let compared: Vec<usize> =
+        (1..pil.columns.len()).filter(|&i| !pil.columns[i].starts_with("xh")).collect();
+    let columns: Vec<String> = compared.iter().map(|&i| pil.columns[i].clone()).collect();
     let mut largest: Vec<(String, (f64, f64))> = columns.iter().map(|c| (c.clone(), (0.0, 0.0))).collect();
     let mut rows = Vec::new();
     for (a, b) in pil.rows.iter().zip(&reference.rows) {
@@ -844,11 +957,12 @@ fn compare_traces(
             break;
         }
         let mut row = vec![t];
-        for (i, (x, y)) in a.iter().zip(b).enumerate().skip(1) {
+        for (slot, &i) in compared.iter().enumerate() {
+            let (x, y) = (a.get(i).copied().unwrap_or(f64::NAN), b.get(i).copied().unwrap_or(f64::NAN));
             let d = (x - y).abs();
             row.push(x - y);
-            if d > largest[i - 1].1 .0 {
-                largest[i - 1].1 = (d, t);
+            if d > largest[slot].1 .0 {
+                largest[slot].1 = (d, t);
             }
         }
         rows.push(row);

@@ -28,20 +28,7 @@ use crate::plot::{self, Chart, Series};
 use crate::sim::{SimConfig, Trace};
 use crate::simulate::{Scenario, ScenarioSettings, Simulation};
 
-/// One line of the report.
-#[derive(Clone, Debug)]
-pub struct Check {
-    /// Experiment (figure or section).
-    pub experiment: String,
-    /// What is checked.
-    pub criterion: String,
-    /// The expected value or bound.
-    pub expected: String,
-    /// The measured value.
-    pub measured: String,
-    /// Whether it passed.
-    pub pass: bool,
-}
+pub use crate::report::Check;
 
 /// The outcome of the experiments.
 #[derive(Clone, Debug, Default)]
@@ -980,23 +967,7 @@ pub fn run_experiments(out: &Path, durations: Durations) -> Result<Report, Strin
     .ok();
     let passed = report.checks.iter().filter(|c| c.pass).count();
     writeln!(text, "**{passed} of {} checks pass.**\n", report.checks.len()).ok();
-    writeln!(
-        text,
-        "| experiment | criterion | expected | measured | result |\n| --- | --- | --- | --- | --- |"
-    )
-    .ok();
-    for c in &report.checks {
-        writeln!(
-            text,
-            "| {} | {} | {} | {} | {} |",
-            c.experiment,
-            c.criterion,
-            c.expected,
-            c.measured,
-            if c.pass { "pass" } else { "**FAIL**" }
-        )
-        .ok();
-    }
+    text.push_str(&crate::report::table(&report.checks));
     writeln!(text).ok();
     for section in &report.sections {
         writeln!(text, "{section}").ok();
@@ -1011,14 +982,7 @@ pub fn run_all(out: &Path, quick: bool, _progress: bool) -> Result<String, Strin
     let report = run_experiments(out, if quick { Durations::QUICK } else { Durations::FULL })?;
     let passed = report.checks.iter().filter(|c| c.pass).count();
     let mut summary = String::new();
-    for c in report.checks.iter().filter(|c| !c.pass) {
-        writeln!(
-            summary,
-            "FAIL {}: {}: expected {}, measured {}",
-            c.experiment, c.criterion, c.expected, c.measured
-        )
-        .ok();
-    }
+    summary.push_str(&crate::report::failures(&report.checks));
     write!(
         summary,
         "{passed} of {} checks pass; {:.0} s simulated in {:.1} s; wrote {}",
@@ -1075,6 +1039,55 @@ pub fn trace_figures(trace: &Trace, out: &Path) -> Result<usize, String> {
                 equal_aspect: true,
             },
             &out.join("path"),
+        )?;
+        count += 1;
+    }
+    if trace.task_dim == 3 {
+        // Three orthogonal projections of the path, in millimetres.
+        for (a, b, file) in [(0, 1, "path_xy"), (0, 2, "path_xz"), (1, 2, "path_yz")] {
+            plot::save(
+                &Chart {
+                    title: format!("Task-space path, x{a}–x{b} projection"),
+                    x_label: format!("x{a} (mm)"),
+                    y_label: format!("x{b} (mm)"),
+                    series: vec![
+                        Series::marked(
+                            "device (HIP)",
+                            points(trace, &format!("x{a}"), &format!("x{b}"), 1e3, 1e3),
+                        ),
+                        Series::line(
+                            "proxy (IHIP)",
+                            points(trace, &format!("xp{a}"), &format!("xp{b}"), 1e3, 1e3),
+                        ),
+                    ],
+                    equal_aspect: true,
+                },
+                &out.join(file),
+            )?;
+            count += 1;
+        }
+    }
+    if trace.task_dim >= 2 && trace.column("xh0").is_some_and(|hip| hip.iter().all(|h| h.is_finite())) {
+        // The operator's force against the penetration |proxy − HIP| (the rendered spring's
+        // stretch): a line of slope K_d in contact, the hand's own dynamics around it.
+        let columns = |prefix: &str| -> Vec<Vec<f64>> {
+            (0..trace.task_dim).map(|k| column(trace, &format!("{prefix}{k}"))).collect()
+        };
+        let (proxy, hip, operator) = (columns("xp"), columns("xh"), columns("f"));
+        let length =
+            |entry: &dyn Fn(usize) -> f64| (0..trace.task_dim).map(|k| entry(k).powi(2)).sum::<f64>().sqrt();
+        let samples: Vec<(f64, f64)> = (0..trace.rows.len())
+            .map(|i| (1e3 * length(&|k| proxy[k][i] - hip[k][i]), length(&|k| operator[k][i])))
+            .collect();
+        plot::save(
+            &Chart {
+                title: "Operator force against penetration".into(),
+                x_label: "|proxy − HIP| (mm)".into(),
+                y_label: "|f| (N)".into(),
+                series: vec![Series::marked("samples", samples)],
+                equal_aspect: false,
+            },
+            &out.join("force_penetration"),
         )?;
         count += 1;
     }

@@ -514,6 +514,7 @@ impl<const N: usize, const M: usize> DeviceController<N, M> for Pil<N, M> {
                 current_setpoints: [0.0; N],
                 impedance: None,
                 reference: self.reference,
+                hip: [f64::NAN; M],
             });
         }
         self.tick = self.tick.wrapping_add(1);
@@ -570,6 +571,8 @@ impl<const N: usize, const M: usize> DeviceController<N, M> for Pil<N, M> {
             current_setpoints: widen(&answer.current_setpoint),
             impedance,
             reference: self.reference,
+            // The firmware does not send the task position it measured.
+            hip: [f64::NAN; M],
         })
     }
 }

@@ -26,9 +26,8 @@ use hapticgen_runtime::current_loop::CurrentLoopGains;
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::linalg;
 use hapticgen_runtime::proxy::GodObject;
-use hapticgen_runtime::render::{ObjectKind, Scene, VirtualObject};
+use hapticgen_runtime::render::{Scene, VirtualObject};
 use hapticgen_runtime::schedule::Scheduler;
-use hapticgen_runtime::shape::{Material, Object, Shape};
 use hapticgen_runtime::tick::{HapticLoop, HapticLoopSettings, ImpedanceInputs, ReferenceSource};
 use hapticgen_runtime::RigModel;
 use rand::rngs::SmallRng;
@@ -36,6 +35,7 @@ use rand::{Rng, SeedableRng};
 
 use crate::plant::{Effects, Plant};
 use crate::rig::{CompiledModel, SimRig};
+use crate::solids::Solid;
 
 /// Encoder resolution used when quantisation is switched off, counts per motor turn.
 pub const FINE_ENCODER_COUNTS: u32 = 1 << 22;
@@ -129,8 +129,8 @@ impl Operator {
     }
 }
 
-/// The impedance law's reference: a fixed `x_d`, a haptic scene (section 4; 2-D tasks), or a
-/// wall rendered by the runtime's god object (any task dimension).
+/// The impedance law's reference: a fixed `x_d`, a haptic scene (section 4; 2-D tasks), or
+/// solids rendered by the runtime's god object (any task dimension).
 #[derive(Clone, Debug)]
 pub enum Reference {
     /// `x_d` at rest; `None` = the device's initial task position.
@@ -146,19 +146,13 @@ pub enum Reference {
         /// Grid spacing, m (0 = pure collocation).
         grid_spacing: f64,
     },
-    /// A solid half-space, the side of `point` that `normal` points away from, rendered by
-    /// [`GodObject`] (a point proxy that never enters it); free space with the law's gains.
-    Wall {
-        /// A point of the wall's plane, task coordinates.
-        point: Vec<f64>,
-        /// The plane's outward normal (towards free space).
-        normal: Vec<f64>,
-        /// Surface stiffness, N/m.
-        stiffness: f64,
-        /// Surface damping, N·s/m.
-        damping: f64,
-    },
+    /// Solids rendered by [`GodObject`] (a point proxy that never enters them, with history);
+    /// free space with the law's gains.
+    Solids(Vec<Solid>),
 }
+
+/// The most solids a [`Reference::Solids`] scene holds.
+pub const MAX_SOLIDS: usize = 4;
 
 /// Everything one run needs besides the model.
 #[derive(Clone, Debug)]
@@ -265,7 +259,8 @@ pub struct Trace {
     pub joints: usize,
     /// Task dimension.
     pub task_dim: usize,
-    /// Column names: `t`, `q*`, `qd*`, `x*`, `u*`, `f*`, `xp*`.
+    /// Column names: `t`, `q*`, `qd*`, `x*`, `u*`, `f*`, `xp*` (the proxy), `xh*` (the HIP
+    /// the proxy was rendered for: the task position as the controller measured it).
     pub columns: Vec<String>,
     /// Rows of samples.
     pub rows: Vec<Vec<f64>>,
@@ -309,9 +304,12 @@ impl Trace {
 pub struct SimSource<const M: usize> {
     fixed: Option<TaskReference<f64, M>>,
     scene: Option<Box<Scene<f64, SCENE_OBJECTS, SCENE_VERTICES>>>,
-    god_object: Option<Box<GodObject<'static, f64, 1, M>>>,
+    god_object: Option<Box<GodObject<'static, f64, MAX_SOLIDS, M>>>,
     /// The last reference position (proxy).
     pub last: [f64; M],
+    /// The task position the last reference was rendered for (the HIP as the controller
+    /// measured it).
+    pub last_hip: [f64; M],
 }
 
 impl<const M: usize> ReferenceSource<f64, M> for SimSource<M> {
@@ -320,6 +318,7 @@ impl<const M: usize> ReferenceSource<f64, M> for SimSource<M> {
         task_position: &[f64; M],
         parameters: &mut ImpedanceParameters<f64, M>,
     ) -> TaskReference<f64, M> {
+        self.last_hip = *task_position;
         if let Some(god_object) = &mut self.god_object {
             let reference = god_object.update_reference(task_position, parameters);
             self.last = reference.position;
@@ -393,6 +392,9 @@ pub struct PeriodCommand<const N: usize, const M: usize> {
     pub impedance: Option<ImpedanceOutcome<N>>,
     /// The impedance law's reference position (the proxy) after this period.
     pub reference: [f64; M],
+    /// The task position that reference was rendered for (the HIP the controller measured);
+    /// NaN where the controller does not report it (the firmware under PIL).
+    pub hip: [f64; M],
 }
 
 /// The controller in the closed loop of [`run_with`]: the runtime's [`HapticLoop`] on the host
@@ -443,6 +445,7 @@ where
             current_setpoints: *haptic.current_setpoints(),
             impedance,
             reference: haptic.source.last,
+            hip: haptic.source.last_hip,
         })
     }
 }
@@ -526,6 +529,7 @@ where
                 scene: None,
                 god_object: None,
                 last: position,
+                last_hip: start.position,
             }
         }
         Reference::Scene { objects, free_stiffness, free_damping, grid_spacing } => {
@@ -538,24 +542,29 @@ where
             for object in objects {
                 scene.add(*object).ok_or_else(|| "error: too many virtual objects".to_string())?;
             }
-            SimSource { fixed: None, scene: Some(scene), god_object: None, last: start.position }
+            SimSource {
+                fixed: None,
+                scene: Some(scene),
+                god_object: None,
+                last: start.position,
+                last_hip: start.position,
+            }
         }
-        Reference::Wall { point, normal, stiffness, damping } => {
-            let plane = Shape::half_space(
-                array::<M>(point, "the wall's point")?,
-                array::<M>(normal, "the wall's normal")?,
-            )
-            .ok_or_else(|| "error: the wall's normal must be a finite, non-zero vector".to_string())?;
+        Reference::Solids(solids) => {
             // A point proxy (radius 0) with a 1 µm contact tolerance (see `GodObject::new`).
             let mut god_object = Box::new(GodObject::new(cfg.stiffness, cfg.damping, 0.0, 1e-6));
-            god_object
-                .add(Object {
-                    shape: plane,
-                    kind: ObjectKind::Solid,
-                    material: Material::frictionless(*stiffness, *damping),
-                })
-                .ok_or_else(|| "error: the wall does not fit the scene".to_string())?;
-            SimSource { fixed: None, scene: None, god_object: Some(god_object), last: start.position }
+            for solid in solids {
+                god_object.add(solid.object::<M>()?).ok_or_else(|| {
+                    format!("error: a scene holds at most {MAX_SOLIDS} solids, this one has {}", solids.len())
+                })?;
+            }
+            SimSource {
+                fixed: None,
+                scene: None,
+                god_object: Some(god_object),
+                last: start.position,
+                last_hip: start.position,
+            }
         }
     };
     let sensors: [SensorSpec; M] = std::array::from_fn(|k| {
@@ -596,6 +605,7 @@ where
         max_tick_gap: 1,
     };
     let mut reference = source.last;
+    let mut hip = source.last_hip;
     let mut controller = make(rig, source, &settings)?;
     let mut scheduler = Scheduler::new(data.current_loop_hz, data.impedance_loop_hz).ok_or_else(|| {
         format!(
@@ -611,7 +621,7 @@ where
 
     let mut trace = Trace { joints: N, task_dim: M, ..Trace::default() };
     trace.columns.push("t".into());
-    for (prefix, count) in [("q", N), ("qd", N), ("x", M), ("u", N), ("f", M), ("xp", M)] {
+    for (prefix, count) in [("q", N), ("qd", N), ("x", M), ("u", N), ("f", M), ("xp", M), ("xh", M)] {
         trace.columns.extend((0..count).map(|k| format!("{prefix}{k}")));
     }
     let mut torque = [0.0; N];
@@ -633,6 +643,7 @@ where
             row.extend_from_slice(&torque);
             row.extend_from_slice(&force);
             row.extend_from_slice(&reference);
+            row.extend_from_slice(&hip);
             trace.rows.push(row);
         }
         if k == total {
@@ -676,6 +687,7 @@ where
             }
         }
         reference = command.reference;
+        hip = command.hip;
         let external = linalg::transpose_mul_vec(&task.jacobian, &force);
         for _ in 0..substeps {
             plant.step(dt / substeps as f64, &command.volts, &command.current_setpoints, &external);

@@ -12,11 +12,13 @@ use std::sync::Arc;
 use hapticgen_codegen::check::current_loop::{
     design_current_loop, CurrentLoopDesign, CurrentLoopDesignInput,
 };
+use hapticgen_codegen::mesh::TriangleMesh;
 use hapticgen_codegen::CheckedModel;
 use hapticgen_runtime::current_loop::CurrentLoopGains;
 use hapticgen_runtime::render::{ObjectKind, Shape, VirtualObject};
 use hapticgen_runtime::RigModel;
 
+use crate::contact::{Contact, ContactSettings, ContactSetup};
 use crate::generated::{self, RigVisitor};
 use crate::pil::{Pil, PilReport, PilScene};
 use crate::rig::{CompiledModel, TapeRig};
@@ -65,9 +67,9 @@ pub enum Scenario {
     Singularity,
     /// No operator force; free space with the anti-drift grid (section 4).
     FreeDrift,
-    /// A hand pressing the task point into a solid wall across the last task axis, rendered
-    /// by the runtime's god object (any task dimension: a floor under a spatial device).
-    Wall,
+    /// A hand pressing the task point onto solids rendered by the runtime's god object
+    /// ([`crate::contact`]; the wall in any task dimension, the others in 3-D).
+    Contact(Contact),
 }
 
 impl Scenario {
@@ -79,7 +81,12 @@ impl Scenario {
             "trace-square" => Scenario::TraceSquare,
             "singularity" => Scenario::Singularity,
             "free-drift" => Scenario::FreeDrift,
-            "wall" => Scenario::Wall,
+            "wall" => Scenario::Contact(Contact::Wall),
+            "slide" => Scenario::Contact(Contact::Slide),
+            "sphere" => Scenario::Contact(Contact::Sphere),
+            "box-edges" => Scenario::Contact(Contact::BoxEdges),
+            "thin-plate" => Scenario::Contact(Contact::ThinPlate),
+            "mesh" => Scenario::Contact(Contact::Mesh),
             _ => return None,
         })
     }
@@ -109,6 +116,10 @@ pub struct ScenarioSettings {
     /// Joint configuration the scenario starts at (`None`: [`Simulation::home`], the middle
     /// of every joint's limits).
     pub start: Option<Vec<f64>>,
+    /// Contact scenarios: static and dynamic friction coefficients of every surface.
+    pub friction: (f64, f64),
+    /// The `mesh` scenario's mesh (`None`: a UV sphere of radius 3 cm).
+    pub mesh: Option<Arc<TriangleMesh>>,
 }
 
 impl Default for ScenarioSettings {
@@ -123,6 +134,8 @@ impl Default for ScenarioSettings {
             singular_target: None,
             singular_overshoot: 0.3,
             start: None,
+            friction: (0.0, 0.0),
+            mesh: None,
         }
     }
 }
@@ -179,10 +192,12 @@ impl RigVisitor for PilVisitor<'_> {
             |_, source, settings| {
                 let scene = match &self.cfg.reference {
                     Reference::Fixed(_) => None,
-                    Reference::Wall { .. } => {
-                        return Err("error: the wall scenario renders with the host's god object, which the \
-                                    firmware images do not run yet; run it without --pil"
-                            .to_string())
+                    Reference::Solids(_) => {
+                        return Err(
+                            "error: the contact scenarios render with the host's god object, which the \
+                                    firmware images do not run yet; run them without --pil"
+                                .to_string(),
+                        )
                     }
                     Reference::Scene { objects, free_stiffness, free_damping, grid_spacing } => {
                         Some(PilScene {
@@ -402,13 +417,14 @@ impl Simulation {
         dispatch!((1, 1), (1, 2), (1, 3), (2, 1), (2, 2), (2, 3), (3, 1), (3, 2), (3, 3))
     }
 
-    /// Fills `cfg`'s operator, reference and start for `scenario` (keeps `K_d`, `B_d`, `M_d`).
+    /// Fills `cfg`'s operator, reference and start for `scenario` (keeps `K_d`, `B_d`, `M_d`);
+    /// a contact scenario's placement is returned for its checks ([`crate::contact::checks`]).
     pub fn apply_scenario(
         &self,
         scenario: Scenario,
         settings: &ScenarioSettings,
         cfg: &mut SimConfig,
-    ) -> Result<(), String> {
+    ) -> Result<Option<ContactSetup>, String> {
         let m = self.task_dim();
         let q0 = settings.start.clone().unwrap_or_else(|| self.home());
         let (x0, _) = self.task_at(&q0);
@@ -504,28 +520,26 @@ impl Simulation {
                 cfg.operator = Operator::Hand { stiffness: hand_k, damping: hand_b, path: HandPath { keys } };
                 cfg.reference = Reference::Fixed(None);
             }
-            Scenario::Wall => {
-                // The wall's surface `shape_size` beyond the start along −e_last, its solid side
-                // beyond; the hand rests, presses to `push_depth` inside the wall in 1 s, holds
-                // it for 2 s while the device settles, and lets go.
-                let last = m - 1;
-                let mut normal = vec![0.0; m];
-                normal[last] = 1.0;
-                let mut point = x0.clone();
-                point[last] -= settings.shape_size;
-                let mut pressed = point.clone();
-                pressed[last] -= settings.push_depth;
-                let keys = vec![
-                    (0.0, x0.clone()),
-                    (0.3, x0.clone()),
-                    (1.3, pressed.clone()),
-                    (3.3, pressed),
-                    (4.3, x0),
-                ];
-                cfg.operator = Operator::Hand { stiffness: hand_k, damping: hand_b, path: HandPath { keys } };
-                cfg.reference =
-                    Reference::Wall { point, normal, stiffness: cfg.stiffness, damping: cfg.damping };
-                cfg.duration = cfg.duration.max(4.8);
+            Scenario::Contact(contact) => {
+                let placed = crate::contact::setup(
+                    contact,
+                    &x0,
+                    &ContactSettings {
+                        surface: (cfg.stiffness, cfg.damping),
+                        friction: settings.friction,
+                        hand: settings.hand,
+                        push: settings.push_depth,
+                        mesh: settings.mesh.clone(),
+                    },
+                )?;
+                cfg.operator = Operator::Hand {
+                    stiffness: hand_k,
+                    damping: hand_b,
+                    path: HandPath { keys: placed.keys.clone() },
+                };
+                cfg.reference = Reference::Solids(placed.solids.clone());
+                cfg.duration = cfg.duration.max(placed.duration);
+                return Ok(Some(placed));
             }
             Scenario::FreeDrift => {
                 cfg.operator = Operator::Free;
@@ -541,7 +555,7 @@ impl Simulation {
                 };
             }
         }
-        Ok(())
+        Ok(None)
     }
 
     /// The largest `|det J|` over the joint limits (a 41 × 41 grid) of a 2-joint rig with a

@@ -30,7 +30,7 @@ fn check_csv(path: &Path, joints: usize, task: usize) -> Vec<csv::StringRecord> 
     let header: Vec<String> = reader.headers().expect("a header").iter().map(str::to_string).collect();
     let mut expected = vec!["t".to_string()];
     for (prefix, count) in
-        [("q", joints), ("qd", joints), ("x", task), ("u", joints), ("f", task), ("xp", task)]
+        [("q", joints), ("qd", joints), ("x", task), ("u", joints), ("f", task), ("xp", task), ("xh", task)]
     {
         expected.extend((0..count).map(|k| format!("{prefix}{k}")));
     }
@@ -322,32 +322,36 @@ fn a_spatial_closed_chain_checks_evaluates_generates_and_simulates() {
     assert!((x - 1.0 / 200.0).abs() < 1e-4, "x = {x}");
 }
 
-/// The Delta touches a floor: `simulate --scenario wall` puts a solid half-space 2 cm below the
-/// grip, rendered by the runtime's god object, and a hand (200 N/m) presses 1 cm into it. The
-/// proxy never enters the floor, and while the hand holds still the grip sinks until the wall's
-/// spring balances the hand's, `K_w d = k_h (1 cm − d)`, with no sideways drift.
+/// The Delta in contact (`hapticgen contact`, three of its runs): its report passes, and the
+/// wall run's trace, read here, shows a floor 2 cm below the grip, rendered by the runtime's god
+/// object, that a hand (200 N/m) presses 1 cm into: the proxy never enters the floor, and while
+/// the hand holds still the grip sinks until the wall's spring balances the hand's,
+/// `K_w d = k_h (1 cm − d)`. The box's edge and corner (a frictionless slide along a box's top)
+/// and a non-convex mesh shipped as an OBJ file pass their checks.
 #[test]
-fn a_spatial_device_presses_into_a_god_object_wall() {
-    let output = scratch("delta-wall");
+fn a_spatial_device_presses_into_god_object_solids() {
+    let output = scratch("delta-contact");
     let output_text = output.to_string_lossy().into_owned();
     let run = hapticgen(&[
-        "simulate",
+        "contact",
         "models/falcon_delta.yaml",
-        "--controller",
-        "3",
-        "--scenario",
-        "wall",
-        "--kd",
-        "1500",
-        "--bd",
-        "5",
-        "--without",
-        "encoder,sensor,friction,backlash",
+        "--mesh",
+        "scenes/meshes/knob.obj",
+        "--only",
+        "wall,box-edges,mesh-knob",
         "--output",
         &output_text,
     ]);
     let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(run.status.success(), "{stderr}");
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{stdout}{stderr}");
+    assert!(stdout.contains("10 of 10 checks pass"), "{stdout}");
+    let report = std::fs::read_to_string(output.join("report.md")).expect("a report");
+    assert!(
+        !report.contains("FAIL") && report.contains("| mesh-knob | the proxy never inside a solid |"),
+        "{report}"
+    );
+    let output = output.join("wall");
     assert!(!stderr.contains("latched"), "{stderr}");
     let trace = std::fs::read_to_string(output.join("trace.csv")).expect("a trace");
     let header: Vec<&str> = trace.lines().next().expect("a header").split(',').collect();

@@ -1,0 +1,141 @@
+//! `hapticgen contact`: every contact scenario ([`crate::contact`]) on one rig with a 3-D
+//! task, friction off and on, the mesh scenario on a UV sphere and on a mesh file if one is
+//! given; each run's figures (the standard ones, three projections of the path, force against
+//! penetration) and one `report.md` with a pass/fail row per check, like `hapticgen paper`'s.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+use hapticgen_runtime::control::ImpedanceLaw;
+
+use crate::contact::{self, Contact};
+use crate::paper::trace_figures;
+use crate::report::{self, Check};
+use crate::sim::SimConfig;
+use crate::simulate::{Scenario, ScenarioSettings, Simulation};
+
+/// What `hapticgen contact` runs with.
+#[derive(Clone, Debug)]
+pub struct ContactRun {
+    /// The impedance law (Controller 3 by default: no `J⁻¹`, no `J̇`).
+    pub law: ImpedanceLaw,
+    /// Friction coefficients of the run with friction, `(μ_s, μ_d)`.
+    pub friction: (f64, f64),
+    /// A mesh file for one more mesh run.
+    pub mesh: Option<std::path::PathBuf>,
+    /// How far the hand presses into a surface, m.
+    pub push: f64,
+    /// Only the runs of these names (`wall`, `slide`, `slide-friction`, `sphere`, `box-edges`,
+    /// `thin-plate`, `mesh`, `mesh-FILE`); empty: every run.
+    pub only: Vec<String>,
+}
+
+/// One run of the report: a scenario with its friction and mesh.
+struct Run {
+    name: String,
+    contact: Contact,
+    friction: (f64, f64),
+    mesh: Option<std::sync::Arc<hapticgen_codegen::mesh::TriangleMesh>>,
+}
+
+/// Runs every scenario on `sim`, writes `out/<run>/` (trace and figures) and `out/report.md`;
+/// returns the checks and a one-paragraph summary.
+pub fn run_all(sim: &Simulation, run: &ContactRun, out: &Path) -> Result<(Vec<Check>, String), String> {
+    let wall = Instant::now();
+    let rendering = sim.model.rendering.as_ref();
+    let (stiffness, damping) = rendering.map_or((1500.0, 5.0), |r| (r.wall_stiffness, r.wall_damping));
+    let file_mesh = run.mesh.as_deref().map(contact::mesh_file).transpose()?;
+    let frictionless = (0.0, 0.0);
+    let mut runs: Vec<Run> = [
+        ("wall", Contact::Wall, frictionless),
+        ("slide", Contact::Slide, frictionless),
+        ("slide-friction", Contact::Slide, run.friction),
+        ("sphere", Contact::Sphere, frictionless),
+        ("box-edges", Contact::BoxEdges, frictionless),
+        ("thin-plate", Contact::ThinPlate, frictionless),
+        ("mesh", Contact::Mesh, frictionless),
+    ]
+    .into_iter()
+    .map(|(name, contact, friction)| Run { name: name.into(), contact, friction, mesh: None })
+    .collect();
+    if let (Some(mesh), Some(path)) = (file_mesh, &run.mesh) {
+        let name = path.file_stem().map_or("file".into(), |s| s.to_string_lossy().into_owned());
+        runs.push(Run {
+            name: format!("mesh-{name}"),
+            contact: Contact::Mesh,
+            friction: frictionless,
+            mesh: Some(mesh),
+        });
+    }
+    if let Some(unknown) = run.only.iter().find(|name| !runs.iter().any(|r| &r.name == *name)) {
+        let names: Vec<&str> = runs.iter().map(|r| r.name.as_str()).collect();
+        return Err(format!("error: --only: no run `{unknown}`; the runs are {}", names.join(", ")));
+    }
+    runs.retain(|r| run.only.is_empty() || run.only.contains(&r.name));
+    let mut checks = Vec::new();
+    let mut sections = String::new();
+    let mut simulated = 0.0;
+    for Run { name, contact: kind, friction, mesh } in runs {
+        let mut cfg = SimConfig::new(sim.home());
+        cfg.law = run.law;
+        cfg.stiffness = stiffness;
+        cfg.damping = damping;
+        let settings =
+            ScenarioSettings { friction, mesh, push_depth: run.push, ..ScenarioSettings::default() };
+        let setup = sim
+            .apply_scenario(Scenario::Contact(kind), &settings, &mut cfg)?
+            .ok_or_else(|| format!("error: scenario {name} placed nothing"))?;
+        let trace = sim.run(&cfg)?;
+        let dir = out.join(&name);
+        std::fs::create_dir_all(&dir).map_err(|e| format!("error: cannot create {}: {e}", dir.display()))?;
+        crate::output::write_csv(&trace, &dir.join("trace.csv"))?;
+        trace_figures(&trace, &dir)?;
+        simulated += trace.duration();
+        let experiment = if friction.1 > 0.0 {
+            format!("{name} (μ_s = {}, μ_d = {})", friction.0, friction.1)
+        } else {
+            name.clone()
+        };
+        checks.extend(contact::checks(&setup, &trace, &experiment));
+        writeln!(
+            sections,
+            "## {experiment}\n\n![path, x0–x2]({name}/path_xz.svg) ![path, x0–x1]({name}/path_xy.svg) \
+             ![force against penetration]({name}/force_penetration.svg)\n"
+        )
+        .ok();
+    }
+    let passed = checks.iter().filter(|c| c.pass).count();
+    let mut text = format!(
+        "# Contact scenarios: {}\n\nThe contact scenarios of `hapticgen simulate` (targets/host/src/contact.rs) run \
+         on the model's generated code with the god object of the runtime rendering the solids, Controller {}, \
+         K = {stiffness} N/m and B = {damping} N·s/m on every surface, a hand of 200 N/m and 1 N·s/m pressing {:.1} mm \
+         into a surface; the plant with \
+         its friction, backlash, encoder and sensor quantisation and motor electrics. The checks read the trace: \
+         the proxy against each solid's own inside test, the rendered force's direction from the proxy's offset \
+         from the HIP the controller measured.\n\n**{passed} of {} checks pass.**\n\n",
+        sim.model.file,
+        1e3 * run.push,
+        match run.law {
+            ImpedanceLaw::ForceFeedback => "1",
+            ImpedanceLaw::AccelerationFeedback => "2 (first variant)",
+            ImpedanceLaw::NaturalInertia => "2 (second variant)",
+            ImpedanceLaw::JacobianTranspose => "3",
+        },
+        checks.len()
+    );
+    text.push_str(&report::table(&checks));
+    text.push('\n');
+    text.push_str(&sections);
+    std::fs::write(out.join("report.md"), text).map_err(|e| format!("error: cannot write report.md: {e}"))?;
+    let mut summary = report::failures(&checks);
+    write!(
+        summary,
+        "{passed} of {} checks pass; {simulated:.0} s simulated in {:.1} s; wrote {}",
+        checks.len(),
+        wall.elapsed().as_secs_f64(),
+        out.join("report.md").display()
+    )
+    .ok();
+    Ok((checks, summary))
+}

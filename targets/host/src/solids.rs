@@ -1,0 +1,327 @@
+//! The solids of the simulator's contact scenarios, owned (the runtime's shapes borrow their
+//! planes and meshes), their conversion into the runtime's [`Object`]s for the god object, and
+//! an inside test of their own that shares no code with the runtime's renderer (the contact
+//! scenarios' checks use it: the proxy must never be inside a solid).
+
+use std::sync::Arc;
+
+use hapticgen_codegen::mesh::TriangleMesh;
+use hapticgen_runtime::render::ObjectKind;
+use hapticgen_runtime::shape::{BvhNode, Material, Mesh, Object, Shape};
+
+/// The geometry of a solid, in task coordinates.
+#[derive(Clone, Debug)]
+pub enum SolidShape {
+    /// The half-space behind the plane through `point` with outward `normal`.
+    HalfSpace {
+        /// A point of the plane.
+        point: Vec<f64>,
+        /// The outward normal (towards free space; need not be unit).
+        normal: Vec<f64>,
+    },
+    /// A ball.
+    Sphere {
+        /// Centre.
+        center: Vec<f64>,
+        /// Radius, m.
+        radius: f64,
+    },
+    /// An axis-aligned box.
+    Box {
+        /// Centre.
+        center: Vec<f64>,
+        /// Half the edge lengths, m.
+        half_extents: Vec<f64>,
+    },
+    /// A closed triangle mesh (with its BVH) placed at `offset`; 3-D tasks only.
+    Mesh {
+        /// The mesh in its own frame, BVH built.
+        mesh: Arc<TriangleMesh>,
+        /// Where the mesh's origin is.
+        offset: Vec<f64>,
+    },
+}
+
+/// A solid with its surface's material.
+#[derive(Clone, Debug)]
+pub struct Solid {
+    /// Geometry.
+    pub shape: SolidShape,
+    /// Surface stiffness, N/m.
+    pub stiffness: f64,
+    /// Surface damping, N·s/m.
+    pub damping: f64,
+    /// Static friction coefficient (0: none).
+    pub static_friction: f64,
+    /// Dynamic friction coefficient, at most the static one.
+    pub dynamic_friction: f64,
+}
+
+fn array<const M: usize>(values: &[f64], what: &str) -> Result<[f64; M], String> {
+    if values.len() != M {
+        return Err(format!("error: {what} needs {M} coordinates, got {}", values.len()));
+    }
+    Ok(std::array::from_fn(|k| values[k]))
+}
+
+impl Solid {
+    /// The runtime's object for an `M`-dimensional task. A mesh's arrays are leaked to give
+    /// them the `'static` lifetime a long-lived scene needs: a few hundred kilobytes once per
+    /// simulated run.
+    pub fn object<const M: usize>(&self) -> Result<Object<'static, f64, M>, String> {
+        let shape = match &self.shape {
+            SolidShape::HalfSpace { point, normal } => Shape::half_space(
+                array::<M>(point, "a wall's point")?,
+                array::<M>(normal, "a wall's normal")?,
+            )
+            .ok_or_else(|| "error: a wall's normal must be a finite, non-zero vector".to_string())?,
+            SolidShape::Sphere { center, radius } => {
+                Shape::Sphere { center: array::<M>(center, "a sphere's centre")?, radius: *radius }
+            }
+            SolidShape::Box { center, half_extents } => Shape::Box {
+                center: array::<M>(center, "a box's centre")?,
+                axes: std::array::from_fn(|i| std::array::from_fn(|k| if i == k { 1.0 } else { 0.0 })),
+                half_extents: array::<M>(half_extents, "a box's half extents")?,
+            },
+            SolidShape::Mesh { mesh, offset } => {
+                if M != 3 {
+                    return Err(format!("error: a mesh needs a 3-D task; this one has {M} coordinates"));
+                }
+                let point = |p: &[f64; 3]| -> [f64; M] { std::array::from_fn(|k| p[k]) };
+                let leak = |points: &[[f64; 3]]| -> &'static [[f64; M]] {
+                    Box::leak(points.iter().map(point).collect::<Vec<_>>().into_boxed_slice())
+                };
+                let nodes: Vec<BvhNode<f64, M>> = mesh
+                    .nodes
+                    .iter()
+                    .map(|n| BvhNode {
+                        min: point(&n.min),
+                        max: point(&n.max),
+                        first: n.first,
+                        count: n.count,
+                    })
+                    .collect();
+                let runtime_mesh: &'static Mesh<'static, f64, M> = Box::leak(Box::new(Mesh {
+                    vertices: leak(&mesh.vertices),
+                    faces: Box::leak(mesh.faces.clone().into_boxed_slice()),
+                    face_normals: leak(&mesh.face_normals),
+                    vertex_normals: leak(&mesh.vertex_normals),
+                    nodes: Box::leak(nodes.into_boxed_slice()),
+                }));
+                Shape::MeshAt { mesh: runtime_mesh, offset: array::<M>(offset, "a mesh's offset")? }
+            }
+        };
+        Ok(Object {
+            shape,
+            kind: ObjectKind::Solid,
+            material: Material {
+                stiffness: self.stiffness,
+                damping: self.damping,
+                static_friction: self.static_friction,
+                dynamic_friction: self.dynamic_friction,
+            },
+        })
+    }
+
+    /// How deep `p` is inside the solid, m: positive inside, negative outside (for a mesh: its
+    /// parity along a ray decides inside, and the depth is the distance to the nearest face).
+    /// Written here, apart from the runtime's closest-point code, to check the renderer.
+    pub fn depth(&self, p: &[f64]) -> f64 {
+        match &self.shape {
+            SolidShape::HalfSpace { point, normal } => {
+                let length = normal.iter().map(|n| n * n).sum::<f64>().sqrt();
+                -p.iter().zip(point).zip(normal).map(|((p, q), n)| (p - q) * n).sum::<f64>() / length
+            }
+            SolidShape::Sphere { center, radius } => {
+                radius - p.iter().zip(center).map(|(p, c)| (p - c) * (p - c)).sum::<f64>().sqrt()
+            }
+            SolidShape::Box { center, half_extents } => {
+                let gaps: Vec<f64> =
+                    p.iter().zip(center).zip(half_extents).map(|((p, c), h)| h - (p - c).abs()).collect();
+                if gaps.iter().all(|&g| g > 0.0) {
+                    gaps.iter().copied().fold(f64::INFINITY, f64::min)
+                } else {
+                    -gaps.iter().map(|g| g.min(0.0).powi(2)).sum::<f64>().sqrt()
+                }
+            }
+            SolidShape::Mesh { mesh, offset } => {
+                if p.len() != 3 || offset.len() != 3 {
+                    return f64::NAN;
+                }
+                let local = [p[0] - offset[0], p[1] - offset[1], p[2] - offset[2]];
+                let distance = mesh_distance(mesh, &local);
+                if inside_by_parity(mesh, &local) {
+                    distance
+                } else {
+                    -distance
+                }
+            }
+        }
+    }
+
+    /// The solid's outward unit normal at (or nearest to) surface point `p`; `None` for a mesh.
+    pub fn normal(&self, p: &[f64]) -> Option<Vec<f64>> {
+        let unit = |v: Vec<f64>| {
+            let length = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            (length > 0.0).then(|| v.iter().map(|x| x / length).collect())
+        };
+        match &self.shape {
+            SolidShape::HalfSpace { normal, .. } => unit(normal.clone()),
+            SolidShape::Sphere { center, .. } => unit(p.iter().zip(center).map(|(p, c)| p - c).collect()),
+            SolidShape::Box { center, half_extents } => {
+                // Outside: towards the point from its closest point; on a face, that face's normal.
+                let offsets: Vec<f64> = p.iter().zip(center).map(|(p, c)| p - c).collect();
+                let beyond: Vec<f64> = offsets
+                    .iter()
+                    .zip(half_extents)
+                    .map(|(d, h)| if d.abs() > *h { d - h * d.signum() } else { 0.0 })
+                    .collect();
+                if beyond.iter().any(|&b| b != 0.0) {
+                    unit(beyond)
+                } else {
+                    let axis = (0..p.len())
+                        .min_by(|&a, &b| {
+                            (half_extents[a] - offsets[a].abs())
+                                .total_cmp(&(half_extents[b] - offsets[b].abs()))
+                        })
+                        .unwrap_or(0);
+                    Some((0..p.len()).map(|k| if k == axis { offsets[k].signum() } else { 0.0 }).collect())
+                }
+            }
+            SolidShape::Mesh { .. } => None,
+        }
+    }
+}
+
+fn sub(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+fn triangle(mesh: &TriangleMesh, face: &[u32; 3]) -> Option<[[f64; 3]; 3]> {
+    let vertex = |k: usize| mesh.vertices.get(face[k] as usize).copied();
+    Some([vertex(0)?, vertex(1)?, vertex(2)?])
+}
+
+/// Odd crossings of a ray from `p` with the mesh's triangles (Möller–Trumbore, every face): `p`
+/// is inside a closed mesh. The ray's direction is irrational-looking so that it passes through
+/// no vertex or edge of a mesh built on round numbers.
+fn inside_by_parity(mesh: &TriangleMesh, p: &[f64; 3]) -> bool {
+    let direction = [0.5366563145999495, 0.6708203932499369, 0.5118906230018497];
+    let mut crossings = 0;
+    for face in &mesh.faces {
+        let Some([a, b, c]) = triangle(mesh, face) else { continue };
+        let (edge1, edge2) = (sub(&b, &a), sub(&c, &a));
+        let h = cross(&direction, &edge2);
+        let det = dot(&edge1, &h);
+        if det.abs() < 1e-18 {
+            continue;
+        }
+        let s = sub(p, &a);
+        let u = dot(&s, &h) / det;
+        let q = cross(&s, &edge1);
+        let v = dot(&direction, &q) / det;
+        let t = dot(&edge2, &q) / det;
+        if (0.0..=1.0).contains(&u) && v >= 0.0 && u + v <= 1.0 && t > 0.0 {
+            crossings += 1;
+        }
+    }
+    crossings % 2 == 1
+}
+
+/// Distance from `p` to the nearest triangle of the mesh (every face; Ericson's regions).
+fn mesh_distance(mesh: &TriangleMesh, p: &[f64; 3]) -> f64 {
+    mesh.faces
+        .iter()
+        .filter_map(|face| triangle(mesh, face))
+        .map(|[a, b, c]| {
+            let closest = closest_point_on_triangle(p, &a, &b, &c);
+            let d = sub(p, &closest);
+            dot(&d, &d).sqrt()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn closest_point_on_triangle(p: &[f64; 3], a: &[f64; 3], b: &[f64; 3], c: &[f64; 3]) -> [f64; 3] {
+    let at = |origin: &[f64; 3], s: f64, u: &[f64; 3], t: f64, w: &[f64; 3]| {
+        [origin[0] + s * u[0] + t * w[0], origin[1] + s * u[1] + t * w[1], origin[2] + s * u[2] + t * w[2]]
+    };
+    let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
+    let (d1, d2) = (dot(&ab, &ap), dot(&ac, &ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return *a;
+    }
+    let bp = sub(p, b);
+    let (d3, d4) = (dot(&ab, &bp), dot(&ac, &bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return *b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return at(a, d1 / (d1 - d3), &ab, 0.0, &ac);
+    }
+    let cp = sub(p, c);
+    let (d5, d6) = (dot(&ab, &cp), dot(&ac, &cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return *c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return at(a, 0.0, &ab, d2 / (d2 - d6), &ac);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        let bc = sub(c, b);
+        return at(b, w, &bc, 0.0, &bc);
+    }
+    let denominator = 1.0 / (va + vb + vc);
+    at(a, vb * denominator, &ab, vc * denominator, &ac)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn solid(shape: SolidShape) -> Solid {
+        Solid { shape, stiffness: 1.0, damping: 0.0, static_friction: 0.0, dynamic_friction: 0.0 }
+    }
+
+    /// The inside tests against values worked out by hand, and a mesh sphere against the
+    /// exact sphere it approximates (inside the inscribed ball, outside the circumscribed one).
+    #[test]
+    fn depths_by_hand() {
+        let floor = solid(SolidShape::HalfSpace { point: vec![0.0, 0.0, 1.0], normal: vec![0.0, 0.0, 2.0] });
+        assert_eq!(floor.depth(&[5.0, -3.0, 0.25]), 0.75);
+        assert_eq!(floor.depth(&[0.0, 0.0, 1.5]), -0.5);
+        let ball = solid(SolidShape::Sphere { center: vec![1.0, 0.0, 0.0], radius: 2.0 });
+        assert_eq!(ball.depth(&[1.0, 0.0, 1.5]), 0.5);
+        assert_eq!(ball.depth(&[4.0, 0.0, 0.0]), -1.0);
+        let cube = solid(SolidShape::Box { center: vec![0.0; 3], half_extents: vec![1.0, 2.0, 3.0] });
+        assert_eq!(cube.depth(&[0.5, 0.0, 0.0]), 0.5);
+        assert_eq!(cube.depth(&[0.0, 1.75, 0.0]), 0.25);
+        // Outside beyond an edge: √(1² + 1²).
+        assert!((cube.depth(&[2.0, 3.0, 0.0]) + 2f64.sqrt()).abs() < 1e-15);
+        assert_eq!(cube.normal(&[2.0, 0.0, 0.0]), Some(vec![1.0, 0.0, 0.0]));
+        let sphere = TriangleMesh::uv_sphere(1.0, 16, 32).expect("a sphere").with_bvh(4);
+        let mesh = solid(SolidShape::Mesh { mesh: Arc::new(sphere), offset: vec![0.0, 0.0, 2.0] });
+        for (p, inside) in [
+            ([0.0, 0.0, 2.9], true),
+            ([0.3, 0.2, 1.2], true),
+            ([0.0, 0.0, 3.01], false),
+            ([1.1, 0.0, 2.0], false),
+        ] {
+            let depth = mesh.depth(&p);
+            assert_eq!(depth > 0.0, inside, "{p:?}: depth {depth}");
+        }
+        let depth = mesh.depth(&[0.0, 0.0, 2.0]);
+        assert!(depth > 0.95 && depth <= 1.0, "the centre is about a radius deep: {depth}");
+    }
+}
