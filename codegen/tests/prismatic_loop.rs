@@ -62,24 +62,43 @@ fn independent_inertia(theta: f64) -> f64 {
     CRANK_MASS * CRANK * CRANK / 3.0 + REFLECTED_ROTOR + rod + SLIDER_MASS * slider_rate * slider_rate
 }
 
-#[test]
-fn a_passive_prismatic_joint_closes_a_spatial_loop_and_its_dynamics_are_the_bodies() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(FILE);
-    let model = hapticgen_codegen::load_file(&path, FILE, None).unwrap_or_else(|e| panic!("{e}"));
+/// Loads a slider-crank file, reduces it, and hands `check` each of 41 states over the crank's
+/// range: the crank angle, its rate, the passive coordinates the loops solve for, and the
+/// reduced mechanics; returns the model's passive and body names.
+fn for_each_crank_state(
+    file: &str,
+    passive_count: usize,
+    mut check: impl FnMut(f64, f64, &[f64], &Mechanics),
+) -> (Vec<String>, Vec<String>) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(file);
+    let model = hapticgen_codegen::load_file(&path, file, None).unwrap_or_else(|e| panic!("{e}"));
     let mech = hapticgen_codegen::derive(&model);
     let closures = mech.closures.as_ref().expect("a closed chain");
     let spatial = closures.spatial.as_ref().expect("spatial loops");
-    assert_eq!((spatial.actuated, spatial.passive), (1, 3));
+    assert_eq!((spatial.actuated, spatial.passive), (1, passive_count));
     let (lower, upper) = (model.joints[0].lower, model.joints[0].upper);
-    let mut checked = 0;
     for k in 0..=40 {
         let theta = lower + (upper - lower) * f64::from(k) / 40.0;
         let theta_rate = 1.5 - 0.07 * f64::from(k);
         let values = closures.values(&[theta], &[theta_rate], &[]);
-        let coordinate = |j: u16| {
-            values.iter().find(|(a, _)| *a == Atom::Q(j)).map(|&(_, v)| v).expect("a passive coordinate")
-        };
-        let (swing, tilt, travel) = (coordinate(1), coordinate(2), coordinate(3));
+        let passive: Vec<f64> = (1..=passive_count as u16)
+            .map(|j| {
+                values.iter().find(|(a, _)| *a == Atom::Q(j)).map(|&(_, v)| v).expect("a passive coordinate")
+            })
+            .collect();
+        check(theta, theta_rate, &passive, &mech);
+    }
+    (
+        model.passive.iter().map(|j| j.name.clone()).collect(),
+        model.bodies.iter().map(|b| b.name.clone()).collect(),
+    )
+}
+
+#[test]
+fn a_passive_prismatic_joint_closes_a_spatial_loop_and_its_dynamics_are_the_bodies() {
+    let mut checked = 0;
+    for_each_crank_state(FILE, 3, |theta, theta_rate, passive, mech| {
+        let (swing, tilt, travel) = (passive[0], passive[1], passive[2]);
         // The kinematics against the closed form.
         let (expected_travel, _) = slider(theta);
         assert!((travel - expected_travel).abs() <= 1e-12, "s at θ = {theta}: {travel} vs {expected_travel}");
@@ -87,14 +106,15 @@ fn a_passive_prismatic_joint_closes_a_spatial_loop_and_its_dynamics_are_the_bodi
         let azimuth = (-CRANK * theta.sin()).atan2(expected_travel - CRANK * theta.cos());
         assert!((swing - (azimuth - theta)).abs() <= 1e-12, "swing at θ = {theta}: {swing}");
         // The loop's residual at the solution.
+        let spatial = mech.closures.as_ref().and_then(|c| c.spatial.as_ref()).expect("spatial loops");
         let tree = [theta, swing, tilt, travel];
         for (name, residual) in spatial.equation_names.iter().zip(&spatial.residual) {
             let value = residual.eval(&TreePositions(&tree));
             assert!(value.abs() <= 1e-12, "{name} at θ = {theta}: {value:e}");
         }
-        assert_dynamics_are_the_bodies(&mech, theta, theta_rate);
+        assert_dynamics_are_the_bodies(mech, theta, theta_rate);
         checked += 1;
-    }
+    });
     assert_eq!(checked, 41);
 }
 
@@ -127,26 +147,9 @@ fn ball_rotation_x_and_y_columns(a: f64, b: f64, c: f64) -> ([f64; 3], [f64; 3])
 
 #[test]
 fn a_spherical_joint_written_as_one_entry_turns_about_its_axes_in_order() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(BALL_FILE);
-    let model = hapticgen_codegen::load_file(&path, BALL_FILE, None).unwrap_or_else(|e| panic!("{e}"));
-    let passive: Vec<&str> = model.passive.iter().map(|j| j.name.as_str()).collect();
-    assert_eq!(passive, ["ball_1", "ball_2", "ball_3", "slide"]);
-    let bodies: Vec<&str> = model.bodies.iter().map(|b| b.name.as_str()).collect();
-    assert_eq!(bodies, ["crank_arm", "slider", "ball_cross1", "ball_cross2", "rod"]);
-    let mech = hapticgen_codegen::derive(&model);
-    let closures = mech.closures.as_ref().expect("a closed chain");
-    let spatial = closures.spatial.as_ref().expect("spatial loops");
-    assert_eq!((spatial.actuated, spatial.passive), (1, 4));
-    let (lower, upper) = (model.joints[0].lower, model.joints[0].upper);
     let mut checked = 0;
-    for k in 0..=40 {
-        let theta = lower + (upper - lower) * f64::from(k) / 40.0;
-        let theta_rate = 1.5 - 0.07 * f64::from(k);
-        let values = closures.values(&[theta], &[theta_rate], &[]);
-        let coordinate = |j: u16| {
-            values.iter().find(|(a, _)| *a == Atom::Q(j)).map(|&(_, v)| v).expect("a passive coordinate")
-        };
-        let (ball, travel) = ([coordinate(1), coordinate(2), coordinate(3)], coordinate(4));
+    let (passive, bodies) = for_each_crank_state(BALL_FILE, 4, |theta, theta_rate, passive, mech| {
+        let (ball, travel) = ([passive[0], passive[1], passive[2]], passive[3]);
         let (expected_travel, _) = slider(theta);
         assert!((travel - expected_travel).abs() <= 1e-12, "s at θ = {theta}: {travel} vs {expected_travel}");
         // The rod's x axis points from the crank pin to the ball; its y axis stays square to z.
@@ -163,10 +166,12 @@ fn a_spherical_joint_written_as_one_entry_turns_about_its_axes_in_order() {
             rod_y[2].abs() <= 1e-12,
             "the rod's y axis leaves the crank's plane at θ = {theta}: {rod_y:?}"
         );
-        assert_dynamics_are_the_bodies(&mech, theta, theta_rate);
+        assert_dynamics_are_the_bodies(mech, theta, theta_rate);
         checked += 1;
-    }
+    });
     assert_eq!(checked, 41);
+    assert_eq!(passive, ["ball_1", "ball_2", "ball_3", "slide"]);
+    assert_eq!(bodies, ["crank_arm", "slider", "ball_cross1", "ball_cross2", "rod"]);
 }
 
 #[test]

@@ -489,10 +489,11 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                         // a face within the margin limits it now (or never, receding). Only
                         // the faces left get the exact entry into the triangle grown by the
                         // margin (one query where conservative advancement approaches a
-                        // surface met at a grazing angle in many).
+                        // surface met at a grazing angle in many). No grazing allowance here:
+                        // the exact entry decides, and the bound must stay a lower bound of it.
                         let step = match unit(&offset) {
                             Some(n) if gap > S::ZERO => {
-                                if convex_step(gap, dot(d, &n), bound, half_skin) >= bound {
+                                if convex_step(gap, dot(d, &n), bound, S::ZERO) >= bound {
                                     None
                                 } else {
                                     triangle_entry(y, d, bound, margin, [&a, &b, &c])

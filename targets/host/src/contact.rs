@@ -176,13 +176,7 @@ pub fn setup(contact: Contact, x0: &[f64], settings: &ContactSettings) -> Result
             // Rest, press into the floor within 1 s, hold 2 s, let go.
             let pressed = at(&down(2.0 * CM + push));
             setup.solids = vec![floor()];
-            setup.keys = vec![
-                (0.0, start.clone()),
-                (0.3, start.clone()),
-                (1.3, pressed.clone()),
-                (3.3, pressed),
-                (4.3, start),
-            ];
+            setup.keys = press_and_hold(start, pressed, 3.3);
             setup.duration = 4.8;
             setup.window = (2.3, 3.3);
         }
@@ -311,18 +305,24 @@ pub fn setup(contact: Contact, x0: &[f64], settings: &ContactSettings) -> Result
             let centre = vec![x0[0], x0[1], top - half[2]];
             setup.solids = vec![solid(SolidShape::Box { center: centre, half_extents: half.to_vec() })];
             let through = at(&down(CM + 3.0 * push));
-            setup.keys = vec![
-                (0.0, start.clone()),
-                (0.3, start.clone()),
-                (1.3, through.clone()),
-                (2.3, through),
-                (3.3, start),
-            ];
+            setup.keys = press_and_hold(start, through, 2.3);
             setup.duration = 3.8;
             setup.window = (1.3, 2.3);
         }
     }
     Ok(setup)
+}
+
+/// The hand's path of a press: at `start` for 0.3 s, at `pressed` 1 s later, held there until
+/// `held`, back at `start` 1 s after that.
+fn press_and_hold(start: Vec<f64>, pressed: Vec<f64>, held: f64) -> Vec<(f64, Vec<f64>)> {
+    vec![
+        (0.0, start.clone()),
+        (0.3, start.clone()),
+        (1.3, pressed.clone()),
+        (held, pressed),
+        (held + 1.0, start),
+    ]
 }
 
 fn bounds(mesh: &TriangleMesh) -> ([f64; 3], [f64; 3]) {
