@@ -586,9 +586,16 @@ impl ThreeSpheres {
         let g11 = v.dot(&first_side, &first_side);
         let g12 = v.dot(&first_side, &second_side);
         let g22 = v.dot(&second_side, &second_side);
+        for (k, g) in [(1, g11), (2, g22)] {
+            hint(v.dag, &mut out, g, format!("{}_from_{}_sphere_sq", self.legs[k].shin, self.legs[0].shin));
+        }
         for (k, (leg, centre)) in self.legs.iter().zip(&centres).enumerate() {
             for (axis, &id) in axes.iter().zip(centre) {
                 hint(v.dag, &mut out, id, format!("{}_sphere_centre_{axis}", leg.shin));
+                // The reach `O − C_k` reads the centre negated, which the sign choice may emit
+                // in its place.
+                let negated = v.dag.neg(id);
+                hint(v.dag, &mut out, negated, format!("minus_{}_sphere_centre_{axis}", leg.shin));
             }
             if k > 0 {
                 let side = if k == 1 { first_side } else { second_side };
@@ -611,6 +618,10 @@ impl ThreeSpheres {
         };
         let h1 = along(&mut v, radii_squared[1], g11);
         let h2 = along(&mut v, radii_squared[2], g22);
+        // `h_k = (O − C_1)·(C_k − C_1)`: how far the platform lies along each side.
+        for (k, h) in [(1, h1), (2, h2)] {
+            hint(v.dag, &mut out, h, format!("{}_along_{}_side", self.platform, self.legs[k].shin));
+        }
         let g11g22 = v.dag.mul(g11, g22);
         let g12g12 = v.dag.mul(g12, g12);
         let gram = v.dag.sub(g11g22, g12g12);
@@ -635,8 +646,9 @@ impl ThreeSpheres {
         let height_squared_scaled = v.dag.sub(radii_squared[0], in_plane_squared);
         let height_squared = v.dag.div(height_squared_scaled, gram);
         let height = v.dag.sqrt(height_squared);
-        let height = if self.sphere_side < 0.0 { v.dag.neg(height) } else { height };
+        // Named before the sign of the assembly's side: the negation is named after it.
         hint(v.dag, &mut out, height, format!("{}_height", self.platform));
+        let height = if self.sphere_side < 0.0 { v.dag.neg(height) } else { height };
         let off_plane = v.scale3(height, &normal);
         let from_first = v.add3(&in_plane, &off_plane);
         let origin = v.add3(&centres[0], &from_first);
@@ -724,6 +736,15 @@ impl ThreeSpheres {
                 hint(v.dag, &mut out, cos, format!("cos_{}", atoms.names[joint]));
                 v.dag.substitute(Atom::Sin(joint as u16), sin);
                 v.dag.substitute(Atom::Cos(joint as u16), cos);
+            }
+            // The ratios' numerators, after the sines and cosines: where a division by a
+            // constant 1 leaves the numerator itself, it keeps the angle's name.
+            for (joint, sin_numerator, cos_numerator) in [
+                (knee.joints[1], sin_numerator, cos_numerator),
+                (knee.joints[0], sin_alpha_numerator, cos_alpha_numerator),
+            ] {
+                hint(v.dag, &mut out, sin_numerator, format!("sin_{}_numerator", atoms.names[joint]));
+                hint(v.dag, &mut out, cos_numerator, format!("cos_{}_numerator", atoms.names[joint]));
             }
             let margin = v.dag.div(denominator, reach_squared);
             hint(v.dag, &mut out, margin, format!("{}_knee_margin", leg.shin));
