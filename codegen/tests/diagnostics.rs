@@ -62,6 +62,9 @@ const CASES: &[(&str, Option<&str>)] = &[
     ("spherical-axes-in-one-plane", None),
     ("spherical-axis-zero", None),
     ("spherical-damped", None),
+    ("spherical-invalid-name", None),
+    ("spherical-moves-two-bodies", None),
+    ("spherical-name-clash", None),
     ("spherical-coordinate-name", None),
     ("spherical-not-passive", None),
     ("task-unknown-point", None),
@@ -1028,7 +1031,7 @@ fn spherical_joint_axes_in_one_plane() {
         "spherical-axes-in-one-plane",
         None,
         Expect {
-            context: "axes: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]]",
+            context: "axes: [[1.0, 2.0, 3.0], [2.0, -1.0, 0.5], [3.0, 1.0, 3.5]]",
             token: "[[1.0",
             path: "joints[1].axes",
             message: "the axes of spherical joint `ball` are in one plane: it would lose a rotation",
@@ -1094,6 +1097,50 @@ fn spherical_joint_damped_is_reported_once_not_once_per_angle() {
         },
     );
     assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn spherical_joint_default_angle_names_are_checked_at_its_name() {
+    // Without `coordinates` the angles are named from `name`: their rule points there.
+    let d = check(
+        "spherical-invalid-name",
+        None,
+        Expect {
+            context: "  - name: Ball\n",
+            token: "Ball",
+            path: "joints[1].name",
+            message: "`Ball_1` is not a valid joint name",
+        },
+    );
+    assert_eq!(d.0.iter().filter(|d| d.path == "joints[1].name").count(), 1, "{d}");
+}
+
+#[test]
+fn a_joint_named_like_a_spherical_joints_angle_is_a_duplicate_of_that_entry() {
+    let d = check(
+        "spherical-name-clash",
+        None,
+        Expect {
+            context: "  - name: ball_2\n",
+            token: "ball_2",
+            path: "joints[2].name",
+            message: "joint `ball_2` is defined twice",
+        },
+    );
+    // The first definition is the spherical joint's entry, not the expanded list's index.
+    assert_eq!(hint(&d.0[0]), "the first definition is `joints[1]`");
+}
+
+#[test]
+fn a_spherical_joint_moves_one_body() {
+    let (text, d) = reject("spherical-moves-two-bodies", None);
+    let (line, column) = locate(&text, "    parent: slider\n    joint: ball\n", "ball\n");
+    let found = d.0.iter().find(|d| d.path == "bodies[2].joint").unwrap_or_else(|| panic!("{d}"));
+    assert_eq!(
+        (found.line, found.column, found.message.as_str()),
+        (line, column, "spherical joint `ball` already moves body `slider`; a joint moves one body"),
+        "{d}"
+    );
 }
 
 #[test]

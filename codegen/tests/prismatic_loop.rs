@@ -195,6 +195,13 @@ fn a_universal_joint_written_as_one_entry_is_two_revolute_joints_and_a_massless_
     ]
     .concat();
     assert!(!compact.contains("rod_cross") && compact.contains("type: universal"), "{compact}");
+    // The loader's cross: one massless body, named after the joint.
+    let resolved =
+        hapticgen_codegen::load(&hapticgen_codegen::model::Source { name: FILE, text: &compact }, None)
+            .unwrap_or_else(|e| panic!("{e}"));
+    let cross =
+        resolved.bodies.iter().find(|b| b.name == "rod_pin_cross").expect("the cross `rod_pin_cross`");
+    assert!(cross.mass.is_zero(), "the cross has a mass");
     let generate = |text: &str| {
         let model = hapticgen_codegen::load(&hapticgen_codegen::model::Source { name: FILE, text }, None)
             .unwrap_or_else(|e| panic!("{e}"));

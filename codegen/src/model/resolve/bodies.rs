@@ -296,15 +296,14 @@ pub(super) fn bodies(
     let bodies_resolved = bodies.iter().all(Option::is_some) && !r.unresolved_joint_reference;
     for (j, used) in joint_used.iter().enumerate() {
         if bodies_resolved && !used && j < file.joints.len() && !r.duplicate_joints.contains(&j) {
-            // A universal or spherical joint is reported once, by its name.
-            if !r.sources.is_later_angle(j) {
-                let label = r.sources.joint_label(j, &file.joints[j].name);
-                r.error_hint(
-                    &[key("joints"), Segment::Index(j), key("name")],
-                    format!("{label} moves no body"),
-                    "name it as a body's `joint` or a direct pose's `angle`",
-                );
-            }
+            // A universal or spherical joint is reported by its name, once (its angles give
+            // the same diagnostic at the same entry).
+            let label = r.sources.joint_label(j, &file.joints[j].name);
+            r.error_hint(
+                &[key("joints"), Segment::Index(j), key("name")],
+                format!("{label} moves no body"),
+                "name it as a body's `joint` or a direct pose's `angle`",
+            );
         }
     }
 

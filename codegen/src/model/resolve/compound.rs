@@ -127,12 +127,6 @@ impl Sources {
             None => format!("joint `{name}`"),
         }
     }
-
-    /// Whether the expanded file's joint `j` is the second or third angle of a universal or
-    /// spherical joint (whose entry the first angle already stands for).
-    pub(super) fn is_later_angle(&self, j: usize) -> bool {
-        self.joints.get(j).and_then(|s| s.axis).is_some_and(|axis| axis > 0)
-    }
 }
 
 /// The number of angles and the name of a universal or spherical joint.
@@ -461,4 +455,27 @@ fn bodies_name<'a>(bodies: &'a [Body], sources: &Sources, entry: usize) -> &'a s
         .zip(bodies)
         .find(|(s, _)| s.index == entry && !s.cross)
         .map_or("", |(_, b)| b.name.as_str())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The axes are normalised before the independence test: scaled axes are the same axes.
+    #[test]
+    fn axes_are_normalised_by_their_length() {
+        assert_eq!(unit(&[3.0, 4.0, 0.0]), Some([0.6, 0.8, 0.0]));
+        assert_eq!(unit(&[0.0, 0.0, -2.0e-3]), Some([0.0, 0.0, -1.0]));
+        assert_eq!(unit(&[0.0, 0.0, 0.0]), None);
+        assert_eq!(unit(&[1.0, 2.0]), None);
+        assert_eq!(unit(&[f64::NAN, 0.0, 1.0]), None);
+    }
+
+    /// The products the independence test is made of, worked out by hand.
+    #[test]
+    fn cross_and_dot_products_by_hand() {
+        assert_eq!(cross([1.0, 2.0, 3.0], [4.0, 5.0, 6.0]), [-3.0, 6.0, -3.0]);
+        assert_eq!(cross([2.0, -1.0, 0.5], [1.0, 2.0, 3.0]), [-4.0, -5.5, 5.0]);
+        assert_eq!(dot([1.0, 2.0, 3.0], [4.0, -5.0, 6.0]), 12.0);
+    }
 }
