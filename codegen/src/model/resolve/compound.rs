@@ -119,11 +119,9 @@ impl Sources {
     /// How diagnostics name the expanded file's joint `j`, called `name` there: the universal
     /// or spherical joint it is an angle of, or the joint itself.
     pub(super) fn joint_label(&self, j: usize, name: &str) -> String {
-        match self.joints.get(j).and_then(|s| s.axis.map(|axis| (s.index, axis))) {
-            Some((entry, _)) => self
-                .compound_names
-                .get(&entry)
-                .map_or_else(|| format!("joint `{name}`"), |(joint, kind)| format!("{kind} joint `{joint}`")),
+        let compound = self.joints.get(j).and_then(|s| self.compound_names.get(&s.index));
+        match compound {
+            Some((joint, kind)) => format!("{kind} joint `{joint}`"),
             None => format!("joint `{name}`"),
         }
     }
