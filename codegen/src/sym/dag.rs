@@ -987,6 +987,96 @@ impl Product {
     }
 }
 
+/// The distinct pairs of factors of a sorted product, each with its smaller factor first.
+fn distinct_pairs(factors: &[Factor]) -> Vec<(Factor, Factor)> {
+    let mut pairs = Vec::with_capacity(factors.len() * factors.len().saturating_sub(1) / 2);
+    for (i, &x) in factors.iter().enumerate() {
+        for &y in &factors[i + 1..] {
+            pairs.push((x, y));
+        }
+    }
+    pairs.sort_unstable();
+    pairs.dedup();
+    pairs
+}
+
+/// Greedy sharing of the most frequent pair of factors among `products`: the pair found in
+/// the most products (ties: the smallest pair) becomes a [`Factor::Pair`] in every product
+/// holding it, until no pair is in two products. Returns the pairs, indexed by
+/// [`Factor::Pair`].
+///
+/// The counts are kept up to date instead of recounted per pair chosen: only the products
+/// holding both factors of the chosen pair change, found through the index of the products
+/// each factor is in, and a max-heap of (count, pair) entries, checked against the current
+/// count when popped, yields the next pair.
+fn share_frequent_pairs(products: &mut [Product]) -> Vec<(Factor, Factor)> {
+    use std::cmp::Reverse;
+    use std::collections::BinaryHeap;
+    let mut counts: HashMap<(Factor, Factor), usize> = HashMap::default();
+    let mut holders: HashMap<Factor, Vec<usize>> = HashMap::default();
+    for (k, p) in products.iter().enumerate() {
+        for key in distinct_pairs(&p.factors) {
+            *counts.entry(key).or_default() += 1;
+        }
+        for f in &p.factors {
+            let list = holders.entry(*f).or_default();
+            if list.last() != Some(&k) {
+                list.push(k);
+            }
+        }
+    }
+    let mut heap: BinaryHeap<(usize, Reverse<(Factor, Factor)>)> =
+        counts.iter().filter(|(_, &n)| n >= 2).map(|(&key, &n)| (n, Reverse(key))).collect();
+    let mut pairs: Vec<(Factor, Factor)> = Vec::new();
+    while let Some((n, Reverse((x, y)))) = heap.pop() {
+        if counts.get(&(x, y)) != Some(&n) {
+            continue; // a stale entry: the count has changed since
+        }
+        let pair = Factor::Pair(pairs.len());
+        pairs.push((x, y));
+        let candidates = holders.get(&x).cloned().unwrap_or_default();
+        let mut pair_holders = Vec::new();
+        for k in candidates {
+            let p = &mut products[k];
+            if !(p.factors.contains(&x) && p.factors.contains(&y)) {
+                continue;
+            }
+            let before = distinct_pairs(&p.factors);
+            let mut replaced = false;
+            while p.replace(x, y, pair) {
+                replaced = true;
+            }
+            if !replaced {
+                continue; // x == y held once only
+            }
+            let after = distinct_pairs(&p.factors);
+            for key in &before {
+                if after.binary_search(key).is_err() {
+                    // Every pair of a product was counted when the product was, or since.
+                    if let Some(count) = counts.get_mut(key) {
+                        *count -= 1;
+                        if *count >= 2 {
+                            heap.push((*count, Reverse(*key)));
+                        }
+                    }
+                }
+            }
+            for key in &after {
+                if before.binary_search(key).is_err() {
+                    let count = counts.entry(*key).or_default();
+                    *count += 1;
+                    if *count >= 2 {
+                        heap.push((*count, Reverse(*key)));
+                    }
+                }
+            }
+            pair_holders.push(k);
+        }
+        holders.insert(pair, pair_holders);
+    }
+    pairs
+}
+
 impl Dag {
     /// A `Mul` interned as is, without moving negations out of it.
     fn raw_mul(&mut self, a: NodeId, b: NodeId) -> NodeId {
@@ -1065,34 +1155,7 @@ impl Dag {
             product_of.insert(id, products.len());
             products.push(Product { negative: coefficient < 0.0, factors });
         }
-        // Greedy sharing of the most frequent pair of factors.
-        let mut pairs: Vec<(Factor, Factor)> = Vec::new();
-        loop {
-            let mut counts: HashMap<(Factor, Factor), usize> = HashMap::default();
-            for p in &products {
-                let mut seen: Vec<(Factor, Factor)> = Vec::new();
-                for i in 0..p.factors.len() {
-                    for j in i + 1..p.factors.len() {
-                        let key = (p.factors[i], p.factors[j]);
-                        if !seen.contains(&key) {
-                            seen.push(key);
-                            *counts.entry(key).or_default() += 1;
-                        }
-                    }
-                }
-            }
-            let best = counts
-                .into_iter()
-                .filter(|(_, n)| *n >= 2)
-                .max_by(|(k1, n1), (k2, n2)| n1.cmp(n2).then(k2.cmp(k1)))
-                .map(|(k, _)| k);
-            let Some((x, y)) = best else { break };
-            let pair = Factor::Pair(pairs.len());
-            pairs.push((x, y));
-            for p in &mut products {
-                while p.replace(x, y, pair) {}
-            }
-        }
+        let pairs = share_frequent_pairs(&mut products);
         // A pair with a constant takes the sign with which it is an output by itself.
         let mut flip = vec![false; pairs.len()];
         for (k, &(x, y)) in pairs.iter().enumerate() {
@@ -1400,6 +1463,79 @@ mod tests {
 
     fn cost(c: OpCounts) -> usize {
         c.arithmetic() + c.trigonometric
+    }
+
+    /// The greedy pair sharing as first written: every pair's count recomputed from all
+    /// products each time a pair is chosen. The incremental [`share_frequent_pairs`] must
+    /// choose the same pairs in the same order.
+    fn share_frequent_pairs_by_recounting(products: &mut [Product]) -> Vec<(Factor, Factor)> {
+        let mut pairs: Vec<(Factor, Factor)> = Vec::new();
+        loop {
+            let mut counts: HashMap<(Factor, Factor), usize> = HashMap::default();
+            for p in products.iter() {
+                let mut seen: Vec<(Factor, Factor)> = Vec::new();
+                for i in 0..p.factors.len() {
+                    for j in i + 1..p.factors.len() {
+                        let key = (p.factors[i], p.factors[j]);
+                        if !seen.contains(&key) {
+                            seen.push(key);
+                            *counts.entry(key).or_default() += 1;
+                        }
+                    }
+                }
+            }
+            let best = counts
+                .into_iter()
+                .filter(|(_, n)| *n >= 2)
+                .max_by(|(k1, n1), (k2, n2)| n1.cmp(n2).then(k2.cmp(k1)))
+                .map(|(k, _)| k);
+            let Some((x, y)) = best else { break };
+            let pair = Factor::Pair(pairs.len());
+            pairs.push((x, y));
+            for p in products.iter_mut() {
+                while p.replace(x, y, pair) {}
+            }
+        }
+        pairs
+    }
+
+    #[test]
+    fn incremental_pair_sharing_matches_recounting() {
+        // Random products of 1–7 factors drawn from a few nodes and constants, with repeats
+        // (x·x), so that ties, squares and overlapping pairs all occur.
+        let mut state: u64 = 0x2545_f491_4f6c_dd1d;
+        let mut next = |bound: u64| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state % bound
+        };
+        let mut pairs_shared = 0;
+        for _ in 0..300 {
+            let count = 2 + next(40) as usize;
+            let alphabet = 2 + next(10);
+            let mut products: Vec<Product> = (0..count)
+                .map(|_| {
+                    let mut factors: Vec<Factor> = (0..1 + next(7))
+                        .map(|_| match next(alphabet + 2) {
+                            k if k < alphabet => Factor::Node(k as NodeId),
+                            k => Factor::Constant((k as f64).to_bits()),
+                        })
+                        .collect();
+                    factors.sort();
+                    Product { negative: next(2) == 0, factors }
+                })
+                .collect();
+            let mut expected_products = products.clone();
+            let expected = share_frequent_pairs_by_recounting(&mut expected_products);
+            let chosen = share_frequent_pairs(&mut products);
+            assert_eq!(chosen, expected);
+            for (p, e) in products.iter().zip(&expected_products) {
+                assert_eq!(p.factors, e.factors);
+            }
+            pairs_shared += chosen.len();
+        }
+        assert!(pairs_shared > 1000, "the random products share too few pairs to test: {pairs_shared}");
     }
 
     #[test]
