@@ -11,7 +11,8 @@
 #                                        host link's cost image: state frames to UART0, checked on the host;
 #                                        `pil` the joystick's processor-in-the-loop image, run by `hapticgen pil`
 #                                        against the host's plant and compared with `hapticgen simulate`;
-#                                        `pil-fig7` the parallel link's, tracing the circle of Fig. 7: ~10 min)
+#                                        `pil-fig7` the parallel link's, tracing the circle of Fig. 7: ~10 min;
+#                                        `device` the device-mode image, driven by `hapticgen connect`)
 #   HAPTICGEN_FW_OPT_LEVEL=s scripts/firmware.sh   another opt-level (the measurement in the docs)
 #   HAPTICGEN_FW_FMA=1 scripts/firmware.sh         generated code with fused multiply-adds (vfma.f32)
 #
@@ -35,6 +36,8 @@ PIL_VARIANT=joystick          # the variants.txt line it is built for
 PIL_MAX_COUNTS=4              # PIL vs simulate: largest joint difference, encoder counts (docs/link.md)
 PIL_FIG7=pil-fig7             # the processor-in-the-loop circle tracing, for --only (docs/link.md)
 PIL_FIG7_VARIANT=vertical     # the variants.txt line it is built for (the paper's parallel link)
+DEVICE=device                 # the device-mode image driven by `hapticgen connect`, for --only (docs/link.md)
+DEVICE_VARIANT=horizontal     # the variants.txt line it is built for (a 2-D task: the link's planar scene)
 QEMU_TIMEOUT=${HAPTICGEN_FW_QEMU_TIMEOUT:-300}
 LIMITS=()
 ONLY=()
@@ -70,7 +73,7 @@ TABLE=$(awk '{ sub(/#.*/, "") } NF { print $1 }' "$FW/variants.txt")
 [ -n "$TABLE" ] || die "$FW/variants.txt lists no image"
 # The processor-in-the-loop runs first: they wait on QEMU's serial link far more than they
 # compute, so they run in the background (`background`) while the other images build and run.
-KNOWN=$(printf '%s\n%s\n%s\n%s\n%s\n' "$PIL" "$PIL_FIG7" "$TABLE" "$BOARD" "$LINK")
+KNOWN=$(printf '%s\n%s\n%s\n%s\n%s\n%s\n' "$PIL" "$PIL_FIG7" "$DEVICE" "$TABLE" "$BOARD" "$LINK")
 SELECTED=()
 if [ ${#ONLY[@]} -eq 0 ]; then
     mapfile -t SELECTED <<<"$KNOWN"
@@ -272,6 +275,23 @@ for NAME in "${SELECTED[@]}"; do
         background "$PIL_FIG7" "$HAPTICGEN" pil "$ROOT/models/parallel_link_2dof.yaml" --variant "$PIL_FIG7_VARIANT" \
             --controller jacobian-transpose --scenario trace-circle --compare --max-counts "$PIL_MAX_COUNTS" \
             --image "$OUT/$PIL_FIG7_VARIANT.pil.elf" -o "$OUT/pil-fig7"
+        continue
+    fi
+    if [ "$NAME" = "$DEVICE" ]; then
+        step "device image ($DEVICE_VARIANT): lint and build (its own clock; impedance, scene, enable and heartbeats from UART0)"
+        HAPTICGEN_FW_VARIANT=$DEVICE_VARIANT cargo clippy --locked --release --target "$TARGET" \
+            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-device -- -D warnings
+        HAPTICGEN_FW_VARIANT=$DEVICE_VARIANT cargo build --locked --release --target "$TARGET" \
+            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-device
+        cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-device" "$OUT/$DEVICE_VARIANT.device.elf"
+        "$REF" size "$OUT/$DEVICE_VARIANT.device.elf"
+        # The root workspace's build goes where this script's does: never into <repo>/target.
+        HOST_TARGET_DIR=${CARGO_TARGET_DIR:-$TARGET_DIR/host}
+        (cd "$ROOT" && cargo build --locked -p hapticgen --target-dir "$HOST_TARGET_DIR") || die "building hapticgen failed"
+        HAPTICGEN=$HOST_TARGET_DIR/debug/hapticgen
+        [ -x "$HAPTICGEN" ] || die "hapticgen was built but is not at $HAPTICGEN"
+        step "device: hapticgen connect drives the image under QEMU (its safety checks, a scene that pushes it out of a wall)"
+        background "$DEVICE" "$ROOT/scripts/device-run.sh" "$HAPTICGEN" "$OUT/$DEVICE_VARIANT.device.elf" "$OUT/device"
         continue
     fi
     if [ "$NAME" = "$PIL" ]; then

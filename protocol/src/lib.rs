@@ -29,5 +29,5 @@ pub use frame::{
 pub use message::{
     ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, HostKind, HostMessage,
     ImpedanceSettings, PilLaw, PilSetup, SceneObject, SensorFrame, StateFrame, StateSample, MAX_JOINTS,
-    MAX_TASK, PROTOCOL_VERSION,
+    MAX_TASK, PROTOCOL_VERSION, SCENE_SLOTS,
 };

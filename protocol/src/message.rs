@@ -22,6 +22,10 @@ pub const MAX_JOINTS: usize = 6;
 /// The most task coordinates a rig on the link may have.
 pub const MAX_TASK: usize = 3;
 
+/// Scene slots a device holds: `SetObject` names slots `0..SCENE_SLOTS`; a device counts a
+/// higher slot as refused and ignores it.
+pub const SCENE_SLOTS: usize = 4;
+
 /// Channels of a state frame: encoder counts, joint velocities, joint torques and motor
 /// currents per joint, task position and velocity per task axis.
 const MAX_CHANNELS: usize = 4 * MAX_JOINTS + 2 * MAX_TASK;
@@ -329,7 +333,7 @@ pub struct StateSample<'a> {
     pub tick: u32,
     /// The bridges are enabled.
     pub enabled: bool,
-    /// The latched fault's code (0: none).
+    /// The latched fault's code (0: none), as [`StateFrame::fault`] holds it.
     pub fault: u8,
     /// Encoder counts per joint.
     pub encoder_counts: &'a [i32],
@@ -355,7 +359,8 @@ pub struct StateFrame {
     pub tick: u16,
     /// [`StateFrame::ENABLED`], [`StateFrame::SATURATED`].
     pub status: u8,
-    /// The latched fault's code (0: none).
+    /// The safety monitor's latched fault's code in the low 7 bits (0: none; `FaultCode::number`),
+    /// and [`StateFrame::LINK_FAULT`] while the link's heartbeat fault is latched.
     pub fault: u8,
     /// Instructions the last impedance tick took (65,535 and [`StateFrame::SATURATED`] if more).
     #[serde(with = "two_bytes")]
@@ -448,6 +453,9 @@ impl StateFrame {
     pub const ENABLED: u8 = 1;
     /// Status bit: a channel (or the instruction count) did not fit and was sent at its limit.
     pub const SATURATED: u8 = 2;
+    /// Bit of [`StateFrame::fault`]: the link's heartbeat watchdog has latched its fault (the
+    /// safe state; cleared only by the host's `ResetFault`).
+    pub const LINK_FAULT: u8 = 0x80;
     /// A channel's value for NaN (a finite value never quantises to it).
     pub const NOT_A_NUMBER: i16 = i16::MIN;
 

@@ -10,6 +10,7 @@
 #![deny(missing_docs)]
 
 pub mod analysis;
+pub mod connect;
 pub mod contact;
 pub mod contact_report;
 pub mod faults;

@@ -137,6 +137,11 @@ enum Command {
     /// simulated plant of `simulate`, lock-step over the board's UART (one exchange per
     /// current-loop period); writes DIR/trace.csv, plots and DIR/qemu.out (the image's report).
     Pil(PilArgs),
+    /// Drive a running device over its link, as an application does: open the link (the
+    /// device's identity is printed), set the impedance, load a scene, enable the bridges and
+    /// keep them enabled with heartbeats, show a live status line, log the state stream to
+    /// CSV; disable at the end (docs/link.md).
+    Connect(ConnectArgs),
     /// Run every contact scenario (a floor, sliding with and without friction, a ball, a box's
     /// edges and corner, a thin plate, meshes) on a rig with a 3-D task, with the runtime's
     /// god object rendering; writes each run's trace and figures and DIR/report.md with a
@@ -350,6 +355,152 @@ struct PilArgs {
     garbage_every: Option<u64>,
 }
 
+#[derive(clap::Args)]
+struct ConnectArgs {
+    /// Where the device is: `tcp:HOST:PORT` (e.g. the device image under QEMU with
+    /// `-serial tcp:127.0.0.1:4500,server=on,wait=off`), `unix:PATH` (`-serial
+    /// unix:PATH,server=on,wait=off`) or a serial device path (set its speed first, e.g.
+    /// `stty -F /dev/ttyACM0 1000000 raw`).
+    #[arg(long)]
+    port: hapticgen_host::connect::Port,
+    /// Target impedance on every task axis: `K,B` or `K,B,M` (N/m, N·s/m, kg).
+    #[arg(long)]
+    impedance: Option<String>,
+    /// A scene file to load into the device (YAML `objects:` of `sphere`, `box`, `half_space`;
+    /// docs/link.md); the device's other slots are emptied.
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Enable the bridges (heartbeats are sent from the start, every millisecond).
+    #[arg(long)]
+    enable: bool,
+    /// Clear a latched fault first (a device whose heartbeat was lost stays off until this).
+    #[arg(long)]
+    reset: bool,
+    /// How long to stay connected, s.
+    #[arg(long, default_value_t = 5.0)]
+    duration: f64,
+    /// Log every state frame to this CSV file (SI units; a row per impedance tick).
+    #[arg(long)]
+    log: Option<PathBuf>,
+    /// Try the link's safety rules on the device first (enables it): garbage at full rate,
+    /// heartbeat loss (safe state within 10 ms), no recovery without a reset; fails if one
+    /// does not hold.
+    #[arg(long)]
+    check_safety: bool,
+    /// No live status line.
+    #[arg(long)]
+    quiet: bool,
+}
+
+fn connect(args: ConnectArgs) -> Result<(), String> {
+    use hapticgen_host::connect::{self as link, Event, Session};
+    use hapticgen_protocol::{HostMessage, SceneObject, SCENE_SLOTS};
+    if !(args.duration.is_finite() && args.duration >= 0.0) {
+        return Err(format!("error: --duration must be a finite, non-negative time, got {}", args.duration));
+    }
+    let impedance = args.impedance.as_deref().map(link::parse_impedance).transpose()?;
+    let scene = args.scene.as_deref().map(link::load_scene).transpose()?;
+    let mut session = Session::open(&args.port)?;
+    let info = session.info;
+    println!(
+        "connected: protocol {}, {} joints, {} task axes, impedance loop {} Hz, rig name hash {:08x}",
+        info.version, info.joints, info.task_dim, info.impedance_loop_hz, info.rig_name_hash
+    );
+    if let Some(settings) = impedance {
+        session.send(&HostMessage::SetImpedance(settings))?;
+    }
+    if let Some(objects) = &scene {
+        for slot in 0..SCENE_SLOTS {
+            let object = objects.get(slot).copied().unwrap_or(SceneObject::Empty);
+            session.send(&HostMessage::SetObject { slot: slot as u8, object })?;
+        }
+        println!("scene: {} objects loaded", objects.len());
+    }
+    session.heartbeats(true);
+    std::thread::sleep(link::HEARTBEAT_PERIOD * 3);
+    if args.reset {
+        session.send(&HostMessage::ResetFault)?;
+    }
+    if args.enable || args.check_safety {
+        session.send(&HostMessage::Enable)?;
+    }
+    let mut failed = 0;
+    if args.check_safety {
+        for row in link::safety_check(&mut session)? {
+            println!("{} {}: {}", if row.pass { "PASS" } else { "FAIL" }, row.what, row.measured);
+            failed += usize::from(!row.pass);
+        }
+    }
+    let mut log = match &args.log {
+        Some(path) => {
+            let mut writer =
+                csv::Writer::from_path(path).map_err(|e| format!("error: {}: {e}", path.display()))?;
+            writer
+                .write_record(link::csv_header(&info))
+                .map_err(|e| format!("error: {}: {e}", path.display()))?;
+            Some(writer)
+        }
+        None => None,
+    };
+    let start = std::time::Instant::now();
+    let deadline = start + std::time::Duration::from_secs_f64(args.duration);
+    let (mut frames, mut missing) = (0u64, 0u64);
+    let mut first_tick = None;
+    let mut last: Option<hapticgen_protocol::StateFrame> = None;
+    let mut shown = start;
+    while let Some(left) = deadline.checked_duration_since(std::time::Instant::now()) {
+        let Some(event) = session.next(left)? else { break };
+        let Event::State(received) = event else { continue };
+        let frame = received.frame;
+        if let Some(previous) = &last {
+            missing += link::missing_between(previous.tick, frame.tick);
+        }
+        first_tick.get_or_insert(frame.tick);
+        frames += 1;
+        if let (Some(writer), Some(path)) = (log.as_mut(), args.log.as_ref()) {
+            let seconds = received.at.duration_since(start).as_secs_f64();
+            writer
+                .write_record(link::csv_row(&info, &frame, seconds))
+                .map_err(|e| format!("error: {}: {e}", path.display()))?;
+        }
+        if !args.quiet && received.at.duration_since(shown) >= std::time::Duration::from_millis(100) {
+            eprint!("\r{}   ", link::status_line(&info, &frame, frames, missing));
+            shown = received.at;
+        }
+        last = Some(frame);
+    }
+    if !args.quiet {
+        eprintln!();
+    }
+    if let (Some(mut writer), Some(path)) = (log, args.log.as_ref()) {
+        writer.flush().map_err(|e| format!("error: {}: {e}", path.display()))?;
+        println!("wrote {} ({frames} rows)", path.display());
+    }
+    let device_counters = session.device_counters;
+    let host_dropped = session.host_dropped.load(std::sync::atomic::Ordering::Relaxed);
+    let heartbeats = session.heartbeats_sent();
+    session.close()?;
+    println!(
+        "{frames} state frames in {:.2} s (ticks {} to {}), {missing} missing; {heartbeats} heartbeats sent; host dropped \
+         {host_dropped} frames{}",
+        args.duration,
+        first_tick.map_or("-".into(), |t| t.to_string()),
+        last.map_or("-".into(), |f| f.tick.to_string()),
+        device_counters.map_or(String::new(), |c| format!(
+            "; device: {} frames received, {} dropped",
+            c.frames,
+            c.dropped()
+        ))
+    );
+    if let Some(frame) = &last {
+        println!("last: {}", link::status_line(&info, frame, frames, missing));
+    }
+    if failed > 0 {
+        return Err(format!("error: {failed} of the link's safety checks failed"));
+    }
+    Ok(())
+}
+
 fn load(
     model_path: &std::path::Path,
     variant: Option<&str>,
@@ -547,6 +698,7 @@ fn run(cli: Cli) -> Result<(), String> {
         }
         Command::Simulate(args) => simulate(args),
         Command::Pil(args) => pil(args),
+        Command::Connect(args) => connect(args),
         Command::Contact { model, variant, controller, friction: coefficients, mesh, push, only, output } => {
             let sim = Simulation::load(&model, variant.as_deref())?;
             let run = hapticgen_host::contact_report::ContactRun {

@@ -10,7 +10,12 @@ const UART0: usize = 0x4000_4000;
 const DATA: usize = 0x00;
 const STATE: usize = 0x04;
 const CTRL: usize = 0x08;
+const INTSTATUS: usize = 0x0C;
 const BAUDDIV: usize = 0x10;
+
+/// UART0's receive interrupt on the MPS2-AN386 (QEMU's `mps2` board: UART n's receive
+/// interrupt is IRQ 2n for the first three, its transmit one the next).
+pub const UART0_RX_IRQ: i16 = 0;
 
 /// Polls of a full transmitter before a byte is dropped: far more than QEMU ever needs (its
 /// transmitter is never full for long), few enough that a stuck one cannot hang the image.
@@ -28,6 +33,24 @@ impl Uart0 {
             write_volatile((UART0 + CTRL) as *mut u32, 0b11);
         }
         Uart0
+    }
+
+    /// Also raises UART0's receive interrupt (IRQ 0 of the MPS2-AN386) for every byte
+    /// received, so that a core waiting in `wfi` wakes when one arrives; the handler must call
+    /// [`Uart0::clear_receive_interrupt`].
+    pub fn enable_receive_interrupt(&mut self) {
+        // SAFETY: UART0's control register (bit 3: receive interrupt enable) and the NVIC's
+        // set-enable register for IRQ 0; nothing else uses either.
+        unsafe {
+            write_volatile((UART0 + CTRL) as *mut u32, 0b1011);
+            (*cortex_m::peripheral::NVIC::PTR).iser[0].write(1 << UART0_RX_IRQ);
+        }
+    }
+
+    /// Acknowledges the receive interrupt (write one to clear).
+    pub fn clear_receive_interrupt() {
+        // SAFETY: a write-one-to-clear of UART0's receive interrupt status.
+        unsafe { write_volatile((UART0 + INTSTATUS) as *mut u32, 0b10) };
     }
 
     /// The received byte, if one is waiting.

@@ -44,6 +44,9 @@ mod qemu;
 #[allow(dead_code)]
 #[path = "../uart.rs"]
 mod uart;
+// The device's `DeviceInfo` and the reference over the link, shared with the device image.
+#[path = "../link_scene.rs"]
+mod link_scene;
 
 use cortex_m_rt::entry;
 use hapticgen_fw_control::board::{CurrentSense, CycleCounter, Encoders, ForceSense, VoltageOutput};
@@ -51,15 +54,15 @@ use hapticgen_fw_control::link::{DeviceLink, Gated, LinkEvent, LinkSettings};
 use hapticgen_fw_control::report::Line;
 use hapticgen_fw_control::{Controller, CostStats};
 use hapticgen_protocol::{
-    encode, ActuatorFrame, ChannelScales, DeviceInfo, DeviceMessage, PilLaw, PilSetup, SceneObject,
-    SensorFrame, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION,
+    encode, ActuatorFrame, DeviceMessage, PilLaw, PilSetup, SceneObject, SensorFrame, MAX_FRAME_BYTES,
+    MAX_TASK,
 };
 use hapticgen_runtime::control::{
-    ControlOptions, ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference,
+    ControlOptions, ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters,
 };
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
-use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
-use hapticgen_runtime::tick::{HapticLoopSettings, ReferenceSource};
+use hapticgen_runtime::tick::HapticLoopSettings;
+use link_scene::{device_info, first, LinkSource, SCENE_OBJECTS};
 use uart::Uart0;
 
 #[allow(clippy::all, dead_code)]
@@ -71,86 +74,7 @@ use generated::image;
 const N: usize = image::JOINTS;
 const M: usize = image::TASK_DIM;
 type Rig = image::Rig;
-type Control = Controller<Rig, PilSource, N, M>;
-
-/// Scene objects a PIL run may hold.
-const SCENE_OBJECTS: usize = 4;
-
-/// The reference of a PIL run: fixed, or a planar scene rendered on the device (a 2-D task:
-/// the runtime's proxy renderer with its anti-drift grid, as the self-contained images'
-/// `wall_contact` and the host's simulator run it).
-// One instance, in a static-sized controller: no heap on the device, so no box for the scene.
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Copy)]
-enum Reference {
-    Fixed(TaskReference<f32, M>),
-    Scene(Scene<f32, SCENE_OBJECTS, 8>),
-}
-
-/// [`Reference`] and the last reference position it gave (sent back to the host).
-#[derive(Clone, Copy)]
-struct PilSource {
-    reference: Reference,
-    last: [f32; M],
-}
-
-impl ReferenceSource<f32, M> for PilSource {
-    fn update_reference(
-        &mut self,
-        task_position: &[f32; M],
-        parameters: &mut ImpedanceParameters<f32, M>,
-    ) -> TaskReference<f32, M> {
-        let reference = match &mut self.reference {
-            Reference::Fixed(fixed) => *fixed,
-            Reference::Scene(scene) => {
-                // The scene is planar: the first two task coordinates (`build` only makes a
-                // scene for a 2-D task).
-                let mut planar = ImpedanceParameters {
-                    stiffness: first(&parameters.stiffness),
-                    damping: first(&parameters.damping),
-                    mass: first(&parameters.mass),
-                };
-                let out = scene.update_reference(&first(task_position), &mut planar);
-                for k in 0..M.min(2) {
-                    parameters.stiffness[k] = planar.stiffness[k];
-                    parameters.damping[k] = planar.damping[k];
-                }
-                TaskReference {
-                    position: first(&out.position),
-                    velocity: first(&out.velocity),
-                    acceleration: first(&out.acceleration),
-                }
-            }
-        };
-        self.last = reference.position;
-        reference
-    }
-}
-
-/// A scene object of the link as a planar virtual object: a sphere is a circle, a box an
-/// axis-aligned rectangle; `None` for an empty slot or a half-space (not rendered in 2-D here).
-fn planar_object(object: &SceneObject) -> Option<VirtualObject<f32, 8>> {
-    let kind = |cavity: bool| if cavity { ObjectKind::Cavity } else { ObjectKind::Solid };
-    match *object {
-        SceneObject::Sphere { centre, radius, cavity, stiffness, damping } => Some(VirtualObject {
-            shape: Shape::Circle { center: first(&centre), radius },
-            kind: kind(cavity),
-            stiffness,
-            damping,
-        }),
-        SceneObject::Box { centre, half_extents, stiffness, damping } => Some(VirtualObject {
-            shape: Shape::Rectangle {
-                center: first(&centre),
-                half_extents: first(&half_extents),
-                angle: 0.0,
-            },
-            kind: ObjectKind::Solid,
-            stiffness,
-            damping,
-        }),
-        SceneObject::Empty | SceneObject::HalfSpace { .. } => None,
-    }
-}
+type Control = Controller<Rig, LinkSource, N, M>;
 
 /// How long a period of a started run waits for its sensor frame, in ticks of the 25 MHz APB
 /// timer: 2.5 × 10⁸ ticks = 10 s of virtual time. The host computes the plant between two
@@ -215,15 +139,6 @@ impl VoltageOutput<f32, N> for PilBoard {
     }
 }
 
-/// The first `K` entries of `values` (zero beyond them).
-fn first<const K: usize, T: Copy + Default>(values: &[T]) -> [T; K] {
-    let mut out = [T::default(); K];
-    for (slot, value) in out.iter_mut().zip(values) {
-        *slot = *value;
-    }
-    out
-}
-
 /// The controller `setup` and `impedance` describe, with the image's own current-loop gains;
 /// `None` if a value is unusable (non-finite, a cut-off not positive) or the rates are.
 fn build(
@@ -276,31 +191,8 @@ fn build(
         current_gains: image::setup().current_gains,
         max_tick_gap: 1,
     };
-    let fixed = TaskReference::at_rest(first(&setup.reference));
-    let reference = match setup.scene_grid_spacing {
-        None => Reference::Fixed(fixed),
-        Some(grid) => {
-            if M != 2 || !grid.is_finite() || grid < 0.0 {
-                return None;
-            }
-            let mut scene = Scene::new(impedance.stiffness[0], impedance.damping[0], grid);
-            for object in objects.iter().filter_map(planar_object) {
-                scene.add(object)?;
-            }
-            Reference::Scene(scene)
-        }
-    };
-    Controller::new(Rig::NOMINAL, PilSource { reference, last: fixed.position }, &settings, false)
-}
-
-/// FNV-1a of `bytes` (the device's name hash in its `DeviceInfo`).
-fn fnv1a(bytes: &[u8]) -> u32 {
-    let mut hash = 0x811c_9dc5u32;
-    for &byte in bytes {
-        hash ^= u32::from(byte);
-        hash = hash.wrapping_mul(0x0100_0193);
-    }
-    hash
+    let source = LinkSource::new(first(&setup.reference), impedance, objects, setup.scene_grid_spacing)?;
+    Controller::new(Rig::NOMINAL, source, &settings, false)
 }
 
 /// Counter ticks as instructions, from the ticks of [`qemu::KNOWN_INSTRUCTIONS`] instructions.
@@ -378,16 +270,10 @@ fn main() -> ! {
     };
     let elapsed = |from: u32, to: u32| to.wrapping_sub(from).saturating_sub(overhead);
     let mut uart = Uart0::start();
-    let info = DeviceInfo {
-        version: PROTOCOL_VERSION,
-        rig_name_hash: fnv1a(image::NAME.as_bytes()),
-        joints: N as u8,
-        task_dim: M as u8,
-        impedance_loop_hz: u16::try_from(image::IMPEDANCE_LOOP_HZ).unwrap_or(u16::MAX),
-        scales: ChannelScales::DESKTOP,
-    };
-    let mut link =
-        DeviceLink::new(info, LinkSettings::with_timeout_ms(LINK_TIMEOUT_MS, image::CURRENT_LOOP_HZ));
+    let mut link = DeviceLink::new(
+        device_info(),
+        LinkSettings::with_timeout_ms(LINK_TIMEOUT_MS, image::CURRENT_LOOP_HZ),
+    );
     let mut board =
         PilBoard { counts: [0; N], currents: [0.0; N], readings: [0.0; M], volts: [0.0; N], driven: false };
     let mut impedance: Option<ImpedanceParameters<f32, MAX_TASK>> = None;

@@ -1,0 +1,302 @@
+//! Device mode (issue 19): the image runs on its own clock like a device on a desk, and a host
+//! drives it over UART0 (`hapticgen connect`): impedance settings, scene objects, enable,
+//! disable, fault reset and heartbeats in; the 1 kHz state stream out.
+//!
+//! QEMU has no motors, amplifiers or encoders, so the board's peripherals are the simulated
+//! plant of the self-contained images (`hapticgen_fw_sim::plant::SimBoard`: the rig's
+//! dynamics, its drives, the encoders' quantisation, the current sense's lag), with no hand on
+//! it; on a real board they are the board's (`targets/firmware/stm32f4`). Everything else is
+//! the firmware's: [`Controller::on_current_tick`] once per current-loop period, with the
+//! bridges held off by the link ([`Gated`]) until the host enables them and whenever its
+//! heartbeat has stopped.
+//!
+//! * **Clock**: one current-loop period each time the APB timer passes the next deadline
+//!   (`SYSCLK_HZ / CURRENT_LOOP_HZ` ticks). Run QEMU *without* `-icount`: its timers then
+//!   follow the host's clock, so that 10 ms on the device are 10 ms for the host sending the
+//!   heartbeats. A period that starts more than a period late is counted (`overruns`) and the
+//!   deadlines restart from it: the control counts its own time in periods.
+//! * **Link**: between deadlines the core takes UART0's received bytes, at most
+//!   [`BYTES_PER_POLL`] before it looks at the clock again (bounded work per byte,
+//!   `DeviceLink::receive`), and waits in `wfi` when there is none: UART0's receive interrupt
+//!   and SysTick (at the current-loop rate) wake it. Waiting instead of polling matters under
+//!   QEMU: a core that spins on the UART's status holds the emulator's lock, and bytes then
+//!   reach the UART at about 4 kB/s, fewer than 1 kHz of heartbeats need (measured).
+//!   Heartbeat timeout [`LINK_TIMEOUT_MS`]: without a heartbeat for that long, the link latches
+//!   its fault and the bridges are off in the same period; only `ResetFault` then `Enable`
+//!   (with fresh heartbeats) turns them on again.
+//! * **Controller**: Controller 3 (`J^T`, any rig), at start a spring to the start pose with
+//!   the model's rendering stiffness and damping (else the paper's 1500 N/m, 5 N·s/m).
+//!   `SetImpedance` changes `K_d`, `B_d`, `M_d`; on a 2-D task, `SetObject` puts a sphere
+//!   (a circle) or a box into the planar scene the runtime's proxy renderer draws (its free
+//!   space holds the point with the settings' first axis, on the model's anti-drift grid). A
+//!   change of either replaces the reference (the renderer starts afresh; the estimator and
+//!   the filters run on); with every slot empty again, the spring to the start pose is back.
+//! * **State stream**: after each impedance tick, a `State` frame: encoder counts, joint
+//!   velocities, task position and velocity, commanded torques, motor currents, the safety
+//!   monitor's fault and the link's ([`StateFrame::LINK_FAULT`]), the tick's cost in timer
+//!   ticks (25 MHz; the count of instructions only under `-icount`); every
+//!   [`COUNTERS_TICKS`] ticks, the link's receive counters (`Link`).
+//!
+//! Semihosting prints `DEVICE_READY` at start (the host need not read it: the UART is the
+//! interface). The image runs until QEMU is stopped.
+#![no_std]
+#![no_main]
+
+// The board support of the images (timer, semihosting, exit, panic handler), shared as source.
+#[allow(dead_code)]
+#[path = "../qemu.rs"]
+mod qemu;
+// The polled UART the link talks through.
+#[allow(dead_code)]
+#[path = "../uart.rs"]
+mod uart;
+// The device's `DeviceInfo` and the reference over the link, shared with the PIL image.
+#[allow(dead_code)]
+#[path = "../link_scene.rs"]
+mod link_scene;
+
+use cortex_m_rt::{entry, exception};
+use hapticgen_fw_control::board::{CycleCounter, Encoders, TickTimer};
+use hapticgen_fw_control::link::{DeviceLink, Gated, LinkEvent, LinkSettings};
+use hapticgen_fw_control::report::Line;
+use hapticgen_fw_control::Controller;
+use hapticgen_fw_sim::plant::SimBoard;
+use hapticgen_fw_sim::scenarios::PAPER_RENDERING;
+use hapticgen_protocol::{
+    encode, ChannelScales, DeviceMessage, SceneObject, StateFrame, StateSample, MAX_FRAME_BYTES, MAX_TASK,
+};
+use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
+use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
+use hapticgen_runtime::tick::HapticLoopSettings;
+use link_scene::{device_info, first, LinkSource, SCENE_OBJECTS};
+use uart::Uart0;
+
+#[allow(clippy::all, dead_code)]
+mod generated {
+    include!(concat!(env!("OUT_DIR"), "/image.rs"));
+}
+use generated::image;
+
+const N: usize = image::JOINTS;
+const M: usize = image::TASK_DIM;
+type Rig = image::Rig;
+type Control = Controller<Rig, LinkSource, N, M>;
+
+/// The heartbeat timeout, ms: the bridges are off within 10 ms of the last heartbeat (issue 19),
+/// with 4 ms to spare for the link's latency both ways and the tick in which the state frame
+/// tells the host (`hapticgen connect --check-safety` measures the sum from the host).
+const LINK_TIMEOUT_MS: u32 = 6;
+
+/// Received bytes taken in one poll before the clock is looked at again: at most a period's
+/// worth of link work delays a deadline (a byte is about a dozen instructions, docs/link.md).
+const BYTES_PER_POLL: usize = 64;
+
+/// Impedance ticks between two `Link` messages (the receive counters) to the host.
+const COUNTERS_TICKS: u32 = 1000;
+
+/// Periods between two lines of `DEVICE_STATUS` on semihosting (one per 10 s at 7.5 kHz).
+const STATUS_PERIODS: u32 = 75_000;
+
+/// The controller at start: `impedance` on every axis, a spring to `home` (no scene yet);
+/// `None` if the rig's rates are unusable.
+fn build(impedance: &ImpedanceParameters<f32, MAX_TASK>, home: [f32; M]) -> Option<Control> {
+    let setup = image::setup();
+    let source = LinkSource::new(home, impedance, &[SceneObject::Empty; SCENE_OBJECTS], None)?;
+    let settings = HapticLoopSettings {
+        controller: ImpedanceController {
+            law: ImpedanceLaw::JacobianTranspose,
+            parameters: ImpedanceParameters {
+                stiffness: first(&impedance.stiffness),
+                damping: first(&impedance.damping),
+                mass: first(&impedance.mass),
+            },
+            options: ControlOptions {
+                omit_damping_compensation: false,
+                min_abs_jacobian_determinant: 1e-6,
+                spring_lead_time: 0.0,
+            },
+        },
+        estimator: EstimatorSettings {
+            sample_period: 1.0 / image::IMPEDANCE_LOOP_HZ as f32,
+            velocity_cutoff_hz: 50.0,
+            acceleration_cutoff_hz: 20.0,
+        },
+        zero_offset: setup.start,
+        initial_counts: [0; N],
+        force_calibration: ForceSensorCalibration { scale: [1.0; M], offset: [0.0; M] },
+        current_gains: setup.current_gains,
+        max_tick_gap: 1,
+    };
+    Controller::new(Rig::NOMINAL, source, &settings, false)
+}
+
+/// `J q̇`: the task velocity of joint velocities `qd` at `q`.
+fn task_velocity(q: &[f32; N], qd: &[f32; N]) -> [f32; M] {
+    let jacobian = Rig::NOMINAL.jacobian(q);
+    let mut velocity = [0.0; M];
+    for (v, row) in velocity.iter_mut().zip(jacobian.iter()) {
+        *v = row.iter().zip(qd).map(|(j, w)| j * w).sum();
+    }
+    velocity
+}
+
+/// Wakes the core from `wfi` at the current-loop rate; the period itself is timed by the APB
+/// counter.
+#[exception]
+fn SysTick() {}
+
+/// UART0's receive interrupt (the only one enabled): acknowledged; the byte is taken by the
+/// main loop.
+#[exception]
+unsafe fn DefaultHandler(irq: i16) {
+    if irq == uart::UART0_RX_IRQ {
+        Uart0::clear_receive_interrupt();
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    let Some(core) = cortex_m::Peripherals::take() else { qemu::exit(2) };
+    let counter = qemu::ApbCounter::start();
+    let mut out = qemu::Semihosting::new();
+    let mut uart = Uart0::start();
+    uart.enable_receive_interrupt();
+    let mut wake = qemu::SysTickTimer::new(core.SYST);
+    wake.start(image::CURRENT_LOOP_HZ);
+    let setup = image::setup();
+    let period_ticks = qemu::SYSCLK_HZ / image::CURRENT_LOOP_HZ.max(1);
+    let mut link = DeviceLink::new(
+        device_info(),
+        LinkSettings::with_timeout_ms(LINK_TIMEOUT_MS, image::CURRENT_LOOP_HZ),
+    );
+    let mut board: SimBoard<Rig, N, M> = SimBoard::new(
+        Rig::NOMINAL,
+        setup.start,
+        1.0 / image::CURRENT_LOOP_HZ as f32,
+        image::sense_time_constant(),
+    );
+    let [grid, stiffness, damping] = setup.rendering.unwrap_or([
+        PAPER_RENDERING[0] as f32,
+        PAPER_RENDERING[1] as f32,
+        PAPER_RENDERING[2] as f32,
+    ]);
+    let mut impedance = ImpedanceParameters {
+        stiffness: [stiffness; MAX_TASK],
+        damping: [damping; MAX_TASK],
+        mass: [1.0; MAX_TASK],
+    };
+    let mut objects = [SceneObject::Empty; SCENE_OBJECTS];
+    let home = Rig::NOMINAL.position(&setup.start);
+    let Some(mut control) = build(&impedance, home) else {
+        out.line(b"ERROR the rig's rates are unusable\n");
+        qemu::exit(3);
+    };
+    let mut line = Line::new();
+    line.str("DEVICE_READY variant=").str(image::NAME).kv("joints", N as i64).kv("task", M as i64);
+    line.kv("current_loop_hz", i64::from(image::CURRENT_LOOP_HZ))
+        .kv("timeout_ms", i64::from(LINK_TIMEOUT_MS));
+    line.emit(&mut out);
+    let mut buffer = [0u8; MAX_FRAME_BYTES];
+    let mut periods = 0u32;
+    let mut overruns = 0u32;
+    let mut refused_changes = 0u32;
+    let mut uart_dropped = 0u32;
+    let mut next = counter.now().wrapping_add(period_ticks);
+    loop {
+        let mut changed = false;
+        let mut taken = 0;
+        while taken < BYTES_PER_POLL {
+            let Some(byte) = uart.read() else { break };
+            taken += 1;
+            match link.receive::<f32>(byte) {
+                Some(LinkEvent::Hello) => {
+                    if let Ok(length) = link.hello(&mut buffer) {
+                        uart_dropped += uart.write(buffer.get(..length).unwrap_or(&[]));
+                    }
+                }
+                Some(LinkEvent::Impedance(parameters)) => {
+                    impedance = parameters;
+                    changed = true;
+                }
+                Some(LinkEvent::Object { slot, object }) => match objects.get_mut(usize::from(slot)) {
+                    Some(entry) => {
+                        *entry = object;
+                        changed = true;
+                    }
+                    None => refused_changes = refused_changes.saturating_add(1),
+                },
+                // Enable, disable, heartbeats and resets are the link's own; sensor frames and
+                // PIL setups are for the PIL image.
+                _ => {}
+            }
+        }
+        if changed {
+            // The controller keeps its estimator and filters (the device has not stopped);
+            // the settings and the reference are replaced.
+            control.haptic.controller.parameters = ImpedanceParameters {
+                stiffness: first(&impedance.stiffness),
+                damping: first(&impedance.damping),
+                mass: first(&impedance.mass),
+            };
+            let has_objects = objects.iter().any(|object| *object != SceneObject::Empty);
+            match LinkSource::new(home, &impedance, &objects, has_objects.then_some(grid)) {
+                Some(source) => control.haptic.source = source,
+                None => refused_changes = refused_changes.saturating_add(1),
+            }
+        }
+        let late = counter.now().wrapping_sub(next);
+        if late > u32::MAX / 2 {
+            // Before the deadline (the difference wrapped): wait for a byte or SysTick.
+            if taken == 0 {
+                cortex_m::asm::wfi();
+            }
+            continue;
+        }
+        if late > period_ticks {
+            overruns = overruns.saturating_add(1);
+            next = counter.now();
+        }
+        next = next.wrapping_add(period_ticks);
+        periods = periods.wrapping_add(1);
+        let open = link.on_current_tick();
+        let outcome = control.on_current_tick(&mut Gated { board: &mut board, open }, &counter);
+        board.advance(&[0.0; M]);
+        if let Some(report) = outcome.impedance {
+            let state = *control.haptic.estimator().state();
+            let position = Rig::NOMINAL.position(&state.position);
+            let velocity = task_velocity(&state.position, &state.velocity);
+            let counts = board.counts();
+            let safety_fault = control.first_fault.map_or(0, |(_, fault)| fault.number());
+            let link_fault = if link.fault().is_some() { StateFrame::LINK_FAULT } else { 0 };
+            let sample = StateSample {
+                tick: control.impedance_ticks(),
+                enabled: link.outputs_allowed(),
+                fault: safety_fault | link_fault,
+                encoder_counts: &counts,
+                joint_velocity: &state.velocity,
+                task_position: &position,
+                task_velocity: &velocity,
+                joint_torque: &report.command.torque,
+                motor_current: &board.current,
+                tick_instructions: control.impedance_cost.max,
+            };
+            if let Some(length) = StateFrame::encode_sample(&sample, &ChannelScales::DESKTOP, &mut buffer) {
+                uart_dropped += uart.write(buffer.get(..length).unwrap_or(&[]));
+            }
+            if control.impedance_ticks().is_multiple_of(COUNTERS_TICKS) {
+                if let Ok(length) = encode(&DeviceMessage::Link(link.counters()), &mut buffer) {
+                    uart_dropped += uart.write(buffer.get(..length).unwrap_or(&[]));
+                }
+            }
+        }
+        if periods.is_multiple_of(STATUS_PERIODS) {
+            let counters = link.counters();
+            let mut line = Line::new();
+            line.str("DEVICE_STATUS").kv("periods", i64::from(periods)).kv("overruns", i64::from(overruns));
+            line.kv("frames", i64::from(counters.frames)).kv("dropped_frames", i64::from(counters.dropped()));
+            line.kv("refused_changes", i64::from(refused_changes))
+                .kv("uart_dropped", i64::from(uart_dropped));
+            line.emit(&mut out);
+        }
+    }
+}

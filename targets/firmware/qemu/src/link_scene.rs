@@ -1,0 +1,156 @@
+//! What the link images (`pil`, `device`) share: the device's [`DeviceInfo`], and the
+//! reference their controllers run, fixed or a planar scene whose objects come over the link.
+//! Shared as source, like `qemu.rs`: the binaries include it with `#[path]`; it uses the
+//! including binary's `generated::image`.
+
+use hapticgen_protocol::{ChannelScales, DeviceInfo, SceneObject, MAX_TASK, PROTOCOL_VERSION};
+use hapticgen_runtime::control::{ImpedanceParameters, TaskReference};
+use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
+use hapticgen_runtime::tick::ReferenceSource;
+
+use crate::generated::image;
+
+const M: usize = image::TASK_DIM;
+
+/// Scene objects a link image holds (the slots `SetObject` may name).
+pub const SCENE_OBJECTS: usize = hapticgen_protocol::SCENE_SLOTS;
+
+/// The reference of a link image: fixed, or a planar scene rendered on the device (a 2-D task:
+/// the runtime's proxy renderer with its anti-drift grid, as the self-contained images'
+/// `wall_contact` and the host's simulator run it).
+// One instance, in a static-sized controller: no heap on the device, so no box for the scene.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy)]
+pub enum Reference {
+    /// A fixed reference.
+    Fixed(TaskReference<f32, M>),
+    /// A planar scene.
+    Scene(Scene<f32, SCENE_OBJECTS, 8>),
+}
+
+/// [`Reference`] and the last reference position it gave (sent back to the host).
+#[derive(Clone, Copy)]
+pub struct LinkSource {
+    /// The reference.
+    pub reference: Reference,
+    /// The last reference position.
+    pub last: [f32; M],
+}
+
+impl LinkSource {
+    /// The reference at rest at `position` when no object is set, else (2-D tasks only: `None`
+    /// for another dimension) the scene of `objects` with `impedance`'s first axis as the free
+    /// space's stiffness and damping and the anti-drift grid `grid` (m). `None` too for a
+    /// negative or non-finite grid or more objects than the scene holds.
+    pub fn new(
+        position: [f32; M],
+        impedance: &ImpedanceParameters<f32, MAX_TASK>,
+        objects: &[SceneObject; SCENE_OBJECTS],
+        grid: Option<f32>,
+    ) -> Option<Self> {
+        let fixed = TaskReference::at_rest(position);
+        let reference = match grid {
+            None => Reference::Fixed(fixed),
+            Some(grid) => {
+                if M != 2 || !grid.is_finite() || grid < 0.0 {
+                    return None;
+                }
+                let mut scene = Scene::new(impedance.stiffness[0], impedance.damping[0], grid);
+                for object in objects.iter().filter_map(planar_object) {
+                    scene.add(object)?;
+                }
+                Reference::Scene(scene)
+            }
+        };
+        Some(Self { reference, last: position })
+    }
+}
+
+impl ReferenceSource<f32, M> for LinkSource {
+    fn update_reference(
+        &mut self,
+        task_position: &[f32; M],
+        parameters: &mut ImpedanceParameters<f32, M>,
+    ) -> TaskReference<f32, M> {
+        let reference = match &mut self.reference {
+            Reference::Fixed(fixed) => *fixed,
+            Reference::Scene(scene) => {
+                // The scene is planar: the first two task coordinates (`LinkSource::new` only
+                // makes a scene for a 2-D task).
+                let mut planar = ImpedanceParameters {
+                    stiffness: first(&parameters.stiffness),
+                    damping: first(&parameters.damping),
+                    mass: first(&parameters.mass),
+                };
+                let out = scene.update_reference(&first(task_position), &mut planar);
+                for k in 0..M.min(2) {
+                    parameters.stiffness[k] = planar.stiffness[k];
+                    parameters.damping[k] = planar.damping[k];
+                }
+                TaskReference {
+                    position: first(&out.position),
+                    velocity: first(&out.velocity),
+                    acceleration: first(&out.acceleration),
+                }
+            }
+        };
+        self.last = reference.position;
+        reference
+    }
+}
+
+/// A scene object of the link as a planar virtual object: a sphere is a circle, a box an
+/// axis-aligned rectangle; `None` for an empty slot or a half-space (not rendered in 2-D here).
+pub fn planar_object(object: &SceneObject) -> Option<VirtualObject<f32, 8>> {
+    let kind = |cavity: bool| if cavity { ObjectKind::Cavity } else { ObjectKind::Solid };
+    match *object {
+        SceneObject::Sphere { centre, radius, cavity, stiffness, damping } => Some(VirtualObject {
+            shape: Shape::Circle { center: first(&centre), radius },
+            kind: kind(cavity),
+            stiffness,
+            damping,
+        }),
+        SceneObject::Box { centre, half_extents, stiffness, damping } => Some(VirtualObject {
+            shape: Shape::Rectangle {
+                center: first(&centre),
+                half_extents: first(&half_extents),
+                angle: 0.0,
+            },
+            kind: ObjectKind::Solid,
+            stiffness,
+            damping,
+        }),
+        SceneObject::Empty | SceneObject::HalfSpace { .. } => None,
+    }
+}
+
+/// The first `K` entries of `values` (zero beyond them).
+pub fn first<const K: usize, T: Copy + Default>(values: &[T]) -> [T; K] {
+    let mut out = [T::default(); K];
+    for (slot, value) in out.iter_mut().zip(values) {
+        *slot = *value;
+    }
+    out
+}
+
+/// FNV-1a of `bytes` (the device's name hash in its `DeviceInfo`).
+pub fn fnv1a(bytes: &[u8]) -> u32 {
+    let mut hash = 0x811c_9dc5u32;
+    for &byte in bytes {
+        hash ^= u32::from(byte);
+        hash = hash.wrapping_mul(0x0100_0193);
+    }
+    hash
+}
+
+/// What this image tells the host in answer to `Hello`.
+pub fn device_info() -> DeviceInfo {
+    DeviceInfo {
+        version: PROTOCOL_VERSION,
+        rig_name_hash: fnv1a(image::NAME.as_bytes()),
+        joints: image::JOINTS as u8,
+        task_dim: M as u8,
+        impedance_loop_hz: u16::try_from(image::IMPEDANCE_LOOP_HZ).unwrap_or(u16::MAX),
+        scales: ChannelScales::DESKTOP,
+    }
+}

@@ -1,0 +1,837 @@
+//! `hapticgen connect` (issue 19): the host's end of a running device's link, the way an
+//! application drives a haptic device (OpenHaptics' scheduler, Force Dimension's
+//! `dhdGet…`/`dhdSet…`): open the link, set the impedance, load a scene, enable the bridges
+//! and keep them enabled with heartbeats, read the 1 kHz state stream (a live status line, a
+//! CSV log), disable at the end.
+//!
+//! * [`Port`]: `tcp:HOST:PORT` (QEMU's `-serial tcp:…,server=on,wait=off`, or a serial-to-TCP
+//!   bridge), `unix:PATH` (QEMU's `-serial unix:…`) or a device path (a serial port or a pty; set a real port's speed beforehand,
+//!   e.g. `stty -F /dev/ttyACM0 1000000 raw`).
+//! * [`load_scene`]: a scene file (YAML, `objects:` of `sphere`, `box`, `half_space`), each
+//!   error at its file, line and column.
+//! * [`Session`]: the link itself. A reader thread decodes the device's frames (corrupt ones
+//!   are counted by the frame decoder and dropped); a heartbeat thread sends a heartbeat every
+//!   [`HEARTBEAT_PERIOD`] while heartbeats are on, from its own thread so that the main
+//!   thread's work (logging, printing) never delays one.
+//! * [`safety_check`]: the link's safety rules, tried on the device (`--check-safety`):
+//!   heartbeat loss → safe state within 10 ms; `Enable` alone refused after it; `ResetFault`
+//!   then `Enable` recovers; garbage and corrupted frames at full rate never stall the state
+//!   stream nor disable the bridges.
+
+use std::io::{Read, Write};
+use std::net::TcpStream;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use hapticgen_codegen::model::positions::{display_path, PositionIndex, Segment};
+use hapticgen_protocol::{
+    encode, DeviceInfo, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, LinkCounters,
+    SceneObject, StateFrame, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION, SCENE_SLOTS,
+};
+use serde::Deserialize;
+
+/// How often the heartbeat thread sends a heartbeat (the devices' timeout is 8–10 ms).
+pub const HEARTBEAT_PERIOD: Duration = Duration::from_millis(1);
+
+/// How long the host waits for the device's answer to `Hello`, and for the TCP port to accept.
+pub const HELLO_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Random bytes per burst of [`safety_check`]'s garbage (and a zero after them).
+pub const GARBAGE_BURST_BYTES: usize = 15;
+
+/// Time between two bursts of [`safety_check`]'s garbage.
+pub const GARBAGE_PERIOD: Duration = Duration::from_millis(4);
+
+/// The safe-state bound of issue 19: the bridges are off within this long of the last
+/// heartbeat.
+pub const SAFE_STATE_BOUND_MS: f64 = 10.0;
+
+/// Where the device is.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Port {
+    /// A TCP address, `HOST:PORT`.
+    Tcp(String),
+    /// A Unix-domain socket (QEMU's `-serial unix:PATH,server=on,wait=off`).
+    Unix(PathBuf),
+    /// A serial port or pty.
+    Path(PathBuf),
+}
+
+impl std::str::FromStr for Port {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text.strip_prefix("tcp:") {
+            Some(address)
+                if address
+                    .rsplit_once(':')
+                    .is_some_and(|(h, p)| !h.is_empty() && p.parse::<u16>().is_ok()) =>
+            {
+                Ok(Port::Tcp(address.to_string()))
+            }
+            Some(address) => Err(format!("`tcp:{address}`: expected tcp:HOST:PORT, e.g. tcp:127.0.0.1:4500")),
+            None if text.starts_with("unix:") => match &text[5..] {
+                "" => Err("`unix:`: expected unix:PATH".into()),
+                path => Ok(Port::Unix(PathBuf::from(path))),
+            },
+            None if text.is_empty() => Err("the port is empty: give tcp:HOST:PORT or a device path".into()),
+            None => Ok(Port::Path(PathBuf::from(text))),
+        }
+    }
+}
+
+/// A scene file: up to [`SCENE_SLOTS`] objects, in the task frame (m).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    // `- sphere: {…}`: each object a map of one key, its kind (serde_yaml's default for an
+    // enum is a YAML tag, `!sphere`).
+    #[serde(with = "serde_yaml::with::singleton_map_recursive")]
+    objects: Vec<ObjectEntry>,
+}
+
+#[derive(Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+enum ObjectEntry {
+    Sphere {
+        centre: Vec<f32>,
+        radius: f32,
+        #[serde(default)]
+        cavity: bool,
+        stiffness: f32,
+        damping: f32,
+    },
+    Box {
+        centre: Vec<f32>,
+        half_extents: Vec<f32>,
+        stiffness: f32,
+        damping: f32,
+    },
+    HalfSpace {
+        point: Vec<f32>,
+        normal: Vec<f32>,
+        stiffness: f32,
+        damping: f32,
+    },
+}
+
+/// Reads a scene file: `objects:`, a list of `sphere: {centre, radius, cavity, stiffness,
+/// damping}`, `box: {centre, half_extents, stiffness, damping}` and `half_space: {point,
+/// normal, stiffness, damping}` (vectors of 1 to 3 coordinates, the missing ones zero; the
+/// normal is normalised). Every error names the file, line and column of the value.
+pub fn load_scene(path: &Path) -> Result<Vec<SceneObject>, String> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("error: cannot read the scene file {name}: {e}"))?;
+    parse_scene(&name, &text)
+}
+
+/// [`load_scene`] of `text`, named `name` in the errors.
+pub fn parse_scene(name: &str, text: &str) -> Result<Vec<SceneObject>, String> {
+    let file: SceneFile = serde_yaml::from_str(text).map_err(|e| match e.location() {
+        Some(at) => format!("error: {name}:{}:{}: {e}", at.line(), at.column()),
+        None => format!("error: {name}: {e}"),
+    })?;
+    let positions = PositionIndex::build(text);
+    let error = |path: &[Segment], message: String| {
+        let (line, column) = positions.value(path);
+        format!("error: {name}:{line}:{column}: {}: {message}", display_path(path))
+    };
+    if file.objects.len() > SCENE_SLOTS {
+        return Err(error(
+            &[Segment::Key("objects".into()), Segment::Index(SCENE_SLOTS)],
+            format!("a device holds {SCENE_SLOTS} objects, the file has {}", file.objects.len()),
+        ));
+    }
+    let mut objects = Vec::with_capacity(file.objects.len());
+    for (index, entry) in file.objects.iter().enumerate() {
+        let at = |kind: &str, field: &str| {
+            vec![
+                Segment::Key("objects".into()),
+                Segment::Index(index),
+                Segment::Key(kind.into()),
+                Segment::Key(field.into()),
+            ]
+        };
+        let vector = |kind: &str, field: &str, values: &[f32]| -> Result<[f32; MAX_TASK], String> {
+            if values.is_empty() || values.len() > MAX_TASK || values.iter().any(|v| !v.is_finite()) {
+                return Err(error(
+                    &at(kind, field),
+                    format!("must be 1 to {MAX_TASK} finite coordinates, got {values:?}"),
+                ));
+            }
+            let mut out = [0.0; MAX_TASK];
+            out[..values.len()].copy_from_slice(values);
+            Ok(out)
+        };
+        let non_negative = |kind: &str, field: &str, value: f32| {
+            if value.is_finite() && value >= 0.0 {
+                Ok(value)
+            } else {
+                Err(error(&at(kind, field), format!("must be finite and not negative, got {value}")))
+            }
+        };
+        let positive = |kind: &str, field: &str, value: f32| {
+            if value.is_finite() && value > 0.0 {
+                Ok(value)
+            } else {
+                Err(error(&at(kind, field), format!("must be finite and positive, got {value}")))
+            }
+        };
+        objects.push(match entry {
+            ObjectEntry::Sphere { centre, radius, cavity, stiffness, damping } => SceneObject::Sphere {
+                centre: vector("sphere", "centre", centre)?,
+                radius: positive("sphere", "radius", *radius)?,
+                cavity: *cavity,
+                stiffness: non_negative("sphere", "stiffness", *stiffness)?,
+                damping: non_negative("sphere", "damping", *damping)?,
+            },
+            ObjectEntry::Box { centre, half_extents, stiffness, damping } => {
+                let half = vector("box", "half_extents", half_extents)?;
+                if half[..half_extents.len()].iter().any(|h| *h <= 0.0) {
+                    return Err(error(
+                        &at("box", "half_extents"),
+                        format!("must be positive, got {half_extents:?}"),
+                    ));
+                }
+                SceneObject::Box {
+                    centre: vector("box", "centre", centre)?,
+                    half_extents: half,
+                    stiffness: non_negative("box", "stiffness", *stiffness)?,
+                    damping: non_negative("box", "damping", *damping)?,
+                }
+            }
+            ObjectEntry::HalfSpace { point, normal, stiffness, damping } => {
+                let n = vector("half_space", "normal", normal)?;
+                let length = n.iter().map(|v| v * v).sum::<f32>().sqrt();
+                if length.is_nan() || length < 1e-6 {
+                    return Err(error(
+                        &at("half_space", "normal"),
+                        format!("must not be zero, got {normal:?}"),
+                    ));
+                }
+                SceneObject::HalfSpace {
+                    point: vector("half_space", "point", point)?,
+                    normal: n.map(|v| v / length),
+                    stiffness: non_negative("half_space", "stiffness", *stiffness)?,
+                    damping: non_negative("half_space", "damping", *damping)?,
+                }
+            }
+        });
+    }
+    Ok(objects)
+}
+
+/// A state frame as the host received it.
+#[derive(Clone, Copy, Debug)]
+pub struct Received {
+    /// The frame.
+    pub frame: StateFrame,
+    /// When it arrived.
+    pub at: Instant,
+}
+
+/// What the reader thread passes on.
+enum Incoming {
+    Hello(DeviceInfo),
+    State(Received),
+    Link(LinkCounters),
+    Closed(String),
+}
+
+/// An open link to a device.
+pub struct Session {
+    writer: Arc<Mutex<Writer>>,
+    incoming: Receiver<Incoming>,
+    heartbeats_on: Arc<AtomicBool>,
+    heartbeats_sent: Arc<AtomicU64>,
+    last_heartbeat_ns: Arc<AtomicU64>,
+    stop: Arc<AtomicBool>,
+    threads: Vec<JoinHandle<()>>,
+    epoch: Instant,
+    /// The device's answer to `Hello`.
+    pub info: DeviceInfo,
+    /// The device's latest receive counters (it sends them about once a second).
+    pub device_counters: Option<LinkCounters>,
+    /// Frames the host's decoder dropped (corrupt or not a device message).
+    pub host_dropped: Arc<AtomicU64>,
+}
+
+/// The link's receiving half.
+type Reader = Box<dyn Read + Send>;
+/// The link's sending half.
+type Writer = Box<dyn Write + Send>;
+
+/// `connect` retried every 50 ms for [`HELLO_TIMEOUT`] (the device, e.g. QEMU, may still be
+/// starting); the last error if it never succeeds.
+fn retry<T>(mut connect: impl FnMut() -> std::io::Result<T>) -> std::io::Result<T> {
+    let start = Instant::now();
+    loop {
+        match connect() {
+            Ok(stream) => return Ok(stream),
+            Err(e) if start.elapsed() >= HELLO_TIMEOUT => return Err(e),
+            Err(_) => std::thread::sleep(Duration::from_millis(50)),
+        }
+    }
+}
+
+fn open(port: &Port) -> Result<(Reader, Writer), String> {
+    match port {
+        Port::Tcp(address) => {
+            let stream = retry(|| TcpStream::connect(address))
+                .map_err(|e| format!("error: cannot connect to tcp:{address}: {e}"))?;
+            stream.set_nodelay(true).map_err(|e| format!("error: tcp:{address}: {e}"))?;
+            let reader = stream.try_clone().map_err(|e| format!("error: tcp:{address}: {e}"))?;
+            Ok((Box::new(reader), Box::new(stream)))
+        }
+        Port::Unix(path) => {
+            let stream = retry(|| std::os::unix::net::UnixStream::connect(path))
+                .map_err(|e| format!("error: cannot connect to unix:{}: {e}", path.display()))?;
+            let reader = stream.try_clone().map_err(|e| format!("error: unix:{}: {e}", path.display()))?;
+            Ok((Box::new(reader), Box::new(stream)))
+        }
+        Port::Path(path) => {
+            let file = std::fs::OpenOptions::new()
+                .read(true)
+                .write(true)
+                .open(path)
+                .map_err(|e| format!("error: cannot open {}: {e}", path.display()))?;
+            let reader = file.try_clone().map_err(|e| format!("error: {}: {e}", path.display()))?;
+            Ok((Box::new(reader), Box::new(file)))
+        }
+    }
+}
+
+fn send_on(writer: &Mutex<Writer>, message: &HostMessage) -> Result<(), String> {
+    let mut frame = [0u8; MAX_FRAME_BYTES];
+    let length = encode(message, &mut frame).map_err(|e| format!("error: framing {message:?}: {e:?}"))?;
+    let mut writer = writer.lock().map_err(|_| "error: the link's writer failed".to_string())?;
+    writer
+        .write_all(&frame[..length])
+        .and_then(|()| writer.flush())
+        .map_err(|e| format!("error: writing to the device: {e}"))
+}
+
+impl Session {
+    /// Opens `port`, sends `Hello` and waits for the device's [`DeviceInfo`] (its protocol
+    /// version must be this host's).
+    pub fn open(port: &Port) -> Result<Self, String> {
+        let (mut reader, writer) = open(port)?;
+        let writer = Arc::new(Mutex::new(writer));
+        let (sender, incoming) = mpsc::channel();
+        let stop = Arc::new(AtomicBool::new(false));
+        let host_dropped = Arc::new(AtomicU64::new(0));
+        let reader_thread = {
+            let stop = Arc::clone(&stop);
+            let host_dropped = Arc::clone(&host_dropped);
+            std::thread::spawn(move || {
+                let mut decoder = FrameDecoder::new();
+                let mut chunk = [0u8; 4096];
+                while !stop.load(Ordering::Relaxed) {
+                    let n = match reader.read(&mut chunk) {
+                        Ok(0) => {
+                            let _ = sender.send(Incoming::Closed("the device closed the link".into()));
+                            return;
+                        }
+                        Ok(n) => n,
+                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                        Err(e) => {
+                            let _ = sender.send(Incoming::Closed(format!("reading from the device: {e}")));
+                            return;
+                        }
+                    };
+                    for &byte in &chunk[..n] {
+                        let message = match decoder.push::<DeviceMessage>(byte) {
+                            Some(DeviceMessage::Hello(info)) => Incoming::Hello(info),
+                            Some(DeviceMessage::State(frame)) => {
+                                Incoming::State(Received { frame, at: Instant::now() })
+                            }
+                            Some(DeviceMessage::Link(counters)) => Incoming::Link(counters),
+                            Some(DeviceMessage::Actuators(_)) | None => continue,
+                        };
+                        if sender.send(message).is_err() {
+                            return;
+                        }
+                    }
+                    host_dropped.store(u64::from(decoder.counters().dropped()), Ordering::Relaxed);
+                }
+            })
+        };
+        let heartbeats_on = Arc::new(AtomicBool::new(false));
+        let heartbeats_sent = Arc::new(AtomicU64::new(0));
+        let last_heartbeat_ns = Arc::new(AtomicU64::new(0));
+        let epoch = Instant::now();
+        let heartbeat_thread = {
+            let (writer, stop, on, sent, last) = (
+                Arc::clone(&writer),
+                Arc::clone(&stop),
+                Arc::clone(&heartbeats_on),
+                Arc::clone(&heartbeats_sent),
+                Arc::clone(&last_heartbeat_ns),
+            );
+            std::thread::spawn(move || {
+                let mut sequence = 0u16;
+                let mut next = Instant::now();
+                while !stop.load(Ordering::Relaxed) {
+                    if on.load(Ordering::Relaxed) {
+                        if send_on(&writer, &HostMessage::Heartbeat { sequence }).is_err() {
+                            return;
+                        }
+                        last.store(epoch.elapsed().as_nanos() as u64, Ordering::Relaxed);
+                        sent.fetch_add(1, Ordering::Relaxed);
+                        sequence = sequence.wrapping_add(1);
+                    }
+                    next += HEARTBEAT_PERIOD;
+                    let now = Instant::now();
+                    if next > now {
+                        std::thread::sleep(next - now);
+                    } else {
+                        next = now;
+                    }
+                }
+            })
+        };
+        let mut session = Session {
+            writer,
+            incoming,
+            heartbeats_on,
+            heartbeats_sent,
+            last_heartbeat_ns,
+            stop,
+            threads: vec![reader_thread, heartbeat_thread],
+            epoch,
+            info: DeviceInfo {
+                version: 0,
+                rig_name_hash: 0,
+                joints: 0,
+                task_dim: 0,
+                impedance_loop_hz: 0,
+                scales: hapticgen_protocol::ChannelScales::DESKTOP,
+            },
+            device_counters: None,
+            host_dropped,
+        };
+        session.send(&HostMessage::Hello { version: PROTOCOL_VERSION })?;
+        let deadline = Instant::now() + HELLO_TIMEOUT;
+        loop {
+            match session.next(deadline.saturating_duration_since(Instant::now()))? {
+                Some(Event::Hello(info)) => {
+                    if info.version != PROTOCOL_VERSION {
+                        return Err(format!(
+                            "error: the device speaks protocol version {}, this host {PROTOCOL_VERSION}",
+                            info.version
+                        ));
+                    }
+                    session.info = info;
+                    return Ok(session);
+                }
+                Some(_) => {}
+                None => {
+                    return Err(format!(
+                        "error: no answer to Hello from the device in {} s (is it running, on this port?)",
+                        HELLO_TIMEOUT.as_secs()
+                    ))
+                }
+            }
+        }
+    }
+
+    /// Sends one message.
+    pub fn send(&self, message: &HostMessage) -> Result<(), String> {
+        send_on(&self.writer, message)
+    }
+
+    /// Writes raw bytes (the fault tests' garbage and corrupted frames).
+    pub fn send_raw(&self, bytes: &[u8]) -> Result<(), String> {
+        let mut writer = self.writer.lock().map_err(|_| "error: the link's writer failed".to_string())?;
+        writer
+            .write_all(bytes)
+            .and_then(|()| writer.flush())
+            .map_err(|e| format!("error: writing to the device: {e}"))
+    }
+
+    /// Turns the heartbeat thread's heartbeats on or off.
+    pub fn heartbeats(&self, on: bool) {
+        self.heartbeats_on.store(on, Ordering::Relaxed);
+    }
+
+    /// Heartbeats sent so far.
+    pub fn heartbeats_sent(&self) -> u64 {
+        self.heartbeats_sent.load(Ordering::Relaxed)
+    }
+
+    /// When the last heartbeat was written.
+    pub fn last_heartbeat(&self) -> Instant {
+        self.epoch + Duration::from_nanos(self.last_heartbeat_ns.load(Ordering::Relaxed))
+    }
+
+    /// The next event within `timeout`; `None` when none came.
+    pub fn next(&mut self, timeout: Duration) -> Result<Option<Event>, String> {
+        match self.incoming.recv_timeout(timeout) {
+            Ok(Incoming::Hello(info)) => Ok(Some(Event::Hello(info))),
+            Ok(Incoming::State(received)) => Ok(Some(Event::State(received))),
+            Ok(Incoming::Link(counters)) => {
+                self.device_counters = Some(counters);
+                Ok(Some(Event::Counters(counters)))
+            }
+            Ok(Incoming::Closed(why)) => Err(format!("error: {why}")),
+            Err(RecvTimeoutError::Timeout) => Ok(None),
+            Err(RecvTimeoutError::Disconnected) => Err("error: the link's reader stopped".into()),
+        }
+    }
+
+    /// Every state frame that arrives within `duration`, in order.
+    pub fn states_for(&mut self, duration: Duration) -> Result<Vec<Received>, String> {
+        let deadline = Instant::now() + duration;
+        let mut states = Vec::new();
+        while let Some(left) = deadline.checked_duration_since(Instant::now()) {
+            match self.next(left)? {
+                Some(Event::State(received)) => states.push(received),
+                Some(_) => {}
+                None => break,
+            }
+        }
+        Ok(states)
+    }
+
+    /// Disables the bridges, stops the heartbeats and closes the link.
+    pub fn close(mut self) -> Result<(), String> {
+        self.heartbeats(false);
+        let result = self.send(&HostMessage::Disable);
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(heartbeat) = self.threads.pop() {
+            let _ = heartbeat.join();
+        }
+        // The reader may be blocked in a read; it ends with the process or the link.
+        result
+    }
+}
+
+/// What [`Session::next`] returns.
+#[derive(Clone, Copy, Debug)]
+pub enum Event {
+    /// The device's identity (an answer to `Hello`).
+    Hello(DeviceInfo),
+    /// One state frame.
+    State(Received),
+    /// The device's receive counters.
+    Counters(LinkCounters),
+}
+
+/// One row of the state log, in SI units.
+pub fn csv_header(info: &DeviceInfo) -> Vec<String> {
+    let mut header = vec![
+        "host_s".to_string(),
+        "tick".into(),
+        "enabled".into(),
+        "safety_fault".into(),
+        "link_fault".into(),
+    ];
+    let joints = usize::from(info.joints);
+    let task = usize::from(info.task_dim);
+    header.extend((0..joints).map(|j| format!("counts{j}")));
+    header.extend((0..joints).map(|j| format!("qd{j}")));
+    header.extend((0..task).map(|k| format!("x{k}")));
+    header.extend((0..task).map(|k| format!("xd{k}")));
+    header.extend((0..joints).map(|j| format!("tau{j}")));
+    header.extend((0..joints).map(|j| format!("current{j}")));
+    header.push("tick_cost".into());
+    header
+}
+
+/// The row of `frame` (its channels in the device's units, NaN where a channel is missing).
+pub fn csv_row(info: &DeviceInfo, frame: &StateFrame, host_seconds: f64) -> Vec<String> {
+    let scales = &info.scales;
+    let value = |v: Option<f32>| v.map_or("NaN".to_string(), |v| format!("{v}"));
+    let joints = usize::from(info.joints);
+    let task = usize::from(info.task_dim);
+    let mut row = vec![
+        format!("{host_seconds:.6}"),
+        frame.tick.to_string(),
+        u8::from(frame.status & StateFrame::ENABLED != 0).to_string(),
+        (frame.fault & !StateFrame::LINK_FAULT).to_string(),
+        u8::from(frame.fault & StateFrame::LINK_FAULT != 0).to_string(),
+    ];
+    row.extend((0..joints).map(|j| frame.encoder_count_low_bits(j).map_or("NaN".into(), |c| c.to_string())));
+    row.extend((0..joints).map(|j| value(frame.joint_velocity(j, scales))));
+    row.extend((0..task).map(|k| value(frame.task_position(k, scales))));
+    row.extend((0..task).map(|k| value(frame.task_velocity(k, scales))));
+    row.extend((0..joints).map(|j| value(frame.joint_torque(j, scales))));
+    row.extend((0..joints).map(|j| value(frame.motor_current(j, scales))));
+    row.push(frame.tick_instructions.to_string());
+    row
+}
+
+/// A one-line summary of `frame` for the live status line.
+pub fn status_line(info: &DeviceInfo, frame: &StateFrame, frames: u64, gaps: u64) -> String {
+    let task: Vec<String> = (0..usize::from(info.task_dim))
+        .map(|k| frame.task_position(k, &info.scales).map_or("NaN".into(), |x| format!("{:+8.2}", x * 1e3)))
+        .collect();
+    let state = if frame.fault & StateFrame::LINK_FAULT != 0 {
+        "SAFE (heartbeat lost; reset needed)"
+    } else if frame.status & StateFrame::ENABLED != 0 {
+        "enabled"
+    } else {
+        "disabled"
+    };
+    let safety = frame.fault & !StateFrame::LINK_FAULT;
+    format!(
+        "tick {:5}  x [{}] mm  {state}{}  frames {frames}  missing {gaps}",
+        frame.tick,
+        task.join(" "),
+        if safety != 0 { format!("  safety fault {safety}") } else { String::new() }
+    )
+}
+
+/// Ticks between two frames' ticks (mod 2¹⁶), minus one: frames missing in between.
+pub fn missing_between(previous: u16, next: u16) -> u64 {
+    u64::from(next.wrapping_sub(previous).wrapping_sub(1))
+}
+
+/// One row of [`safety_check`]'s report.
+#[derive(Clone, Debug)]
+pub struct CheckRow {
+    /// What was checked.
+    pub what: String,
+    /// What was measured.
+    pub measured: String,
+    /// Whether it holds.
+    pub pass: bool,
+}
+
+fn enabled(frame: &StateFrame) -> bool {
+    frame.status & StateFrame::ENABLED != 0
+}
+
+fn link_fault(frame: &StateFrame) -> bool {
+    frame.fault & StateFrame::LINK_FAULT != 0
+}
+
+/// The impedance tick (1/`impedance_loop_hz`) in ms.
+fn tick_ms(info: &DeviceInfo) -> f64 {
+    1e3 / f64::from(info.impedance_loop_hz.max(1))
+}
+
+/// The link's safety rules, tried on a connected device whose bridges the session has just
+/// enabled (heartbeats on). In order:
+///
+/// 1. *Garbage*: for 0.3 s, a burst of [`GARBAGE_BURST_BYTES`] random bytes every
+///    [`GARBAGE_PERIOD`] and a corrupted heartbeat every ten bursts, beside the heartbeats: the
+///    state stream goes on without a missing tick and the bridges stay enabled. (The rate is
+///    what QEMU's emulated UART carries beside the heartbeats: it takes one byte at a time,
+///    each a round trip between the emulator's threads; bytes sent faster queue up in the
+///    socket and delay the heartbeats behind them, which would test the emulator, not the
+///    firmware.)
+/// 2. *Heartbeat loss*: heartbeats stop; the first state frame with the link fault must come
+///    within [`SAFE_STATE_BOUND_MS`] of device time of the last heartbeat, measured from the
+///    tick of the last frame received before that heartbeat was written (an upper bound: it
+///    includes the link's latency both ways).
+/// 3. *No recovery without a reset*: heartbeats on again and `Enable`: still disabled 0.1 s
+///    later.
+/// 4. *Reset*: `ResetFault` then `Enable`: enabled, the link fault cleared, within 0.1 s.
+pub fn safety_check(session: &mut Session) -> Result<Vec<CheckRow>, String> {
+    let info = session.info;
+    let mut rows = Vec::new();
+    // Let the stream settle: the device must be enabled to start.
+    let settle = session.states_for(Duration::from_millis(100))?;
+    let Some(last) = settle.last() else {
+        return Err("error: no state frame from the device in 0.1 s".into());
+    };
+    if !enabled(&last.frame) {
+        return Err("error: the device did not enable its bridges (is a fault latched? try --reset)".into());
+    }
+    // 1. Garbage beside the heartbeats.
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let (mut corrupted, mut bursts) = (0u64, 0u64);
+    let mut states = Vec::new();
+    let until = Instant::now() + Duration::from_millis(300);
+    while Instant::now() < until {
+        let mut burst = [0u8; GARBAGE_BURST_BYTES + 1];
+        for byte in burst.iter_mut().take(GARBAGE_BURST_BYTES) {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            *byte = (state >> 32) as u8;
+        }
+        // The last byte a zero: the next frame starts clean.
+        session.send_raw(&burst)?;
+        bursts += 1;
+        if bursts % 10 == 0 {
+            let mut frame = [0u8; MAX_FRAME_BYTES];
+            let length = encode(&HostMessage::Heartbeat { sequence: 0 }, &mut frame)
+                .map_err(|e| format!("error: {e:?}"))?;
+            frame[length / 2] ^= if frame[length / 2] == 1 { 2 } else { 1 };
+            session.send_raw(&frame[..length])?;
+            corrupted += 1;
+        }
+        states.extend(session.states_for(GARBAGE_PERIOD)?);
+    }
+    let missing: u64 = states.windows(2).map(|w| missing_between(w[0].frame.tick, w[1].frame.tick)).sum();
+    let all_enabled = !states.is_empty() && states.iter().all(|s| enabled(&s.frame));
+    rows.push(CheckRow {
+        what: "garbage and corrupted frames: no tick missing, bridges stay enabled".into(),
+        measured: format!(
+            "{bursts} bursts of {GARBAGE_BURST_BYTES} random bytes and {corrupted} corrupted heartbeats in 0.3 s; {} \
+             state frames, {missing} missing, enabled throughout: {all_enabled}",
+            states.len()
+        ),
+        pass: !states.is_empty() && missing == 0 && all_enabled,
+    });
+    // 2. Heartbeat loss, once the garbage has drained (QEMU's UART takes a byte at a time: a
+    // heartbeat queued behind garbage would arrive late and the loss would seem slower).
+    let before = session.states_for(Duration::from_millis(200))?;
+    session.heartbeats(false);
+    // The heartbeat thread may be writing one right now: wait a period, then read its time.
+    std::thread::sleep(HEARTBEAT_PERIOD * 2);
+    let last_heartbeat = session.last_heartbeat();
+    let mut after = session.states_for(Duration::from_millis(100))?;
+    let mut all: Vec<Received> = before;
+    all.append(&mut after);
+    let reference = all.iter().rev().find(|s| s.at <= last_heartbeat).map(|s| s.frame.tick);
+    let first_fault =
+        all.iter().find(|s| s.at > last_heartbeat && link_fault(&s.frame)).map(|s| s.frame.tick);
+    let off_after_fault =
+        all.iter().filter(|s| s.at > last_heartbeat && link_fault(&s.frame)).all(|s| !enabled(&s.frame));
+    let (measured, pass) = match (reference, first_fault) {
+        (Some(from), Some(to)) => {
+            let ms = f64::from(to.wrapping_sub(from)) * tick_ms(&info);
+            (format!("link fault {ms:.1} ms of device time after the last heartbeat; bridges off with it: {off_after_fault}"), ms <= SAFE_STATE_BOUND_MS && off_after_fault)
+        }
+        (None, _) => ("no state frame before the last heartbeat".into(), false),
+        (_, None) => ("no link fault within 0.1 s".into(), false),
+    };
+    rows.push(CheckRow {
+        what: format!("heartbeat loss: safe state within {SAFE_STATE_BOUND_MS} ms"),
+        measured,
+        pass,
+    });
+    // 3. Enable without a reset is refused.
+    session.heartbeats(true);
+    std::thread::sleep(HEARTBEAT_PERIOD * 3);
+    session.send(&HostMessage::Enable)?;
+    let refused = session.states_for(Duration::from_millis(100))?;
+    let still_off = refused.last().is_some_and(|s| !enabled(&s.frame) && link_fault(&s.frame));
+    rows.push(CheckRow {
+        what: "after it, Enable alone does not turn the bridges on".into(),
+        measured: format!(
+            "{} frames in 0.1 s, last: {}",
+            refused.len(),
+            refused.last().map_or("none".into(), |s| describe(&s.frame))
+        ),
+        pass: still_off,
+    });
+    // 4. ResetFault, then Enable.
+    session.send(&HostMessage::ResetFault)?;
+    session.send(&HostMessage::Enable)?;
+    let recovered = session.states_for(Duration::from_millis(100))?;
+    let back = recovered.last().is_some_and(|s| enabled(&s.frame) && !link_fault(&s.frame));
+    rows.push(CheckRow {
+        what: "ResetFault then Enable turns them on again".into(),
+        measured: format!(
+            "{} frames in 0.1 s, last: {}",
+            recovered.len(),
+            recovered.last().map_or("none".into(), |s| describe(&s.frame))
+        ),
+        pass: back,
+    });
+    Ok(rows)
+}
+
+fn describe(frame: &StateFrame) -> String {
+    format!(
+        "tick {} {}{}",
+        frame.tick,
+        if enabled(frame) { "enabled" } else { "disabled" },
+        if link_fault(frame) { ", link fault latched" } else { "" }
+    )
+}
+
+/// The `ImpedanceSettings` of `K,B[,M]` on every axis.
+pub fn parse_impedance(text: &str) -> Result<ImpedanceSettings, String> {
+    let values: Vec<f32> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f32>().map_err(|e| format!("error: --impedance {text}: `{v}`: {e}")))
+        .collect::<Result<_, _>>()?;
+    let (stiffness, damping, mass) = match values.as_slice() {
+        [k, b] => (*k, *b, 1.0),
+        [k, b, m] => (*k, *b, *m),
+        _ => return Err(format!("error: --impedance {text}: expected K,B or K,B,M (N/m, N·s/m, kg)")),
+    };
+    if !(stiffness.is_finite() && stiffness >= 0.0 && damping.is_finite() && damping >= 0.0) {
+        return Err(format!(
+            "error: --impedance {text}: stiffness and damping must be finite and not negative"
+        ));
+    }
+    if !(mass.is_finite() && mass > 0.0) {
+        return Err(format!("error: --impedance {text}: the mass must be finite and positive"));
+    }
+    Ok(ImpedanceSettings {
+        stiffness: [stiffness; MAX_TASK],
+        damping: [damping; MAX_TASK],
+        mass: [mass; MAX_TASK],
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ports_are_tcp_addresses_or_paths() {
+        assert_eq!("tcp:127.0.0.1:4500".parse::<Port>(), Ok(Port::Tcp("127.0.0.1:4500".into())));
+        assert_eq!("/dev/ttyACM0".parse::<Port>(), Ok(Port::Path("/dev/ttyACM0".into())));
+        assert_eq!("unix:/tmp/device.sock".parse::<Port>(), Ok(Port::Unix("/tmp/device.sock".into())));
+        assert!("unix:".parse::<Port>().is_err());
+        assert!("tcp:4500".parse::<Port>().is_err());
+        assert!("tcp:host:port".parse::<Port>().is_err());
+        assert!("".parse::<Port>().is_err());
+    }
+
+    #[test]
+    fn scene_files_give_objects_and_located_errors() {
+        let text =
+            "objects:\n  - sphere: {centre: [0.01, 0.2], radius: 0.02, stiffness: 1500, damping: 5}\n  \
+                    - half_space: {point: [0, 0, 0], normal: [0, 0, 2], stiffness: 1000, damping: 2}\n";
+        let objects = parse_scene("s.yaml", text).unwrap();
+        assert_eq!(objects.len(), 2);
+        assert!(
+            matches!(objects[0], SceneObject::Sphere { centre: [0.01, 0.2, 0.0], radius, cavity: false, .. } if radius == 0.02)
+        );
+        assert!(matches!(objects[1], SceneObject::HalfSpace { normal: [0.0, 0.0, 1.0], .. }));
+        let bad = "objects:\n  - sphere: {centre: [0, 0], radius: -1, stiffness: 1, damping: 0}\n";
+        let error = parse_scene("s.yaml", bad).unwrap_err();
+        assert!(error.starts_with("error: s.yaml:2:"), "{error}");
+        assert!(error.contains("objects[0].sphere.radius: must be finite and positive, got -1"), "{error}");
+        let unknown = "objects:\n  - cone: {centre: [0, 0]}\n";
+        assert!(parse_scene("s.yaml", unknown).unwrap_err().starts_with("error: s.yaml:2:"));
+        let five = format!(
+            "objects:\n{}",
+            "  - sphere: {centre: [0], radius: 1, stiffness: 1, damping: 0}\n".repeat(5)
+        );
+        let error = parse_scene("s.yaml", &five).unwrap_err();
+        assert!(error.contains("objects[4]: a device holds 4 objects, the file has 5"), "{error}");
+        assert!(error.starts_with("error: s.yaml:6:"), "{error}");
+    }
+
+    #[test]
+    fn impedance_settings_are_checked() {
+        let settings = parse_impedance("800, 2").unwrap();
+        assert_eq!(settings.stiffness, [800.0; 3]);
+        assert_eq!(settings.mass, [1.0; 3]);
+        assert!(parse_impedance("800").is_err());
+        assert!(parse_impedance("-1,2").is_err());
+        assert!(parse_impedance("1,2,0").is_err());
+        assert!(parse_impedance("1,NaN").is_err());
+    }
+
+    #[test]
+    fn missing_ticks_wrap_around() {
+        assert_eq!(missing_between(10, 11), 0);
+        assert_eq!(missing_between(10, 13), 2);
+        assert_eq!(missing_between(u16::MAX, 0), 0);
+    }
+}
