@@ -46,6 +46,12 @@ pub const GARBAGE_BURST_BYTES: usize = 15;
 /// Time between two bursts of [`safety_check`]'s garbage.
 pub const GARBAGE_PERIOD: Duration = Duration::from_millis(4);
 
+/// How long [`safety_check`] floods the link with garbage.
+pub const FLOOD_TIME: Duration = Duration::from_millis(300);
+
+/// How long [`safety_check`] waits for the device to come back after the flood.
+pub const RECOVERY_TIMEOUT: Duration = Duration::from_secs(15);
+
 /// The safe-state bound of issue 19: the bridges are off within this long of the last
 /// heartbeat.
 pub const SAFE_STATE_BOUND_MS: f64 = 10.0;
@@ -633,6 +639,11 @@ fn tick_ms(info: &DeviceInfo) -> f64 {
 /// 3. *No recovery without a reset*: heartbeats on again and `Enable`: still disabled 0.1 s
 ///    later.
 /// 4. *Reset*: `ResetFault` then `Enable`: enabled, the link fault cleared, within 0.1 s.
+/// 5. *Flood*: random bytes as fast as the link takes them for [`FLOOD_TIME`]: the state
+///    stream goes on without a missing tick (the control tick never stalls) and never shows
+///    the bridges enabled with the link fault latched; the heartbeats queued behind the
+///    flood may come too late, so the device may be in its safe state. Then `ResetFault` and
+///    `Enable` must bring it back within [`RECOVERY_TIMEOUT`].
 pub fn safety_check(session: &mut Session) -> Result<Vec<CheckRow>, String> {
     let info = session.info;
     let mut rows = Vec::new();
@@ -736,6 +747,65 @@ pub fn safety_check(session: &mut Session) -> Result<Vec<CheckRow>, String> {
             recovered.len(),
             recovered.last().map_or("none".into(), |s| describe(&s.frame))
         ),
+        pass: back,
+    });
+    // 5. A flood of garbage, as fast as the link takes it.
+    let flood_start = Instant::now();
+    let mut flooded = 0usize;
+    let mut flood_states = Vec::new();
+    while flood_start.elapsed() < FLOOD_TIME {
+        let mut chunk = [0u8; 256];
+        for byte in chunk.iter_mut() {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            *byte = (state >> 32) as u8;
+        }
+        session.send_raw(&chunk)?;
+        flooded += chunk.len();
+        flood_states.extend(session.states_for(Duration::ZERO)?);
+    }
+    session.send_raw(&[0])?;
+    let flood_seconds = flood_start.elapsed().as_secs_f64();
+    flood_states.extend(session.states_for(Duration::from_millis(200))?);
+    let flood_missing: u64 =
+        flood_states.windows(2).map(|w| missing_between(w[0].frame.tick, w[1].frame.tick)).sum();
+    let ticks = flood_states
+        .last()
+        .zip(flood_states.first())
+        .map_or(0, |(l, f)| l.frame.tick.wrapping_sub(f.frame.tick));
+    let consistent = flood_states.iter().all(|s| !(enabled(&s.frame) && link_fault(&s.frame)));
+    rows.push(CheckRow {
+        what: "a flood of garbage as fast as the link takes it: the control tick never stalls".into(),
+        measured: format!(
+            "{flooded} random bytes written in {flood_seconds:.2} s; {} state frames over {ticks} ticks, {flood_missing} \
+             missing; never enabled with the link fault latched: {consistent}",
+            flood_states.len()
+        ),
+        pass: flood_states.len() > 100 && flood_missing == 0 && consistent,
+    });
+    // Back to work: the heartbeats queued behind the flood may have come too late (the safe
+    // state is then right), so reset and enable, and wait for the queue to drain.
+    session.send(&HostMessage::ResetFault)?;
+    session.send(&HostMessage::Enable)?;
+    let waiting = Instant::now();
+    let mut back = false;
+    while waiting.elapsed() < RECOVERY_TIMEOUT && !back {
+        back = session
+            .states_for(Duration::from_millis(20))?
+            .last()
+            .is_some_and(|s| enabled(&s.frame) && !link_fault(&s.frame));
+    }
+    rows.push(CheckRow {
+        what: "after the flood, ResetFault and Enable bring the device back".into(),
+        measured: if back {
+            format!(
+                "enabled {:.2} s after they were sent (the garbage queued before them drained)",
+                waiting.elapsed().as_secs_f64()
+            )
+        } else {
+            format!("still not enabled after {} s", RECOVERY_TIMEOUT.as_secs())
+        },
         pass: back,
     });
     Ok(rows)
