@@ -8,8 +8,12 @@
 //!   impedance tick (estimation → rig terms → reference/rendering → impedance law → safety).
 //!   It times both with the board's cycle counter, and optionally times the sub-steps of
 //!   the impedance tick on a copy of the state ([`app::Profile`]).
+//! * [`device`]: device mode, the part every board does the same: the host's settings and
+//!   scene applied to the controller, the state stream framed.
 //! * [`link`]: the device's end of the host link (`hapticgen-protocol`): handshake,
 //!   heartbeat watchdog that disables the bridges ([`link::Gated`]), commands, counters.
+//! * [`link_scene`]: what a linked image's controller follows: a fixed reference or the
+//!   planar scene the host sends ([`link_scene::LinkSource`]), and the image's `DeviceInfo`.
 //! * [`setup`]: [`Setup`], what an image takes from its model file (each joint's current-loop
 //!   gains, the start pose, the rendering parameters), as the build script computes it.
 //! * [`probe`]: the parts of a control-path probe, a binary linked (never run) to show that no
@@ -22,7 +26,9 @@
 
 pub mod app;
 pub mod board;
+pub mod device;
 pub mod link;
+pub mod link_scene;
 pub mod probe;
 pub mod report;
 pub mod setup;

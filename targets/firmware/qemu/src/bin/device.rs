@@ -26,15 +26,14 @@
 //!   (with fresh heartbeats) turns them on again.
 //! * **Controller**: Controller 3 (`J^T`, any rig), at start a spring to the start pose with
 //!   the model's rendering stiffness and damping (else the paper's 1500 N/m, 5 N·s/m).
-//!   `SetImpedance` changes `K_d`, `B_d`, `M_d`; on a 2-D task, `SetObject` puts a sphere
-//!   (a circle) or a box into the planar scene the runtime's proxy renderer draws (its free
-//!   space holds the point with the settings' first axis, on the model's anti-drift grid). A
-//!   change of either replaces the reference (the renderer starts afresh; the estimator and
-//!   the filters run on); with every slot empty again, the spring to the start pose is back.
-//! * **State stream**: after each impedance tick, a `State` frame: encoder counts, joint
-//!   velocities, task position and velocity, commanded torques, motor currents, the safety
-//!   monitor's fault and the link's ([`StateFrame::LINK_FAULT`]), the tick's cost in timer
-//!   ticks (25 MHz; the count of instructions only under `-icount`); every
+//!   `SetImpedance` and, on a 2-D task, `SetObject` (a sphere is a circle, a box a rectangle
+//!   in the runtime's planar proxy renderer) change it as `hapticgen_fw_control::device`
+//!   says, the same on every board.
+//! * **State stream**: after each impedance tick, a `State` frame
+//!   (`hapticgen_fw_control::device::state_frame`: encoder counts, joint velocities, task
+//!   position and velocity, commanded torques and motor currents, the safety monitor's fault
+//!   and the link's, the tick's cost in timer ticks: 25 MHz, the count of instructions only
+//!   under `-icount`); every
 //!   [`COUNTERS_TICKS`] ticks, the link's receive counters (`Link`).
 //!
 //! Semihosting prints `DEVICE_READY` at start (the host need not read it: the UART is the
@@ -50,25 +49,20 @@ mod qemu;
 #[allow(dead_code)]
 #[path = "../uart.rs"]
 mod uart;
-// The device's `DeviceInfo` and the reference over the link, shared with the PIL image.
-#[allow(dead_code)]
-#[path = "../link_scene.rs"]
-mod link_scene;
 
 use cortex_m_rt::{entry, exception};
 use hapticgen_fw_control::board::{CycleCounter, Encoders, TickTimer};
-use hapticgen_fw_control::link::{DeviceLink, Gated, LinkEvent, LinkSettings};
+use hapticgen_fw_control::device::{state_frame, DeviceMode};
+use hapticgen_fw_control::link::{DeviceLink, Gated, LinkSettings};
+use hapticgen_fw_control::link_scene::{device_info, LinkSource};
 use hapticgen_fw_control::report::Line;
 use hapticgen_fw_control::Controller;
 use hapticgen_fw_sim::plant::SimBoard;
 use hapticgen_fw_sim::scenarios::PAPER_RENDERING;
-use hapticgen_protocol::{
-    encode, ChannelScales, DeviceMessage, SceneObject, StateFrame, StateSample, MAX_FRAME_BYTES, MAX_TASK,
-};
-use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
+use hapticgen_protocol::{encode, DeviceMessage, MAX_FRAME_BYTES};
+use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw};
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::tick::HapticLoopSettings;
-use link_scene::{device_info, first, LinkSource, SCENE_OBJECTS};
 use uart::Uart0;
 
 #[allow(clippy::all, dead_code)]
@@ -80,7 +74,7 @@ use generated::image;
 const N: usize = image::JOINTS;
 const M: usize = image::TASK_DIM;
 type Rig = image::Rig;
-type Control = Controller<Rig, LinkSource, N, M>;
+type Control = Controller<Rig, LinkSource<M>, N, M>;
 
 /// The heartbeat timeout, ms: the bridges are off within 10 ms of the last heartbeat (issue 19),
 /// with 4 ms to spare for the link's latency both ways and the tick in which the state frame
@@ -97,19 +91,14 @@ const COUNTERS_TICKS: u32 = 1000;
 /// Periods between two lines of `DEVICE_STATUS` on semihosting (one per 10 s at 7.5 kHz).
 const STATUS_PERIODS: u32 = 75_000;
 
-/// The controller at start: `impedance` on every axis, a spring to `home` (no scene yet);
-/// `None` if the rig's rates are unusable.
-fn build(impedance: &ImpedanceParameters<f32, MAX_TASK>, home: [f32; M]) -> Option<Control> {
+/// The controller at start, as `mode` says (a spring to the start pose); `None` if the rig's
+/// rates are unusable.
+fn build(mode: &DeviceMode<M>) -> Option<Control> {
     let setup = image::setup();
-    let source = LinkSource::new(home, impedance, &[SceneObject::Empty; SCENE_OBJECTS], None)?;
     let settings = HapticLoopSettings {
         controller: ImpedanceController {
             law: ImpedanceLaw::JacobianTranspose,
-            parameters: ImpedanceParameters {
-                stiffness: first(&impedance.stiffness),
-                damping: first(&impedance.damping),
-                mass: first(&impedance.mass),
-            },
+            parameters: mode.parameters(),
             options: ControlOptions {
                 omit_damping_compensation: false,
                 min_abs_jacobian_determinant: 1e-6,
@@ -127,17 +116,7 @@ fn build(impedance: &ImpedanceParameters<f32, MAX_TASK>, home: [f32; M]) -> Opti
         current_gains: setup.current_gains,
         max_tick_gap: 1,
     };
-    Controller::new(Rig::NOMINAL, source, &settings, false)
-}
-
-/// `J q̇`: the task velocity of joint velocities `qd` at `q`.
-fn task_velocity(q: &[f32; N], qd: &[f32; N]) -> [f32; M] {
-    let jacobian = Rig::NOMINAL.jacobian(q);
-    let mut velocity = [0.0; M];
-    for (v, row) in velocity.iter_mut().zip(jacobian.iter()) {
-        *v = row.iter().zip(qd).map(|(j, w)| j * w).sum();
-    }
-    velocity
+    Controller::new(Rig::NOMINAL, mode.source()?, &settings, false)
 }
 
 /// Wakes the core from `wfi` at the current-loop rate; the period itself is timed by the APB
@@ -166,7 +145,7 @@ fn main() -> ! {
     let setup = image::setup();
     let period_ticks = qemu::SYSCLK_HZ / image::CURRENT_LOOP_HZ.max(1);
     let mut link = DeviceLink::new(
-        device_info(),
+        device_info(image::NAME, N, M, image::IMPEDANCE_LOOP_HZ),
         LinkSettings::with_timeout_ms(LINK_TIMEOUT_MS, image::CURRENT_LOOP_HZ),
     );
     let mut board: SimBoard<Rig, N, M> = SimBoard::new(
@@ -180,14 +159,8 @@ fn main() -> ! {
         PAPER_RENDERING[1] as f32,
         PAPER_RENDERING[2] as f32,
     ]);
-    let mut impedance = ImpedanceParameters {
-        stiffness: [stiffness; MAX_TASK],
-        damping: [damping; MAX_TASK],
-        mass: [1.0; MAX_TASK],
-    };
-    let mut objects = [SceneObject::Empty; SCENE_OBJECTS];
-    let home = Rig::NOMINAL.position(&setup.start);
-    let Some(mut control) = build(&impedance, home) else {
+    let mut mode = DeviceMode::new(Rig::NOMINAL.position(&setup.start), stiffness, damping, grid);
+    let Some(mut control) = build(&mode) else {
         out.line(b"ERROR the rig's rates are unusable\n");
         qemu::exit(3);
     };
@@ -199,49 +172,16 @@ fn main() -> ! {
     let mut buffer = [0u8; MAX_FRAME_BYTES];
     let mut periods = 0u32;
     let mut overruns = 0u32;
-    let mut refused_changes = 0u32;
     let mut uart_dropped = 0u32;
     let mut next = counter.now().wrapping_add(period_ticks);
     loop {
-        let mut changed = false;
         let mut taken = 0;
         while taken < BYTES_PER_POLL {
             let Some(byte) = uart.read() else { break };
             taken += 1;
-            match link.receive::<f32>(byte) {
-                Some(LinkEvent::Hello) => {
-                    if let Ok(length) = link.hello(&mut buffer) {
-                        uart_dropped += uart.write(buffer.get(..length).unwrap_or(&[]));
-                    }
-                }
-                Some(LinkEvent::Impedance(parameters)) => {
-                    impedance = parameters;
-                    changed = true;
-                }
-                Some(LinkEvent::Object { slot, object }) => match objects.get_mut(usize::from(slot)) {
-                    Some(entry) => {
-                        *entry = object;
-                        changed = true;
-                    }
-                    None => refused_changes = refused_changes.saturating_add(1),
-                },
-                // Enable, disable, heartbeats and resets are the link's own; sensor frames and
-                // PIL setups are for the PIL image.
-                _ => {}
-            }
-        }
-        if changed {
-            // The controller keeps its estimator and filters (the device has not stopped);
-            // the settings and the reference are replaced.
-            control.haptic.controller.parameters = ImpedanceParameters {
-                stiffness: first(&impedance.stiffness),
-                damping: first(&impedance.damping),
-                mass: first(&impedance.mass),
-            };
-            let has_objects = objects.iter().any(|object| *object != SceneObject::Empty);
-            match LinkSource::new(home, &impedance, &objects, has_objects.then_some(grid)) {
-                Some(source) => control.haptic.source = source,
-                None => refused_changes = refused_changes.saturating_add(1),
+            let Some(event) = link.receive::<f32>(byte) else { continue };
+            if let Some(length) = mode.on_event(event, &mut control, &link, &mut buffer) {
+                uart_dropped += uart.write(buffer.get(..length).unwrap_or(&[]));
             }
         }
         let late = counter.now().wrapping_sub(next);
@@ -262,25 +202,8 @@ fn main() -> ! {
         let outcome = control.on_current_tick(&mut Gated { board: &mut board, open }, &counter);
         board.advance(&[0.0; M]);
         if let Some(report) = outcome.impedance {
-            let state = *control.haptic.estimator().state();
-            let position = Rig::NOMINAL.position(&state.position);
-            let velocity = task_velocity(&state.position, &state.velocity);
             let counts = board.counts();
-            let safety_fault = control.first_fault.map_or(0, |(_, fault)| fault.number());
-            let link_fault = if link.fault().is_some() { StateFrame::LINK_FAULT } else { 0 };
-            let sample = StateSample {
-                tick: control.impedance_ticks(),
-                enabled: link.outputs_allowed(),
-                fault: safety_fault | link_fault,
-                encoder_counts: &counts,
-                joint_velocity: &state.velocity,
-                task_position: &position,
-                task_velocity: &velocity,
-                joint_torque: &report.command.torque,
-                motor_current: &board.current,
-                tick_instructions: control.impedance_cost.max,
-            };
-            if let Some(length) = StateFrame::encode_sample(&sample, &ChannelScales::DESKTOP, &mut buffer) {
+            if let Some(length) = state_frame(&control, &Rig::NOMINAL, &link, &counts, &report, &mut buffer) {
                 uart_dropped += uart.write(buffer.get(..length).unwrap_or(&[]));
             }
             if control.impedance_ticks().is_multiple_of(COUNTERS_TICKS) {
@@ -294,7 +217,7 @@ fn main() -> ! {
             let mut line = Line::new();
             line.str("DEVICE_STATUS").kv("periods", i64::from(periods)).kv("overruns", i64::from(overruns));
             line.kv("frames", i64::from(counters.frames)).kv("dropped_frames", i64::from(counters.dropped()));
-            line.kv("refused_changes", i64::from(refused_changes))
+            line.kv("refused_changes", i64::from(mode.refused_changes()))
                 .kv("uart_dropped", i64::from(uart_dropped));
             line.emit(&mut out);
         }

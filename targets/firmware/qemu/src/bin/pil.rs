@@ -44,13 +44,11 @@ mod qemu;
 #[allow(dead_code)]
 #[path = "../uart.rs"]
 mod uart;
-// The device's `DeviceInfo` and the reference over the link, shared with the device image.
-#[path = "../link_scene.rs"]
-mod link_scene;
 
 use cortex_m_rt::entry;
 use hapticgen_fw_control::board::{CurrentSense, CycleCounter, Encoders, ForceSense, VoltageOutput};
 use hapticgen_fw_control::link::{DeviceLink, Gated, LinkEvent, LinkSettings};
+use hapticgen_fw_control::link_scene::{device_info, first, LinkSource, SCENE_OBJECTS};
 use hapticgen_fw_control::report::Line;
 use hapticgen_fw_control::{Controller, CostStats};
 use hapticgen_protocol::{
@@ -62,7 +60,6 @@ use hapticgen_runtime::control::{
 };
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::tick::HapticLoopSettings;
-use link_scene::{device_info, first, LinkSource, SCENE_OBJECTS};
 use uart::Uart0;
 
 #[allow(clippy::all, dead_code)]
@@ -74,7 +71,7 @@ use generated::image;
 const N: usize = image::JOINTS;
 const M: usize = image::TASK_DIM;
 type Rig = image::Rig;
-type Control = Controller<Rig, LinkSource, N, M>;
+type Control = Controller<Rig, LinkSource<M>, N, M>;
 
 /// How long a period of a started run waits for its sensor frame, in ticks of the 25 MHz APB
 /// timer: 2.5 × 10⁸ ticks = 10 s of virtual time. The host computes the plant between two
@@ -271,7 +268,7 @@ fn main() -> ! {
     let elapsed = |from: u32, to: u32| to.wrapping_sub(from).saturating_sub(overhead);
     let mut uart = Uart0::start();
     let mut link = DeviceLink::new(
-        device_info(),
+        device_info(image::NAME, N, M, image::IMPEDANCE_LOOP_HZ),
         LinkSettings::with_timeout_ms(LINK_TIMEOUT_MS, image::CURRENT_LOOP_HZ),
     );
     let mut board =

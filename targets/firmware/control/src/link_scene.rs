@@ -1,19 +1,19 @@
-//! What the link images (`pil`, `device`) share: the device's [`DeviceInfo`], and the
-//! reference their controllers run, fixed or a planar scene whose objects come over the link.
-//! Shared as source, like `qemu.rs`: the binaries include it with `#[path]`; it uses the
-//! including binary's `generated::image`.
+//! What every image with a host link runs besides the link itself: the reference its
+//! controller follows, fixed or a planar scene whose objects come over the link
+//! ([`LinkSource`]), and the device's [`DeviceInfo`] ([`device_info`]). Used by the QEMU
+//! board's PIL and device images and by the STM32F4 board's device image, so that the host's
+//! `SetObject` means the same on every board.
 
 use hapticgen_protocol::{ChannelScales, DeviceInfo, SceneObject, MAX_TASK, PROTOCOL_VERSION};
 use hapticgen_runtime::control::{ImpedanceParameters, TaskReference};
 use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
 use hapticgen_runtime::tick::ReferenceSource;
 
-use crate::generated::image;
-
-const M: usize = image::TASK_DIM;
-
 /// Scene objects a link image holds (the slots `SetObject` may name).
 pub const SCENE_OBJECTS: usize = hapticgen_protocol::SCENE_SLOTS;
+
+/// Points of a polygon or table in the scene's objects (boxes are drawn as rectangles).
+pub const SCENE_VERTICES: usize = 8;
 
 /// The reference of a link image: fixed, or a planar scene rendered on the device (a 2-D task:
 /// the runtime's proxy renderer with its anti-drift grid, as the self-contained images'
@@ -21,23 +21,23 @@ pub const SCENE_OBJECTS: usize = hapticgen_protocol::SCENE_SLOTS;
 // One instance, in a static-sized controller: no heap on the device, so no box for the scene.
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy)]
-pub enum Reference {
+pub enum Reference<const M: usize> {
     /// A fixed reference.
     Fixed(TaskReference<f32, M>),
     /// A planar scene.
-    Scene(Scene<f32, SCENE_OBJECTS, 8>),
+    Scene(Scene<f32, SCENE_OBJECTS, SCENE_VERTICES>),
 }
 
 /// [`Reference`] and the last reference position it gave (sent back to the host).
 #[derive(Clone, Copy)]
-pub struct LinkSource {
+pub struct LinkSource<const M: usize> {
     /// The reference.
-    pub reference: Reference,
+    pub reference: Reference<M>,
     /// The last reference position.
     pub last: [f32; M],
 }
 
-impl LinkSource {
+impl<const M: usize> LinkSource<M> {
     /// The reference at rest at `position` when no object is set, else (2-D tasks only: `None`
     /// for another dimension) the scene of `objects` with `impedance`'s first axis as the free
     /// space's stiffness and damping and the anti-drift grid `grid` (m). `None` too for a
@@ -66,7 +66,7 @@ impl LinkSource {
     }
 }
 
-impl ReferenceSource<f32, M> for LinkSource {
+impl<const M: usize> ReferenceSource<f32, M> for LinkSource<M> {
     fn update_reference(
         &mut self,
         task_position: &[f32; M],
@@ -101,7 +101,7 @@ impl ReferenceSource<f32, M> for LinkSource {
 
 /// A scene object of the link as a planar virtual object: a sphere is a circle, a box an
 /// axis-aligned rectangle; `None` for an empty slot or a half-space (not rendered in 2-D here).
-pub fn planar_object(object: &SceneObject) -> Option<VirtualObject<f32, 8>> {
+pub fn planar_object(object: &SceneObject) -> Option<VirtualObject<f32, SCENE_VERTICES>> {
     let kind = |cavity: bool| if cavity { ObjectKind::Cavity } else { ObjectKind::Solid };
     match *object {
         SceneObject::Sphere { centre, radius, cavity, stiffness, damping } => Some(VirtualObject {
@@ -143,14 +143,16 @@ pub fn fnv1a(bytes: &[u8]) -> u32 {
     hash
 }
 
-/// What this image tells the host in answer to `Hello`.
-pub fn device_info() -> DeviceInfo {
+/// What an image named `name` (its line of `variants.txt`) with `joints` joints, `task_dim`
+/// task coordinates and an impedance loop at `impedance_loop_hz` tells the host in answer to
+/// `Hello`: the state stream in [`ChannelScales::DESKTOP`] units.
+pub fn device_info(name: &str, joints: usize, task_dim: usize, impedance_loop_hz: u32) -> DeviceInfo {
     DeviceInfo {
         version: PROTOCOL_VERSION,
-        rig_name_hash: fnv1a(image::NAME.as_bytes()),
-        joints: image::JOINTS as u8,
-        task_dim: M as u8,
-        impedance_loop_hz: u16::try_from(image::IMPEDANCE_LOOP_HZ).unwrap_or(u16::MAX),
+        rig_name_hash: fnv1a(name.as_bytes()),
+        joints: u8::try_from(joints).unwrap_or(u8::MAX),
+        task_dim: u8::try_from(task_dim).unwrap_or(u8::MAX),
+        impedance_loop_hz: u16::try_from(impedance_loop_hz).unwrap_or(u16::MAX),
         scales: ChannelScales::DESKTOP,
     }
 }

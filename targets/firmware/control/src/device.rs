@@ -1,0 +1,157 @@
+//! Device mode (issue 19, docs/link.md): what every board does the same when a host drives it
+//! over the link. The board image owns the transport (a UART, polled or by interrupt) and its
+//! clock; this module applies what the host sends to the controller ([`DeviceMode::on_event`]:
+//! the answer to `Hello`, new impedance settings, scene objects) and frames the state stream
+//! ([`state_frame`]). The link's own rules (handshake, heartbeat watchdog, enable, reset) are
+//! [`DeviceLink`]'s.
+//!
+//! The controller follows a [`LinkSource`]: at start a spring to the start pose; on a 2-D task,
+//! the planar scene of the objects the host sent. A change of settings or objects replaces the
+//! reference (the renderer starts afresh at the device point) and keeps the estimator and the
+//! filters running; with every slot empty again, the spring to the start pose is back.
+
+use hapticgen_protocol::{ChannelScales, SceneObject, StateFrame, StateSample, MAX_FRAME_BYTES, MAX_TASK};
+use hapticgen_runtime::control::ImpedanceParameters;
+use hapticgen_runtime::fused::FusedImpedance;
+use hapticgen_runtime::tick::ImpedanceReport;
+use hapticgen_runtime::RigModel;
+
+use crate::app::Controller;
+use crate::link::{DeviceLink, LinkEvent};
+use crate::link_scene::{first, LinkSource, SCENE_OBJECTS};
+
+/// The host's settings and scene as the device holds them.
+#[derive(Clone, Copy, Debug)]
+pub struct DeviceMode<const M: usize> {
+    impedance: ImpedanceParameters<f32, MAX_TASK>,
+    objects: [SceneObject; SCENE_OBJECTS],
+    home: [f32; M],
+    grid: f32,
+    refused_changes: u32,
+}
+
+impl<const M: usize> DeviceMode<M> {
+    /// Holding the task point at `home` with `stiffness` and `damping` on every axis (unit
+    /// mass), scenes to be drawn on the anti-drift grid `grid` (m); no object yet.
+    pub fn new(home: [f32; M], stiffness: f32, damping: f32, grid: f32) -> Self {
+        Self {
+            impedance: ImpedanceParameters {
+                stiffness: [stiffness; MAX_TASK],
+                damping: [damping; MAX_TASK],
+                mass: [1.0; MAX_TASK],
+            },
+            objects: [SceneObject::Empty; SCENE_OBJECTS],
+            home,
+            grid,
+            refused_changes: 0,
+        }
+    }
+
+    /// The impedance the controller starts with.
+    pub fn parameters(&self) -> ImpedanceParameters<f32, M> {
+        ImpedanceParameters {
+            stiffness: first(&self.impedance.stiffness),
+            damping: first(&self.impedance.damping),
+            mass: first(&self.impedance.mass),
+        }
+    }
+
+    /// The reference the settings and objects ask for; `None` if unusable (a scene on a task
+    /// that is not 2-D, more objects than the planar scene holds).
+    pub fn source(&self) -> Option<LinkSource<M>> {
+        let has_objects = self.objects.iter().any(|object| *object != SceneObject::Empty);
+        LinkSource::new(self.home, &self.impedance, &self.objects, has_objects.then_some(self.grid))
+    }
+
+    /// Changes the host asked for that could not be applied (a slot out of range, a scene the
+    /// task cannot draw): counted, never acted on.
+    pub fn refused_changes(&self) -> u32 {
+        self.refused_changes
+    }
+
+    /// Applies `event` (what [`DeviceLink::receive`] returned for a byte) to `control`; returns
+    /// the length of a frame to send back, framed into `out` (the answer to `Hello`), if any.
+    pub fn on_event<R, const N: usize>(
+        &mut self,
+        event: LinkEvent<f32>,
+        control: &mut Controller<R, LinkSource<M>, N, M>,
+        link: &DeviceLink,
+        out: &mut [u8; MAX_FRAME_BYTES],
+    ) -> Option<usize>
+    where
+        R: FusedImpedance<N, M, Scalar = f32> + Clone,
+    {
+        match event {
+            LinkEvent::Hello => return link.hello(out).ok(),
+            LinkEvent::Impedance(parameters) => self.impedance = parameters,
+            LinkEvent::Object { slot, object } => match self.objects.get_mut(usize::from(slot)) {
+                Some(entry) => *entry = object,
+                None => {
+                    self.refused_changes = self.refused_changes.saturating_add(1);
+                    return None;
+                }
+            },
+            // Enable, disable, heartbeats and resets are the link's own; sensor frames and
+            // PIL setups are for the PIL image.
+            LinkEvent::Sensors | LinkEvent::PilSetup | LinkEvent::Disabled => return None,
+        }
+        // The controller keeps its estimator and filters (the device has not stopped); the
+        // settings and the reference are replaced.
+        control.haptic.controller.parameters = self.parameters();
+        match self.source() {
+            Some(source) => control.haptic.source = source,
+            None => self.refused_changes = self.refused_changes.saturating_add(1),
+        }
+        None
+    }
+}
+
+/// `J q̇`: the task velocity of joint velocities `qd` at `q`.
+fn task_velocity<R: RigModel<N, M, Scalar = f32>, const N: usize, const M: usize>(
+    rig: &R,
+    q: &[f32; N],
+    qd: &[f32; N],
+) -> [f32; M] {
+    let jacobian = rig.jacobian(q);
+    let mut velocity = [0.0; M];
+    for (v, row) in velocity.iter_mut().zip(jacobian.iter()) {
+        *v = row.iter().zip(qd).map(|(j, w)| j * w).sum();
+    }
+    velocity
+}
+
+/// Frames the state of the impedance tick that produced `report` into `out` (a `State`
+/// message in [`ChannelScales::DESKTOP`] units): `counts` as the encoders read, the
+/// estimator's joint velocities, the task position and velocity through `rig`, the commanded
+/// torques and motor currents, the safety monitor's fault and the link's
+/// ([`StateFrame::LINK_FAULT`]), the largest impedance-tick cost so far. Returns its length.
+pub fn state_frame<R, const N: usize, const M: usize>(
+    control: &Controller<R, LinkSource<M>, N, M>,
+    rig: &R,
+    link: &DeviceLink,
+    counts: &[i32; N],
+    report: &ImpedanceReport<f32, N>,
+    out: &mut [u8; MAX_FRAME_BYTES],
+) -> Option<usize>
+where
+    R: FusedImpedance<N, M, Scalar = f32> + Clone,
+{
+    let state = *control.haptic.estimator().state();
+    let position = rig.position(&state.position);
+    let velocity = task_velocity(rig, &state.position, &state.velocity);
+    let safety_fault = control.first_fault.map_or(0, |(_, fault)| fault.number());
+    let link_fault = if link.fault().is_some() { StateFrame::LINK_FAULT } else { 0 };
+    let sample = StateSample {
+        tick: control.impedance_ticks(),
+        enabled: link.outputs_allowed(),
+        fault: safety_fault | link_fault,
+        encoder_counts: counts,
+        joint_velocity: &state.velocity,
+        task_position: &position,
+        task_velocity: &velocity,
+        joint_torque: &report.command.torque,
+        motor_current: control.haptic.current_setpoints(),
+        tick_instructions: control.impedance_cost.max,
+    };
+    StateFrame::encode_sample(&sample, &ChannelScales::DESKTOP, out)
+}
