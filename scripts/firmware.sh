@@ -332,15 +332,20 @@ for NAME in "${SELECTED[@]}"; do
         else
             echo "hapticgen-fw-stm32f4 depends on: $(sed 's/ .*//' <<<"$TREE" | grep '^hapticgen' | sort -u | tr '\n' ' ')"
         fi
-        step "board image $BOARD: build (image and control-path probe)"
+        step "board image $BOARD: build (image, device-mode image, their control-path probes)"
         HAPTICGEN_FW_VARIANT=$BOARD_VARIANT cargo build --locked --release --target "$TARGET" \
             -p hapticgen-fw-stm32f4 --no-default-features --bins
         BIN=$TARGET_DIR/$TARGET/release
         cp "$BIN/hapticgen-fw-stm32f4" "$OUT/$BOARD.elf"
         cp "$BIN/hapticgen-fw-stm32f4-control-path" "$OUT/$BOARD.control-path.elf"
+        cp "$BIN/hapticgen-fw-stm32f4-device" "$OUT/$BOARD.device.elf"
+        cp "$BIN/hapticgen-fw-stm32f4-device-path" "$OUT/$BOARD.device-path.elf"
         "$REF" size "$OUT/$BOARD.elf"
+        "$REF" size "$OUT/$BOARD.device.elf"
         step "board image $BOARD: no panic reachable from the interrupt body"
         panic_check "$BOARD" "$OUT/$BOARD.control-path.elf"
+        step "board image $BOARD, device mode: no panic reachable from the interrupt body or the link's byte handling (USART1)"
+        panic_check "$BOARD" "$OUT/$BOARD.device-path.elf"
         CHECKED+=("$BOARD")
         continue
     fi

@@ -200,9 +200,11 @@ fn polygon<S: Real, const V: usize>(
     }
     let mut inside = true;
     let mut best: Option<(S, Point<S>)> = None;
-    for i in 0..count {
-        let a = &vertices[i];
-        let b = &vertices[(i + 1) % count];
+    // Each edge (a, b), the last one back to the first vertex; iterated, not indexed: an
+    // index `(i + 1) % count` kept a bounds check (a panic path) the optimiser could not
+    // remove (found by the STM32F4 device image's panic probe).
+    let polygon = vertices.get(..count).unwrap_or(&[]);
+    for (a, b) in polygon.iter().zip(polygon.iter().cycle().skip(1)) {
         let cross = (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
         if cross <= S::ZERO {
             inside = false;

@@ -17,13 +17,16 @@
 //!
 //! The crate is the board support (the HAL drivers behind the board-layer traits, and the
 //! current-loop interrupt body [`on_current_loop_interrupt`]); its binaries are the image
-//! (`src/main.rs`: start-up, then SysTick runs the interrupt body) and the image's
-//! control-path probe (`src/bin/control_path.rs`, linked and never run, checked for panics by
-//! `scripts/firmware.sh`). It depends on `hapticgen-fw-control` and the runtime only: the
+//! (`src/main.rs`: start-up, then SysTick runs the interrupt body), the device-mode image
+//! (`src/bin/device.rs`: the same, driven by a host over USART1, [`device`]) and their
+//! control-path probes (`src/bin/control_path.rs`, `src/bin/device_path.rs`, linked and never
+//! run, checked for panics by `scripts/firmware.sh`). It depends on `hapticgen-fw-control` and the runtime only: the
 //! model-derived settings come from the generated glue's `setup()`
 //! (`hapticgen_fw_control::Setup`), not from the simulator.
 #![no_std]
 #![deny(missing_docs)]
+
+pub mod device;
 
 use core::cell::RefCell;
 
@@ -34,13 +37,17 @@ use hapticgen_fw_control::board::{
     CurrentSense, CycleCounter, Encoders, ForceSense, TickTimer, VoltageOutput,
 };
 use hapticgen_fw_control::Controller;
+use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
+use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::render::Scene;
-use stm32f4xx_hal::adc::config::{SampleTime, Sequence};
+use hapticgen_runtime::tick::HapticLoopSettings;
+use stm32f4xx_hal::adc::config::{AdcConfig, SampleTime, Sequence};
 use stm32f4xx_hal::adc::Adc;
-use stm32f4xx_hal::gpio::{Analog, Pin};
-use stm32f4xx_hal::pac::{ADC1, TIM1, TIM2, TIM3};
+use stm32f4xx_hal::gpio::{gpiob, Analog, Pin};
+use stm32f4xx_hal::pac::{self, ADC1, TIM1, TIM2, TIM3};
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::qei::Qei;
+use stm32f4xx_hal::rcc::{Config, Rcc};
 use stm32f4xx_hal::timer::PwmChannel;
 
 /// The generated rig of the image named by `HAPTICGEN_FW_VARIANT` and its glue (`image`).
@@ -175,6 +182,97 @@ impl TickTimer for SysTickTimer {
         self.0.clear_current();
         self.0.enable_interrupt();
         self.0.enable_counter();
+    }
+}
+
+/// What start-up hands the image: the board, SysTick, and what it leaves for the image (the
+/// clocks, USART1 and port B: a device image's host link, `src/bin/device.rs`).
+pub struct Started {
+    /// The board, bridges at 0 V.
+    pub board: F4Board,
+    /// SysTick, for the current-loop interrupt ([`SysTickTimer`]).
+    pub syst: SYST,
+    /// The clocks.
+    pub rcc: Rcc,
+    /// USART1 (its pins: PB6 TX, PB7 RX).
+    pub usart1: pac::USART1,
+    /// Port B.
+    pub gpiob: gpiob::Parts,
+}
+
+/// Start-up: the core at [`SYSCLK_HZ`] from an 8 MHz crystal, the cycle counter, the encoders,
+/// the ADC and the bridges' PWM at 20 kHz, driven at 0 V. `None` if the peripherals were
+/// already taken.
+pub fn start() -> Option<Started> {
+    let (dp, mut cp) = (pac::Peripherals::take()?, cortex_m::Peripherals::take()?);
+    let mut rcc = dp.RCC.freeze(Config::hse(8.MHz()).sysclk(SYSCLK_HZ.Hz()));
+    cp.DCB.enable_trace();
+    cp.DWT.enable_cycle_counter();
+    let gpioa = dp.GPIOA.split(&mut rcc);
+    let gpiob = dp.GPIOB.split(&mut rcc);
+    let encoder1 = Qei::new(dp.TIM2, (gpioa.pa0, gpioa.pa1), &mut rcc);
+    let encoder2 = Qei::new(dp.TIM3, (gpioa.pa6, gpioa.pa7), &mut rcc);
+    let adc = Adc::new(dp.ADC1, true, AdcConfig::default(), &mut rcc);
+    let (_, (ch1, ch2, ..)) = dp.TIM1.pwm_hz(20.kHz(), &mut rcc);
+    let mut pwm = (ch1.with(gpioa.pa8), ch2.with(gpioa.pa9));
+    pwm.0.enable();
+    pwm.1.enable();
+    let mut board = F4Board {
+        encoder1,
+        encoder2,
+        adc,
+        current_pins: (gpioa.pa2.into_analog(), gpioa.pa3.into_analog()),
+        force_pins: (gpioa.pa4.into_analog(), gpioa.pa5.into_analog()),
+        pwm,
+        supply: image::Rig::DRIVES[0].supply_voltage,
+    };
+    board.set_voltages(&[0.0; 2]);
+    Some(Started { board, syst: cp.SYST, rcc, usart1: dp.USART1, gpiob })
+}
+
+/// The haptic loop's settings on this board: Controller 3 with `parameters`, the estimator at
+/// the rig's impedance rate, the device homed at the image's start pose (`variants.txt`; for
+/// the parallel link q = (π/2, 0): link 1 upright, link 2 level) where the encoders read
+/// `initial_counts`, the force sensor's calibration (5 N/V about 2.5 V), each joint's
+/// current-loop gains from the model.
+pub fn loop_settings(
+    parameters: ImpedanceParameters<f32, 2>,
+    initial_counts: [i32; 2],
+) -> HapticLoopSettings<f32, 2, 2> {
+    let setup = image::setup();
+    HapticLoopSettings {
+        controller: ImpedanceController {
+            law: ImpedanceLaw::JacobianTranspose,
+            parameters,
+            options: ControlOptions {
+                omit_damping_compensation: false,
+                min_abs_jacobian_determinant: 1e-6,
+                spring_lead_time: 0.0,
+            },
+        },
+        estimator: EstimatorSettings {
+            sample_period: 1.0 / image::IMPEDANCE_LOOP_HZ as f32,
+            velocity_cutoff_hz: 50.0,
+            acceleration_cutoff_hz: 20.0,
+        },
+        zero_offset: setup.start,
+        initial_counts,
+        force_calibration: ForceSensorCalibration { scale: [5.0; 2], offset: [2.5; 2] },
+        current_gains: setup.current_gains,
+        max_tick_gap: 1,
+    }
+}
+
+/// The model's rendering settings `[grid, stiffness, damping]` (m, N/m, N·s/m), else the
+/// paper's (0.3 mm, 1500 N/m, 5 N·s/m).
+pub fn rendering() -> [f32; 3] {
+    image::setup().rendering.unwrap_or([3e-4, 1500.0, 5.0])
+}
+
+/// Stops the core where a debugger can see it (start-up failed, or a panic).
+pub fn halt() -> ! {
+    loop {
+        cortex_m::asm::bkpt();
     }
 }
 
