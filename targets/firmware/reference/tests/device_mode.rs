@@ -1,0 +1,183 @@
+//! Device mode's board-independent part (`hapticgen_fw_control::device`), on the host with the
+//! f32 rig of the `horizontal` image (the parallel link, the device image's line): what the
+//! host's messages do to the controller, and the state frame as the host decodes it. The
+//! QEMU run (`scripts/device-run.sh`) drives the same code over a UART; this checks it value
+//! by value.
+
+use hapticgen_fw_control::device::{state_frame, DeviceMode};
+use hapticgen_fw_control::link::{DeviceLink, LinkSettings};
+use hapticgen_fw_control::link_scene::{device_info, LinkSource, Reference};
+use hapticgen_fw_control::{Controller, CycleCounter};
+use hapticgen_fw_reference::variants::horizontal_f32 as image;
+use hapticgen_fw_sim::plant::SimBoard;
+use hapticgen_protocol::{
+    encode, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, SceneObject, StateFrame,
+    MAX_FRAME_BYTES, PROTOCOL_VERSION,
+};
+use hapticgen_runtime::control::{ImpedanceController, ImpedanceLaw};
+use hapticgen_runtime::tick::HapticLoopSettings;
+
+type Control = Controller<image::Rig, LinkSource<2>, 2, 2>;
+
+struct NoClock;
+
+impl CycleCounter for NoClock {
+    fn now(&self) -> u32 {
+        0
+    }
+}
+
+/// A device at the image's start pose: its link, its mode, its controller, its plant.
+struct Device {
+    link: DeviceLink,
+    mode: DeviceMode<2>,
+    control: Control,
+    board: SimBoard<image::Rig, 2, 2>,
+}
+
+impl Device {
+    fn new() -> Self {
+        let rig = image::Rig::NOMINAL;
+        let setup = image::setup();
+        let mode = DeviceMode::new(rig.position(&setup.start), 1500.0, 5.0, 3e-4);
+        let controller =
+            ImpedanceController::new(ImpedanceLaw::JacobianTranspose, [1500.0; 2], [5.0; 2], [1.0; 2]);
+        let mut settings = HapticLoopSettings::for_rig(&rig, controller);
+        settings.controller.parameters = mode.parameters();
+        settings.zero_offset = setup.start;
+        settings.current_gains = setup.current_gains;
+        let control = Controller::new(rig, mode.source().unwrap(), &settings, false).unwrap();
+        let board = SimBoard::new(rig, setup.start, 1.0 / image::CURRENT_LOOP_HZ as f32, 1e-4);
+        let link = DeviceLink::new(
+            device_info(image::NAME, 2, 2, image::IMPEDANCE_LOOP_HZ),
+            LinkSettings::with_timeout_ms(6, image::CURRENT_LOOP_HZ),
+        );
+        Self { link, mode, control, board }
+    }
+
+    /// Feeds `message`'s frame byte by byte; returns the frames the device answers with.
+    fn feed(&mut self, message: &HostMessage) -> Vec<Vec<u8>> {
+        let mut frame = [0u8; MAX_FRAME_BYTES];
+        let length = encode(message, &mut frame).unwrap();
+        let mut answers = Vec::new();
+        for &byte in &frame[..length] {
+            if let Some(event) = self.link.receive::<f32>(byte) {
+                let mut out = [0u8; MAX_FRAME_BYTES];
+                if let Some(n) = self.mode.on_event(event, &mut self.control, &self.link, &mut out) {
+                    answers.push(out[..n].to_vec());
+                }
+            }
+        }
+        answers
+    }
+
+    /// Runs current-loop periods until an impedance tick; returns its state frame, decoded.
+    fn state(&mut self) -> StateFrame {
+        loop {
+            let open = self.link.on_current_tick();
+            let mut gated = hapticgen_fw_control::link::Gated { board: &mut self.board, open };
+            let outcome = self.control.on_current_tick(&mut gated, &NoClock);
+            self.board.advance(&[0.0; 2]);
+            if let Some(report) = outcome.impedance {
+                let counts = hapticgen_fw_control::Encoders::counts(&mut self.board);
+                let mut out = [0u8; MAX_FRAME_BYTES];
+                let rig = image::Rig::NOMINAL;
+                let n = state_frame(&self.control, &rig, &self.link, &counts, &report, &mut out).unwrap();
+                match decode(&out[..n]) {
+                    DeviceMessage::State(frame) => return frame,
+                    other => panic!("not a state frame: {other:?}"),
+                }
+            }
+        }
+    }
+}
+
+fn decode(frame: &[u8]) -> DeviceMessage {
+    let mut decoder = FrameDecoder::new();
+    let mut message = None;
+    for &byte in frame {
+        message = decoder.push::<DeviceMessage>(byte).or(message);
+    }
+    message.expect("one valid frame")
+}
+
+/// FNV-1a, 32 bits, written out here (the device's is `link_scene::fnv1a`).
+fn fnv1a(bytes: &[u8]) -> u32 {
+    bytes.iter().fold(2_166_136_261u32, |hash, &byte| (hash ^ u32::from(byte)).wrapping_mul(16_777_619))
+}
+
+fn box_at(x: f32) -> SceneObject {
+    SceneObject::Box {
+        centre: [x, 0.15, 0.0],
+        half_extents: [0.02, 0.05, 0.0],
+        stiffness: 900.0,
+        damping: 3.0,
+    }
+}
+
+#[test]
+fn hello_is_answered_with_this_images_identity() {
+    let mut device = Device::new();
+    let answers = device.feed(&HostMessage::Hello { version: PROTOCOL_VERSION });
+    assert_eq!(answers.len(), 1);
+    let DeviceMessage::Hello(info) = decode(&answers[0]) else { panic!("not a hello") };
+    assert_eq!(
+        (info.version, info.joints, info.task_dim, info.impedance_loop_hz),
+        (PROTOCOL_VERSION, 2, 2, 1000)
+    );
+    assert_eq!(info.rig_name_hash, fnv1a(b"horizontal"));
+}
+
+#[test]
+fn settings_and_objects_reach_the_controller_after_the_handshake_only() {
+    let mut device = Device::new();
+    let settings = ImpedanceSettings { stiffness: [800.0; 3], damping: [2.0; 3], mass: [0.5; 3] };
+    // Before the handshake: refused by the link, so nothing changes.
+    device.feed(&HostMessage::SetImpedance(settings));
+    assert_eq!(device.control.haptic.controller.parameters.stiffness, [1500.0; 2]);
+    device.feed(&HostMessage::Hello { version: PROTOCOL_VERSION });
+    device.feed(&HostMessage::SetImpedance(settings));
+    let parameters = device.control.haptic.controller.parameters;
+    assert_eq!((parameters.stiffness, parameters.damping, parameters.mass), ([800.0; 2], [2.0; 2], [0.5; 2]));
+    // An object turns the spring to the start pose into the planar scene with the object and
+    // the settings' free space; emptying the slot turns it back.
+    assert!(matches!(device.control.haptic.source.reference, Reference::Fixed(_)));
+    device.feed(&HostMessage::SetObject { slot: 2, object: box_at(-0.033) });
+    let Reference::Scene(scene) = &device.control.haptic.source.reference else { panic!("no scene") };
+    assert_eq!(scene.objects.iter().flatten().count(), 1);
+    assert_eq!((scene.free_space_stiffness, scene.free_space_damping), (800.0, 2.0));
+    device.feed(&HostMessage::SetObject { slot: 2, object: SceneObject::Empty });
+    assert!(matches!(device.control.haptic.source.reference, Reference::Fixed(_)));
+    // A slot the device does not have is counted and ignored.
+    device.feed(&HostMessage::SetObject { slot: 4, object: box_at(0.0) });
+    assert_eq!(device.mode.refused_changes(), 1);
+    assert!(matches!(device.control.haptic.source.reference, Reference::Fixed(_)));
+}
+
+#[test]
+fn the_state_frame_says_where_the_device_is_and_what_the_link_holds() {
+    let mut device = Device::new();
+    let rig = image::Rig::NOMINAL;
+    let scales = hapticgen_protocol::ChannelScales::DESKTOP;
+    let frame = device.state();
+    let expected = rig.position(&image::setup().start);
+    for (k, x) in expected.iter().enumerate() {
+        let sent = frame.task_position(k, &scales).unwrap();
+        assert!((sent - x).abs() <= scales.task_position, "axis {k}: {sent} vs {x}");
+    }
+    assert_eq!(
+        (frame.joints(), frame.task_dim(), frame.status & StateFrame::ENABLED, frame.fault),
+        (2, 2, 0, 0)
+    );
+    // Enabled with fresh heartbeats: the frame says so; the heartbeats stop: the link fault.
+    device.feed(&HostMessage::Hello { version: PROTOCOL_VERSION });
+    device.feed(&HostMessage::Heartbeat { sequence: 1 });
+    device.feed(&HostMessage::Enable);
+    let frame = device.state();
+    assert_eq!((frame.status & StateFrame::ENABLED, frame.fault), (StateFrame::ENABLED, 0));
+    let mut faulted = device.state();
+    for _ in 0..20 {
+        faulted = device.state();
+    }
+    assert_eq!((faulted.status & StateFrame::ENABLED, faulted.fault), (0, StateFrame::LINK_FAULT));
+}
