@@ -211,6 +211,15 @@ panic_check() {
     FAILED+=("$name: a panic is reachable from the control path (see above)")
 }
 
+# The `hapticgen` CLI (root workspace) for the runs it drives: `$HAPTICGEN`. Its build goes
+# where this script's does, never into <repo>/target.
+build_hapticgen() {
+    HOST_TARGET_DIR=${CARGO_TARGET_DIR:-$TARGET_DIR/host}
+    (cd "$ROOT" && cargo build --locked -p hapticgen --target-dir "$HOST_TARGET_DIR") || die "building hapticgen failed"
+    HAPTICGEN=$HOST_TARGET_DIR/debug/hapticgen
+    [ -x "$HAPTICGEN" ] || die "hapticgen was built but is not at $HAPTICGEN"
+}
+
 ROWS=()
 FAILED=()
 CHECKED=()
@@ -267,10 +276,7 @@ for NAME in "${SELECTED[@]}"; do
         HAPTICGEN_FW_VARIANT=$PIL_FIG7_VARIANT cargo build --locked --release --target "$TARGET" \
             -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil
         cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-pil" "$OUT/$PIL_FIG7_VARIANT.pil.elf"
-        # The root workspace's build goes where this script's does: never into <repo>/target.
-        HOST_TARGET_DIR=${CARGO_TARGET_DIR:-$TARGET_DIR/host}
-        (cd "$ROOT" && cargo build --locked -p hapticgen --target-dir "$HOST_TARGET_DIR") || die "building hapticgen failed"
-        HAPTICGEN=$HOST_TARGET_DIR/debug/hapticgen
+        build_hapticgen
         step "PIL: Fig. 7 (circle tracing) on the parallel link under QEMU vs hapticgen simulate (bound: $PIL_MAX_COUNTS counts through |J|, two grid spacings)"
         background "$PIL_FIG7" "$HAPTICGEN" pil "$ROOT/models/parallel_link_2dof.yaml" --variant "$PIL_FIG7_VARIANT" \
             --controller jacobian-transpose --scenario trace-circle --compare --max-counts "$PIL_MAX_COUNTS" \
@@ -285,11 +291,7 @@ for NAME in "${SELECTED[@]}"; do
             -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-device
         cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-device" "$OUT/$DEVICE_VARIANT.device.elf"
         "$REF" size "$OUT/$DEVICE_VARIANT.device.elf"
-        # The root workspace's build goes where this script's does: never into <repo>/target.
-        HOST_TARGET_DIR=${CARGO_TARGET_DIR:-$TARGET_DIR/host}
-        (cd "$ROOT" && cargo build --locked -p hapticgen --target-dir "$HOST_TARGET_DIR") || die "building hapticgen failed"
-        HAPTICGEN=$HOST_TARGET_DIR/debug/hapticgen
-        [ -x "$HAPTICGEN" ] || die "hapticgen was built but is not at $HAPTICGEN"
+        build_hapticgen
         step "device: hapticgen connect drives the image under QEMU (its safety checks, a scene that pushes it out of a wall)"
         background "$DEVICE" "$ROOT/scripts/device-run.sh" "$HAPTICGEN" "$OUT/$DEVICE_VARIANT.device.elf" "$OUT/device"
         continue
@@ -307,11 +309,7 @@ for NAME in "${SELECTED[@]}"; do
         step "PIL image: no panic reachable from a received byte, the period's control and the answer's framing"
         panic_check "$PIL" "$OUT/$PIL_VARIANT.pil-path.elf"
         step "PIL: the host side (hapticgen, root workspace)"
-        # The root workspace's build goes where this script's does: never into <repo>/target.
-        HOST_TARGET_DIR=${CARGO_TARGET_DIR:-$TARGET_DIR/host}
-        (cd "$ROOT" && cargo build --locked -p hapticgen --target-dir "$HOST_TARGET_DIR") || die "building hapticgen failed"
-        HAPTICGEN=$HOST_TARGET_DIR/debug/hapticgen
-        [ -x "$HAPTICGEN" ] || die "hapticgen was built but is not at $HAPTICGEN"
+        build_hapticgen
         step "PIL: Fig. 4 on the joystick under QEMU vs hapticgen simulate (bound: $PIL_MAX_COUNTS encoder counts), then the fault tests (one sensor frame in 100 corrupted and a burst of 96 random bytes before one in 37, every bad frame dropped; the host goes silent at 0.25 s: safe state within 10 ms)"
         background "$PIL" bash -c '"$1" pil "$2/models/joystick_1dof.yaml" --controller natural-inertia --scenario step \
             --duration 2 --compare --max-counts "$3" --image "$4" -o "$5/pil-fig4" \

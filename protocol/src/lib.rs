@@ -26,6 +26,7 @@ pub mod message;
 pub use frame::{
     encode, EncodeError, FrameDecoder, LinkCounters, Received, MAX_FRAME_BYTES, MAX_MESSAGE_BYTES,
 };
+pub use message::rig_name_hash;
 pub use message::{
     ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, HostKind, HostMessage,
     ImpedanceSettings, PilLaw, PilSetup, SceneObject, SensorFrame, StateFrame, StateSample, MAX_JOINTS,

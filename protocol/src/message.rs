@@ -57,6 +57,16 @@ impl ChannelScales {
     };
 }
 
+/// The [`DeviceInfo::rig_name_hash`] of an image named `name`: FNV-1a, 32 bits, of its bytes.
+pub fn rig_name_hash(name: &str) -> u32 {
+    let mut hash = 0x811c_9dc5u32;
+    for &byte in name.as_bytes() {
+        hash ^= u32::from(byte);
+        hash = hash.wrapping_mul(0x0100_0193);
+    }
+    hash
+}
+
 /// What the device tells the host first (and again on every host `Hello`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DeviceInfo {

@@ -124,16 +124,6 @@ pub fn locate_qemu(explicit: Option<&Path>) -> Result<PathBuf, String> {
     )
 }
 
-/// FNV-1a of `bytes` (the image's name hash in its `DeviceInfo`).
-pub fn fnv1a(bytes: &[u8]) -> u32 {
-    let mut hash = 0x811c_9dc5u32;
-    for &byte in bytes {
-        hash ^= u32::from(byte);
-        hash = hash.wrapping_mul(0x0100_0193);
-    }
-    hash
-}
-
 /// A planar scene the device renders in a PIL run (`PilSetup::scene_grid_spacing`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PilScene {
@@ -343,7 +333,7 @@ impl<const N: usize, const M: usize> Pil<N, M> {
             ));
         }
         if (usize::from(info.joints), usize::from(info.task_dim)) != (N, M)
-            || info.rig_name_hash != fnv1a(name.as_bytes())
+            || info.rig_name_hash != hapticgen_protocol::rig_name_hash(name)
         {
             return Err(format!(
                 "error: the image is not `{name}` ({} joints, {} task axes, name hash {:#x}): rebuild it",

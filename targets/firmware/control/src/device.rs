@@ -11,14 +11,18 @@
 //! filters running; with every slot empty again, the spring to the start pose is back.
 
 use hapticgen_protocol::{ChannelScales, SceneObject, StateFrame, StateSample, MAX_FRAME_BYTES, MAX_TASK};
-use hapticgen_runtime::control::ImpedanceParameters;
+use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
+use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::fused::FusedImpedance;
+use hapticgen_runtime::tick::HapticLoopSettings;
 use hapticgen_runtime::tick::ImpedanceReport;
+use hapticgen_runtime::Real;
 use hapticgen_runtime::RigModel;
 
 use crate::app::Controller;
 use crate::link::{DeviceLink, LinkEvent};
 use crate::link_scene::{first, LinkSource, SCENE_OBJECTS};
+use crate::setup::Setup;
 
 /// The host's settings and scene as the device holds them.
 #[derive(Clone, Copy, Debug)]
@@ -103,6 +107,36 @@ impl<const M: usize> DeviceMode<M> {
             None => self.refused_changes = self.refused_changes.saturating_add(1),
         }
         None
+    }
+}
+
+/// The haptic loop's settings of a board image: Controller 3 (`J^T`: any rig) with
+/// `parameters`, the estimator at `impedance_loop_hz` (50 Hz velocity and 20 Hz acceleration
+/// filters), the device homed at `setup.start` where the encoders read `initial_counts`, the
+/// force sensor's `force_calibration`, each joint's current-loop gains from the model.
+pub fn loop_settings<S: Real, const N: usize, const M: usize>(
+    setup: &Setup<S, N>,
+    parameters: ImpedanceParameters<S, M>,
+    impedance_loop_hz: u32,
+    initial_counts: [i32; N],
+    force_calibration: ForceSensorCalibration<S, M>,
+) -> HapticLoopSettings<S, N, M> {
+    HapticLoopSettings {
+        controller: ImpedanceController {
+            law: ImpedanceLaw::JacobianTranspose,
+            parameters,
+            options: ControlOptions {
+                omit_damping_compensation: false,
+                min_abs_jacobian_determinant: S::from_f64(1e-6),
+                spring_lead_time: S::ZERO,
+            },
+        },
+        estimator: EstimatorSettings::at_rate(impedance_loop_hz),
+        zero_offset: setup.start,
+        initial_counts,
+        force_calibration,
+        current_gains: setup.current_gains,
+        max_tick_gap: 1,
     }
 }
 

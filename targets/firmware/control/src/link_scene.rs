@@ -4,7 +4,7 @@
 //! board's PIL and device images and by the STM32F4 board's device image, so that the host's
 //! `SetObject` means the same on every board.
 
-use hapticgen_protocol::{ChannelScales, DeviceInfo, SceneObject, MAX_TASK, PROTOCOL_VERSION};
+use hapticgen_protocol::{rig_name_hash, ChannelScales, DeviceInfo, SceneObject, MAX_TASK, PROTOCOL_VERSION};
 use hapticgen_runtime::control::{ImpedanceParameters, TaskReference};
 use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
 use hapticgen_runtime::tick::ReferenceSource;
@@ -133,23 +133,13 @@ pub fn first<const K: usize, T: Copy + Default>(values: &[T]) -> [T; K] {
     out
 }
 
-/// FNV-1a of `bytes` (the device's name hash in its `DeviceInfo`).
-pub fn fnv1a(bytes: &[u8]) -> u32 {
-    let mut hash = 0x811c_9dc5u32;
-    for &byte in bytes {
-        hash ^= u32::from(byte);
-        hash = hash.wrapping_mul(0x0100_0193);
-    }
-    hash
-}
-
 /// What an image named `name` (its line of `variants.txt`) with `joints` joints, `task_dim`
 /// task coordinates and an impedance loop at `impedance_loop_hz` tells the host in answer to
 /// `Hello`: the state stream in [`ChannelScales::DESKTOP`] units.
 pub fn device_info(name: &str, joints: usize, task_dim: usize, impedance_loop_hz: u32) -> DeviceInfo {
     DeviceInfo {
         version: PROTOCOL_VERSION,
-        rig_name_hash: fnv1a(name.as_bytes()),
+        rig_name_hash: rig_name_hash(name),
         joints: u8::try_from(joints).unwrap_or(u8::MAX),
         task_dim: u8::try_from(task_dim).unwrap_or(u8::MAX),
         impedance_loop_hz: u16::try_from(impedance_loop_hz).unwrap_or(u16::MAX),

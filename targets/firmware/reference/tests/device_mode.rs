@@ -101,7 +101,7 @@ fn decode(frame: &[u8]) -> DeviceMessage {
     message.expect("one valid frame")
 }
 
-/// FNV-1a, 32 bits, written out here (the device's is `link_scene::fnv1a`).
+/// FNV-1a, 32 bits, written out here (the device's is `hapticgen_protocol::rig_name_hash`).
 fn fnv1a(bytes: &[u8]) -> u32 {
     bytes.iter().fold(2_166_136_261u32, |hash, &byte| (hash ^ u32::from(byte)).wrapping_mul(16_777_619))
 }

@@ -37,8 +37,8 @@ use hapticgen_fw_control::board::{
     CurrentSense, CycleCounter, Encoders, ForceSense, TickTimer, VoltageOutput,
 };
 use hapticgen_fw_control::Controller;
-use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
-use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
+use hapticgen_runtime::control::ImpedanceParameters;
+use hapticgen_runtime::estimation::ForceSensorCalibration;
 use hapticgen_runtime::render::Scene;
 use hapticgen_runtime::tick::HapticLoopSettings;
 use stm32f4xx_hal::adc::config::{AdcConfig, SampleTime, Sequence};
@@ -230,37 +230,22 @@ pub fn start() -> Option<Started> {
     Some(Started { board, syst: cp.SYST, rcc, usart1: dp.USART1, gpiob })
 }
 
-/// The haptic loop's settings on this board: Controller 3 with `parameters`, the estimator at
-/// the rig's impedance rate, the device homed at the image's start pose (`variants.txt`; for
-/// the parallel link q = (π/2, 0): link 1 upright, link 2 level) where the encoders read
-/// `initial_counts`, the force sensor's calibration (5 N/V about 2.5 V), each joint's
-/// current-loop gains from the model.
+/// The haptic loop's settings on this board (`hapticgen_fw_control::device::loop_settings`:
+/// Controller 3 with `parameters`), the device homed at the image's start pose
+/// (`variants.txt`; for the parallel link q = (π/2, 0): link 1 upright, link 2 level) where
+/// the encoders read `initial_counts`, the force sensor's calibration 5 N/V about 2.5 V.
 pub fn loop_settings(
     parameters: ImpedanceParameters<f32, 2>,
     initial_counts: [i32; 2],
 ) -> HapticLoopSettings<f32, 2, 2> {
-    let setup = image::setup();
-    HapticLoopSettings {
-        controller: ImpedanceController {
-            law: ImpedanceLaw::JacobianTranspose,
-            parameters,
-            options: ControlOptions {
-                omit_damping_compensation: false,
-                min_abs_jacobian_determinant: 1e-6,
-                spring_lead_time: 0.0,
-            },
-        },
-        estimator: EstimatorSettings {
-            sample_period: 1.0 / image::IMPEDANCE_LOOP_HZ as f32,
-            velocity_cutoff_hz: 50.0,
-            acceleration_cutoff_hz: 20.0,
-        },
-        zero_offset: setup.start,
+    let calibration = ForceSensorCalibration { scale: [5.0; 2], offset: [2.5; 2] };
+    hapticgen_fw_control::device::loop_settings(
+        &image::setup(),
+        parameters,
+        image::IMPEDANCE_LOOP_HZ,
         initial_counts,
-        force_calibration: ForceSensorCalibration { scale: [5.0; 2], offset: [2.5; 2] },
-        current_gains: setup.current_gains,
-        max_tick_gap: 1,
-    }
+        calibration,
+    )
 }
 
 /// The model's rendering settings `[grid, stiffness, damping]` (m, N/m, N·s/m), else the

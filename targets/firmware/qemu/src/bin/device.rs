@@ -52,7 +52,7 @@ mod uart;
 
 use cortex_m_rt::{entry, exception};
 use hapticgen_fw_control::board::{CycleCounter, Encoders, TickTimer};
-use hapticgen_fw_control::device::{state_frame, DeviceMode};
+use hapticgen_fw_control::device::{loop_settings, state_frame, DeviceMode};
 use hapticgen_fw_control::link::{DeviceLink, Gated, LinkSettings};
 use hapticgen_fw_control::link_scene::{device_info, LinkSource};
 use hapticgen_fw_control::report::Line;
@@ -60,9 +60,7 @@ use hapticgen_fw_control::Controller;
 use hapticgen_fw_sim::plant::SimBoard;
 use hapticgen_fw_sim::scenarios::PAPER_RENDERING;
 use hapticgen_protocol::{encode, DeviceMessage, MAX_FRAME_BYTES};
-use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw};
-use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
-use hapticgen_runtime::tick::HapticLoopSettings;
+use hapticgen_runtime::estimation::ForceSensorCalibration;
 use uart::Uart0;
 
 #[allow(clippy::all, dead_code)]
@@ -94,28 +92,9 @@ const STATUS_PERIODS: u32 = 75_000;
 /// The controller at start, as `mode` says (a spring to the start pose); `None` if the rig's
 /// rates are unusable.
 fn build(mode: &DeviceMode<M>) -> Option<Control> {
-    let setup = image::setup();
-    let settings = HapticLoopSettings {
-        controller: ImpedanceController {
-            law: ImpedanceLaw::JacobianTranspose,
-            parameters: mode.parameters(),
-            options: ControlOptions {
-                omit_damping_compensation: false,
-                min_abs_jacobian_determinant: 1e-6,
-                spring_lead_time: 0.0,
-            },
-        },
-        estimator: EstimatorSettings {
-            sample_period: 1.0 / image::IMPEDANCE_LOOP_HZ as f32,
-            velocity_cutoff_hz: 50.0,
-            acceleration_cutoff_hz: 20.0,
-        },
-        zero_offset: setup.start,
-        initial_counts: [0; N],
-        force_calibration: ForceSensorCalibration { scale: [1.0; M], offset: [0.0; M] },
-        current_gains: setup.current_gains,
-        max_tick_gap: 1,
-    };
+    let calibration = ForceSensorCalibration { scale: [1.0; M], offset: [0.0; M] };
+    let settings =
+        loop_settings(&image::setup(), mode.parameters(), image::IMPEDANCE_LOOP_HZ, [0; N], calibration);
     Controller::new(Rig::NOMINAL, mode.source()?, &settings, false)
 }
 
