@@ -370,7 +370,7 @@ struct ConnectArgs {
     /// docs/link.md); the device's other slots are emptied.
     #[arg(long)]
     scene: Option<PathBuf>,
-    /// Enable the bridges (heartbeats are sent from the start, every millisecond).
+    /// Enable the bridges (heartbeats are sent from the start, every 2 ms).
     #[arg(long)]
     enable: bool,
     /// Clear a latched fault first (a device whose heartbeat was lost stays off until this).
