@@ -4,7 +4,7 @@
 //! QEMU run (`scripts/device-run.sh`) drives the same code over a UART; this checks it value
 //! by value.
 
-use hapticgen_fw_control::device::{state_frame, DeviceMode};
+use hapticgen_fw_control::device::{loop_settings, state_frame, DeviceMode};
 use hapticgen_fw_control::link::{DeviceLink, LinkSettings};
 use hapticgen_fw_control::link_scene::{device_info, LinkSource, Reference};
 use hapticgen_fw_control::{Controller, CycleCounter};
@@ -14,8 +14,8 @@ use hapticgen_protocol::{
     encode, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, SceneObject, StateFrame,
     MAX_FRAME_BYTES, PROTOCOL_VERSION,
 };
-use hapticgen_runtime::control::{ImpedanceController, ImpedanceLaw};
-use hapticgen_runtime::tick::HapticLoopSettings;
+use hapticgen_runtime::control::ImpedanceLaw;
+use hapticgen_runtime::estimation::ForceSensorCalibration;
 
 type Control = Controller<image::Rig, LinkSource<2>, 2, 2>;
 
@@ -40,12 +40,12 @@ impl Device {
         let rig = image::Rig::NOMINAL;
         let setup = image::setup();
         let mode = DeviceMode::new(rig.position(&setup.start), 1500.0, 5.0, 3e-4);
-        let controller =
-            ImpedanceController::new(ImpedanceLaw::JacobianTranspose, [1500.0; 2], [5.0; 2], [1.0; 2]);
-        let mut settings = HapticLoopSettings::for_rig(&rig, controller);
-        settings.controller.parameters = mode.parameters();
-        settings.zero_offset = setup.start;
-        settings.current_gains = setup.current_gains;
+        let calibration = ForceSensorCalibration { scale: [1.0; 2], offset: [0.0; 2] };
+        let settings =
+            loop_settings(&setup, mode.parameters(), image::IMPEDANCE_LOOP_HZ, [0; 2], calibration);
+        // The boards' settings are Controller 3 at the model's rates, homed at the start pose.
+        assert_eq!(settings.controller.law, ImpedanceLaw::JacobianTranspose);
+        assert_eq!((settings.zero_offset, settings.estimator.sample_period), (setup.start, 1e-3));
         let control = Controller::new(rig, mode.source().unwrap(), &settings, false).unwrap();
         let board = SimBoard::new(rig, setup.start, 1.0 / image::CURRENT_LOOP_HZ as f32, 1e-4);
         let link = DeviceLink::new(
@@ -149,6 +149,7 @@ fn settings_and_objects_reach_the_controller_after_the_handshake_only() {
     device.feed(&HostMessage::SetObject { slot: 2, object: SceneObject::Empty });
     assert!(matches!(device.control.haptic.source.reference, Reference::Fixed(_)));
     // A slot the device does not have is counted and ignored.
+    assert_eq!(device.mode.refused_changes(), 0);
     device.feed(&HostMessage::SetObject { slot: 4, object: box_at(0.0) });
     assert_eq!(device.mode.refused_changes(), 1);
     assert!(matches!(device.control.haptic.source.reference, Reference::Fixed(_)));
@@ -180,4 +181,29 @@ fn the_state_frame_says_where_the_device_is_and_what_the_link_holds() {
         faulted = device.state();
     }
     assert_eq!((faulted.status & StateFrame::ENABLED, faulted.fault), (0, StateFrame::LINK_FAULT));
+}
+
+#[test]
+fn the_state_frame_carries_the_task_velocity_of_the_estimated_joint_velocities() {
+    let mut device = Device::new();
+    let rig = image::Rig::NOMINAL;
+    let scales = hapticgen_protocol::ChannelScales::DESKTOP;
+    // Set the plant moving (the bridges are off: it coasts to a stop); every tick's frame
+    // against `J q̇` of the estimator's state.
+    device.board.qd = [3.0, -2.0];
+    let mut speed = 0.0f32;
+    for _ in 0..30 {
+        let frame = device.state();
+        let state = *device.control.haptic.estimator().state();
+        let jacobian = rig.jacobian(&state.position);
+        let mut tick_speed = 0.0f32;
+        for (k, row) in jacobian.iter().enumerate() {
+            let expected: f32 = row[0] * state.velocity[0] + row[1] * state.velocity[1];
+            let sent = frame.task_velocity(k, &scales).unwrap();
+            assert!((sent - expected).abs() <= scales.task_velocity, "axis {k}: {sent} vs J q̇ = {expected}");
+            tick_speed = tick_speed.hypot(expected);
+        }
+        speed = speed.max(tick_speed);
+    }
+    assert!(speed > 0.05, "the device should have moved: largest |J q̇| = {speed} m/s");
 }
