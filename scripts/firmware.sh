@@ -213,6 +213,19 @@ panic_check() {
     FAILED+=("$name: a panic is reachable from the control path (see above)")
 }
 
+# Lints (warnings are errors) and builds the QEMU image crate's binaries `BIN…` for the
+# variants.txt line `VARIANT`: `lint_and_build_qemu VARIANT BIN…`.
+lint_and_build_qemu() {
+    local variant=$1 bin
+    shift
+    local bins=()
+    for bin in "$@"; do bins+=(--bin "$bin"); done
+    HAPTICGEN_FW_VARIANT=$variant cargo clippy --locked --release --target "$TARGET" \
+        -p hapticgen-fw-qemu --no-default-features "${bins[@]}" -- -D warnings
+    HAPTICGEN_FW_VARIANT=$variant cargo build --locked --release --target "$TARGET" \
+        -p hapticgen-fw-qemu --no-default-features "${bins[@]}"
+}
+
 # The `hapticgen` CLI (root workspace) for the runs it drives: `$HAPTICGEN`. Its build goes
 # where this script's does, never into <repo>/target.
 build_hapticgen() {
@@ -273,10 +286,7 @@ for NAME in "${SELECTED[@]}"; do
     fi
     if [ "$NAME" = "$PIL_FIG7" ]; then
         step "PIL image ($PIL_FIG7_VARIANT): lint and build"
-        HAPTICGEN_FW_VARIANT=$PIL_FIG7_VARIANT cargo clippy --locked --release --target "$TARGET" \
-            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil -- -D warnings
-        HAPTICGEN_FW_VARIANT=$PIL_FIG7_VARIANT cargo build --locked --release --target "$TARGET" \
-            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil
+        lint_and_build_qemu "$PIL_FIG7_VARIANT" hapticgen-fw-qemu-pil
         cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-pil" "$OUT/$PIL_FIG7_VARIANT.pil.elf"
         build_hapticgen
         step "PIL: Fig. 7 (circle tracing) on the parallel link under QEMU vs hapticgen simulate (bound: $PIL_MAX_COUNTS counts through |J|, two grid spacings)"
@@ -287,10 +297,7 @@ for NAME in "${SELECTED[@]}"; do
     fi
     if [ "$NAME" = "$DEVICE" ]; then
         step "device image ($DEVICE_VARIANT): lint and build (its own clock; impedance, scene, enable and heartbeats from UART0)"
-        HAPTICGEN_FW_VARIANT=$DEVICE_VARIANT cargo clippy --locked --release --target "$TARGET" \
-            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-device -- -D warnings
-        HAPTICGEN_FW_VARIANT=$DEVICE_VARIANT cargo build --locked --release --target "$TARGET" \
-            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-device
+        lint_and_build_qemu "$DEVICE_VARIANT" hapticgen-fw-qemu-device
         cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-device" "$OUT/$DEVICE_VARIANT.device.elf"
         "$REF" size "$OUT/$DEVICE_VARIANT.device.elf"
         build_hapticgen
@@ -304,11 +311,7 @@ for NAME in "${SELECTED[@]}"; do
     fi
     if [ "$NAME" = "$PIL" ]; then
         step "PIL image ($PIL_VARIANT): lint and build (the control path against sensor frames from UART0, and its probe)"
-        HAPTICGEN_FW_VARIANT=$PIL_VARIANT cargo clippy --locked --release --target "$TARGET" \
-            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil \
-            --bin hapticgen-fw-qemu-pil-path -- -D warnings
-        HAPTICGEN_FW_VARIANT=$PIL_VARIANT cargo build --locked --release --target "$TARGET" \
-            -p hapticgen-fw-qemu --no-default-features --bin hapticgen-fw-qemu-pil --bin hapticgen-fw-qemu-pil-path
+        lint_and_build_qemu "$PIL_VARIANT" hapticgen-fw-qemu-pil hapticgen-fw-qemu-pil-path
         cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-pil" "$OUT/$PIL_VARIANT.pil.elf"
         cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-pil-path" "$OUT/$PIL_VARIANT.pil-path.elf"
         "$REF" size "$OUT/$PIL_VARIANT.pil.elf"

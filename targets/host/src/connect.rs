@@ -32,6 +32,8 @@ use hapticgen_protocol::{
     encode, DeviceInfo, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, LinkCounters,
     SceneObject, StateFrame, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION, SCENE_SLOTS,
 };
+use rand::rngs::SmallRng;
+use rand::{Rng, SeedableRng};
 use serde::Deserialize;
 
 /// How often the heartbeat thread sends a heartbeat: three to a device timeout of 6 ms, and few
@@ -45,6 +47,9 @@ pub const HELLO_TIMEOUT: Duration = Duration::from_secs(10);
 
 /// Random bytes per burst of [`safety_check`]'s garbage (and a zero after them).
 pub const GARBAGE_BURST_BYTES: usize = 15;
+
+/// Seed of [`safety_check`]'s random bytes (the same bytes every run).
+pub const GARBAGE_SEED: u64 = 0x9e37_79b9_7f4a_7c15;
 
 /// Time between two bursts of [`safety_check`]'s garbage.
 pub const GARBAGE_PERIOD: Duration = Duration::from_millis(4);
@@ -242,7 +247,7 @@ pub fn parse_scene(name: &str, text: &str) -> Result<Vec<SceneObject>, String> {
 
 /// A state frame as the host received it.
 #[derive(Clone, Copy, Debug)]
-pub struct Received {
+pub struct ArrivedState {
     /// The frame.
     pub frame: StateFrame,
     /// When it arrived.
@@ -252,7 +257,7 @@ pub struct Received {
 /// What the reader thread passes on.
 enum Incoming {
     Hello(DeviceInfo),
-    State(Received),
+    State(ArrivedState),
     Link(LinkCounters),
     Closed(String),
 }
@@ -265,14 +270,13 @@ pub struct Session {
     heartbeats_sent: Arc<AtomicU64>,
     last_heartbeat_ns: Arc<AtomicU64>,
     stop: Arc<AtomicBool>,
-    threads: Vec<JoinHandle<()>>,
+    heartbeat_thread: Option<JoinHandle<()>>,
     epoch: Instant,
     /// The device's answer to `Hello`.
     pub info: DeviceInfo,
     /// The device's latest receive counters (it sends them about once a second).
     pub device_counters: Option<LinkCounters>,
-    /// Frames the host's decoder dropped (corrupt or not a device message).
-    pub host_dropped: Arc<AtomicU64>,
+    host_dropped: Arc<AtomicU64>,
 }
 
 /// The link's receiving half.
@@ -339,7 +343,9 @@ impl Session {
         let (sender, incoming) = mpsc::channel();
         let stop = Arc::new(AtomicBool::new(false));
         let host_dropped = Arc::new(AtomicU64::new(0));
-        let reader_thread = {
+        // The reader thread is not joined: it may be blocked in a read, and ends with the link
+        // or the process.
+        {
             let stop = Arc::clone(&stop);
             let host_dropped = Arc::clone(&host_dropped);
             std::thread::spawn(move || {
@@ -362,7 +368,7 @@ impl Session {
                         let message = match decoder.push::<DeviceMessage>(byte) {
                             Some(DeviceMessage::Hello(info)) => Incoming::Hello(info),
                             Some(DeviceMessage::State(frame)) => {
-                                Incoming::State(Received { frame, at: Instant::now() })
+                                Incoming::State(ArrivedState { frame, at: Instant::now() })
                             }
                             Some(DeviceMessage::Link(counters)) => Incoming::Link(counters),
                             Some(DeviceMessage::Actuators(_)) | None => continue,
@@ -373,8 +379,8 @@ impl Session {
                     }
                     host_dropped.store(u64::from(decoder.counters().dropped()), Ordering::Relaxed);
                 }
-            })
-        };
+            });
+        }
         let heartbeats_on = Arc::new(AtomicBool::new(false));
         let heartbeats_sent = Arc::new(AtomicU64::new(0));
         let last_heartbeat_ns = Arc::new(AtomicU64::new(0));
@@ -416,7 +422,7 @@ impl Session {
             heartbeats_sent,
             last_heartbeat_ns,
             stop,
-            threads: vec![reader_thread, heartbeat_thread],
+            heartbeat_thread: Some(heartbeat_thread),
             epoch,
             info: DeviceInfo {
                 version: 0,
@@ -473,6 +479,11 @@ impl Session {
         self.heartbeats_on.store(on, Ordering::Relaxed);
     }
 
+    /// Frames the host's decoder dropped so far (corrupt, or not a device message).
+    pub fn host_dropped(&self) -> u64 {
+        self.host_dropped.load(Ordering::Relaxed)
+    }
+
     /// Heartbeats sent so far.
     pub fn heartbeats_sent(&self) -> u64 {
         self.heartbeats_sent.load(Ordering::Relaxed)
@@ -499,7 +510,7 @@ impl Session {
     }
 
     /// Every state frame that arrives within `duration`, in order.
-    pub fn states_for(&mut self, duration: Duration) -> Result<Vec<Received>, String> {
+    pub fn states_for(&mut self, duration: Duration) -> Result<Vec<ArrivedState>, String> {
         let deadline = Instant::now() + duration;
         let mut states = Vec::new();
         while let Some(left) = deadline.checked_duration_since(Instant::now()) {
@@ -515,9 +526,9 @@ impl Session {
     /// Every state frame until the device's tick has advanced by `ticks` from the first one
     /// (the device's time, which runs slower than the host's when the device, e.g. QEMU, is
     /// short of CPU), or `limit` of the host's time has passed.
-    pub fn states_for_ticks(&mut self, ticks: u16, limit: Duration) -> Result<Vec<Received>, String> {
+    pub fn states_for_ticks(&mut self, ticks: u16, limit: Duration) -> Result<Vec<ArrivedState>, String> {
         let deadline = Instant::now() + limit;
-        let mut states: Vec<Received> = Vec::new();
+        let mut states: Vec<ArrivedState> = Vec::new();
         while let Some(left) = deadline.checked_duration_since(Instant::now()) {
             match self.next(left)? {
                 Some(Event::State(received)) => {
@@ -537,7 +548,7 @@ impl Session {
     /// Waits until the device has taken every byte sent so far: sends `Hello` and waits for
     /// its answer (the device answers in order, so everything before it has been received and
     /// acted on). Returns the state frames that arrived meanwhile; an error after `limit`.
-    pub fn sync(&mut self, limit: Duration) -> Result<Vec<Received>, String> {
+    pub fn sync(&mut self, limit: Duration) -> Result<Vec<ArrivedState>, String> {
         self.send(&HostMessage::Hello { version: PROTOCOL_VERSION })?;
         let deadline = Instant::now() + limit;
         let mut states = Vec::new();
@@ -557,10 +568,10 @@ impl Session {
         self.heartbeats(false);
         let result = self.send(&HostMessage::Disable);
         self.stop.store(true, Ordering::Relaxed);
-        if let Some(heartbeat) = self.threads.pop() {
+        if let Some(heartbeat) = self.heartbeat_thread.take() {
             let _ = heartbeat.join();
         }
-        // The reader may be blocked in a read; it ends with the process or the link.
+        // The reader thread may be blocked in a read; it ends with the link or the process.
         result
     }
 }
@@ -571,12 +582,12 @@ pub enum Event {
     /// The device's identity (an answer to `Hello`).
     Hello(DeviceInfo),
     /// One state frame.
-    State(Received),
+    State(ArrivedState),
     /// The device's receive counters.
     Counters(LinkCounters),
 }
 
-/// One row of the state log, in SI units.
+/// The header of the state log (`--log`): the columns of [`csv_row`].
 pub fn csv_header(info: &DeviceInfo) -> Vec<String> {
     let mut header = vec![
         "host_s".to_string(),
@@ -597,7 +608,8 @@ pub fn csv_header(info: &DeviceInfo) -> Vec<String> {
     header
 }
 
-/// The row of `frame` (its channels in the device's units, NaN where a channel is missing).
+/// The row of `frame`: its channels in SI units (decoded with the device's channel scales),
+/// NaN where a channel is missing.
 pub fn csv_row(info: &DeviceInfo, frame: &StateFrame, host_seconds: f64) -> Vec<String> {
     let scales = &info.scales;
     let value = |v: Option<f32>| v.map_or("NaN".to_string(), |v| format!("{v}"));
@@ -706,19 +718,14 @@ pub fn safety_check(session: &mut Session) -> Result<Vec<CheckRow>, String> {
         return Err("error: the device did not enable its bridges (is a fault latched? try --reset)".into());
     }
     // 1. Garbage beside the heartbeats, then a sync: every byte taken.
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut random = SmallRng::seed_from_u64(GARBAGE_SEED);
     let (mut corrupted, mut bursts) = (0u64, 0u64);
     let mut states = Vec::new();
     let until = Instant::now() + Duration::from_millis(300);
     while Instant::now() < until {
         let mut burst = [0u8; GARBAGE_BURST_BYTES + 1];
-        for byte in burst.iter_mut().take(GARBAGE_BURST_BYTES) {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            *byte = (state >> 32) as u8;
-        }
-        // The last byte a zero: the next frame starts clean.
+        // The last byte stays a zero: the next frame starts clean.
+        random.fill(&mut burst[..GARBAGE_BURST_BYTES]);
         session.send_raw(&burst)?;
         bursts += 1;
         if bursts % 10 == 0 {
@@ -751,7 +758,7 @@ pub fn safety_check(session: &mut Session) -> Result<Vec<CheckRow>, String> {
     std::thread::sleep(HEARTBEAT_PERIOD * 2);
     let last_heartbeat = session.last_heartbeat();
     let mut after = session.states_for_ticks(100, SYNC_TIMEOUT)?;
-    let mut all: Vec<Received> = before;
+    let mut all: Vec<ArrivedState> = before;
     all.append(&mut after);
     let reference = all.iter().rev().find(|s| s.at <= last_heartbeat).map(|s| s.frame.tick);
     let first_fault =
@@ -813,12 +820,7 @@ pub fn safety_check(session: &mut Session) -> Result<Vec<CheckRow>, String> {
     let mut flood_states = Vec::new();
     while flood_start.elapsed() < FLOOD_TIME {
         let mut chunk = [0u8; 256];
-        for byte in chunk.iter_mut() {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            *byte = (state >> 32) as u8;
-        }
+        random.fill(&mut chunk[..]);
         session.send_raw(&chunk)?;
         flooded += chunk.len();
         flood_states.extend(session.states_for(Duration::ZERO)?);

@@ -477,7 +477,7 @@ fn connect(args: ConnectArgs) -> Result<(), String> {
         println!("wrote {} ({frames} rows)", path.display());
     }
     let device_counters = session.device_counters;
-    let host_dropped = session.host_dropped.load(std::sync::atomic::Ordering::Relaxed);
+    let host_dropped = session.host_dropped();
     let heartbeats = session.heartbeats_sent();
     session.close()?;
     println!(

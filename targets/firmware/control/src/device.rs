@@ -3,7 +3,8 @@
 //! clock; this module applies what the host sends to the controller ([`DeviceMode::on_event`]:
 //! the answer to `Hello`, new impedance settings, scene objects) and frames the state stream
 //! ([`state_frame`]). The link's own rules (handshake, heartbeat watchdog, enable, reset) are
-//! [`DeviceLink`]'s.
+//! [`DeviceLink`]'s. [`TransmitQueue`] holds the bytes for a transmitter that takes one at a
+//! time.
 //!
 //! The controller follows a [`LinkSource`]: at start a spring to the start pose; on a 2-D task,
 //! the planar scene of the objects the host sent. A change of settings or objects replaces the
@@ -14,10 +15,10 @@ use hapticgen_protocol::{ChannelScales, SceneObject, StateFrame, StateSample, MA
 use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::fused::FusedImpedance;
+use hapticgen_runtime::linalg::mat_vec;
 use hapticgen_runtime::tick::HapticLoopSettings;
 use hapticgen_runtime::tick::ImpedanceReport;
 use hapticgen_runtime::Real;
-use hapticgen_runtime::RigModel;
 
 use crate::app::Controller;
 use crate::link::{DeviceLink, LinkEvent};
@@ -140,20 +141,6 @@ pub fn loop_settings<S: Real, const N: usize, const M: usize>(
     }
 }
 
-/// `J q̇`: the task velocity of joint velocities `qd` at `q`.
-fn task_velocity<R: RigModel<N, M, Scalar = f32>, const N: usize, const M: usize>(
-    rig: &R,
-    q: &[f32; N],
-    qd: &[f32; N],
-) -> [f32; M] {
-    let jacobian = rig.jacobian(q);
-    let mut velocity = [0.0; M];
-    for (v, row) in velocity.iter_mut().zip(jacobian.iter()) {
-        *v = row.iter().zip(qd).map(|(j, w)| j * w).sum();
-    }
-    velocity
-}
-
 /// Frames the state of the impedance tick that produced `report` into `out` (a `State`
 /// message in [`ChannelScales::DESKTOP`] units): `counts` as the encoders read, the
 /// estimator's joint velocities, the task position and velocity through `rig`, the commanded
@@ -172,7 +159,7 @@ where
 {
     let state = *control.haptic.estimator().state();
     let position = rig.position(&state.position);
-    let velocity = task_velocity(rig, &state.position, &state.velocity);
+    let velocity = mat_vec(&rig.jacobian(&state.position), &state.velocity);
     let safety_fault = control.first_fault.map_or(0, |(_, fault)| fault.number());
     let link_fault = if link.fault().is_some() { StateFrame::LINK_FAULT } else { 0 };
     let sample = StateSample {
@@ -188,4 +175,59 @@ where
         tick_instructions: control.impedance_cost.max,
     };
     StateFrame::encode_sample(&sample, &ChannelScales::DESKTOP, out)
+}
+
+/// Bytes waiting for a transmitter that takes one at a time (a polled UART): a ring of 256
+/// indexed by `u8`, so that no index can be out of bounds (no panic path), holding at most 255.
+/// A frame is queued whole or not at all, so that a full queue never sends half a frame.
+#[derive(Clone, Debug)]
+pub struct TransmitQueue {
+    bytes: [u8; 256],
+    head: u8,
+    tail: u8,
+}
+
+impl TransmitQueue {
+    /// An empty queue.
+    pub const fn new() -> Self {
+        Self { bytes: [0; 256], head: 0, tail: 0 }
+    }
+
+    /// Bytes queued.
+    pub fn len(&self) -> usize {
+        usize::from(self.tail.wrapping_sub(self.head))
+    }
+
+    /// `true` when no byte is queued.
+    pub fn is_empty(&self) -> bool {
+        self.head == self.tail
+    }
+
+    /// Queues all of `frame`, or none of it if it does not fit; returns whether it did.
+    pub fn push_frame(&mut self, frame: &[u8]) -> bool {
+        if frame.len() > 255 - self.len() {
+            return false;
+        }
+        for &byte in frame {
+            self.bytes[usize::from(self.tail)] = byte;
+            self.tail = self.tail.wrapping_add(1);
+        }
+        true
+    }
+
+    /// The next byte to send.
+    pub fn pop(&mut self) -> Option<u8> {
+        if self.is_empty() {
+            return None;
+        }
+        let byte = self.bytes[usize::from(self.head)];
+        self.head = self.head.wrapping_add(1);
+        Some(byte)
+    }
+}
+
+impl Default for TransmitQueue {
+    fn default() -> Self {
+        Self::new()
+    }
 }

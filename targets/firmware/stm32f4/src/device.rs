@@ -20,7 +20,7 @@ use core::cell::RefCell;
 
 use cortex_m::interrupt::Mutex;
 use hapticgen_fw_control::board::Encoders;
-use hapticgen_fw_control::device::{state_frame, DeviceMode};
+use hapticgen_fw_control::device::{state_frame, DeviceMode, TransmitQueue};
 use hapticgen_fw_control::link::{DeviceLink, Gated};
 use hapticgen_fw_control::link_scene::LinkSource;
 use hapticgen_fw_control::Controller;
@@ -30,59 +30,6 @@ use crate::{image, Cycles, F4Board};
 
 /// The device image's control state: the generated rig following the link's reference.
 pub type DeviceApp = Controller<image::Rig, LinkSource<2>, 2, 2>;
-
-/// Bytes waiting for the transmitter: a ring of 256 indexed by `u8`, so that no index can be
-/// out of bounds (no panic path), holding at most 255.
-pub struct TransmitQueue {
-    bytes: [u8; 256],
-    head: u8,
-    tail: u8,
-}
-
-impl TransmitQueue {
-    /// An empty queue.
-    pub const fn new() -> Self {
-        Self { bytes: [0; 256], head: 0, tail: 0 }
-    }
-
-    /// Bytes queued.
-    pub fn len(&self) -> usize {
-        usize::from(self.tail.wrapping_sub(self.head))
-    }
-
-    /// `true` when no byte is queued.
-    pub fn is_empty(&self) -> bool {
-        self.head == self.tail
-    }
-
-    /// Queues all of `frame`, or none of it if it does not fit; returns whether it did.
-    pub fn push_frame(&mut self, frame: &[u8]) -> bool {
-        if frame.len() > 255 - self.len() {
-            return false;
-        }
-        for &byte in frame {
-            self.bytes[usize::from(self.tail)] = byte;
-            self.tail = self.tail.wrapping_add(1);
-        }
-        true
-    }
-
-    /// The next byte to send.
-    pub fn pop(&mut self) -> Option<u8> {
-        if self.is_empty() {
-            return None;
-        }
-        let byte = self.bytes[usize::from(self.head)];
-        self.head = self.head.wrapping_add(1);
-        Some(byte)
-    }
-}
-
-impl Default for TransmitQueue {
-    fn default() -> Self {
-        Self::new()
-    }
-}
 
 /// Everything device mode keeps between the two contexts.
 pub struct DeviceState {

@@ -10,12 +10,11 @@ use core::cell::RefCell;
 use cortex_m::interrupt::Mutex;
 use cortex_m_rt::{entry, exception};
 use hapticgen_fw_control::board::{Encoders, TickTimer};
-use hapticgen_fw_control::device::DeviceMode;
+use hapticgen_fw_control::device::{DeviceMode, TransmitQueue};
 use hapticgen_fw_control::link::{DeviceLink, LinkSettings};
 use hapticgen_fw_control::link_scene::device_info;
 use hapticgen_fw_stm32f4::device::{
     next_byte_to_send, on_device_interrupt, on_received_byte, DeviceApp, DeviceState, SharedDevice,
-    TransmitQueue,
 };
 use hapticgen_fw_stm32f4::{halt, image, loop_settings, rendering, start, Cycles, Started, SysTickTimer};
 use stm32f4xx_hal::prelude::*;
