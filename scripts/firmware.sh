@@ -259,11 +259,11 @@ for NAME in "${SELECTED[@]}"; do
         fi
         "$REF" link-stream "$OUT/$LINK.uart" "$OUT/$LINK.out" || { FAILED+=("$LINK: UART stream"); continue; }
         # Ceilings just above today's cost (docs/link.md, "Cost on the Cortex-M4F"), so that a
-        # regression fails: the state frame's per rig (1, 2, 3, 6 joints: 473, 671, 882, 1,243
-        # instructions), a heartbeat's and an impedance command's (205, 998). The goal, a
-        # 3-joint state frame and a heartbeat in <= 1,000, is not met: 1,087 (3,385 before the
-        # protocol's own CRC, stuffing and per-kind decoding).
-        LINK_FAIL=$(awk '/^LINK / {
+        # regression fails: a state frame's per rig (1, 2, 3, 6 joints; moving, at rest and
+        # with every value out of range: 386-395, 570-582, 754-766, 1,108-1,122 instructions),
+        # a heartbeat's and an impedance command's (200, 1,020); and the goal itself: for the
+        # 3-joint rig, the costliest state frame and a heartbeat in <= 1,000 instructions (966).
+        LINK_FAIL=$(awk -v goal=1000 '/^LINK / {
                 part = ""; max = 0; joints = 0
                 for (i = 1; i <= NF; i++) {
                     split($i, kv, "=")
@@ -271,10 +271,19 @@ for NAME in "${SELECTED[@]}"; do
                     if (kv[1] == "max") max = kv[2]
                     if (kv[1] == "joints") joints = kv[2]
                 }
-                if (part == "state") limit = (joints == 1) ? 490 : (joints == 2) ? 690 : (joints == 3) ? 900 : (joints == 6) ? 1260 : 0
-                else limit = (part == "heartbeat") ? 220 : (part == "impedance") ? 1020 : 0
+                row = (joints == 1) ? 1 : (joints == 2) ? 2 : (joints == 3) ? 3 : (joints == 6) ? 4 : 0
+                split("405 590 775 1135", state_ceilings, " ")
+                if (part ~ /^state/) limit = (row > 0) ? state_ceilings[row] : 0
+                else limit = (part == "heartbeat") ? 210 : (part == "impedance") ? 1035 : 0
                 if (limit == 0) print $0 ": no ceiling for this part"
                 else if (max + 0 > limit) print $0 " over its ceiling " limit
+                if (joints == 3 && part ~ /^state/ && max + 0 > state3) state3 = max + 0
+                if (joints == 3 && part == "heartbeat") heartbeat3 = max + 0
+            }
+            END {
+                if (state3 == 0 || heartbeat3 == 0) print "no 3-joint state frame or heartbeat measured"
+                else if (state3 + heartbeat3 > goal) print "3 joints: costliest state frame " state3 " + heartbeat " heartbeat3 " = " state3 + heartbeat3 " > " goal
+                else print "3 joints: costliest state frame " state3 " + heartbeat " heartbeat3 " = " state3 + heartbeat3 " <= " goal > "/dev/stderr"
             }' "$OUT/$LINK.out")
         if [ -n "$LINK_FAIL" ]; then
             printf '%s\n' "$LINK_FAIL" >&2

@@ -7,7 +7,7 @@
 //!   disable, fault reset, impedance settings, scene objects, processor-in-the-loop sensor
 //!   frames).
 //! * [`frame`]: how it travels. A message is serialised with postcard, followed by its
-//!   CRC-16 (CRC-16/IBM-3740, little-endian), COBS-encoded so that the frame holds no zero
+//!   CRC-16 (CRC-16/IBM-SDLC, the X.25 CRC, little-endian), COBS-encoded so that the frame holds no zero
 //!   byte, and terminated by one zero byte: `COBS(postcard(message) ‖ crc16) 0x00`. The
 //!   receiver's [`FrameDecoder`] takes one byte at a time in bounded time, resynchronises at
 //!   the next zero byte after garbage or a truncated frame, and counts and drops every frame
@@ -29,6 +29,6 @@ pub use frame::{
 pub use message::rig_name_hash;
 pub use message::{
     ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, HostKind, HostMessage,
-    ImpedanceSettings, PilLaw, PilSetup, SceneObject, SensorFrame, StateFrame, StateSample, MAX_JOINTS,
-    MAX_TASK, PROTOCOL_VERSION, SCENE_SLOTS,
+    ImpedanceSettings, PilLaw, PilSetup, SceneObject, SensorFrame, StateFrame, StateSample, CHANNEL_CODES,
+    CHANNEL_LIMIT, MAX_JOINTS, MAX_TASK, PROTOCOL_VERSION, SCENE_SLOTS,
 };

@@ -3,18 +3,33 @@
 //! Arrays are sized for the largest rig ([`MAX_JOINTS`] joints, [`MAX_TASK`] task axes); a
 //! rig uses the first `joints` / `task_dim` entries its [`DeviceInfo`] announces. The state
 //! stream is compact instead: each of its channels is a 16-bit integer in a unit the device
-//! announces once ([`ChannelScales`]), the joint positions are the encoders' counts modulo
-//! 2¹⁶ (exact; the host unwraps them with [`CountUnwrapper`], which holds as long as a joint
-//! turns less than 32,767 counts between two frames it receives), and a value that does not
-//! fit its channel is sent at the channel's limit with [`StateFrame::SATURATED`] set, never
-//! clamped silently; a NaN is sent as [`StateFrame::NOT_A_NUMBER`] and comes back as NaN.
+//! announces once ([`ChannelScales`]), sent as two bytes that are never zero
+//! ([`CHANNEL_CODES`]); the joint positions are the encoders' counts modulo 65,025 (exact;
+//! the host unwraps them with [`CountUnwrapper`], which holds as long as a joint turns less
+//! than 32,512 counts between two frames it receives), and a value that does not fit its
+//! channel is sent at the channel's limit with [`StateFrame::SATURATED`] set, never clamped
+//! silently; a NaN is sent as [`StateFrame::NOT_A_NUMBER`] and comes back as NaN.
 
 use serde::{Deserialize, Serialize};
 
-/// The protocol version both sides must speak (exchanged in the handshake). Version 2 added
-/// [`HostMessage::PilSetup`] and made [`DeviceMessage::Actuators`] an [`ActuatorFrame`]
-/// (processor in the loop); version 1 had neither.
-pub const PROTOCOL_VERSION: u16 = 2;
+/// The protocol version both sides must speak (exchanged in the handshake). Version 3 sends
+/// the state frame's channels in a code without zero bytes ([`CHANNEL_CODES`]; version 2 sent
+/// them as `i16`, and the encoder counts modulo 2¹⁶); version 2 added [`HostMessage::PilSetup`]
+/// and made [`DeviceMessage::Actuators`] an [`ActuatorFrame`] (processor in the loop);
+/// version 1 had neither.
+pub const PROTOCOL_VERSION: u16 = 3;
+
+/// The values a state frame's channel can take: its two bytes on the wire are each from 1 to
+/// 255, the base-255 digits (low first) of the value plus [`CHANNEL_LIMIT`], each plus one.
+/// A channel therefore never holds a zero byte, and COBS, whose work is at the zero bytes,
+/// has nothing to do in the channels whatever their values (docs/link.md, "Cost on the
+/// Cortex-M4F"): the state frame's cost does not depend on what the device sends.
+pub const CHANNEL_CODES: i32 = 255 * 255;
+
+/// The largest magnitude of a channel's value: the [`CHANNEL_CODES`] values run from
+/// −32,512 to 32,512. A scaled channel's finite values stop one short, at ±32,511
+/// (−32,512 is [`StateFrame::NOT_A_NUMBER`]).
+pub const CHANNEL_LIMIT: i16 = 32_512;
 
 /// The most joints a rig on the link may have.
 pub const MAX_JOINTS: usize = 6;
@@ -409,18 +424,20 @@ impl Channels {
         Self { bytes: [0; 2 * MAX_CHANNELS], length: 0 }
     }
 
-    fn push(&mut self, value: i16) {
+    /// Appends the channel of `code` ([`code_bytes`]).
+    fn push(&mut self, code: u32) {
         let at = usize::from(self.length);
         if let Some(slot) = self.bytes.get_mut(at..at + 2) {
-            slot.copy_from_slice(&value.to_le_bytes());
+            slot.copy_from_slice(&code_bytes(code));
             self.length += 2;
         }
     }
 
-    /// The `index`-th channel, if present.
+    /// The `index`-th channel's value, if present (from −[`CHANNEL_LIMIT`] to
+    /// [`CHANNEL_LIMIT`]).
     pub fn get(&self, index: usize) -> Option<i16> {
         let bytes = self.as_bytes().get(2 * index..2 * index + 2)?;
-        Some(i16::from_le_bytes(bytes.try_into().ok()?))
+        value_of(bytes.try_into().ok()?)
     }
 
     /// The bytes sent.
@@ -441,12 +458,16 @@ impl<'de> Deserialize<'de> for Channels {
         impl<'de> serde::de::Visitor<'de> for ChannelBytes {
             type Value = Channels;
             fn expecting(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-                write!(f, "an even number of at most {} bytes", 2 * MAX_CHANNELS)
+                write!(f, "an even number of at most {} bytes, none of them zero", 2 * MAX_CHANNELS)
             }
             fn visit_bytes<E: serde::de::Error>(self, v: &[u8]) -> Result<Channels, E> {
                 // `& 1`, not `is_multiple_of` (Rust 1.87): the protocol builds with Rust 1.63.
                 if v.len() & 1 == 1 || v.len() > 2 * MAX_CHANNELS {
                     return Err(E::invalid_length(v.len(), &self));
+                }
+                // No channel's code has a zero byte: such a frame was not sent by a device.
+                if v.contains(&0) {
+                    return Err(E::invalid_value(serde::de::Unexpected::Bytes(v), &self));
                 }
                 let mut channels = Channels::new();
                 channels.bytes[..v.len()].copy_from_slice(v);
@@ -466,8 +487,8 @@ impl StateFrame {
     /// Bit of [`StateFrame::fault`]: the link's heartbeat watchdog has latched its fault (the
     /// safe state; cleared only by the host's `ResetFault`).
     pub const LINK_FAULT: u8 = 0x80;
-    /// A channel's value for NaN (a finite value never quantises to it).
-    pub const NOT_A_NUMBER: i16 = i16::MIN;
+    /// A scaled channel's value for NaN (a finite value never quantises to it).
+    pub const NOT_A_NUMBER: i16 = -CHANNEL_LIMIT;
 
     /// The frame of `sample` in the units `scales`; `None` if the sample has more than
     /// [`MAX_JOINTS`] joints or [`MAX_TASK`] task axes, or its per-joint slices differ in length.
@@ -476,14 +497,13 @@ impl StateFrame {
         let mut saturated = false;
         let mut channels = Channels::new();
         for &count in sample.encoder_counts {
-            // Modulo 2¹⁶: the low 16 bits, exactly.
-            channels.push(count as i16);
+            channels.push(count_code(count));
         }
         let mut push_scaled = |values: &[f32], unit: f32| {
             for &value in values {
                 let (step, clipped) = to_step(value, unit);
                 saturated |= clipped;
-                channels.push(step);
+                channels.push(value_code(step));
             }
         };
         push_scaled(sample.joint_velocity, scales.joint_velocity);
@@ -513,6 +533,7 @@ impl StateFrame {
     /// compare), in a third of the instructions (the device's 1 kHz stream, docs/link.md).
     /// Returns the frame's length, its final zero byte included; `None` for a sample that
     /// [`StateFrame::quantise`] refuses.
+    #[inline(always)]
     pub fn encode_sample(
         sample: &StateSample<'_>,
         scales: &ChannelScales,
@@ -525,8 +546,7 @@ impl StateFrame {
         let (head, mut rest) = out.split_at_mut(1 + STATE_HEAD);
         let counts = take_front(&mut rest, 2 * joints);
         for (slot, &count) in counts.chunks_exact_mut(2).zip(sample.encoder_counts) {
-            // Modulo 2¹⁶: the low 16 bits, exactly.
-            put(slot, count as i16);
+            put(slot, count_code(count));
         }
         let joint_velocity = take_front(&mut rest, 2 * joints);
         let task_position = take_front(&mut rest, 2 * task);
@@ -561,7 +581,8 @@ impl StateFrame {
             (joints as u8) | ((task as u8) << 4),
             2 * channels as u8,
         ]);
-        crate::frame::finish(out, STATE_HEAD + 2 * channels).ok()
+        // The channels hold no zero byte (`CHANNEL_CODES`): only the head is looked at.
+        crate::frame::finish_with_zeros_in(out, STATE_HEAD + 2 * channels, STATE_HEAD).ok()
     }
 
     /// Joints in the frame.
@@ -580,8 +601,9 @@ impl StateFrame {
         n <= MAX_JOINTS && m <= MAX_TASK && self.channels.as_bytes().len() == 2 * (4 * n + 2 * m)
     }
 
-    /// Encoder counts modulo 2¹⁶ of joint `j`.
-    pub fn encoder_count_low_bits(&self, j: usize) -> Option<i16> {
+    /// Encoder count of joint `j` modulo [`CHANNEL_CODES`], from −32,512 to 32,512: the full
+    /// count is this plus a multiple of 65,025 ([`CountUnwrapper`] finds which).
+    pub fn encoder_count_wrapped(&self, j: usize) -> Option<i16> {
         (j < self.joints()).then(|| self.channels.get(j)).flatten()
     }
 
@@ -646,65 +668,94 @@ fn take_front<'a>(rest: &mut &'a mut [u8], n: usize) -> &'a mut [u8] {
     front
 }
 
-/// `value` into a two-byte slot, little-endian.
-fn put(slot: &mut [u8], value: i16) {
+/// A channel's `code` into a two-byte slot ([`code_bytes`]).
+fn put(slot: &mut [u8], code: u32) {
     // As an array: one 16-bit store.
     if let Ok(pair) = <&mut [u8; 2]>::try_from(slot) {
-        *pair = value.to_le_bytes();
+        *pair = code_bytes(code);
     }
 }
 
-/// `value / unit` rounded to the nearest step, and whether it had to be clipped to ±32,767 or
+/// A channel's code (its value plus [`CHANNEL_LIMIT`], below [`CHANNEL_CODES`]) as its two
+/// bytes on the wire: `code mod 255 + 1`, then `code / 255 + 1`. As one little-endian `u16`
+/// that is `code + code / 255 + 257`: a multiplication by the reciprocal, a shift and two
+/// additions on the Cortex-M4F.
+#[inline(always)]
+fn code_bytes(code: u32) -> [u8; 2] {
+    ((code + code / 255 + 257) as u16).to_le_bytes()
+}
+
+/// A channel's value from its two bytes on the wire (the inverse of [`code_bytes`]); `None` if
+/// either is zero, which no device sends.
+fn value_of(bytes: [u8; 2]) -> Option<i16> {
+    let [low, high] = bytes;
+    let code = i32::from(high.checked_sub(1)?) * 255 + i32::from(low.checked_sub(1)?);
+    Some((code - i32::from(CHANNEL_LIMIT)) as i16)
+}
+
+/// The code of a channel's `value` (within ±[`CHANNEL_LIMIT`]).
+fn value_code(value: i16) -> u32 {
+    (i32::from(value) + i32::from(CHANNEL_LIMIT)) as u32
+}
+
+/// The code of an encoder count: the count modulo [`CHANNEL_CODES`], as a value from −32,512
+/// to 32,512 (every `i32`, exactly: the remainder first, then the offset, reduced once more).
+#[inline(always)]
+fn count_code(count: i32) -> u32 {
+    let code = count.rem_euclid(CHANNEL_CODES) + i32::from(CHANNEL_LIMIT);
+    (if code >= CHANNEL_CODES { code - CHANNEL_CODES } else { code }) as u32
+}
+
+/// `value / unit` rounded to the nearest step, and whether it had to be clipped to ±32,511 or
 /// is not a number ([`StateFrame::NOT_A_NUMBER`]: a NaN value, a NaN quotient such as ∞/∞, or
 /// a unit that is not positive).
 fn to_step(value: f32, unit: f32) -> (i16, bool) {
     let steps = value / unit;
-    if unit > 0.0 && in_range(steps) {
-        (rounded(steps), false)
-    } else if unit > 0.0 {
-        (clipped(steps), true)
-    } else {
-        (StateFrame::NOT_A_NUMBER, true)
+    match step_code(steps) {
+        Some(code) if unit > 0.0 => ((code as i32 - i32::from(CHANNEL_LIMIT)) as i16, false),
+        _ if unit > 0.0 => (clipped(steps), true),
+        _ => (StateFrame::NOT_A_NUMBER, true),
     }
 }
 
-/// The largest step of a channel, either way (`i16::MIN` is [`StateFrame::NOT_A_NUMBER`]).
-const STEP_LIMIT: f32 = 32_767.0;
+/// The largest step of a scaled channel, either way (−32,512 is [`StateFrame::NOT_A_NUMBER`]).
+const STEP_LIMIT: f32 = CHANNEL_LIMIT as f32 - 1.0;
 
-/// `steps` fits a channel (false for NaN).
-#[inline(always)]
-fn in_range(steps: f32) -> bool {
-    (-STEP_LIMIT..=STEP_LIMIT).contains(&steps)
-}
-
-/// `steps` (within ±32,767) rounded to the nearest integer, halves to even.
+/// The code of `steps` rounded to the nearest integer (halves to even), if that integer is
+/// within ±32,511; `None` otherwise and for NaN.
 ///
 /// Written for the device's state stream (15 scaled channels of a 3-joint rig per impedance
-/// tick): adding 1.5 × 2²³ leaves a float whose unit is 1, so the sum is the nearest integer
-/// (the FPU's rounding mode: nearest, ties to even), and its low 16 bits are that integer's
-/// (the sum's significand is 2²² plus it, and 2²² is a multiple of 2¹⁶): two instructions on
-/// the Cortex-M4F where rounding by the sign and converting take seven.
+/// tick): adding 1.5 × 2²³ + [`CHANNEL_LIMIT`] leaves a float whose unit is 1, so the sum is
+/// an integer (the FPU's rounding mode: nearest, ties to even; the offset is even and does not
+/// change which), and its bits count up by one per step: the range test is one subtraction
+/// and one comparison of them, and their low 16 bits are the code (2²² and 1.5 × 2²³ are
+/// multiples of 2¹⁶). Five instructions on the Cortex-M4F where a float comparison, the
+/// rounding and the offset take nine.
 #[inline(always)]
-fn rounded(steps: f32) -> i16 {
-    const ROUNDING: f32 = 12_582_912.0;
-    (steps + ROUNDING).to_bits() as u16 as i16
+fn step_code(steps: f32) -> Option<u32> {
+    const ROUNDING: f32 = 12_582_912.0 + CHANNEL_LIMIT as f32;
+    let bits = (steps + ROUNDING).to_bits();
+    // Folded to a constant: the bits of the sum for −32,511 steps.
+    let lowest = (ROUNDING - STEP_LIMIT).to_bits();
+    (bits.wrapping_sub(lowest) <= 2 * STEP_LIMIT as u32).then_some(bits & 0xFFFF)
 }
 
-/// The step sent for `steps` out of range: the limit on its side, or NaN.
-#[cold]
+/// The step sent for `steps` out of range: the limit on its side, or NaN. Inline: two
+/// comparisons cost less than a call on the Cortex-M4F, and a state frame whose every value
+/// is out of range is the costliest (docs/link.md).
+#[inline(always)]
 fn clipped(steps: f32) -> i16 {
     if steps > STEP_LIMIT {
-        i16::MAX
+        CHANNEL_LIMIT - 1
     } else if steps < -STEP_LIMIT {
-        -i16::MAX
+        1 - CHANNEL_LIMIT
     } else {
         StateFrame::NOT_A_NUMBER
     }
 }
 
 /// The steps of `values` in `unit` into `slots` (two bytes each, little-endian), as far as
-/// both go; whether any was clipped or not a number (as [`to_step`]). The in-range case is the
-/// loop's own; clipping is out of line.
+/// both go; whether any was clipped or not a number (as [`to_step`]).
 #[inline(always)]
 fn put_steps(slots: &mut [u8], values: &[f32], unit: f32) -> bool {
     let mut any_clipped = false;
@@ -712,24 +763,22 @@ fn put_steps(slots: &mut [u8], values: &[f32], unit: f32) -> bool {
     if unit > 0.0 {
         for (slot, &value) in pairs {
             let steps = value / unit;
-            let step = if in_range(steps) {
-                rounded(steps)
-            } else {
+            let code = step_code(steps).unwrap_or_else(|| {
                 any_clipped = true;
-                clipped(steps)
-            };
-            put(slot, step);
+                value_code(clipped(steps))
+            });
+            put(slot, code);
         }
     } else {
         for (slot, _) in pairs {
-            put(slot, StateFrame::NOT_A_NUMBER);
+            put(slot, value_code(StateFrame::NOT_A_NUMBER));
         }
         any_clipped = !values.is_empty();
     }
     any_clipped
 }
 
-/// Recovers full encoder counts from their low 16 bits, frame after frame.
+/// Recovers full encoder counts from their values modulo [`CHANNEL_CODES`], frame after frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CountUnwrapper {
     last: Option<i32>,
@@ -742,20 +791,24 @@ impl Default for CountUnwrapper {
 }
 
 impl CountUnwrapper {
-    /// Starts at the first frame's count, taken as its low 16 bits sign-extended (start the
-    /// device with its counters near zero, as `HapticLoopSettings::initial_counts` does).
+    /// Starts at the first frame's count, taken as it is sent (start the device with its
+    /// counters within ±32,512, as `HapticLoopSettings::initial_counts` does).
     pub const fn new() -> Self {
         Self { last: None }
     }
 
-    /// The full count whose low 16 bits are `low`, nearest the previous one.
-    pub fn unwrap(&mut self, low: i16) -> i32 {
+    /// The full count that is `wrapped` modulo [`CHANNEL_CODES`]
+    /// ([`StateFrame::encoder_count_wrapped`]), nearest the previous one.
+    pub fn unwrap(&mut self, wrapped: i16) -> i32 {
         let full = match self.last {
-            None => i32::from(low),
+            None => i32::from(wrapped),
             Some(last) => {
-                // The signed 16-bit difference is the change, as long as it is below 2¹⁵.
-                let delta = low.wrapping_sub(last as i16);
-                last.wrapping_add(i32::from(delta))
+                // The difference modulo 65,025, taken within ±32,512, is the change, as long
+                // as the joint moved less than that.
+                let last_code = count_code(last) as i32;
+                let delta = (value_code(wrapped) as i32 - last_code).rem_euclid(CHANNEL_CODES);
+                let delta = if delta > i32::from(CHANNEL_LIMIT) { delta - CHANNEL_CODES } else { delta };
+                last.wrapping_add(delta)
             }
         };
         self.last = Some(full);

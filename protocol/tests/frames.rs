@@ -314,7 +314,7 @@ proptest! {
 /// `body` framed as it is, whatever it holds.
 fn framed(body: &[u8]) -> Vec<u8> {
     let mut with_crc = body.to_vec();
-    with_crc.extend(crc::Crc::<u16>::new(&crc::CRC_16_IBM_3740).checksum(body).to_le_bytes());
+    with_crc.extend(crc::Crc::<u16>::new(&crc::CRC_16_IBM_SDLC).checksum(body).to_le_bytes());
     let mut stuffed = vec![0u8; with_crc.len() + 2];
     let n = cobs::encode(&with_crc, &mut stuffed);
     stuffed.truncate(n);
@@ -322,7 +322,7 @@ fn framed(body: &[u8]) -> Vec<u8> {
     stuffed
 }
 
-/// CRC-16/IBM-3740 detects every error of one or two bits: flipping any bit, or any two bits,
+/// CRC-16/IBM-SDLC detects every error of one or two bits: flipping any bit, or any two bits,
 /// of a frame's stuffed body is never accepted as a message (exhaustive over one state frame
 /// and one link-counter message).
 #[test]
@@ -411,7 +411,7 @@ fn an_unknown_message_kind_is_counted_and_dropped() {
     // A valid message with a byte left over is not accepted either.
     let mut body = postcard::to_allocvec(&HostMessage::Enable).unwrap();
     body.push(7);
-    let crc = crc::Crc::<u16>::new(&crc::CRC_16_IBM_3740).checksum(&body).to_le_bytes();
+    let crc = crc::Crc::<u16>::new(&crc::CRC_16_IBM_SDLC).checksum(&body).to_le_bytes();
     body.extend(crc);
     let mut stuffed = vec![0u8; body.len() + 2];
     let n = cobs::encode(&body, &mut stuffed);
@@ -542,11 +542,11 @@ fn state_channels_round_to_the_nearest_step_and_flag_what_does_not_fit() {
     close(frame.motor_current(0, &scales), -2.5, scales.motor_current);
     close(frame.motor_current(1, &scales), 32.0, scales.motor_current);
     assert_eq!(frame.joint_velocity(2, &scales), None);
-    assert_eq!(frame.encoder_count_low_bits(0), Some(123_456_i32 as i16));
+    assert_eq!(frame.encoder_count_wrapped(0), Some(wrapped(123_456)));
 
     let fast = StateFrame::quantise(&with_velocity(&sample(40.0)), &scales).unwrap();
     assert_eq!(fast.status & StateFrame::SATURATED, StateFrame::SATURATED);
-    close(fast.joint_velocity(0, &scales), 32.767, scales.joint_velocity);
+    close(fast.joint_velocity(0, &scales), 32.511, scales.joint_velocity);
     let broken = StateFrame::quantise(&with_velocity(&sample(f32::NAN)), &scales).unwrap();
     assert!(broken.joint_velocity(0, &scales).unwrap().is_nan());
     assert_eq!(broken.status & StateFrame::SATURATED, StateFrame::SATURATED);
@@ -563,7 +563,7 @@ fn state_channels_round_to_the_nearest_step_and_flag_what_does_not_fit() {
     for step in [24_000, -24_000] {
         for _ in 0..50 {
             count += step;
-            assert_eq!(unwrapper.unwrap(count as i16), count);
+            assert_eq!(unwrapper.unwrap(wrapped(count)), count);
         }
     }
 }
@@ -592,4 +592,92 @@ fn channel_bytes_are_checked() {
     assert!(odd.is_err());
     let too_long: Vec<u8> = std::iter::once(62u8).chain(std::iter::repeat_n(1, 62)).collect();
     assert!(postcard::from_bytes::<Channels>(&too_long).is_err());
+}
+
+/// `count` as the state frame sends it: modulo 65,025, from −32,512 to 32,512 (in `i64`, apart
+/// from the protocol's own `i32` arithmetic).
+fn wrapped(count: i32) -> i16 {
+    ((i64::from(count) + 32_512).rem_euclid(65_025) - 32_512) as i16
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2048))]
+    /// Whatever the device sends (any count, any float: NaN, infinities, far out of range), the
+    /// state frame's channels hold no zero byte, each channel's two bytes are the base-255
+    /// digits plus one of its value plus 32,512 (decoded here by hand), the scaled values are
+    /// the rounded steps clipped to ±32,511 with NaN as −32,512, and the counts are exact
+    /// modulo 65,025; and the host unwraps counts that move up to 32,512 a frame.
+    #[test]
+    fn channels_hold_no_zero_byte_and_decode_by_hand(
+        counts in proptest::collection::vec(any::<i32>(), 3),
+        values in proptest::collection::vec(prop_oneof![
+            any::<f32>(),
+            -40.0f32..40.0,
+            Just(f32::NAN),
+            Just(f32::INFINITY),
+            Just(32.511_5f32),
+            Just(-32.510_5f32),
+        ], 9),
+        start in any::<i32>(),
+        moves in proptest::collection::vec(-32_512i32..=32_512, 1..40),
+    ) {
+        let scales = ChannelScales::DESKTOP;
+        let sample = StateSample {
+            tick: 0,
+            enabled: true,
+            fault: 0,
+            encoder_counts: &counts,
+            joint_velocity: &values[..3],
+            task_position: &[],
+            task_velocity: &[],
+            joint_torque: &values[3..6],
+            motor_current: &values[6..],
+            tick_instructions: 0,
+        };
+        let frame = StateFrame::quantise(&sample, &scales).unwrap();
+        let bytes = frame.channels.as_bytes();
+        prop_assert!(!bytes.contains(&0), "{:?}", bytes);
+        let by_hand: Vec<i64> =
+            bytes.chunks(2).map(|pair| (i64::from(pair[1]) - 1) * 255 + i64::from(pair[0]) - 1 - 32_512).collect();
+        for (j, &count) in counts.iter().enumerate() {
+            prop_assert_eq!(by_hand[j], i64::from(wrapped(count)));
+            prop_assert_eq!(frame.encoder_count_wrapped(j), Some(wrapped(count)));
+        }
+        let units = [scales.joint_velocity, scales.joint_torque, scales.motor_current];
+        for (k, &value) in values.iter().enumerate() {
+            let steps = value / units[k / 3];
+            let expected = if steps.is_nan() { -32_512 } else { (steps.round_ties_even() as i64).clamp(-32_511, 32_511) };
+            prop_assert_eq!(by_hand[3 + k], expected, "{} steps", steps);
+        }
+        let mut unwrapper = CountUnwrapper::new();
+        let mut count = i32::from(wrapped(start));
+        prop_assert_eq!(unwrapper.unwrap(wrapped(count)), count);
+        for step in moves {
+            count = count.wrapping_add(step);
+            prop_assert_eq!(unwrapper.unwrap(wrapped(count)), count);
+        }
+    }
+}
+
+/// A frame whose channels hold a zero byte (which no device sends) is not a state message.
+#[test]
+fn a_zero_byte_in_the_channels_is_not_a_message() {
+    let sample = StateSample {
+        tick: 1,
+        enabled: true,
+        fault: 0,
+        encoder_counts: &[5],
+        joint_velocity: &[0.0],
+        task_position: &[],
+        task_velocity: &[],
+        joint_torque: &[0.0],
+        motor_current: &[0.0],
+        tick_instructions: 0,
+    };
+    let message = DeviceMessage::State(StateFrame::quantise(&sample, &ChannelScales::DESKTOP).unwrap());
+    let mut body = postcard::to_allocvec(&message).unwrap();
+    assert!(postcard::from_bytes::<DeviceMessage>(&body).is_ok());
+    // The last byte is the last channel's high byte.
+    *body.last_mut().unwrap() = 0;
+    assert!(postcard::from_bytes::<DeviceMessage>(&body).is_err());
 }

@@ -622,7 +622,7 @@ pub fn csv_row(info: &DeviceInfo, frame: &StateFrame, host_seconds: f64) -> Vec<
         (frame.fault & !StateFrame::LINK_FAULT).to_string(),
         u8::from(frame.fault & StateFrame::LINK_FAULT != 0).to_string(),
     ];
-    row.extend((0..joints).map(|j| frame.encoder_count_low_bits(j).map_or("NaN".into(), |c| c.to_string())));
+    row.extend((0..joints).map(|j| frame.encoder_count_wrapped(j).map_or("NaN".into(), |c| c.to_string())));
     row.extend((0..joints).map(|j| value(frame.joint_velocity(j, scales))));
     row.extend((0..task).map(|k| value(frame.task_position(k, scales))));
     row.extend((0..task).map(|k| value(frame.task_velocity(k, scales))));
