@@ -7,7 +7,7 @@
 //! * [`Port`]: `tcp:HOST:PORT` (QEMU's `-serial tcp:…,server=on,wait=off`, or a serial-to-TCP
 //!   bridge), `unix:PATH` (QEMU's `-serial unix:…`) or a device path (a serial port or a pty; set a real port's speed beforehand,
 //!   e.g. `stty -F /dev/ttyACM0 1000000 raw`).
-//! * [`load_scene`]: a scene file (YAML, `objects:` of `sphere`, `box`, `half_space`), each
+//! * [`load_scene`]: a scene file ([`crate::scene`]; the device takes `sphere`, `box`, `half_space`), each
 //!   error at its file, line and column.
 //! * [`Session`]: the link itself. A reader thread decodes the device's frames (corrupt ones
 //!   are counted by the frame decoder and dropped); a heartbeat thread sends a heartbeat every
@@ -27,14 +27,14 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use hapticgen_codegen::model::positions::{display_path, PositionIndex, Segment};
 use hapticgen_protocol::{
     encode, DeviceInfo, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, LinkCounters,
     SceneObject, StateFrame, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION, SCENE_SLOTS,
 };
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
-use serde::Deserialize;
+
+use crate::solids::SolidShape;
 
 /// How often the heartbeat thread sends a heartbeat: three to a device timeout of 6 ms, and few
 /// enough bytes (3.5 kB/s) that QEMU's emulated UART, which takes about 12 kB/s and less on a
@@ -103,142 +103,66 @@ impl std::str::FromStr for Port {
     }
 }
 
-/// A scene file: up to [`SCENE_SLOTS`] objects, in the task frame (m).
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SceneFile {
-    // `- sphere: {…}`: each object a map of one key, its kind (serde_yaml's default for an
-    // enum is a YAML tag, `!sphere`).
-    #[serde(with = "serde_yaml::with::singleton_map_recursive")]
-    objects: Vec<ObjectEntry>,
-}
-
-#[derive(Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-enum ObjectEntry {
-    Sphere {
-        centre: Vec<f32>,
-        radius: f32,
-        #[serde(default)]
-        cavity: bool,
-        stiffness: f32,
-        damping: f32,
-    },
-    Box {
-        centre: Vec<f32>,
-        half_extents: Vec<f32>,
-        stiffness: f32,
-        damping: f32,
-    },
-    HalfSpace {
-        point: Vec<f32>,
-        normal: Vec<f32>,
-        stiffness: f32,
-        damping: f32,
-    },
-}
-
-/// Reads a scene file: `objects:`, a list of `sphere: {centre, radius, cavity, stiffness,
-/// damping}`, `box: {centre, half_extents, stiffness, damping}` and `half_space: {point,
-/// normal, stiffness, damping}` (vectors of 1 to 3 coordinates, the missing ones zero; the
-/// normal is normalised). Every error names the file, line and column of the value.
+/// Reads a scene file ([`crate::scene`]) for a device: up to [`SCENE_SLOTS`] spheres, boxes
+/// and half-spaces without friction (what the link's `SetObject` carries), vectors of 1 to 3
+/// coordinates (the missing ones zero). Every error names the file, line and column.
 pub fn load_scene(path: &Path) -> Result<Vec<SceneObject>, String> {
-    let name = path.display().to_string();
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("error: cannot read the scene file {name}: {e}"))?;
-    parse_scene(&name, &text)
+    device_objects(&crate::scene::load(path)?)
 }
 
-/// [`load_scene`] of `text`, named `name` in the errors.
+/// [`load_scene`] of `text`, named `name` in the errors (meshes read relative to the current
+/// directory).
 pub fn parse_scene(name: &str, text: &str) -> Result<Vec<SceneObject>, String> {
-    let file: SceneFile = serde_yaml::from_str(text).map_err(|e| match e.location() {
-        Some(at) => format!("error: {name}:{}:{}: {e}", at.line(), at.column()),
-        None => format!("error: {name}: {e}"),
-    })?;
-    let positions = PositionIndex::build(text);
-    let error = |path: &[Segment], message: String| {
-        let (line, column) = positions.value(path);
-        format!("error: {name}:{line}:{column}: {}: {message}", display_path(path))
-    };
-    if file.objects.len() > SCENE_SLOTS {
-        return Err(error(
-            &[Segment::Key("objects".into()), Segment::Index(SCENE_SLOTS)],
-            format!("a device holds {SCENE_SLOTS} objects, the file has {}", file.objects.len()),
+    device_objects(&crate::scene::parse(name, text, Path::new("."))?)
+}
+
+/// A scene's objects as the link carries them.
+fn device_objects(scene: &crate::scene::Scene) -> Result<Vec<SceneObject>, String> {
+    if scene.objects.len() > SCENE_SLOTS {
+        let extra = &scene.objects[SCENE_SLOTS];
+        return Err(format!(
+            "error: {}: a device holds {SCENE_SLOTS} objects, the file has {}",
+            extra.location,
+            scene.objects.len()
         ));
     }
-    let mut objects = Vec::with_capacity(file.objects.len());
-    for (index, entry) in file.objects.iter().enumerate() {
-        let at = |kind: &str, field: &str| {
-            vec![
-                Segment::Key("objects".into()),
-                Segment::Index(index),
-                Segment::Key(kind.into()),
-                Segment::Key(field.into()),
-            ]
-        };
-        let vector = |kind: &str, field: &str, values: &[f32]| -> Result<[f32; MAX_TASK], String> {
-            if values.is_empty() || values.len() > MAX_TASK || values.iter().any(|v| !v.is_finite()) {
-                return Err(error(
-                    &at(kind, field),
-                    format!("must be 1 to {MAX_TASK} finite coordinates, got {values:?}"),
-                ));
-            }
-            let mut out = [0.0; MAX_TASK];
-            out[..values.len()].copy_from_slice(values);
-            Ok(out)
-        };
-        let non_negative = |kind: &str, field: &str, value: f32| {
-            if value.is_finite() && value >= 0.0 {
-                Ok(value)
-            } else {
-                Err(error(&at(kind, field), format!("must be finite and not negative, got {value}")))
-            }
-        };
-        let positive = |kind: &str, field: &str, value: f32| {
-            if value.is_finite() && value > 0.0 {
-                Ok(value)
-            } else {
-                Err(error(&at(kind, field), format!("must be finite and positive, got {value}")))
-            }
-        };
-        objects.push(match entry {
-            ObjectEntry::Sphere { centre, radius, cavity, stiffness, damping } => SceneObject::Sphere {
-                centre: vector("sphere", "centre", centre)?,
-                radius: positive("sphere", "radius", *radius)?,
-                cavity: *cavity,
-                stiffness: non_negative("sphere", "stiffness", *stiffness)?,
-                damping: non_negative("sphere", "damping", *damping)?,
+    let padded = |values: &[f64]| -> [f32; MAX_TASK] {
+        let mut out = [0.0; MAX_TASK];
+        for (slot, value) in out.iter_mut().zip(values) {
+            *slot = *value as f32;
+        }
+        out
+    };
+    let mut objects = Vec::with_capacity(scene.objects.len());
+    for object in &scene.objects {
+        let solid = &object.solid;
+        if solid.static_friction != 0.0 || solid.dynamic_friction != 0.0 {
+            return Err(format!(
+                "error: {}: the link carries no friction (a device's scene slots are frictionless); remove `friction`",
+                object.location
+            ));
+        }
+        let (stiffness, damping) = (solid.stiffness as f32, solid.damping as f32);
+        objects.push(match &solid.shape {
+            SolidShape::Sphere { center, radius } => SceneObject::Sphere {
+                centre: padded(center),
+                radius: *radius as f32,
+                cavity: solid.cavity,
+                stiffness,
+                damping,
             },
-            ObjectEntry::Box { centre, half_extents, stiffness, damping } => {
-                let half = vector("box", "half_extents", half_extents)?;
-                if half[..half_extents.len()].iter().any(|h| *h <= 0.0) {
-                    return Err(error(
-                        &at("box", "half_extents"),
-                        format!("must be positive, got {half_extents:?}"),
-                    ));
-                }
-                SceneObject::Box {
-                    centre: vector("box", "centre", centre)?,
-                    half_extents: half,
-                    stiffness: non_negative("box", "stiffness", *stiffness)?,
-                    damping: non_negative("box", "damping", *damping)?,
-                }
+            SolidShape::Box { center, half_extents } => {
+                SceneObject::Box { centre: padded(center), half_extents: padded(half_extents), stiffness, damping }
             }
-            ObjectEntry::HalfSpace { point, normal, stiffness, damping } => {
-                let n = vector("half_space", "normal", normal)?;
-                let length = n.iter().map(|v| v * v).sum::<f32>().sqrt();
-                if length.is_nan() || length < 1e-6 {
-                    return Err(error(
-                        &at("half_space", "normal"),
-                        format!("must not be zero, got {normal:?}"),
-                    ));
-                }
-                SceneObject::HalfSpace {
-                    point: vector("half_space", "point", point)?,
-                    normal: n.map(|v| v / length),
-                    stiffness: non_negative("half_space", "stiffness", *stiffness)?,
-                    damping: non_negative("half_space", "damping", *damping)?,
-                }
+            SolidShape::HalfSpace { point, normal } => {
+                SceneObject::HalfSpace { point: padded(point), normal: padded(normal), stiffness, damping }
+            }
+            SolidShape::Mesh { .. } => {
+                return Err(format!(
+                    "error: {}: a device's scene slots hold spheres, boxes and half-spaces; a mesh is rendered by \
+                     `hapticgen simulate --scene` and the firmware's mesh images",
+                    object.location
+                ))
             }
         });
     }
@@ -933,8 +857,13 @@ mod tests {
             "  - sphere: {centre: [0], radius: 1, stiffness: 1, damping: 0}\n".repeat(5)
         );
         let error = parse_scene("s.yaml", &five).unwrap_err();
-        assert!(error.contains("objects[4]: a device holds 4 objects, the file has 5"), "{error}");
+        assert!(error.contains("objects[4].sphere: a device holds 4 objects, the file has 5"), "{error}");
         assert!(error.starts_with("error: s.yaml:6:"), "{error}");
+        // What the link cannot carry is refused where it is written.
+        let rough = "objects:\n  - sphere: {centre: [0], radius: 1, stiffness: 1, damping: 0,\n      \
+                     friction: {static: 0.3, dynamic: 0.2}}\n";
+        let error = parse_scene("s.yaml", rough).unwrap_err();
+        assert!(error.starts_with("error: s.yaml:2:") && error.contains("carries no friction"), "{error}");
     }
 
     #[test]

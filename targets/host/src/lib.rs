@@ -22,6 +22,7 @@ pub mod plant;
 pub mod plot;
 pub mod report;
 pub mod rig;
+pub mod scene;
 pub mod sim;
 pub mod simulate;
 pub mod solids;

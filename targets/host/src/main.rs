@@ -318,6 +318,11 @@ struct SimulateArgs {
     /// 3 cm, 960 triangles).
     #[arg(long)]
     mesh: Option<PathBuf>,
+    /// Contact scenarios: render this scene file's objects (docs/scenes.md) instead of the
+    /// scenario's own; the scenario gives the hand's path, placed from the start's task point,
+    /// and only the checks that hold for any scene are made.
+    #[arg(long)]
+    scene: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -817,13 +822,23 @@ fn configure(args: &SimulateArgs) -> Result<Configured, String> {
     cfg.singular_fallback = args.singular_fallback;
     cfg.spring_lead_time = args.spring_lead;
     cfg.progress = true;
-    let settings = ScenarioSettings {
-        grid_spacing: args.grid,
-        start: Some(start.clone()),
-        friction: friction(args.friction.as_deref())?,
-        mesh: args.mesh.as_deref().map(hapticgen_host::contact::mesh_file).transpose()?,
-        ..ScenarioSettings::default()
-    };
+    let settings =
+        ScenarioSettings {
+            grid_spacing: args.grid,
+            start: Some(start.clone()),
+            friction: friction(args.friction.as_deref())?,
+            mesh: args.mesh.as_deref().map(hapticgen_host::contact::mesh_file).transpose()?,
+            scene: match &args.scene {
+                None => None,
+                Some(_) if !matches!(scenario, Scenario::Contact(_)) => return Err(
+                    "error: --scene needs a contact scenario (wall, slide, sphere, box-edges, thin-plate, \
+                            mesh), whose hand path it keeps"
+                        .into(),
+                ),
+                Some(path) => Some(hapticgen_host::scene::load(path)?.solids(sim.task_dim())?),
+            },
+            ..ScenarioSettings::default()
+        };
     let contact = sim.apply_scenario(scenario, &settings, &mut cfg)?;
     let largest_det = sim.largest_jacobian_determinant();
     let singularity = |q: &[f64]| largest_det.map(|largest| sim.task_at(q).1.abs() / largest);

@@ -24,6 +24,7 @@ use crate::pil::{Pil, PilReport, PilScene};
 use crate::rig::{CompiledModel, TapeRig};
 use crate::sim::SCENE_VERTICES;
 use crate::sim::{self, LoopData, Operator, Path as HandPath, Reference, SensorSpec, SimConfig, Trace};
+use crate::solids::Solid;
 use crate::tape::Tape;
 use hapticgen_protocol::SceneObject;
 
@@ -120,6 +121,9 @@ pub struct ScenarioSettings {
     pub friction: (f64, f64),
     /// The `mesh` scenario's mesh (`None`: a UV sphere of radius 3 cm).
     pub mesh: Option<Arc<TriangleMesh>>,
+    /// Contact scenarios: the solids to render instead of the scenario's own (a scene file's,
+    /// [`crate::scene`]); the scenario still gives the hand's path.
+    pub scene: Option<Vec<Solid>>,
 }
 
 impl Default for ScenarioSettings {
@@ -136,6 +140,7 @@ impl Default for ScenarioSettings {
             start: None,
             friction: (0.0, 0.0),
             mesh: None,
+            scene: None,
         }
     }
 }
@@ -532,6 +537,10 @@ impl Simulation {
                         mesh: settings.mesh.clone(),
                     },
                 )?;
+                let placed = match &settings.scene {
+                    Some(solids) => placed.with_scene(solids.clone()),
+                    None => placed,
+                };
                 cfg.operator = Operator::Hand {
                     stiffness: hand_k,
                     damping: hand_b,

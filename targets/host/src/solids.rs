@@ -10,7 +10,7 @@ use hapticgen_runtime::render::ObjectKind;
 use hapticgen_runtime::shape::{BvhNode, Material, Mesh, Object, Shape};
 
 /// The geometry of a solid, in task coordinates.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum SolidShape {
     /// The half-space behind the plane through `point` with outward `normal`.
     HalfSpace {
@@ -43,10 +43,12 @@ pub enum SolidShape {
 }
 
 /// A solid with its surface's material.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Solid {
     /// Geometry.
     pub shape: SolidShape,
+    /// `true`: a cavity, which keeps the point inside the shape instead of outside.
+    pub cavity: bool,
     /// Surface stiffness, N/m.
     pub stiffness: f64,
     /// Surface damping, N·s/m.
@@ -113,7 +115,7 @@ impl Solid {
         };
         Ok(Object {
             shape,
-            kind: ObjectKind::Solid,
+            kind: if self.cavity { ObjectKind::Cavity } else { ObjectKind::Solid },
             material: Material {
                 stiffness: self.stiffness,
                 damping: self.damping,
@@ -124,9 +126,20 @@ impl Solid {
     }
 
     /// How deep `p` is inside the solid, m: positive inside, negative outside (for a mesh: its
-    /// parity along a ray decides inside, and the depth is the distance to the nearest face).
-    /// Written here, apart from the runtime's closest-point code, to check the renderer.
+    /// parity along a ray decides inside, and the depth is the distance to the nearest face;
+    /// for a cavity, inside its wall: beyond the shape's boundary). Written here, apart from
+    /// the runtime's closest-point code, to check the renderer.
     pub fn depth(&self, p: &[f64]) -> f64 {
+        let depth_in_shape = self.shape_depth(p);
+        if self.cavity {
+            -depth_in_shape
+        } else {
+            depth_in_shape
+        }
+    }
+
+    /// How deep `p` is inside the shape, m: positive inside, negative outside.
+    fn shape_depth(&self, p: &[f64]) -> f64 {
         match &self.shape {
             SolidShape::HalfSpace { point, normal } => {
                 let length = normal.iter().map(|n| n * n).sum::<f64>().sqrt();
@@ -291,7 +304,14 @@ mod tests {
     use super::*;
 
     fn solid(shape: SolidShape) -> Solid {
-        Solid { shape, stiffness: 1.0, damping: 0.0, static_friction: 0.0, dynamic_friction: 0.0 }
+        Solid {
+            shape,
+            cavity: false,
+            stiffness: 1.0,
+            damping: 0.0,
+            static_friction: 0.0,
+            dynamic_friction: 0.0,
+        }
     }
 
     /// The inside tests against values worked out by hand, and a mesh sphere against the

@@ -378,3 +378,68 @@ fn a_spatial_device_presses_into_god_object_solids() {
         assert!(row[x].abs() < 1e-6 && row[y].abs() < 1e-6, "sideways drift at t = {}: {row:?}", row[t]);
     }
 }
+
+/// `--scene FILE` renders the file's objects instead of the contact scenario's: a floor 12 mm
+/// below the start instead of the `wall` scenario's 20 mm holds the proxy at its own height;
+/// only the checks that hold for any scene are made; a bad file is refused at its line and
+/// column, and a scene needs a contact scenario.
+#[test]
+fn a_scene_file_replaces_the_contact_scenarios_solids() {
+    let model = "models/parallel_link_2dof.yaml";
+    let first = scratch("scene-start");
+    let run = |scenario: &str, extra: &[&str], out: &Path, duration: &str| {
+        let out = out.to_str().expect("a UTF-8 path").to_string();
+        let mut args =
+            vec!["simulate", model, "--controller", "3", "--scenario", scenario, "--duration", duration];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["-o", &out]);
+        hapticgen(&args)
+    };
+    let output = run("step", &[], &first, "0.01");
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let start: Vec<f64> = check_csv(&first.join("trace.csv"), 2, 2)[0]
+        .iter()
+        .skip(1 + 2 + 2)
+        .take(2)
+        .map(|v| v.parse().expect("a number"))
+        .collect();
+    let floor = start[1] - 0.012;
+    let dir = scratch("scene-files");
+    std::fs::create_dir_all(&dir).expect("a scratch directory");
+    let scene = dir.join("floor.yaml");
+    std::fs::write(
+        &scene,
+        format!("objects:\n  - half_space: {{point: [0, {floor}], normal: [0, 1], stiffness: 1500, damping: 5}}\n"),
+    )
+    .expect("the scene is written");
+    let out = scratch("scene-run");
+    let output = run("wall", &["--scene", scene.to_str().expect("UTF-8")], &out, "2.5");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}{}", String::from_utf8_lossy(&output.stderr));
+    assert!(stdout.contains("the proxy never inside a solid") && !stdout.contains("held depth"), "{stdout}");
+    let rows = check_csv(&out.join("trace.csv"), 2, 2);
+    // Columns: t, q (2), qd (2), x (2), u (2), f (2), xp (2), xh (2).
+    let proxy_y = |row: &csv::StringRecord| row[12].parse::<f64>().expect("a number");
+    let lowest = rows.iter().map(proxy_y).fold(f64::INFINITY, f64::min);
+    assert!((lowest - floor).abs() < 1e-5, "the proxy rests at {lowest}, the scene's floor is at {floor}");
+
+    let bad = dir.join("bad.yaml");
+    std::fs::write(
+        &bad,
+        "objects:\n  - half_space: {point: [0, 0], normal: [0, 0], stiffness: 1, damping: 0}\n",
+    )
+    .expect("written");
+    let output = run("wall", &["--scene", bad.to_str().expect("UTF-8")], &out, "0.01");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(
+        stderr.contains("bad.yaml:2:") && stderr.contains("objects[0].half_space.normal: must not be zero"),
+        "{stderr}"
+    );
+    let output = run("step", &["--scene", scene.to_str().expect("UTF-8")], &out, "0.01");
+    assert!(!output.status.success());
+    assert!(String::from_utf8_lossy(&output.stderr).contains("--scene needs a contact scenario"));
+    for path in [first, dir, out] {
+        let _ = std::fs::remove_dir_all(path);
+    }
+}
