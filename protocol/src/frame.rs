@@ -13,8 +13,8 @@
 //! start, its CRC is computed four bytes at a time from tables in flash, and the stuffing
 //! turns its zero bytes into block lengths in place (a body shorter than 254 bytes needs
 //! exactly one byte of overhead), looking only where zero bytes can be: a state frame's
-//! channels hold none (`CHANNEL_CODES`), so only its head and CRC are looked at; the
-//! receiver stores each byte as it arrives and, at the frame's zero byte, undoes the stuffing in place
+//! channels hold none (`CHANNEL_CODES`), so only its head and CRC are looked at. The receiver
+//! stores each byte as it arrives and, at the frame's zero byte, undoes the stuffing in place
 //! one step per block, checks the CRC and hands the body over for deserialisation.
 
 use serde::de::{Deserialize, DeserializeOwned};
@@ -37,10 +37,10 @@ const _: () = assert!(MAX_MESSAGE_BYTES + CRC_BYTES < 254);
 
 /// CRC-16/IBM-SDLC (the X.25 CRC) tables for four bytes at a time: [`CRC_BYTE`] is the usual
 /// byte table of the reflected polynomial 0x8408, `CRC_AFTER_k[b]` the CRC state of byte `b`
-/// followed by `k` zero bytes, in flash, computed at compile time (4 KiB: `u32` entries, see [`CRC_START`]); `static`s so that each
-/// is one table, not one per use, and four of them, not one array of four, so that the code
-/// holds each table's address in a register of its own and looks an entry up in one
-/// instruction.
+/// followed by `k` zero bytes. In flash, computed at compile time (4 KiB: `u32` entries, see
+/// [`CRC_START`]); `static`s so that each is one table, not one per use, and four of them,
+/// not one array of four, so that the code holds each table's address in a register of its
+/// own and looks an entry up in one instruction.
 static CRC_BYTE: [u32; 256] = crc_table(0);
 static CRC_AFTER_1: [u32; 256] = crc_table(1);
 static CRC_AFTER_2: [u32; 256] = crc_table(2);
@@ -119,7 +119,7 @@ pub enum EncodeError {
 
 /// Frames `message` into `out`; returns the frame's length, its final zero byte included.
 pub fn encode<T: Serialize>(message: &T, out: &mut [u8]) -> Result<usize, EncodeError> {
-    // The body goes one byte in, where the stuffing leaves it (see `stuff`).
+    // The body goes one byte in, where the stuffing leaves it (see `finish_with_zeros_in`).
     let room = out.len().saturating_sub(1).min(MAX_MESSAGE_BYTES);
     let length = match out.get_mut(1..1 + room).map(|body| postcard::to_slice(message, body)) {
         Some(Ok(body)) => body.len(),

@@ -2,8 +2,8 @@
 //!
 //! Arrays are sized for the largest rig ([`MAX_JOINTS`] joints, [`MAX_TASK`] task axes); a
 //! rig uses the first `joints` / `task_dim` entries its [`DeviceInfo`] announces. The state
-//! stream is compact instead: each of its channels is a 16-bit integer in a unit the device
-//! announces once ([`ChannelScales`]), sent as two bytes that are never zero
+//! stream is compact instead: each of its channels is an integer from −32,512 to 32,512 in a
+//! unit the device announces once ([`ChannelScales`]), sent as two bytes that are never zero
 //! ([`CHANNEL_CODES`]); the joint positions are the encoders' counts modulo 65,025 (exact;
 //! the host unwraps them with [`CountUnwrapper`], which holds as long as a joint turns less
 //! than 32,512 counts between two frames it receives), and a value that does not fit its
@@ -532,7 +532,9 @@ impl StateFrame {
     /// `encode(&DeviceMessage::State(StateFrame::quantise(sample, scales)?), out)` (the tests
     /// compare), in a third of the instructions (the device's 1 kHz stream, docs/link.md).
     /// Returns the frame's length, its final zero byte included; `None` for a sample that
-    /// [`StateFrame::quantise`] refuses.
+    /// [`StateFrame::quantise`] refuses. Always inlined: a caller whose slices come from
+    /// arrays of the rig's sizes (the device's `state_frame`) gets a copy with the channels'
+    /// counts fixed, without a loop or a length test per channel.
     #[inline(always)]
     pub fn encode_sample(
         sample: &StateSample<'_>,
