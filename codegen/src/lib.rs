@@ -23,6 +23,7 @@ pub mod mesh;
 pub mod model;
 mod plan;
 pub mod rig_macro;
+pub mod scene;
 #[doc(hidden)]
 pub mod sym;
 pub mod urdf;

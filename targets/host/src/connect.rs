@@ -135,19 +135,18 @@ fn device_objects(scene: &crate::scene::Scene) -> Result<Vec<SceneObject>, Strin
     };
     let mut objects = Vec::with_capacity(scene.objects.len());
     for object in &scene.objects {
-        let solid = &object.solid;
-        if solid.static_friction != 0.0 || solid.dynamic_friction != 0.0 {
+        if object.static_friction != 0.0 || object.dynamic_friction != 0.0 {
             return Err(format!(
                 "error: {}: the link carries no friction (a device's scene slots are frictionless); remove `friction`",
                 object.location
             ));
         }
-        let (stiffness, damping) = (solid.stiffness as f32, solid.damping as f32);
-        objects.push(match &solid.shape {
+        let (stiffness, damping) = (object.stiffness as f32, object.damping as f32);
+        objects.push(match &object.shape {
             SolidShape::Sphere { center, radius } => SceneObject::Sphere {
                 centre: padded(center),
                 radius: *radius as f32,
-                cavity: solid.cavity,
+                cavity: object.cavity,
                 stiffness,
                 damping,
             },

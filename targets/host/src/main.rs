@@ -835,7 +835,9 @@ fn configure(args: &SimulateArgs) -> Result<Configured, String> {
                             mesh), whose hand path it keeps"
                         .into(),
                 ),
-                Some(path) => Some(hapticgen_host::scene::load(path)?.solids(sim.task_dim())?),
+                Some(path) => {
+                    Some(hapticgen_host::scene::solids(&hapticgen_host::scene::load(path)?, sim.task_dim())?)
+                }
             },
             ..ScenarioSettings::default()
         };

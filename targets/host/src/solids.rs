@@ -3,44 +3,12 @@
 //! an inside test of their own that shares no code with the runtime's renderer (the contact
 //! scenarios' checks use it: the proxy must never be inside a solid).
 
-use std::sync::Arc;
-
 use hapticgen_codegen::mesh::TriangleMesh;
 use hapticgen_runtime::render::ObjectKind;
 use hapticgen_runtime::shape::{BvhNode, Material, Mesh, Object, Shape};
 
-/// The geometry of a solid, in task coordinates.
-#[derive(Clone, Debug, PartialEq)]
-pub enum SolidShape {
-    /// The half-space behind the plane through `point` with outward `normal`.
-    HalfSpace {
-        /// A point of the plane.
-        point: Vec<f64>,
-        /// The outward normal (towards free space; need not be unit).
-        normal: Vec<f64>,
-    },
-    /// A ball.
-    Sphere {
-        /// Centre.
-        center: Vec<f64>,
-        /// Radius, m.
-        radius: f64,
-    },
-    /// An axis-aligned box.
-    Box {
-        /// Centre.
-        center: Vec<f64>,
-        /// Half the edge lengths, m.
-        half_extents: Vec<f64>,
-    },
-    /// A closed triangle mesh (with its BVH) placed at `offset`; 3-D tasks only.
-    Mesh {
-        /// The mesh in its own frame, BVH built.
-        mesh: Arc<TriangleMesh>,
-        /// Where the mesh's origin is.
-        offset: Vec<f64>,
-    },
-}
+/// The geometry of a solid, in task coordinates: a scene file's (`hapticgen_codegen::scene`).
+pub use hapticgen_codegen::scene::SceneShape as SolidShape;
 
 /// A solid with its surface's material.
 #[derive(Clone, Debug, PartialEq)]
@@ -57,6 +25,19 @@ pub struct Solid {
     pub static_friction: f64,
     /// Dynamic friction coefficient, at most the static one.
     pub dynamic_friction: f64,
+}
+
+impl From<&hapticgen_codegen::scene::SceneObject> for Solid {
+    fn from(object: &hapticgen_codegen::scene::SceneObject) -> Self {
+        Solid {
+            shape: object.shape.clone(),
+            cavity: object.cavity,
+            stiffness: object.stiffness,
+            damping: object.damping,
+            static_friction: object.static_friction,
+            dynamic_friction: object.dynamic_friction,
+        }
+    }
 }
 
 fn array<const M: usize>(values: &[f64], what: &str) -> Result<[f64; M], String> {
@@ -302,6 +283,7 @@ fn closest_point_on_triangle(p: &[f64; 3], a: &[f64; 3], b: &[f64; 3], c: &[f64;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::sync::Arc;
 
     fn solid(shape: SolidShape) -> Solid {
         Solid {

@@ -59,6 +59,9 @@ pub struct GeneratedRig {
     sense_time_constant: f64,
     /// The scenario's mesh as Rust source (`static` arrays), for the scenarios that render one.
     mesh: Option<String>,
+    /// The scene file's objects as Rust source (`hapticgen_codegen::scene::emit`), for
+    /// `scene_contact`.
+    scene: Option<String>,
 }
 
 /// Generates the rig of `v` in `scalar` into `rig_file`; its glue modules come from
@@ -140,6 +143,22 @@ pub fn generate_rig(
     // Every joint has the same anti-aliasing filter: its time constant from the first design.
     let tau = designs[0].filter_time_constant;
     let mesh = scenario_mesh(&v.scenario, scalar)?;
+    let scene = match &v.scene {
+        None => None,
+        Some(file) => {
+            let path = repo_root.join(file);
+            println!("cargo:rerun-if-changed={}", path.display());
+            let scene = hapticgen_codegen::scene::load(&path)?;
+            if scene.objects.len() > SCENE_CAPACITY {
+                return Err(format!(
+                    "image `{}`: {file} has {} objects; `scene_contact` renders at most {SCENE_CAPACITY}",
+                    v.name,
+                    scene.objects.len()
+                ));
+            }
+            Some(hapticgen_codegen::scene::emit(&scene, m, scalar)?)
+        }
+    };
     Ok(GeneratedRig {
         name: v.name.clone(),
         description: format!(
@@ -160,8 +179,13 @@ pub fn generate_rig(
         rendering,
         sense_time_constant: tau,
         mesh,
+        scene,
     })
 }
+
+/// The most objects the scenario `scene_contact` renders (its god object's capacity,
+/// `hapticgen_fw_sim::scenarios::scene_contact::CAPACITY`).
+pub const SCENE_CAPACITY: usize = 8;
 
 /// The sphere of the scenario `mesh_contact` (`hapticgen_fw_sim::scenarios::mesh_contact`):
 /// radius, m (the cavity of `sphere_cavity`, as a mesh).
@@ -255,7 +279,11 @@ impl GeneratedRig {
                 scenario = self.scenario,
                 s = self.scalar,
                 tau = literal(self.sense_time_constant),
-                mesh_argument = if self.mesh.is_some() { ", &mesh::SPHERE" } else { "" },
+                mesh_argument = match (&self.mesh, &self.scene) {
+                    (Some(_), _) => ", &mesh::SPHERE",
+                    (None, Some(_)) => ", scene::objects()",
+                    (None, None) => "",
+                },
             );
             if let Some(mesh) = &self.mesh {
                 let _ = writeln!(
@@ -263,6 +291,14 @@ impl GeneratedRig {
                     "\x20   /// The scenario's mesh: `static` arrays, in flash on the target.\n\
                      \x20   #[allow(clippy::all)]\n\
                      \x20   pub mod mesh {{\n{mesh}\x20   }}"
+                );
+            }
+            if let Some(scene) = &self.scene {
+                let _ = writeln!(
+                    glue,
+                    "\x20   /// The scene file's objects (meshes as `static` arrays, in flash on the target).\n\
+                     \x20   #[allow(clippy::all, missing_docs)]\n\
+                     \x20   pub mod scene {{\n{scene}\x20   }}"
                 );
             }
         }

@@ -2,7 +2,7 @@
 //! board `stm32f4`) and of the host reference (`reference`, every variant, `f32` and `f64`).
 //!
 //! `targets/firmware/variants.txt` is the table of images, one per line:
-//! `name model variant scenario pose impedance current flash ram` ([`COLUMNS`]). For each,
+//! `name model variant scenario pose impedance current flash ram scene` ([`COLUMNS`]). For each,
 //! [`generate`] writes the rig's code (through the build-script helper
 //! `hapticgen_codegen::build::generate`) and returns a glue module: the rig type, its joint
 //! and task dimensions and rates, and `setup()`, the model-derived
@@ -22,7 +22,7 @@ mod generate;
 pub use generate::{emit_options, generate, generate_rig, GeneratedRig};
 
 /// One line of `variants.txt`:
-/// `name model variant scenario pose impedance current flash ram`.
+/// `name model variant scenario pose impedance current flash ram scene`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Variant {
     /// Image name (also the `HAPTICGEN_FW_VARIANT` value).
@@ -37,6 +37,9 @@ pub struct Variant {
     pub pose: Vec<f64>,
     /// Per-image limits, checked by `scripts/firmware.sh`.
     pub budget: Budget,
+    /// The scene file the scenario renders (docs/scenes.md), relative to the repository root:
+    /// for the scenario `scene_contact`, and only for it.
+    pub scene: Option<String>,
 }
 
 /// The limits of one image (a line of `variants.txt`).
@@ -53,8 +56,11 @@ pub struct Budget {
 }
 
 /// Column names of `variants.txt`, in order.
-pub const COLUMNS: [&str; 9] =
-    ["name", "model", "variant", "scenario", "pose", "impedance", "current", "flash", "ram"];
+pub const COLUMNS: [&str; 10] =
+    ["name", "model", "variant", "scenario", "pose", "impedance", "current", "flash", "ram", "scene"];
+
+/// The scenario that renders a scene file (`hapticgen_fw_sim::scenarios::scene_contact`).
+pub const SCENE_SCENARIO: &str = "scene_contact";
 
 /// The firmware workspace directory (`targets/firmware`), from a member's manifest dir.
 pub fn firmware_dir(manifest_dir: &Path) -> PathBuf {
@@ -101,6 +107,12 @@ pub fn parse_table(text: &str) -> Result<Vec<Variant>, (usize, String)> {
         let number = |column: usize| -> Result<u32, (usize, String)> {
             fields[column].parse().map_err(|e| at(format!("{}: `{}`: {e}", COLUMNS[column], fields[column])))
         };
+        let scene = if fields[9] == "-" { None } else { Some(fields[9].to_string()) };
+        if scene.is_some() != (fields[3] == SCENE_SCENARIO) {
+            return Err(at(format!(
+                "a scene file is named exactly by the images whose scenario is `{SCENE_SCENARIO}`"
+            )));
+        }
         table.push(Variant {
             name: fields[0].to_string(),
             model: fields[1].to_string(),
@@ -108,6 +120,7 @@ pub fn parse_table(text: &str) -> Result<Vec<Variant>, (usize, String)> {
             scenario: fields[3].to_string(),
             pose,
             budget: Budget { impedance: number(5)?, current: number(6)?, flash: number(7)?, ram: number(8)? },
+            scene,
         });
     }
     Ok(table)
@@ -209,16 +222,22 @@ mod tests {
 
     #[test]
     fn parses_a_line_and_rejects_bad_ones() {
-        let table = parse_table("# c\n a m.yaml - sc 0,90 800 150 1000 200 # tail\n").unwrap();
+        let table = parse_table("# c\n a m.yaml - sc 0,90 800 150 1000 200 - # tail\n").unwrap();
         assert_eq!(table.len(), 1);
         assert_eq!(table[0].pose, vec![0.0, 90.0]);
         assert_eq!(table[0].variant, None);
+        assert_eq!(table[0].scene, None);
         assert_eq!(table[0].budget, Budget { impedance: 800, current: 150, flash: 1000, ram: 200 });
-        assert_eq!(parse_table("a m - sc 0 1 2 3").unwrap_err().0, 1);
-        assert!(parse_table("a m - sc x 1 2 3 4").unwrap_err().1.contains("pose"));
-        assert!(parse_table("a m - sc 0 1 2 -3 4").unwrap_err().1.contains("flash"));
-        let twice = "a m - sc 0 1 2 3 4\n\na m - sc 0 1 2 3 4\n";
+        assert_eq!(parse_table("a m - sc 0 1 2 3 -").unwrap_err().0, 1);
+        assert!(parse_table("a m - sc x 1 2 3 4 -").unwrap_err().1.contains("pose"));
+        assert!(parse_table("a m - sc 0 1 2 -3 4 -").unwrap_err().1.contains("flash"));
+        let twice = "a m - sc 0 1 2 3 4 -\n\na m - sc 0 1 2 3 4 -\n";
         assert_eq!(parse_table(twice).unwrap_err().0, 3);
+        // A scene goes with the scenario that renders one, and only with it.
+        let scene = parse_table("a m - scene_contact 0 1 2 3 4 scenes/s.yaml").unwrap();
+        assert_eq!(scene[0].scene.as_deref(), Some("scenes/s.yaml"));
+        assert!(parse_table("a m - scene_contact 0 1 2 3 4 -").unwrap_err().1.contains("scene_contact"));
+        assert!(parse_table("a m - sc 0 1 2 3 4 s.yaml").unwrap_err().1.contains("scene_contact"));
     }
 
     #[test]

@@ -2,8 +2,9 @@
 //! numbers come from the scenario's own constants, not from earlier runs). Every image whose
 //! line names the scenario is checked.
 
+use hapticgen_codegen::scene::SceneShape;
 use hapticgen_fw_reference::{find, host_run, int, list, variants};
-use hapticgen_fw_sim::scenarios::{hold_pose, sphere_cavity, wall_contact, PAPER_RENDERING};
+use hapticgen_fw_sim::scenarios::{hold_pose, scene_contact, sphere_cavity, wall_contact, PAPER_RENDERING};
 
 /// `(k, q, x)` of every trace line of the f64 reference run (µrad, µm or µrad).
 fn trace(name: &str) -> Vec<(i64, Vec<i64>, Vec<i64>)> {
@@ -116,5 +117,67 @@ fn fig4_step_settles_at_force_over_stiffness() {
         let (_, q, _) = t.last().unwrap();
         let end = (q[0] - t[0].1[0]) as f64 * 1e-6;
         assert!((end - 1.0).abs() < 0.1, "{name}: ends at {end} rad");
+    }
+}
+
+/// How deep `x` is in a scene object, m (positive inside, negative outside), written here from
+/// the shapes' definitions, apart from the runtime's closest-point code; `None` for a mesh.
+fn depth_in(shape: &SceneShape, cavity: bool, x: &[f64]) -> Option<f64> {
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(a, b)| a * b).sum::<f64>();
+    let depth = match shape {
+        SceneShape::HalfSpace { point, normal } => {
+            let offset: Vec<f64> = point.iter().zip(x).map(|(p, x)| p - x).collect();
+            dot(&offset, normal) / dot(normal, normal).sqrt()
+        }
+        SceneShape::Sphere { center, radius } => {
+            let offset: Vec<f64> = x.iter().zip(center).map(|(x, c)| x - c).collect();
+            radius - dot(&offset, &offset).sqrt()
+        }
+        SceneShape::Box { center, half_extents } => {
+            let gaps: Vec<f64> =
+                x.iter().zip(center).zip(half_extents).map(|((x, c), h)| h - (x - c).abs()).collect();
+            if gaps.iter().all(|&g| g > 0.0) {
+                gaps.iter().copied().fold(f64::INFINITY, f64::min)
+            } else {
+                -gaps.iter().map(|g| g.min(0.0).powi(2)).sum::<f64>().sqrt()
+            }
+        }
+        SceneShape::Mesh { .. } => return None,
+    };
+    Some(if cavity { -depth } else { depth })
+}
+
+#[test]
+fn scene_contact_rests_force_over_stiffness_inside_the_scene() {
+    let firmware = hapticgen_fw_build::firmware_dir(std::path::Path::new(env!("CARGO_MANIFEST_DIR")));
+    let table = hapticgen_fw_build::read_table(&firmware).unwrap();
+    let names = images("scene_contact");
+    assert!(!names.is_empty());
+    for name in names {
+        let line = table.iter().find(|v| v.name == name).unwrap();
+        let scene =
+            hapticgen_codegen::scene::load(&firmware.join("../..").join(line.scene.as_deref().unwrap()))
+                .unwrap();
+        let [_, stiffness, _] = variants::rendering(name).unwrap_or(PAPER_RENDERING);
+        let t = trace(name);
+        // The push lasts to the end: over the last 0.3 s the point rests F/K deep in the
+        // object it was pushed onto, and nowhere deeper.
+        let late: Vec<f64> = t
+            .iter()
+            .filter(|(k, _, _)| *k >= 9000)
+            .map(|(_, _, x)| {
+                let x: Vec<f64> = x.iter().map(|v| *v as f64 * 1e-6).collect();
+                scene
+                    .objects
+                    .iter()
+                    .filter_map(|o| depth_in(&o.shape, o.cavity, &x))
+                    .fold(f64::NEG_INFINITY, f64::max)
+            })
+            .collect();
+        assert!(!late.is_empty());
+        let expected = scene_contact::FORCE / stiffness;
+        for depth in late {
+            assert!((depth - expected).abs() < 0.1 * expected, "{name}: {depth} m deep, F/K = {expected}");
+        }
     }
 }

@@ -373,6 +373,63 @@ pub mod mesh_contact {
     }
 }
 
+/// A scene file's objects touched through the god-object proxy (any `N` and `M`; the
+/// `variants.txt` line names the file, docs/scenes.md): the runtime's
+/// [`GodObject`](hapticgen_runtime::proxy::GodObject) with the file's objects, which the
+/// image's glue emits (`hapticgen_codegen::scene::emit`; meshes as `static` arrays, in flash),
+/// in the task frame as written (place them about the start's task point). The
+/// Jacobian-transpose law with the rendering's wall `K_d`, `B_d`; the operator pushes with
+/// [`FORCE`](scene_contact::FORCE) along the last task axis's negative direction (down, for a
+/// spatial device) from 0.1 s to the end, 1.5 s, so that the proxy stops on what is below the
+/// start and the HIP rests `F/K_d` beyond it. (The push lasts to the end, unlike the other
+/// contact scenarios': let go above a solid, the device would drift in free space, where
+/// nothing holds it and an `f32` and an `f64` run drift apart.)
+pub mod scene_contact {
+    use super::*;
+    use hapticgen_runtime::proxy::GodObject;
+    use hapticgen_runtime::shape::Object;
+
+    /// Operator force, N, down the last task axis.
+    pub const FORCE: f64 = 1.0;
+    /// The most objects a scene may have (the god object's slots).
+    pub const CAPACITY: usize = 8;
+    /// Radius of the proxy, m (a point).
+    pub const PROXY_RADIUS: f64 = 0.0;
+    /// The proxy's contact tolerance, m (1 µm suits metres in `f32` and `f64` alike).
+    pub const SKIN: f64 = 1e-6;
+
+    /// The reference source: the god-object renderer with the scene's objects.
+    pub type Source<R, const N: usize, const M: usize> =
+        GodObject<'static, <R as RigModel<N, M>>::Scalar, CAPACITY, M>;
+
+    /// The scenario type for a rig `R`.
+    pub type Run<R, const N: usize, const M: usize> = Scenario<R, Source<R, N, M>, N, M>;
+
+    /// Builds the run on `objects`; `None` if the rig's rates are unusable, the task has no
+    /// coordinate or the scene has more than [`CAPACITY`] objects.
+    pub fn new<R: FusedImpedance<N, M> + Clone, const N: usize, const M: usize, const K: usize>(
+        name: &'static str,
+        rig: R,
+        setup: &Setup<R::Scalar, N>,
+        sense_time_constant: R::Scalar,
+        profile: bool,
+        objects: [Object<'static, R::Scalar, M>; K],
+    ) -> Option<Run<R, N, M>> {
+        let [_, wall_stiffness, wall_damping] = rendering(setup);
+        let mut scene = GodObject::new(wall_stiffness, wall_damping, s(PROXY_RADIUS), s(SKIN));
+        for object in objects {
+            scene.add(object)?;
+        }
+        let mut force = [R::Scalar::ZERO; M];
+        *force.last_mut()? = s(-FORCE);
+        // The proxy has no grid: the two runs differ by rounding and the skin.
+        let rendering = [wall_stiffness, wall_damping, s(4.0 * SKIN)];
+        let mut run = pushed_run(name, rig, setup, sense_time_constant, profile, scene, rendering, force)?;
+        run.load.end = run.periods;
+        Some(run)
+    }
+}
+
 /// Holding a pose against gravity and a push, for any rig (`N` joints, `M` task coordinates,
 /// redundant ones included): Controller 3 with a fixed reference at the start pose's task
 /// point, `K_d` = [`STIFFNESS`](hold_pose::STIFFNESS), `B_d` = [`DAMPING`](hold_pose::DAMPING)

@@ -1,0 +1,413 @@
+//! Scene files: the virtual objects a rig touches, in its task frame (metres), read once for
+//! every tool that renders them (docs/scenes.md): `hapticgen simulate --scene` and `hapticgen
+//! connect --scene` on the host, and the firmware images whose `variants.txt` line names a
+//! scene, for which [`emit`] writes the objects as Rust source (meshes as `static` arrays).
+//!
+//! ```yaml
+//! objects:
+//!   - half_space: {point: [0, 0, -0.05], normal: [0, 0, 1], stiffness: 800, damping: 2,
+//!                  friction: {static: 0.4, dynamic: 0.3}}
+//!   - sphere: {centre: [0.03, 0, -0.02], radius: 0.015, stiffness: 600, damping: 1}
+//!   - box: {centre: [-0.03, 0, -0.04], half_extents: [0.01, 0.02, 0.01], stiffness: 700, damping: 2}
+//!   - mesh: {file: meshes/knob.obj, offset: [0, 0.03, -0.04], stiffness: 500, damping: 1}
+//! ```
+//!
+//! Each object is a map of one key, its kind: `sphere` (`cavity: true` keeps the point inside
+//! instead), `box` (axis-aligned), `half_space` (behind the plane; the normal points to free
+//! space and is normalised here) or `mesh` (a closed triangle mesh from an OBJ or STL file,
+//! named relative to the scene file, placed at `offset`; 3-D tasks only). Every object has a
+//! surface `stiffness` (N/m) and `damping` (N·s/m), and optionally `friction` with `static`
+//! and `dynamic` coefficients (0 ≤ dynamic ≤ static). Vectors hold one coordinate per task
+//! axis ([`Scene::check_task_dim`]). Every error names the file, line and column of the value.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use proc_macro2::{Ident, Literal, Span, TokenStream};
+use quote::quote;
+use serde::Deserialize;
+
+use crate::mesh::TriangleMesh;
+use crate::model::positions::{display_path, PositionIndex, Segment};
+use crate::Scalar;
+
+/// A scene file's objects.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// The objects, in the file's order.
+    pub objects: Vec<SceneObject>,
+}
+
+/// The geometry of an object, in task coordinates.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SceneShape {
+    /// The half-space behind the plane through `point` with outward `normal`.
+    HalfSpace {
+        /// A point of the plane.
+        point: Vec<f64>,
+        /// The outward normal (towards free space).
+        normal: Vec<f64>,
+    },
+    /// A ball.
+    Sphere {
+        /// Centre.
+        center: Vec<f64>,
+        /// Radius, m.
+        radius: f64,
+    },
+    /// An axis-aligned box.
+    Box {
+        /// Centre.
+        center: Vec<f64>,
+        /// Half the edge lengths, m.
+        half_extents: Vec<f64>,
+    },
+    /// A closed triangle mesh (with its BVH) placed at `offset`; 3-D tasks only.
+    Mesh {
+        /// The mesh in its own frame, BVH built.
+        mesh: Arc<TriangleMesh>,
+        /// Where the mesh's origin is.
+        offset: Vec<f64>,
+    },
+}
+
+/// One object of a scene file: its shape, its surface, and where it was written.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneObject {
+    /// Geometry.
+    pub shape: SceneShape,
+    /// `true`: a cavity, which keeps the point inside the shape instead of outside.
+    pub cavity: bool,
+    /// Surface stiffness, N/m.
+    pub stiffness: f64,
+    /// Surface damping, N·s/m.
+    pub damping: f64,
+    /// Static friction coefficient (0: none).
+    pub static_friction: f64,
+    /// Dynamic friction coefficient, at most the static one.
+    pub dynamic_friction: f64,
+    /// Where it is written, for errors about it later (`FILE:LINE:COLUMN: objects[K].KIND`).
+    pub location: String,
+}
+
+impl Scene {
+    /// Checks that every vector has `task_dim` coordinates (a mesh needs 3); the error names
+    /// the object in the file.
+    pub fn check_task_dim(&self, task_dim: usize) -> Result<(), String> {
+        for object in &self.objects {
+            let lengths: Vec<(&str, usize)> = match &object.shape {
+                SceneShape::HalfSpace { point, normal } => {
+                    vec![("point", point.len()), ("normal", normal.len())]
+                }
+                SceneShape::Sphere { center, .. } => vec![("centre", center.len())],
+                SceneShape::Box { center, half_extents } => {
+                    vec![("centre", center.len()), ("half_extents", half_extents.len())]
+                }
+                SceneShape::Mesh { offset, .. } => vec![("offset", offset.len()), ("the mesh's vertices", 3)],
+            };
+            if let Some((field, n)) = lengths.into_iter().find(|&(_, n)| n != task_dim) {
+                return Err(format!(
+                    "error: {}: {field} has {n} coordinates; this rig's task has {task_dim}",
+                    object.location
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Leaf size of a scene mesh's BVH (triangles per leaf).
+const MESH_LEAF_SIZE: usize = 4;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    // `- sphere: {…}`: each object a map of one key, its kind (serde_yaml's default for an
+    // enum is a YAML tag, `!sphere`).
+    #[serde(with = "serde_yaml::with::singleton_map_recursive")]
+    objects: Vec<ObjectEntry>,
+}
+
+#[derive(Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+enum ObjectEntry {
+    Sphere {
+        centre: Vec<f64>,
+        radius: f64,
+        #[serde(default)]
+        cavity: bool,
+        stiffness: f64,
+        damping: f64,
+        #[serde(default)]
+        friction: Option<FrictionEntry>,
+    },
+    Box {
+        centre: Vec<f64>,
+        half_extents: Vec<f64>,
+        stiffness: f64,
+        damping: f64,
+        #[serde(default)]
+        friction: Option<FrictionEntry>,
+    },
+    HalfSpace {
+        point: Vec<f64>,
+        normal: Vec<f64>,
+        stiffness: f64,
+        damping: f64,
+        #[serde(default)]
+        friction: Option<FrictionEntry>,
+    },
+    Mesh {
+        file: PathBuf,
+        #[serde(default)]
+        offset: Option<Vec<f64>>,
+        stiffness: f64,
+        damping: f64,
+        #[serde(default)]
+        friction: Option<FrictionEntry>,
+    },
+}
+
+impl ObjectEntry {
+    fn kind(&self) -> &'static str {
+        match self {
+            ObjectEntry::Sphere { .. } => "sphere",
+            ObjectEntry::Box { .. } => "box",
+            ObjectEntry::HalfSpace { .. } => "half_space",
+            ObjectEntry::Mesh { .. } => "mesh",
+        }
+    }
+
+    /// Stiffness, damping and friction, which every kind has (not `#[serde(flatten)]`ed into
+    /// a struct of their own: serde cannot refuse unknown keys through a flattened field).
+    fn surface(&self) -> (f64, f64, Option<&FrictionEntry>) {
+        match self {
+            ObjectEntry::Sphere { stiffness, damping, friction, .. }
+            | ObjectEntry::Box { stiffness, damping, friction, .. }
+            | ObjectEntry::HalfSpace { stiffness, damping, friction, .. }
+            | ObjectEntry::Mesh { stiffness, damping, friction, .. } => {
+                (*stiffness, *damping, friction.as_ref())
+            }
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FrictionEntry {
+    #[serde(rename = "static")]
+    static_coefficient: f64,
+    #[serde(rename = "dynamic")]
+    dynamic_coefficient: f64,
+}
+
+/// The most coordinates a scene's vector may have.
+const MAX_COORDINATES: usize = 3;
+
+/// Reads a scene file (module docs); meshes are read relative to its directory.
+pub fn load(path: &Path) -> Result<Scene, String> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("error: cannot read the scene file {name}: {e}"))?;
+    parse(&name, &text, path.parent().unwrap_or_else(|| Path::new(".")))
+}
+
+/// [`load`] of `text`, named `name` in the errors, its meshes read relative to `directory`.
+pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> {
+    let file: SceneFile = serde_yaml::from_str(text).map_err(|e| match e.location() {
+        Some(at) => format!("error: {name}:{}:{}: {e}", at.line(), at.column()),
+        None => format!("error: {name}: {e}"),
+    })?;
+    let positions = PositionIndex::build(text);
+    let located = |path: &[Segment]| {
+        let (line, column) = positions.value(path);
+        format!("{name}:{line}:{column}: {}", display_path(path))
+    };
+    let mut objects = Vec::with_capacity(file.objects.len());
+    for (index, entry) in file.objects.iter().enumerate() {
+        let kind = entry.kind();
+        let at = |field: &str| {
+            let mut path =
+                vec![Segment::Key("objects".into()), Segment::Index(index), Segment::Key(kind.into())];
+            path.extend(field.split('.').map(|key| Segment::Key(key.into())));
+            path
+        };
+        let error = |field: &str, message: String| format!("error: {}: {message}", located(&at(field)));
+        let vector = |field: &str, values: &[f64]| -> Result<Vec<f64>, String> {
+            if values.is_empty() || values.len() > MAX_COORDINATES || values.iter().any(|v| !v.is_finite()) {
+                return Err(error(
+                    field,
+                    format!("must be 1 to {MAX_COORDINATES} finite coordinates, got {values:?}"),
+                ));
+            }
+            Ok(values.to_vec())
+        };
+        let non_negative = |field: &str, value: f64| {
+            if value.is_finite() && value >= 0.0 {
+                Ok(value)
+            } else {
+                Err(error(field, format!("must be finite and not negative, got {value}")))
+            }
+        };
+        let positive = |field: &str, value: f64| {
+            if value.is_finite() && value > 0.0 {
+                Ok(value)
+            } else {
+                Err(error(field, format!("must be finite and positive, got {value}")))
+            }
+        };
+        let (shape, cavity) = match entry {
+            ObjectEntry::Sphere { centre, radius, cavity, .. } => (
+                SceneShape::Sphere {
+                    center: vector("centre", centre)?,
+                    radius: positive("radius", *radius)?,
+                },
+                *cavity,
+            ),
+            ObjectEntry::Box { centre, half_extents, .. } => {
+                let half = vector("half_extents", half_extents)?;
+                if half.iter().any(|h| *h <= 0.0) {
+                    return Err(error("half_extents", format!("must be positive, got {half_extents:?}")));
+                }
+                (SceneShape::Box { center: vector("centre", centre)?, half_extents: half }, false)
+            }
+            ObjectEntry::HalfSpace { point, normal, .. } => {
+                let n = vector("normal", normal)?;
+                let length = n.iter().map(|v| v * v).sum::<f64>().sqrt();
+                if length.is_nan() || length < 1e-9 {
+                    return Err(error("normal", format!("must not be zero, got {normal:?}")));
+                }
+                (
+                    SceneShape::HalfSpace {
+                        point: vector("point", point)?,
+                        normal: n.iter().map(|v| v / length).collect(),
+                    },
+                    false,
+                )
+            }
+            ObjectEntry::Mesh { file, offset, .. } => {
+                let path = directory.join(file);
+                let mesh = crate::mesh::load(&path)
+                    .map_err(|e| error("file", format!("{}: {e}", path.display())))?
+                    .with_bvh(MESH_LEAF_SIZE);
+                let offset = match offset {
+                    Some(offset) => vector("offset", offset)?,
+                    None => vec![0.0; 3],
+                };
+                (SceneShape::Mesh { mesh: Arc::new(mesh), offset }, false)
+            }
+        };
+        let (stiffness, damping, friction) = entry.surface();
+        let (static_friction, dynamic_friction) = match friction {
+            None => (0.0, 0.0),
+            Some(friction) => {
+                let static_friction = non_negative("friction.static", friction.static_coefficient)?;
+                let dynamic_friction = non_negative("friction.dynamic", friction.dynamic_coefficient)?;
+                if dynamic_friction > static_friction {
+                    return Err(error(
+                        "friction.dynamic",
+                        format!("must not exceed the static coefficient {static_friction}, got {dynamic_friction}"),
+                    ));
+                }
+                (static_friction, dynamic_friction)
+            }
+        };
+        let location =
+            located(&[Segment::Key("objects".into()), Segment::Index(index), Segment::Key(kind.into())]);
+        objects.push(SceneObject {
+            shape,
+            cavity,
+            stiffness: non_negative("stiffness", stiffness)?,
+            damping: non_negative("damping", damping)?,
+            static_friction,
+            dynamic_friction,
+            location,
+        });
+    }
+    Ok(Scene { objects })
+}
+
+/// Rust source (formatted) of a scene for a `task_dim`-dimensional rig in `scalar`: a module
+/// body with `pub const OBJECTS: usize`, the meshes as `static` arrays (`MESH_0`, …, in flash
+/// on a target; [`crate::mesh::emit`]) and `pub fn objects() -> [Object<'static, S, M>; OBJECTS]`,
+/// the runtime's objects.
+pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, String> {
+    scene.check_task_dim(task_dim)?;
+    let ty = match scalar {
+        Scalar::F32 => quote!(f32),
+        Scalar::F64 => quote!(f64),
+    };
+    let number = |x: f64| match scalar {
+        Scalar::F32 => Literal::f32_unsuffixed(x as f32),
+        Scalar::F64 => Literal::f64_unsuffixed(x),
+    };
+    let vector = |values: &[f64]| {
+        let values = values.iter().map(|&x| number(x));
+        quote!([#(#values),*])
+    };
+    let shape = quote!(::hapticgen_runtime::shape::Shape);
+    let mut meshes = String::new();
+    let mut mesh_count = 0;
+    let mut objects: Vec<TokenStream> = Vec::new();
+    for object in &scene.objects {
+        let geometry = match &object.shape {
+            SceneShape::HalfSpace { point, normal } => {
+                // The normal was normalised when the file was read.
+                let (point, normal) = (vector(point), vector(normal));
+                quote!(#shape::HalfSpace { point: #point, normal: #normal })
+            }
+            SceneShape::Sphere { center, radius } => {
+                let (center, radius) = (vector(center), number(*radius));
+                quote!(#shape::Sphere { center: #center, radius: #radius })
+            }
+            SceneShape::Box { center, half_extents } => {
+                let (center, half_extents) = (vector(center), vector(half_extents));
+                let axes: Vec<TokenStream> = (0..task_dim)
+                    .map(|i| {
+                        vector(&(0..task_dim).map(|k| if i == k { 1.0 } else { 0.0 }).collect::<Vec<_>>())
+                    })
+                    .collect();
+                quote!(#shape::Box { center: #center, axes: [#(#axes),*], half_extents: #half_extents })
+            }
+            SceneShape::Mesh { mesh, offset } => {
+                let name = format!("MESH_{mesh_count}");
+                mesh_count += 1;
+                meshes.push_str(&crate::mesh::emit(mesh, &name, scalar));
+                let ident = Ident::new(&name, Span::call_site());
+                let offset = vector(offset);
+                quote!(#shape::MeshAt { mesh: &#ident, offset: #offset })
+            }
+        };
+        let kind = if object.cavity { quote!(Cavity) } else { quote!(Solid) };
+        let [stiffness, damping, static_friction, dynamic_friction] =
+            [object.stiffness, object.damping, object.static_friction, object.dynamic_friction].map(number);
+        objects.push(quote! {
+            ::hapticgen_runtime::shape::Object {
+                shape: #geometry,
+                kind: ::hapticgen_runtime::render::ObjectKind::#kind,
+                material: ::hapticgen_runtime::shape::Material {
+                    stiffness: #stiffness,
+                    damping: #damping,
+                    static_friction: #static_friction,
+                    dynamic_friction: #dynamic_friction,
+                },
+            }
+        });
+    }
+    let count = Literal::usize_unsuffixed(objects.len());
+    let m = Literal::usize_unsuffixed(task_dim);
+    let tokens = quote! {
+        /// Objects in the scene.
+        pub const OBJECTS: usize = #count;
+        /// The scene's objects, as the runtime renders them.
+        pub fn objects() -> [::hapticgen_runtime::shape::Object<'static, #ty, #m>; OBJECTS] {
+            [#(#objects),*]
+        }
+    };
+    Ok(format!(
+        "// @generated by hapticgen {} from a scene file. Do not edit.\n{}{}",
+        crate::version::VERSION,
+        meshes.replace("// @generated", "// (mesh) @generated"),
+        crate::format_tokens(&tokens)
+    ))
+}
