@@ -147,7 +147,12 @@ pub fn generate_rig(
         None => None,
         Some(file) => {
             let path = repo_root.join(file);
+            // The file and what it names (meshes, usually beside it: cargo scans a directory
+            // for any change).
             println!("cargo:rerun-if-changed={}", path.display());
+            if let Some(directory) = path.parent() {
+                println!("cargo:rerun-if-changed={}", directory.display());
+            }
             let scene = hapticgen_codegen::scene::load(&path)?;
             if scene.objects.len() > SCENE_CAPACITY {
                 return Err(format!(
