@@ -213,7 +213,7 @@ fn layer(file: &str) -> usize {
         &["plan"],
         &["emit"],
         &["urdf"],
-        &["build", "mesh", "rig_macro", "lib"],
+        &["build", "mesh", "rig_macro", "scene", "lib"],
     ];
     let top = file.split('/').next().unwrap_or(file).trim_end_matches(".rs");
     LAYERS.iter().position(|names| names.contains(&top)).unwrap_or_else(|| {
