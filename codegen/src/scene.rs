@@ -14,7 +14,8 @@
 //!
 //! Each object is a map of one key, its kind: `sphere` (`cavity: true` keeps the point inside
 //! instead), `box` (axis-aligned), `half_space` (behind the plane; the normal points to free
-//! space and is normalised here) or `mesh` (a closed triangle mesh from an OBJ or STL file,
+//! space and is normalised here), `capsule` and `cylinder` (`a`, `b`: the axis's ends, the
+//! cylinder's cap centres; `radius`) or `mesh` (a closed triangle mesh from an OBJ or STL file,
 //! named relative to the scene file, placed at `offset`; 3-D tasks only). Every object has a
 //! surface `stiffness` (N/m) and `damping` (N·s/m), and optionally `friction` with `static`
 //! and `dynamic` coefficients (0 ≤ dynamic ≤ static). Vectors hold one coordinate per task
@@ -62,6 +63,25 @@ pub enum SceneShape {
         /// Half the edge lengths, m.
         half_extents: Vec<f64>,
     },
+    /// The points within `radius` of the segment `ab`.
+    Capsule {
+        /// One end of the axis.
+        a: Vec<f64>,
+        /// The other end.
+        b: Vec<f64>,
+        /// Radius, m.
+        radius: f64,
+    },
+    /// The points within `radius` of the line `ab` between the planes through `a` and `b`
+    /// perpendicular to it (flat caps).
+    Cylinder {
+        /// Centre of one cap.
+        a: Vec<f64>,
+        /// Centre of the other.
+        b: Vec<f64>,
+        /// Radius, m.
+        radius: f64,
+    },
     /// A closed triangle mesh (with its BVH) placed at `offset`; 3-D tasks only.
     Mesh {
         /// The mesh in its own frame, BVH built.
@@ -102,6 +122,9 @@ impl Scene {
                 SceneShape::Sphere { center, .. } => vec![("centre", center.len())],
                 SceneShape::Box { center, half_extents } => {
                     vec![("centre", center.len()), ("half_extents", half_extents.len())]
+                }
+                SceneShape::Capsule { a, b, .. } | SceneShape::Cylinder { a, b, .. } => {
+                    vec![("a", a.len()), ("b", b.len())]
                 }
                 SceneShape::Mesh { offset, .. } => vec![("offset", offset.len()), ("the mesh's vertices", 3)],
             };
@@ -157,6 +180,24 @@ enum ObjectEntry {
         #[serde(default)]
         friction: Option<FrictionEntry>,
     },
+    Capsule {
+        a: Vec<f64>,
+        b: Vec<f64>,
+        radius: f64,
+        stiffness: f64,
+        damping: f64,
+        #[serde(default)]
+        friction: Option<FrictionEntry>,
+    },
+    Cylinder {
+        a: Vec<f64>,
+        b: Vec<f64>,
+        radius: f64,
+        stiffness: f64,
+        damping: f64,
+        #[serde(default)]
+        friction: Option<FrictionEntry>,
+    },
     Mesh {
         file: PathBuf,
         #[serde(default)]
@@ -174,6 +215,8 @@ impl ObjectEntry {
             ObjectEntry::Sphere { .. } => "sphere",
             ObjectEntry::Box { .. } => "box",
             ObjectEntry::HalfSpace { .. } => "half_space",
+            ObjectEntry::Capsule { .. } => "capsule",
+            ObjectEntry::Cylinder { .. } => "cylinder",
             ObjectEntry::Mesh { .. } => "mesh",
         }
     }
@@ -185,6 +228,8 @@ impl ObjectEntry {
             ObjectEntry::Sphere { stiffness, damping, friction, .. }
             | ObjectEntry::Box { stiffness, damping, friction, .. }
             | ObjectEntry::HalfSpace { stiffness, damping, friction, .. }
+            | ObjectEntry::Capsule { stiffness, damping, friction, .. }
+            | ObjectEntry::Cylinder { stiffness, damping, friction, .. }
             | ObjectEntry::Mesh { stiffness, damping, friction, .. } => {
                 (*stiffness, *damping, friction.as_ref())
             }
@@ -285,6 +330,18 @@ pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> 
                     false,
                 )
             }
+            ObjectEntry::Capsule { a, b, radius, .. } | ObjectEntry::Cylinder { a, b, radius, .. } => {
+                let (a, b, radius) = (vector("a", a)?, vector("b", b)?, positive("radius", *radius)?);
+                if a.len() == b.len() && a.iter().zip(&b).all(|(x, y)| x == y) {
+                    return Err(error("b", format!("must differ from `a`, got {b:?}")));
+                }
+                let shape = if matches!(entry, ObjectEntry::Capsule { .. }) {
+                    SceneShape::Capsule { a, b, radius }
+                } else {
+                    SceneShape::Cylinder { a, b, radius }
+                };
+                (shape, false)
+            }
             ObjectEntry::Mesh { file, offset, .. } => {
                 let path = directory.join(file);
                 let mesh = crate::mesh::load(&path)
@@ -368,6 +425,14 @@ pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, St
                     })
                     .collect();
                 quote!(#shape::Box { center: #center, axes: [#(#axes),*], half_extents: #half_extents })
+            }
+            SceneShape::Capsule { a, b, radius } => {
+                let (a, b, radius) = (vector(a), vector(b), number(*radius));
+                quote!(#shape::Capsule { a: #a, b: #b, radius: #radius })
+            }
+            SceneShape::Cylinder { a, b, radius } => {
+                let (a, b, radius) = (vector(a), vector(b), number(*radius));
+                quote!(#shape::Cylinder { a: #a, b: #b, radius: #radius })
             }
             SceneShape::Mesh { mesh, offset } => {
                 let name = format!("MESH_{mesh_count}");

@@ -28,9 +28,13 @@ mod tests {
                     \x20 - half_space: {point: [0, 0, -0.05], normal: [0, 0, 2], stiffness: 800, damping: 2,\n\
                     \x20                friction: {static: 0.4, dynamic: 0.3}}\n\
                     \x20 - sphere: {centre: [0.03, 0, 0], radius: 0.015, cavity: true, stiffness: 600, damping: 1}\n\
-                    \x20 - box: {centre: [0, 0, 0], half_extents: [0.01, 0.02, 0.03], stiffness: 700, damping: 2}\n";
+                    \x20 - box: {centre: [0, 0, 0], half_extents: [0.01, 0.02, 0.03], stiffness: 700, damping: 2}\n\
+                    \x20 - capsule: {a: [0, 0, 0], b: [0, 0.02, 0], radius: 0.005, stiffness: 700, damping: 2}\n\
+                    \x20 - cylinder: {a: [0, 0, 0], b: [0, 0, 0.02], radius: 0.005, stiffness: 700, damping: 2}\n";
         let scene = parsed(text).unwrap();
-        assert_eq!(scene.objects.len(), 3);
+        assert_eq!(scene.objects.len(), 5);
+        assert!(matches!(&scene.objects[3].shape, SceneShape::Capsule { radius, .. } if *radius == 0.005));
+        assert!(matches!(&scene.objects[4].shape, SceneShape::Cylinder { b, .. } if b[2] == 0.02));
         let floor = &scene.objects[0];
         assert!(matches!(&floor.shape, SceneShape::HalfSpace { normal, .. } if normal == &[0.0, 0.0, 1.0]));
         assert_eq!((floor.static_friction, floor.dynamic_friction), (0.4, 0.3));
@@ -41,7 +45,7 @@ mod tests {
         assert!(ball.depth(&[0.03, 0.0, 0.0]) < 0.0);
         assert!((ball.depth(&[0.03, 0.02, 0.0]) - 0.005).abs() < 1e-12);
         assert!(scene.objects[1].location.starts_with("s.yaml:4:"), "{}", scene.objects[1].location);
-        assert_eq!(solids(&scene, 3).unwrap().len(), 3);
+        assert_eq!(solids(&scene, 3).unwrap().len(), 5);
         let error = solids(&scene, 2).unwrap_err();
         assert!(
             error.starts_with("error: s.yaml:2:") && error.contains("objects[0].half_space: point has 3"),
@@ -57,6 +61,7 @@ mod tests {
             ("objects:\n  - sphere: {centre: [0], radius: 1, stiffness: 1, damping: 0, colour: red}\n", "s.yaml:2:", "unknown field `colour`"),
             ("objects:\n  - half_space: {point: [0, 0], normal: [0, 0], stiffness: 1, damping: 0}\n", "s.yaml:2:", "objects[0].half_space.normal: must not be zero"),
             ("objects:\n  - mesh: {file: no-such.obj, stiffness: 1, damping: 0}\n", "s.yaml:2:", "objects[0].mesh.file:"),
+            ("objects:\n  - capsule: {a: [0, 1], b: [0, 1], radius: 1, stiffness: 1, damping: 0}\n", "s.yaml:2:", "objects[0].capsule.b: must differ from `a`"),
         ];
         for (text, at, message) in cases {
             let error = parsed(text).unwrap_err();
