@@ -91,6 +91,70 @@ pub enum SceneShape {
     },
 }
 
+impl SceneShape {
+    /// How deep `p` is inside the shape, m: positive inside, negative outside (minus the
+    /// distance to the surface); `None` for a mesh. Closed forms written from the shapes'
+    /// definitions, apart from the runtime's closest-point code, so that the host's simulator
+    /// and the firmware's physics tests can check the renderer against them.
+    pub fn depth(&self, p: &[f64]) -> Option<f64> {
+        Some(match self {
+            SceneShape::HalfSpace { point, normal } => {
+                -dot(&difference(p, point), normal) / dot(normal, normal).sqrt()
+            }
+            SceneShape::Sphere { center, radius } => radius - distance(p, center),
+            SceneShape::Box { center, half_extents } => {
+                // Inside: the nearest face; outside: the distance to the box, through its
+                // edges and corners (the gaps beyond each face make the offset).
+                let gaps: Vec<f64> =
+                    p.iter().zip(center).zip(half_extents).map(|((p, c), h)| h - (p - c).abs()).collect();
+                if gaps.iter().all(|&gap| gap > 0.0) {
+                    gaps.iter().copied().fold(f64::INFINITY, f64::min)
+                } else {
+                    -gaps.iter().map(|gap| gap.min(0.0).powi(2)).sum::<f64>().sqrt()
+                }
+            }
+            SceneShape::Capsule { a, b, radius } => {
+                let (along, across) = axial_and_radial(p, a, b);
+                let beyond_ends = if along < 0.0 { -along } else { (along - distance(a, b)).max(0.0) };
+                radius - across.hypot(beyond_ends)
+            }
+            SceneShape::Cylinder { a, b, radius } => {
+                let (along, across) = axial_and_radial(p, a, b);
+                let length = distance(a, b);
+                if along > 0.0 && along < length && across < *radius {
+                    (radius - across).min(along).min(length - along)
+                } else {
+                    let beyond_side = (across - radius).max(0.0);
+                    let beyond_caps = (-along).max(along - length).max(0.0);
+                    -beyond_side.hypot(beyond_caps)
+                }
+            }
+            SceneShape::Mesh { .. } => return None,
+        })
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(a, b)| a * b).sum()
+}
+
+fn difference(a: &[f64], b: &[f64]) -> Vec<f64> {
+    a.iter().zip(b).map(|(a, b)| a - b).collect()
+}
+
+fn distance(a: &[f64], b: &[f64]) -> f64 {
+    let offset = difference(a, b);
+    dot(&offset, &offset).sqrt()
+}
+
+/// `p`'s coordinate along the axis from `a` towards `b` (0 at `a`), and its distance from the
+/// axis's line.
+fn axial_and_radial(p: &[f64], a: &[f64], b: &[f64]) -> (f64, f64) {
+    let offset = difference(p, a);
+    let along = dot(&offset, &difference(b, a)) / distance(a, b);
+    (along, (dot(&offset, &offset) - along * along).max(0.0).sqrt())
+}
+
 /// One object of a scene file: its shape, its surface, and where it was written.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneObject {
@@ -108,6 +172,15 @@ pub struct SceneObject {
     pub dynamic_friction: f64,
     /// Where it is written, for errors about it later (`FILE:LINE:COLUMN: objects[K].KIND`).
     pub location: String,
+}
+
+impl SceneObject {
+    /// How deep `p` is in the object, m, positive where the object pushes the point out: inside
+    /// a solid, or beyond a cavity's wall ([`SceneShape::depth`], negated for a cavity); `None`
+    /// for a mesh.
+    pub fn depth(&self, p: &[f64]) -> Option<f64> {
+        self.shape.depth(p).map(|depth| if self.cavity { -depth } else { depth })
+    }
 }
 
 impl Scene {
@@ -475,4 +548,40 @@ pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, St
         meshes,
         crate::format_tokens(&tokens)
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::SceneShape;
+
+    fn depth(shape: SceneShape, p: [f64; 3]) -> f64 {
+        shape.depth(&p).unwrap()
+    }
+
+    #[test]
+    fn depths_are_the_shapes_closed_forms() {
+        let floor = || SceneShape::HalfSpace { point: vec![0.0, 0.0, 1.0], normal: vec![0.0, 0.0, 2.0] };
+        assert_eq!(depth(floor(), [5.0, 5.0, 0.25]), 0.75);
+        assert_eq!(depth(floor(), [0.0, 0.0, 3.0]), -2.0);
+        let ball = || SceneShape::Sphere { center: vec![1.0, 0.0, 0.0], radius: 0.5 };
+        assert_eq!(depth(ball(), [1.0, 0.25, 0.0]), 0.25);
+        assert_eq!(depth(ball(), [1.0, 0.0, -2.0]), -1.5);
+        let cube = || SceneShape::Box { center: vec![0.0; 3], half_extents: vec![1.0, 2.0, 3.0] };
+        assert_eq!(depth(cube(), [0.5, 0.0, 0.0]), 0.5);
+        assert_eq!(depth(cube(), [0.0, 1.75, 0.0]), 0.25);
+        // Outside beyond an edge: √(1² + 1²); beyond a corner: √3.
+        assert!((depth(cube(), [2.0, 3.0, 0.0]) + 2f64.sqrt()).abs() < 1e-15);
+        assert!((depth(cube(), [-2.0, -3.0, 4.0]) + 3f64.sqrt()).abs() < 1e-15);
+        // A capsule and a cylinder along z from 0 to 2, radius 0.5.
+        let capsule = || SceneShape::Capsule { a: vec![0.0; 3], b: vec![0.0, 0.0, 2.0], radius: 0.5 };
+        assert!((depth(capsule(), [0.25, 0.0, 1.0]) - 0.25).abs() < 1e-15);
+        assert!((depth(capsule(), [0.0, 0.0, 3.0]) + 0.5).abs() < 1e-15);
+        assert!((depth(capsule(), [1.5, 0.0, -1.0]) - (0.5 - 3.25f64.sqrt())).abs() < 1e-15);
+        let cylinder = || SceneShape::Cylinder { a: vec![0.0; 3], b: vec![0.0, 0.0, 2.0], radius: 0.5 };
+        assert!((depth(cylinder(), [0.1, 0.0, 0.05]) - 0.05).abs() < 1e-15);
+        assert!((depth(cylinder(), [0.0, 0.3, 1.0]) - 0.2).abs() < 1e-15);
+        assert!((depth(cylinder(), [0.0, 0.0, -1.0]) + 1.0).abs() < 1e-15);
+        assert!((depth(cylinder(), [1.5, 0.0, 3.0]) + 2f64.sqrt()).abs() < 1e-15);
+        assert!((depth(cylinder(), [0.0, 1.5, 1.0]) + 1.0).abs() < 1e-15);
+    }
 }

@@ -151,8 +151,8 @@ pub enum Reference {
     Solids(Vec<Solid>),
 }
 
-/// The most solids a [`Reference::Solids`] scene holds.
-pub const MAX_SOLIDS: usize = 4;
+/// The most solids a [`Reference::Solids`] scene holds (as many as a firmware scene, `SCENE_CAPACITY`).
+pub const MAX_SOLIDS: usize = 8;
 
 /// Everything one run needs besides the model.
 #[derive(Clone, Debug)]

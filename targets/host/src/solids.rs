@@ -132,38 +132,6 @@ impl Solid {
     /// How deep `p` is inside the shape, m: positive inside, negative outside.
     fn shape_depth(&self, p: &[f64]) -> f64 {
         match &self.shape {
-            SolidShape::HalfSpace { point, normal } => {
-                let length = normal.iter().map(|n| n * n).sum::<f64>().sqrt();
-                -p.iter().zip(point).zip(normal).map(|((p, q), n)| (p - q) * n).sum::<f64>() / length
-            }
-            SolidShape::Sphere { center, radius } => {
-                radius - p.iter().zip(center).map(|(p, c)| (p - c) * (p - c)).sum::<f64>().sqrt()
-            }
-            SolidShape::Box { center, half_extents } => {
-                let gaps: Vec<f64> =
-                    p.iter().zip(center).zip(half_extents).map(|((p, c), h)| h - (p - c).abs()).collect();
-                if gaps.iter().all(|&g| g > 0.0) {
-                    gaps.iter().copied().fold(f64::INFINITY, f64::min)
-                } else {
-                    -gaps.iter().map(|g| g.min(0.0).powi(2)).sum::<f64>().sqrt()
-                }
-            }
-            SolidShape::Capsule { a, b, radius } => {
-                let (along, across) = axial_and_radial(p, a, b);
-                let length = distance(a, b);
-                let beyond = if along < 0.0 { -along } else { (along - length).max(0.0) };
-                radius - (across * across + beyond * beyond).sqrt()
-            }
-            SolidShape::Cylinder { a, b, radius } => {
-                let (along, across) = axial_and_radial(p, a, b);
-                let length = distance(a, b);
-                if along > 0.0 && along < length && across < *radius {
-                    (radius - across).min(along).min(length - along)
-                } else {
-                    let (radial, axial) = ((across - radius).max(0.0), (-along).max(along - length).max(0.0));
-                    -(radial * radial + axial * axial).sqrt()
-                }
-            }
             SolidShape::Mesh { mesh, offset } => {
                 if p.len() != 3 || offset.len() != 3 {
                     return f64::NAN;
@@ -176,6 +144,7 @@ impl Solid {
                     -distance
                 }
             }
+            analytic => analytic.depth(p).unwrap_or(f64::NAN),
         }
     }
 
@@ -211,21 +180,6 @@ impl Solid {
             SolidShape::Capsule { .. } | SolidShape::Cylinder { .. } | SolidShape::Mesh { .. } => None,
         }
     }
-}
-
-/// Euclidean distance.
-fn distance(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
-}
-
-/// `p`'s coordinate along the axis from `a` towards `b` (0 at `a`), and its distance from the
-/// axis's line.
-fn axial_and_radial(p: &[f64], a: &[f64], b: &[f64]) -> (f64, f64) {
-    let length = distance(a, b);
-    let offset: Vec<f64> = p.iter().zip(a).map(|(p, a)| p - a).collect();
-    let along = offset.iter().zip(b.iter().zip(a)).map(|(o, (b, a))| o * (b - a)).sum::<f64>() / length;
-    let squared = offset.iter().map(|o| o * o).sum::<f64>() - along * along;
-    (along, squared.max(0.0).sqrt())
 }
 
 fn sub(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
@@ -350,17 +304,6 @@ mod tests {
         let cube = solid(SolidShape::Box { center: vec![0.0; 3], half_extents: vec![1.0, 2.0, 3.0] });
         assert_eq!(cube.depth(&[0.5, 0.0, 0.0]), 0.5);
         assert_eq!(cube.depth(&[0.0, 1.75, 0.0]), 0.25);
-        // A capsule and a cylinder along z from 0 to 2, radius 0.5.
-        let capsule =
-            solid(SolidShape::Capsule { a: vec![0.0, 0.0, 0.0], b: vec![0.0, 0.0, 2.0], radius: 0.5 });
-        assert!((capsule.depth(&[0.25, 0.0, 1.0]) - 0.25).abs() < 1e-15);
-        assert!((capsule.depth(&[0.0, 0.0, 3.0]) + 0.5).abs() < 1e-15);
-        assert!((capsule.depth(&[1.5, 0.0, -1.0]) - (0.5 - 3.25f64.sqrt())).abs() < 1e-15);
-        let cylinder =
-            solid(SolidShape::Cylinder { a: vec![0.0, 0.0, 0.0], b: vec![0.0, 0.0, 2.0], radius: 0.5 });
-        assert!((cylinder.depth(&[0.1, 0.0, 0.05]) - 0.05).abs() < 1e-15);
-        assert!((cylinder.depth(&[0.0, 0.0, -1.0]) + 1.0).abs() < 1e-15);
-        assert!((cylinder.depth(&[1.5, 0.0, 3.0]) + 2f64.sqrt()).abs() < 1e-15);
         // Outside beyond an edge: √(1² + 1²).
         assert!((cube.depth(&[2.0, 3.0, 0.0]) + 2f64.sqrt()).abs() < 1e-15);
         assert_eq!(cube.normal(&[2.0, 0.0, 0.0]), Some(vec![1.0, 0.0, 0.0]));

@@ -2,7 +2,6 @@
 //! numbers come from the scenario's own constants, not from earlier runs). Every image whose
 //! line names the scenario is checked.
 
-use hapticgen_codegen::scene::SceneShape;
 use hapticgen_fw_reference::{find, host_run, int, list, variants};
 use hapticgen_fw_sim::scenarios::{hold_pose, scene_contact, sphere_cavity, wall_contact, PAPER_RENDERING};
 
@@ -120,33 +119,6 @@ fn fig4_step_settles_at_force_over_stiffness() {
     }
 }
 
-/// How deep `x` is in a scene object, m (positive inside, negative outside), written here from
-/// the shapes' definitions, apart from the runtime's closest-point code; `None` for a mesh.
-fn depth_in(shape: &SceneShape, cavity: bool, x: &[f64]) -> Option<f64> {
-    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(a, b)| a * b).sum::<f64>();
-    let depth = match shape {
-        SceneShape::HalfSpace { point, normal } => {
-            let offset: Vec<f64> = point.iter().zip(x).map(|(p, x)| p - x).collect();
-            dot(&offset, normal) / dot(normal, normal).sqrt()
-        }
-        SceneShape::Sphere { center, radius } => {
-            let offset: Vec<f64> = x.iter().zip(center).map(|(x, c)| x - c).collect();
-            radius - dot(&offset, &offset).sqrt()
-        }
-        SceneShape::Box { center, half_extents } => {
-            let gaps: Vec<f64> =
-                x.iter().zip(center).zip(half_extents).map(|((x, c), h)| h - (x - c).abs()).collect();
-            if gaps.iter().all(|&g| g > 0.0) {
-                gaps.iter().copied().fold(f64::INFINITY, f64::min)
-            } else {
-                -gaps.iter().map(|g| g.min(0.0).powi(2)).sum::<f64>().sqrt()
-            }
-        }
-        SceneShape::Mesh { .. } => return None,
-    };
-    Some(if cavity { -depth } else { depth })
-}
-
 #[test]
 fn scene_contact_rests_force_over_stiffness_inside_the_scene() {
     let firmware = hapticgen_fw_build::firmware_dir(std::path::Path::new(env!("CARGO_MANIFEST_DIR")));
@@ -167,11 +139,7 @@ fn scene_contact_rests_force_over_stiffness_inside_the_scene() {
             .filter(|(k, _, _)| *k >= 9000)
             .map(|(_, _, x)| {
                 let x: Vec<f64> = x.iter().map(|v| *v as f64 * 1e-6).collect();
-                scene
-                    .objects
-                    .iter()
-                    .filter_map(|o| depth_in(&o.shape, o.cavity, &x))
-                    .fold(f64::NEG_INFINITY, f64::max)
+                scene.objects.iter().filter_map(|object| object.depth(&x)).fold(f64::NEG_INFINITY, f64::max)
             })
             .collect();
         assert!(!late.is_empty());
