@@ -28,4 +28,4 @@ pub mod spatial;
 pub mod tick;
 
 pub use real::Real;
-pub use rig::{DriveTrain, RigModel, RigTerms};
+pub use rig::{Coupling, DriveTrain, RigModel, RigTerms};

@@ -27,6 +27,20 @@ pub struct RigTerms<S, const N: usize, const M: usize> {
     pub jacobian_dot_times_qdot: [S; M],
 }
 
+/// A constant coupling between the joint coordinates `q` and the drives' output angles
+/// `a = C q`: a cable or bevel differential, or a motor on the base that turns an absolute
+/// angle through a parallelogram. Drive `k` turns its output by `a_k` (its motor by
+/// `N_k a_k`, [`DriveTrain::gear_ratio`]), and by virtual work the joint torques are
+/// `τ = Cᵀ τ_a`; the generator reflects the rotor inertias into `D` as `Cᵀ diag(N² J_m) C`.
+/// A rig without one has `C = I` (each joint's drive turns that joint alone).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Coupling<S, const N: usize> {
+    /// `C`: row `k` is drive `k`'s output angle per joint coordinate.
+    pub drive_from_joint: [[S; N]; N],
+    /// `C⁻¹` (inverted by the generator in `f64`): the joint coordinates per drive output.
+    pub joint_from_drive: [[S; N]; N],
+}
+
 /// One joint's drive train: motor, gearhead, sensors and limits, all in SI units.
 ///
 /// Torques on the joint side are `gear_ratio * efficiency * torque_constant * current`.
@@ -107,8 +121,15 @@ pub trait RigModel<const N: usize, const M: usize> {
         let _ = q;
         Self::Scalar::ONE
     }
-    /// The drive train of each joint.
+    /// The drive train of each joint (with a [`RigModel::coupling`], drive `k` is the one in
+    /// joint `k`'s slot: its encoder, current loop and limits are drive `k`'s, its position
+    /// limits joint `k`'s).
     fn drives(&self) -> [DriveTrain<Self::Scalar>; N];
+    /// The coupling between joint coordinates and drive outputs; `None` (the default) when
+    /// each joint's drive turns that joint alone.
+    fn coupling(&self) -> Option<Coupling<Self::Scalar, N>> {
+        None
+    }
     /// Each motor's current-loop gains, in the order of `q`: for a generated rig its
     /// `CURRENT_LOOP_GAINS`, designed per joint from the model's motor, rates and filter.
     fn current_loop_gains(&self) -> [CurrentLoopGains<Self::Scalar>; N];
@@ -146,7 +167,9 @@ pub trait RigModel<const N: usize, const M: usize> {
 macro_rules! impl_rig_model {
     // `closure_margin`, for a closed chain: the inherent method whose least entry is the
     // rig's `loop_margin`.
-    ($rig:ty, $s:ty, $n:literal, $m:literal, $name:literal, $current_hz:literal, $impedance_hz:literal $(, $closure_margin:ident)?) => {
+    // `coupling CONST`, for a rig with a transmission: the inherent constant that is its
+    // `RigModel::coupling`.
+    ($rig:ty, $s:ty, $n:literal, $m:literal, $name:literal, $current_hz:literal, $impedance_hz:literal $(, $closure_margin:ident)? $(; coupling $coupling:ident)?) => {
         impl $crate::RigModel<$n, $m> for $rig {
             type Scalar = $s;
             const NAME: &'static str = $name;
@@ -186,6 +209,11 @@ macro_rules! impl_rig_model {
             fn drives(&self) -> [$crate::DriveTrain<$s>; $n] {
                 Self::DRIVES
             }
+            $(
+                fn coupling(&self) -> Option<$crate::rig::Coupling<$s, $n>> {
+                    Some(Self::$coupling)
+                }
+            )?
             fn current_loop_gains(&self) -> [$crate::current_loop::CurrentLoopGains<$s>; $n] {
                 Self::CURRENT_LOOP_GAINS
             }

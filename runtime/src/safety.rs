@@ -87,11 +87,13 @@ pub const DEFAULT_MIN_LOOP_MARGIN: f64 = 1e-3;
 /// The torque and current setpoints the monitor lets through.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SafeCommand<S, const N: usize> {
-    /// Joint torques after limiting (zero while a fault is latched).
+    /// Joint torques after limiting (zero while a fault is latched). For a rig with a
+    /// [`crate::RigModel::coupling`], the [`SafetyMonitor`] limits the drives' output torques
+    /// `τ_a = C⁻ᵀ τ` and the haptic loop reports the joint torques `Cᵀ τ_a` they make.
     pub torque: [S; N],
-    /// Motor current setpoints `τ/(N·η·k_t)`, A.
+    /// Motor current setpoints `τ/(N·η·k_t)` (of `τ_a` for a coupled rig), A.
     pub current: [S; N],
-    /// `true` for each joint whose torque was clamped this tick.
+    /// `true` for each joint (drive, for a coupled rig) whose torque was clamped this tick.
     pub clamped: [bool; N],
     /// The latched fault, if any.
     pub fault: Option<FaultCode>,

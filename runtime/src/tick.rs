@@ -60,7 +60,7 @@ use crate::linalg;
 use crate::render::Scene;
 use crate::safety::{FaultCode, SafeCommand, SafetyMonitor};
 use crate::schedule::Scheduler;
-use crate::{Real, RigModel};
+use crate::{Coupling, Real, RigModel};
 
 /// Marks "no impedance tick pending" in the current loop's watchdog.
 const NO_IMPEDANCE_PENDING: u32 = u32::MAX;
@@ -195,9 +195,12 @@ where
     current_loops: CurrentLoopBank<R::Scalar, N>,
     scheduler: Scheduler,
     current_setpoints: [R::Scalar; N],
-    /// Back-EMF feedforward of each current loop, `k_t N q̇` (volts), from the last tick.
+    /// Back-EMF feedforward of each current loop, `k_t N ȧ` (volts), from the last tick.
     back_emf_volts: [R::Scalar; N],
-    /// `k_t N` of each joint (V·s/rad at the joint).
+    /// The rig's coupling between joints and drive outputs (`None`: each drive turns its
+    /// joint), read once: the estimator and the safety rules work per drive, the laws per joint.
+    coupling: Option<Coupling<R::Scalar, N>>,
+    /// `k_t N` of each drive (V·s/rad at its output; at the joint for an uncoupled rig).
     back_emf_constants: [R::Scalar; N],
     /// Current ticks since an impedance tick became due without running
     /// ([`NO_IMPEDANCE_PENDING`]: none pending).
@@ -219,6 +222,12 @@ where
         for (k, drive) in back_emf_constants.iter_mut().zip(drives.iter()) {
             *k = drive.torque_constant * drive.gear_ratio;
         }
+        let coupling = rig.coupling();
+        // The estimator counts each drive's output; the homing pose is given in joints.
+        let drive_zero_offset = match &coupling {
+            Some(coupling) => linalg::mat_vec(&coupling.drive_from_joint, &settings.zero_offset),
+            None => settings.zero_offset,
+        };
         let drives = rig.drives();
         let mut supply = [R::Scalar::ZERO; N];
         for (slot, drive) in supply.iter_mut().zip(drives.iter()) {
@@ -229,7 +238,7 @@ where
             estimator: JointStateEstimator::new(
                 &drives,
                 &settings.estimator,
-                settings.zero_offset,
+                drive_zero_offset,
                 settings.initial_counts,
             ),
             safety: SafetyMonitor::new(&drives, settings.max_tick_gap),
@@ -239,6 +248,7 @@ where
             current_setpoints: [R::Scalar::ZERO; N],
             back_emf_volts: [R::Scalar::ZERO; N],
             back_emf_constants,
+            coupling,
             pending_impedance: NO_IMPEDANCE_PENDING,
             // Half an impedance period (rounded up) in current ticks: 4 at 7.5 kHz / 1 kHz.
             impedance_grace: (R::CURRENT_LOOP_HZ / R::IMPEDANCE_LOOP_HZ.max(1) + 1) / 2 + 1,
@@ -273,7 +283,8 @@ where
         self.pending_impedance = NO_IMPEDANCE_PENDING;
     }
 
-    /// The joint state estimator.
+    /// The state estimator: of the joints, or of the drives' outputs `a = C q` for a rig with
+    /// a [`RigModel::coupling`].
     pub fn estimator(&self) -> &JointStateEstimator<R::Scalar, N> {
         &self.estimator
     }
@@ -298,7 +309,7 @@ where
     }
 
     /// Watchdog, estimation and the loops' singularity check: the first step of every
-    /// impedance tick.
+    /// impedance tick. The joint state, mapped from the drives' by `C⁻¹` for a coupled rig.
     fn estimate(
         &mut self,
         inputs: &ImpedanceInputs<R::Scalar, N, M>,
@@ -311,7 +322,15 @@ where
             EstimationStatus::NonFinite => self.safety.latch(FaultCode::NonFiniteInput),
             EstimationStatus::Implausible => self.safety.latch(FaultCode::SensorImplausible),
         }
-        let state = *self.estimator.state();
+        let drive_state = *self.estimator.state();
+        let state = match &self.coupling {
+            Some(coupling) => JointState {
+                position: linalg::mat_vec(&coupling.joint_from_drive, &drive_state.position),
+                velocity: linalg::mat_vec(&coupling.joint_from_drive, &drive_state.velocity),
+                acceleration: linalg::mat_vec(&coupling.joint_from_drive, &drive_state.acceleration),
+            },
+            None => drive_state,
+        };
         if R::HAS_LOOPS {
             self.safety.check_loop_margin(self.rig.loop_margin(&state.position));
         }
@@ -364,12 +383,23 @@ where
             | ControlStatus::InertiaNotPositiveDefinite
             | ControlStatus::InvalidParameters => self.safety.latch(FaultCode::ControlRefused),
         }
-        let command = self.safety.limit(&output.torque);
+        // A coupled rig's limits hold per drive: `τ_a = C⁻ᵀ τ`, limited, and the joints then get
+        // `Cᵀ τ_a` (the torques the limited currents make).
+        let (mut command, drive_velocity) = match &self.coupling {
+            Some(coupling) => (
+                self.safety.limit(&linalg::transpose_mul_vec(&coupling.joint_from_drive, &output.torque)),
+                linalg::mat_vec(&coupling.drive_from_joint, joint_velocity),
+            ),
+            None => (self.safety.limit(&output.torque), *joint_velocity),
+        };
+        if let Some(coupling) = &self.coupling {
+            command.torque = linalg::transpose_mul_vec(&coupling.drive_from_joint, &command.torque);
+        }
         self.current_setpoints = command.current;
-        for ((volts, &k), &qd) in
-            self.back_emf_volts.iter_mut().zip(self.back_emf_constants.iter()).zip(joint_velocity)
+        for ((volts, &k), &velocity) in
+            self.back_emf_volts.iter_mut().zip(self.back_emf_constants.iter()).zip(drive_velocity.iter())
         {
-            *volts = if qd.is_finite() { k * qd } else { R::Scalar::ZERO };
+            *volts = if velocity.is_finite() { k * velocity } else { R::Scalar::ZERO };
         }
         if command.fault.is_some() {
             self.current_loops.reset();

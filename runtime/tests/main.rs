@@ -4,6 +4,7 @@
 
 mod closed_loop;
 mod common;
+mod coupling;
 mod laws;
 mod loops;
 mod proxy;
