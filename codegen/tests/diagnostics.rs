@@ -44,6 +44,9 @@ const CASES: &[(&str, Option<&str>)] = &[
     ("inertia-not-positive-definite", None),
     ("inertia-triangle-inequality", None),
     ("inf-literal", None),
+    ("transmission-singular", None),
+    ("transmission-unknown-joint", None),
+    ("transmission-unknown-row", None),
     ("joint-moves-no-body", None),
     ("limits-inverted", None),
     ("missing-key", None),
@@ -1354,4 +1357,45 @@ fn deep_flow_nesting_is_refused_at_the_bracket_before_parsing() {
     if let Err(d) = load(&Source { name: "shallow.yaml", text: &shallow }, None) {
         assert!(!d.0[0].message.contains("nested deeper than"), "{}", d.0[0]);
     }
+}
+
+#[test]
+fn a_transmission_names_actuated_joints() {
+    let d = check(
+        "transmission-unknown-joint",
+        None,
+        Expect {
+            context: "yaw: -1.0",
+            token: "yaw",
+            path: "transmission.roll.yaw",
+            message: "`yaw` is not an actuated joint",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "actuated joints: pitch, roll");
+    let d = check(
+        "transmission-unknown-row",
+        None,
+        Expect {
+            context: "wrist: {pitch",
+            token: "wrist",
+            path: "transmission.wrist",
+            message: "`wrist` is not an actuated joint: a row names the joint whose drive it describes",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "actuated joints: pitch, roll");
+}
+
+#[test]
+fn a_singular_transmission_is_refused_at_the_section() {
+    let d = check(
+        "transmission-singular",
+        None,
+        Expect {
+            context: "transmission:",
+            token: "transmission",
+            path: "transmission",
+            message: "the drives' outputs do not determine the joints: the coupling matrix is singular",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "each drive must add a combination of joint angles the others do not make");
 }

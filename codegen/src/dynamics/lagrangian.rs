@@ -1,5 +1,6 @@
 //! The polynomial derivation of the dynamics (paper, eq. (1)): `D(q)` from the kinetic
-//! energy `T = ½ Σ_b (m_b v_bᵀ v_b + ω_bᵀ I_b ω_b)` plus the reflected rotor inertias `N² J_m`,
+//! energy `T = ½ Σ_b (m_b v_bᵀ v_b + ω_bᵀ I_b ω_b)` plus the reflected rotor inertias `N² J_m`
+//! (`Cᵀ diag(N² J_m) C` through a coupling `a = C q`),
 //! and `C(q, q̇)` from the Christoffel symbols `c_kj = Σ_i ½ (∂_i D_kj + ∂_j D_ki − ∂_k D_ij) q̇_i`.
 
 use super::kinematics::{angular_jacobian_columns, mat_mul, mat_vec, vec_add, Frame, Vec3};
@@ -7,9 +8,32 @@ use crate::math::matrix::transpose3;
 use crate::model::Model;
 use crate::sym::poly::{Atom, Poly};
 
+/// The rotor inertias reflected to the actuated joints, `Cᵀ diag(N_k² J_m,k) C` (kg·m², kg
+/// for a prismatic joint), from the drives' kinetic energy `½ Σ_k J_m,k (N_k ȧ_k)²` with the
+/// drives' outputs `a = C q`; diagonal, `N² J_m` per joint, without a coupling. Rotor axes are
+/// taken as fixed to the base (no gyroscopic terms).
+pub(crate) fn reflected_rotor_inertia(model: &Model) -> Vec<Vec<f64>> {
+    let n = model.joints.len();
+    let rotor: Vec<f64> = model
+        .joints
+        .iter()
+        .map(|j| j.drive.gear_ratio * j.drive.gear_ratio * j.drive.motor.rotor_inertia)
+        .collect();
+    match &model.coupling {
+        None => (0..n).map(|a| (0..n).map(|b| if a == b { rotor[a] } else { 0.0 }).collect()).collect(),
+        Some(coupling) => {
+            let c = &coupling.drive_from_joint;
+            (0..n)
+                .map(|a| (0..n).map(|b| (0..n).map(|k| c[k][a] * rotor[k] * c[k][b]).sum()).collect())
+                .collect()
+        }
+    }
+}
+
 /// `D` from the kinetic energy of every body plus the reflected rotor inertias.
 pub(crate) fn lagrangian_inertia_matrix(model: &Model, frames: &[Frame]) -> Vec<Vec<Poly>> {
     let n = model.tree_coordinates();
+    let rotor = reflected_rotor_inertia(model);
     let dof = |j: usize| j as u16;
     let mut inertia_terms: Vec<Vec<Vec<Poly>>> = vec![vec![Vec::new(); n]; n];
     for (body, frame) in model.bodies.iter().zip(frames) {
@@ -34,10 +58,12 @@ pub(crate) fn lagrangian_inertia_matrix(model: &Model, frames: &[Frame]) -> Vec<
     for a in 0..n {
         for b in a..n {
             let mut entry = Poly::sum(&inertia_terms[a][b]);
-            if let (true, Some(joint)) = (a == b, model.joints.get(a)) {
-                let drive = &joint.drive;
-                entry = entry
-                    .add(&Poly::constant(drive.gear_ratio * drive.gear_ratio * drive.motor.rotor_inertia));
+            // The diagonal always (as before couplings existed), the rest where a coupling
+            // puts an inertia.
+            if let Some(&reflected) = rotor.get(a).and_then(|row| row.get(b)) {
+                if a == b || reflected != 0.0 {
+                    entry = entry.add(&Poly::constant(reflected));
+                }
             }
             inertia_matrix[a][b] = entry.clone();
             inertia_matrix[b][a] = entry;

@@ -20,10 +20,12 @@
 //! transform and the joint, before a Denavit–Hartenberg tail), so masses, first moments
 //! `h = m c` and inertias about the frame origin are constants; a body's tail is folded into
 //! its children's fixed offsets at generation time. The rotor inertia `N² J_m` of each drive
-//! enters `D`'s diagonal and the inverse dynamics as in the polynomial path.
+//! enters `D`'s diagonal and the inverse dynamics as in the polynomial path (a coupling's
+//! `Cᵀ diag(N² J_m) C` also off the diagonal).
 
 use rustc_hash::FxHashMap as HashMap;
 
+use super::lagrangian::reflected_rotor_inertia;
 use crate::math::matrix::{mat3_mul, mat3_vec, Numbers, IDENTITY};
 use crate::math::rotation::snap_entry;
 use crate::model::{JointKind, Model, Motion};
@@ -523,6 +525,9 @@ struct Recursion<'d> {
     /// Origin of each joint frame in the parent's joint frame (`p_i`).
     offsets: Vec<V3>,
     rotor: Vec<Poly>,
+    /// The reflected rotor inertia off the diagonal, `(row, column, kg·m²)`, where a coupling
+    /// between joints and drives puts one (`Cᵀ diag(N² J_m) C`).
+    rotor_coupling: Vec<(usize, usize, f64)>,
     gravity: [Poly; 3],
     /// Newton–Euler equations about each centre of mass (`a_c = a + U c`, `f = m a_c`,
     /// `n = I_c ω̇ + ω × I_c ω + c × f`) instead of about the frame origin with the first
@@ -560,10 +565,12 @@ impl<'d> Recursion<'d> {
             rotations.push(rotation);
             offsets.push(offset);
         }
-        let rotor = model
-            .joints
-            .iter()
-            .map(|j| Poly::constant(j.drive.gear_ratio * j.drive.gear_ratio * j.drive.motor.rotor_inertia))
+        let reflected = reflected_rotor_inertia(model);
+        let rotor = (0..reflected.len()).map(|j| Poly::constant(reflected[j][j])).collect();
+        let rotor_coupling = (0..reflected.len())
+            .flat_map(|j| (0..reflected.len()).map(move |k| (j, k)))
+            .filter(|&(j, k)| j != k && reflected[j][k] != 0.0)
+            .map(|(j, k)| (j, k, reflected[j][k]))
             .collect();
         Self {
             b,
@@ -571,6 +578,7 @@ impl<'d> Recursion<'d> {
             rotations,
             offsets,
             rotor,
+            rotor_coupling,
             gravity: model.gravity.clone(),
             about_com,
             frames_in: None,
@@ -722,6 +730,14 @@ impl<'d> Recursion<'d> {
                 let (f, n) = self.moved_to_parent(i, forces[i], moments[i]);
                 forces[p] = self.b.add3(&forces[p], &f);
                 moments[p] = self.b.add3(&moments[p], &n);
+            }
+        }
+        if acceleration {
+            for &(j, k, inertia) in &self.rotor_coupling {
+                let inertia = self.b.dag.constant(inertia);
+                let qdd = self.b.dag.input(Atom::Qdd(k as u16));
+                let reflected = self.b.dag.mul(inertia, qdd);
+                torques[j] = self.b.dag.add(torques[j], reflected);
             }
         }
         torques
@@ -1058,6 +1074,10 @@ impl<'d> Recursion<'d> {
                     self.b.dag.hint(value, || format!("inertia_{r}{c}"));
                 }
             }
+        }
+        for &(j, k, inertia) in &self.rotor_coupling {
+            let inertia = self.b.dag.constant(inertia);
+            d[j * n_joints + k] = self.b.dag.add(d[j * n_joints + k], inertia);
         }
         d
     }

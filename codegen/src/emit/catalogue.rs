@@ -104,7 +104,15 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
     let mut specs = vec![
         FunctionSpec {
             name: "inertia_matrix".into(),
-            doc: " Inertia matrix `D(q)` of eq. (1), including the reflected rotor inertias `N² J_m`.".into(),
+            doc: match model.coupling {
+                None => " Inertia matrix `D(q)` of eq. (1), including the reflected rotor inertias `N² J_m`."
+                    .into(),
+                Some(_) => {
+                    " Inertia matrix `D(q)` of eq. (1), including the rotor inertias reflected through the \
+                            transmission, `Cᵀ diag(N² J_m) C`."
+                        .into()
+                }
+            },
             shape: Shape::Matrix(n, n),
             outputs: quantity(Quantity::InertiaMatrix, n * n),
             takes_qd: false,

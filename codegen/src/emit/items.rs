@@ -157,6 +157,29 @@ pub fn items(
             }
         }
     });
+    // A transmission's coupling, as the constant `RigModel::coupling` returns.
+    let (coupling_const, coupling_macro) = match &model.coupling {
+        Some(coupling) => {
+            let matrix = |rows: &[Vec<f64>]| {
+                let rows = rows.iter().map(|row| {
+                    let entries = row.iter().map(|&x| scalar.literal(x));
+                    quote!([#(#entries),*])
+                });
+                quote!([#(#rows),*])
+            };
+            let (c, c_inverse) = (matrix(&coupling.drive_from_joint), matrix(&coupling.joint_from_drive));
+            (
+                quote! {
+                    /// The transmission's coupling: drive `k` (in joint `k`'s slot) turns its output
+                    /// by `a = C q`.
+                    pub const COUPLING: ::hapticgen_runtime::Coupling<#s, #n> =
+                        ::hapticgen_runtime::Coupling { drive_from_joint: #c, joint_from_drive: #c_inverse };
+                },
+                quote!(; coupling COUPLING),
+            )
+        }
+        None => (TokenStream::new(), TokenStream::new()),
+    };
     let gains = model.analyses.current_loop_designs.iter().map(|d| {
         let (kp, ki, t, beta) = (
             scalar.literal(d.kp),
@@ -313,6 +336,7 @@ pub fn items(
             pub const JOINT_KINDS: [&'static str; #n] = [#(#joint_kinds),*];
             /// The drive train of each joint, in the order of `q`.
             pub const DRIVES: [::hapticgen_runtime::DriveTrain<#s>; #n] = [#(#drives),*];
+            #coupling_const
             #(#[doc = #gains_doc])*
             pub const CURRENT_LOOP_GAINS: [::hapticgen_runtime::current_loop::CurrentLoopGains<#s>; #n] =
                 [#(#gains),*];
@@ -329,7 +353,7 @@ pub fn items(
         }
 
         // `RigModel` by the inherent methods above.
-        ::hapticgen_runtime::impl_rig_model!(#type_name, #s, #n, #m, #rig_name, #current_hz, #impedance_hz #loop_margin);
+        ::hapticgen_runtime::impl_rig_model!(#type_name, #s, #n, #m, #rig_name, #current_hz, #impedance_hz #loop_margin #coupling_macro);
 
         #fused
 

@@ -52,6 +52,12 @@ pub struct ModelFile {
     pub drives: BTreeMap<String, Drive>,
     /// The joints, one per generalised coordinate, in the order of `q`.
     pub joints: Vec<Joint>,
+    /// Couplings between the joints and their drives (a cable or bevel differential, a motor
+    /// on the base that turns an absolute angle): for an actuated joint, what its drive's
+    /// output turns per joint coordinate (`a = C q`; `{pitch: 1, roll: 1}`: the sum of the
+    /// two angles). A joint not listed has its drive turn it alone.
+    #[serde(default)]
+    pub transmission: BTreeMap<String, BTreeMap<String, f64>>,
     /// The rigid bodies and how each one moves.
     pub bodies: Vec<Body>,
     /// Named points fixed on bodies (operational points, sensor locations, plot points).

@@ -176,6 +176,18 @@ pub struct Model {
     /// The loop closures of a spatial closed chain, as declared: their passive joints are
     /// eliminated together.
     pub spatial_closures: Vec<SpatialClosure>,
+    /// The model's `transmission`, if it has one.
+    pub coupling: Option<Coupling>,
+}
+
+/// A constant coupling between the joint coordinates and the drives' outputs, `a = C q`
+/// (`hapticgen_runtime::Coupling`): drive `k` is the one in actuated joint `k`'s slot.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Coupling {
+    /// `C`, row-major: each drive's output angle per joint coordinate.
+    pub drive_from_joint: Vec<Vec<f64>>,
+    /// `C⁻¹`.
+    pub joint_from_drive: Vec<Vec<f64>>,
 }
 
 /// A passive (unactuated) revolute joint of a closed chain.

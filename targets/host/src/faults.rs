@@ -285,13 +285,9 @@ where
     };
     let counts_per_turn: [u32; N] = std::array::from_fn(|j| drives[j].encoder_counts_per_turn);
     let mut plant =
-        Plant::<N, M>::new(plant_model, Effects::ALL, q0, counts_per_turn, data.filter_time_constant)
-            .ok_or("error: plant and rig dimensions differ")?;
+        Plant::<N, M>::new(plant_model, Effects::ALL, q0, counts_per_turn, data.filter_time_constant)?;
     let initial_counts = plant.encoder_counts();
-    let zero_offset: [f64; N] = std::array::from_fn(|j| {
-        let per_radian = f64::from(counts_per_turn[j]) * drives[j].gear_ratio / std::f64::consts::TAU;
-        f64::from(initial_counts[j]) / per_radian
-    });
+    let zero_offset = crate::sim::joint_angles_at_counts(&initial_counts, &drives, rig.coupling().as_ref());
     let start = plant.task();
     let sensor = data.sensors.first().copied();
     let (scale, offset) = sensor.map_or((1.0, 0.0), |s| (s.scale, s.offset));

@@ -154,6 +154,8 @@ pub struct Plant<const N: usize, const M: usize> {
     model: Arc<CompiledModel>,
     effects: Effects,
     drives: [Drive; N],
+    /// The transmission's `C` (drive outputs `a = C θ`); `None`: each drive turns its joint.
+    coupling: Option<[[f64; N]; N]>,
     filter_time_constant: f64,
     dynamics_scratch: Vec<f64>,
     dynamics_out: Vec<f64>,
@@ -185,9 +187,20 @@ impl<const N: usize, const M: usize> Plant<N, M> {
         q0: [f64; N],
         counts_per_turn: [u32; N],
         filter_time_constant: f64,
-    ) -> Option<Self> {
+    ) -> Result<Self, String> {
         if model.joints != N || model.task_dim != M {
-            return None;
+            return Err("error: the plant model's dimensions differ from the controller's".into());
+        }
+        let coupling: Option<[[f64; N]; N]> = model.coupling.as_ref().map(|coupling| {
+            std::array::from_fn(|k| std::array::from_fn(|j| coupling.drive_from_joint[k][j]))
+        });
+        if coupling.is_some()
+            && effects.backlash
+            && model.drive_extras.iter().any(|extras| extras.backlash > 0.0)
+        {
+            return Err("error: the simulator models backlash per joint, and this model's drives turn its \
+                        joints through a transmission: set the drives' backlash to 0"
+                .into());
         }
         let drives: [Drive; N] = std::array::from_fn(|j| {
             let d = &model.drives[j];
@@ -237,7 +250,7 @@ impl<const N: usize, const M: usize> Plant<N, M> {
             current: [0.0; N],
             measured_current: [0.0; N],
         };
-        Some(Self {
+        Ok(Self {
             dynamics_scratch: model.dynamics.scratch(),
             dynamics_out: vec![0.0; model.dynamics.len()],
             kinematics_scratch: model.kinematics.scratch(),
@@ -245,6 +258,7 @@ impl<const N: usize, const M: usize> Plant<N, M> {
             model,
             effects,
             drives,
+            coupling,
             filter_time_constant: filter_time_constant.max(0.0),
             state,
         })
@@ -262,10 +276,29 @@ impl<const N: usize, const M: usize> Plant<N, M> {
 
     /// Encoder counters (motor shaft), wrapping like 32-bit hardware counters.
     pub fn encoder_counts(&self) -> [i32; N] {
+        let output_angle = self.drive_outputs(&self.state.theta);
         std::array::from_fn(|j| {
-            let counts = (self.state.theta[j] * self.drives[j].counts_per_radian).round();
+            let counts = (output_angle[j] * self.drives[j].counts_per_radian).round();
             (counts as i64) as i32
         })
+    }
+
+    /// The drives' outputs `C x` for joint-side values `x` (angles, velocities); `x` itself
+    /// without a transmission.
+    fn drive_outputs(&self, joint_side: &[f64; N]) -> [f64; N] {
+        match &self.coupling {
+            Some(coupling) => linalg::mat_vec(coupling, joint_side),
+            None => *joint_side,
+        }
+    }
+
+    /// The joint torques `Cᵀ τ_a` the drives' output torques `τ_a` make; `τ_a` itself without a
+    /// transmission.
+    fn joint_torques(&self, drive_torques: &[f64; N]) -> [f64; N] {
+        match &self.coupling {
+            Some(coupling) => linalg::transpose_mul_vec(coupling, drive_torques),
+            None => *drive_torques,
+        }
     }
 
     /// Task position, velocity and Jacobian at the current state.
@@ -287,7 +320,7 @@ impl<const N: usize, const M: usize> Plant<N, M> {
 
     /// Joint-side motor torque of each joint at the current state, N·m.
     pub fn motor_torque(&self) -> [f64; N] {
-        std::array::from_fn(|j| self.drives[j].torque_per_amp * self.state.current[j])
+        self.joint_torques(&std::array::from_fn(|j| self.drives[j].torque_per_amp * self.state.current[j]))
     }
 
     /// Advances by `dt` with armature `voltage` (electrics on) or motor `current_setpoint`
@@ -365,7 +398,8 @@ impl<const N: usize, const M: usize> Plant<N, M> {
             current: [0.0; N],
             measured_current: [0.0; N],
         };
-        let motor: [f64; N] = std::array::from_fn(|j| self.drives[j].torque_per_amp * s.current[j]);
+        let motor =
+            self.joint_torques(&std::array::from_fn(|j| self.drives[j].torque_per_amp * s.current[j]));
         if self.has_backlash() {
             let mut link_rhs = [0.0; N];
             for j in 0..N {
@@ -396,8 +430,9 @@ impl<const N: usize, const M: usize> Plant<N, M> {
             d.theta_dot = d.qd;
         }
         if electrics {
+            let output_velocity = self.drive_outputs(&s.theta_dot);
             for (j, (drive, &volt)) in self.drives.iter().zip(volts).enumerate() {
-                d.current[j] = (volt - drive.resistance * s.current[j] - drive.back_emf * s.theta_dot[j])
+                d.current[j] = (volt - drive.resistance * s.current[j] - drive.back_emf * output_velocity[j])
                     / drive.inductance;
                 d.measured_current[j] = if self.filter_time_constant > 0.0 {
                     (s.current[j] - s.measured_current[j]) / self.filter_time_constant
@@ -407,5 +442,52 @@ impl<const N: usize, const M: usize> Plant<N, M> {
             }
         }
         d
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The good-model fixture whose transmission is not symmetric, `C = [[1, 0], [1, 1]]`
+    /// (roll's motor turns pitch + roll), N = 5 on both drives, 1280 counts per motor turn,
+    /// `k_t` 0.0154 N·m/A.
+    fn coupled_wrist() -> Plant<2, 2> {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../codegen/tests/good-models/coupled_wrist.yaml");
+        let model = hapticgen_codegen::load_file(std::path::Path::new(path), "coupled_wrist.yaml", None)
+            .unwrap_or_else(|d| panic!("{d}"));
+        let compiled = Arc::new(CompiledModel::new(&model, 1.0));
+        Plant::new(compiled, Effects::IDEAL, [0.3, -0.2], [1280; 2], 0.0).unwrap()
+    }
+
+    #[test]
+    fn a_transmission_turns_the_encoders_and_the_joints_through_its_matrix() {
+        let mut plant = coupled_wrist();
+        // Drive outputs a = C q = (0.3, 0.1); motor counts N a · 1280 / 2π.
+        let per_radian = 5.0 * 1280.0 / std::f64::consts::TAU;
+        let expected = [(0.3 * per_radian).round() as i32, (0.1 * per_radian).round() as i32];
+        assert_eq!(plant.encoder_counts(), expected);
+        // Currents (1, 2) A make drive torques N k_t i = (0.077, 0.154) N·m and joint torques
+        // Cᵀ τ_a = (τ_a1 + τ_a2, τ_a2).
+        plant.state.current = [1.0, 2.0];
+        let per_amp = 5.0 * 0.0154;
+        let torque = plant.motor_torque();
+        let want = [per_amp * 1.0 + per_amp * 2.0, per_amp * 2.0];
+        assert!((torque[0] - want[0]).abs() < 1e-15 && (torque[1] - want[1]).abs() < 1e-15, "{torque:?}");
+    }
+
+    #[test]
+    fn each_motor_sees_the_back_emf_of_its_own_output() {
+        // Electrics on, zero volts and current: di/dt = −k_t N ȧ / L with ȧ = C q̇; q̇ = (1, −1)
+        // turns drive 1 (ȧ₁ = 1) and not drive 2 (ȧ₂ = 0).
+        let mut plant = coupled_wrist();
+        plant.effects.motor_electrics = true;
+        plant.state.qd = [1.0, -1.0];
+        plant.state.theta_dot = [1.0, -1.0];
+        let state = plant.state;
+        let derivative = plant.derivative(&state, &[0.0; 2], &[0.0; 2]);
+        let (back_emf, inductance) = (0.0154 * 5.0, 1.0e-3);
+        assert!((derivative.current[0] + back_emf / inductance).abs() < 1e-9, "{:?}", derivative.current);
+        assert_eq!(derivative.current[1], 0.0);
     }
 }

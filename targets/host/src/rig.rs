@@ -13,6 +13,7 @@
 use std::cell::RefCell;
 use std::sync::Arc;
 
+use hapticgen_codegen::model::Coupling;
 use hapticgen_codegen::sym::poly::Poly;
 use hapticgen_codegen::CheckedModel;
 use hapticgen_runtime::current_loop::CurrentLoopGains;
@@ -37,8 +38,11 @@ pub struct CompiledModel {
     pub jacobian_dot: Tape,
     /// Diagonal of `B`.
     pub damping: Vec<f64>,
-    /// Reflected rotor inertia `N_j² J_m,j` of each joint (part of `D`'s diagonal).
+    /// Reflected rotor inertia on each joint's diagonal, `N_j² J_m,j` (through a coupling
+    /// `C`: `Σ_k C_kj² N_k² J_m,k`; part of `D`).
     pub reflected_rotor_inertia: Vec<f64>,
+    /// The model's coupling between joints and drives (`transmission`), if any.
+    pub coupling: Option<Coupling>,
     /// Values of the model's tunable parameters.
     pub parameters: Vec<f64>,
     /// The drive train of each joint, in the runtime's form.
@@ -124,11 +128,20 @@ impl CompiledModel {
             coriolis: compile(coriolis),
             jacobian_dot: compile(jacobian_dot),
             damping: mech.damping.iter().map(|p| p.eval(&nominal)).collect(),
-            reflected_rotor_inertia: model
-                .joints
-                .iter()
-                .map(|j| j.drive.gear_ratio * j.drive.gear_ratio * j.drive.motor.rotor_inertia)
-                .collect(),
+            reflected_rotor_inertia: {
+                let rotor: Vec<f64> = model
+                    .joints
+                    .iter()
+                    .map(|j| j.drive.gear_ratio * j.drive.gear_ratio * j.drive.motor.rotor_inertia)
+                    .collect();
+                match &model.coupling {
+                    None => rotor,
+                    Some(coupling) => (0..n)
+                        .map(|j| (0..n).map(|k| coupling.drive_from_joint[k][j].powi(2) * rotor[k]).sum())
+                        .collect(),
+                }
+            },
+            coupling: model.coupling.clone(),
             parameters,
             drives: drive_trains(model),
             drive_extras: model
@@ -273,6 +286,12 @@ impl<const N: usize, const M: usize> RigModel<N, M> for TapeRig<N, M> {
     fn current_loop_gains(&self) -> [CurrentLoopGains<f64>; N] {
         self.current_gains
     }
+    fn coupling(&self) -> Option<hapticgen_runtime::Coupling<f64, N>> {
+        self.model.coupling.as_ref().map(|coupling| hapticgen_runtime::Coupling {
+            drive_from_joint: std::array::from_fn(|k| vector(&coupling.drive_from_joint[k])),
+            joint_from_drive: std::array::from_fn(|j| vector(&coupling.joint_from_drive[j])),
+        })
+    }
 }
 
 /// A rig whose drive trains are replaced (everything else is `R`'s).
@@ -322,6 +341,9 @@ where
     }
     fn terms(&self, q: &[f64; N], qd: &[f64; N]) -> RigTerms<f64, N, M> {
         self.inner.terms(q, qd)
+    }
+    fn coupling(&self) -> Option<hapticgen_runtime::Coupling<f64, N>> {
+        self.inner.coupling()
     }
     fn drives(&self) -> [DriveTrain<f64>; N] {
         self.drives

@@ -29,7 +29,7 @@ use hapticgen_runtime::proxy::GodObject;
 use hapticgen_runtime::render::{Scene, VirtualObject};
 use hapticgen_runtime::schedule::Scheduler;
 use hapticgen_runtime::tick::{HapticLoop, HapticLoopSettings, ImpedanceInputs, ReferenceSource};
-use hapticgen_runtime::RigModel;
+use hapticgen_runtime::{Coupling, DriveTrain, RigModel};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
@@ -510,13 +510,9 @@ where
     let rig = SimRig { inner: rig, drives };
     let q0: [f64; N] = array(&cfg.initial_q, "the initial joint angles")?;
     let counts_per_turn: [u32; N] = std::array::from_fn(|j| drives[j].encoder_counts_per_turn);
-    let mut plant = Plant::<N, M>::new(plant_model, effects, q0, counts_per_turn, data.filter_time_constant)
-        .ok_or_else(|| "error: the plant model's dimensions differ from the controller's".to_string())?;
+    let mut plant = Plant::<N, M>::new(plant_model, effects, q0, counts_per_turn, data.filter_time_constant)?;
     let initial_counts = plant.encoder_counts();
-    let zero_offset: [f64; N] = std::array::from_fn(|j| {
-        let per_radian = f64::from(counts_per_turn[j]) * drives[j].gear_ratio / std::f64::consts::TAU;
-        f64::from(initial_counts[j]) / per_radian
-    });
+    let zero_offset = joint_angles_at_counts(&initial_counts, &drives, rig.coupling().as_ref());
     let start = plant.task();
     let source = match &cfg.reference {
         Reference::Fixed(position) => {
@@ -714,4 +710,23 @@ where
     }
     trace.wall_seconds = wall.elapsed().as_secs_f64();
     Ok((trace, controller))
+}
+
+/// The joint angles a controller with `drives` (and a transmission's `coupling`) reads from
+/// encoder `counts`: each drive's output angle `a = counts · 2π / (counts per turn · N)`, and
+/// the joints `q = C⁻¹ a`. Where the haptic loop is homed when it starts at those counts.
+pub(crate) fn joint_angles_at_counts<const N: usize>(
+    counts: &[i32; N],
+    drives: &[DriveTrain<f64>; N],
+    coupling: Option<&Coupling<f64, N>>,
+) -> [f64; N] {
+    let output_angle: [f64; N] = std::array::from_fn(|j| {
+        let per_radian =
+            f64::from(drives[j].encoder_counts_per_turn) * drives[j].gear_ratio / std::f64::consts::TAU;
+        f64::from(counts[j]) / per_radian
+    });
+    match coupling {
+        Some(coupling) => linalg::mat_vec(&coupling.joint_from_drive, &output_angle),
+        None => output_angle,
+    }
 }

@@ -16,6 +16,7 @@ mod parameters;
 mod points;
 mod settings;
 mod task;
+mod transmission;
 
 use super::positions::Segment;
 use super::schema::{ModelFile, Space, Value};
@@ -58,6 +59,12 @@ impl Resolver<'_, '_> {
 
     fn error_hint(&mut self, path: &[Segment], message: impl Into<String>, hint: impl Into<String>) {
         let d = self.locator.at(&self.sources.original(path), message).with_hint(hint);
+        self.push(d);
+    }
+
+    /// An error at the key that introduces `path` (a name written as a key), with a hint.
+    fn key_error_hint(&mut self, path: &[Segment], message: impl Into<String>, hint: impl Into<String>) {
+        let d = self.locator.at_key(&self.sources.original(path), message).with_hint(hint);
         self.push(d);
     }
 
@@ -239,6 +246,7 @@ pub(crate) fn resolve(
     let mut frames = points::frames(&mut r, &file, &point_index);
     let task = task::task(&mut r, &file, &points);
     let (declared, mut spatial_closures) = closures::closures(&mut r, &file, &points);
+    let coupling = transmission::transmission(&mut r, &file, &joints);
     settings::settings(&mut r, &file, &variant);
     let order = bodies::dependency_order(&mut r, &file, &depends_on);
     settings::current_loop_filter(&mut r, &file);
@@ -287,6 +295,7 @@ pub(crate) fn resolve(
         passive,
         closures,
         spatial_closures,
+        coupling,
     };
     Ok(model)
 }
