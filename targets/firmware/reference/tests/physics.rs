@@ -3,7 +3,9 @@
 //! line names the scenario is checked.
 
 use hapticgen_fw_reference::{find, host_run, int, list, variants};
-use hapticgen_fw_sim::scenarios::{hold_pose, scene_contact, sphere_cavity, wall_contact, PAPER_RENDERING};
+use hapticgen_fw_sim::scenarios::{
+    hold_pose, joint_spring, scene_contact, sphere_cavity, wall_contact, PAPER_RENDERING,
+};
 
 /// `(k, q, x)` of every trace line of the f64 reference run (µrad, µm or µrad).
 fn trace(name: &str) -> Vec<(i64, Vec<i64>, Vec<i64>)> {
@@ -147,5 +149,37 @@ fn scene_contact_rests_force_over_stiffness_inside_the_scene() {
         for depth in late {
             assert!((depth - expected).abs() < 0.1 * expected, "{name}: {depth} m deep, F/K = {expected}");
         }
+    }
+}
+
+#[test]
+fn joint_spring_twists_the_last_axis_by_torque_over_stiffness() {
+    let names = images("joint_spring");
+    assert!(!names.is_empty());
+    for name in names {
+        let t = trace(name);
+        let start = &t[0].2;
+        // Over the last 0.3 s of the twist (torque SHARE·K on the last axis) the last axis rests
+        // SHARE rad from the start and the others where they started: on the differential
+        // wrist, both drives turn against each other and the pitch stands still.
+        let late: Vec<Vec<f64>> = t
+            .iter()
+            .filter(|(k, _, _)| (5250..=7500).contains(k))
+            .map(|(_, _, x)| offset(x, start))
+            .collect();
+        assert!(!late.is_empty());
+        let last = start.len() - 1;
+        for x in &late {
+            assert!(
+                (x[last] - joint_spring::SHARE).abs() < 0.05 * joint_spring::SHARE,
+                "{name}: twisted {x:?}"
+            );
+            for other in &x[..last] {
+                assert!(other.abs() < 0.02 * joint_spring::SHARE, "{name}: the other axes moved: {x:?}");
+            }
+        }
+        // Let go at 1 s: back at the start by the end.
+        let end = offset(&t.last().unwrap().2, start);
+        assert!(norm(&end) < 0.05 * joint_spring::SHARE, "{name}: ends at {end:?}");
     }
 }

@@ -18,7 +18,7 @@
 
 use hapticgen_fw_control::board::{CurrentSense, Encoders, ForceSense, VoltageOutput};
 use hapticgen_runtime::linalg;
-use hapticgen_runtime::{DriveTrain, Real, RigModel};
+use hapticgen_runtime::{Coupling, DriveTrain, Real, RigModel};
 
 /// Full scale of the simulated current ADC, A (±).
 pub const ADC_FULL_SCALE_AMPS: f64 = 20.0;
@@ -49,6 +49,9 @@ where
     sense_decay: R::Scalar,
     adc_step: R::Scalar,
     operator_force: [R::Scalar; M],
+    /// The rig's transmission (`a = C q`): the motors turn, and are counted, at the drives'
+    /// outputs; `None`: each drive turns its joint.
+    coupling: Option<Coupling<R::Scalar, N>>,
     /// Set when `D` could not be factorised (the state then stops changing).
     pub broken: bool,
 }
@@ -62,6 +65,7 @@ where
     pub fn new(rig: R, q0: [R::Scalar; N], period: R::Scalar, sense_time_constant: R::Scalar) -> Self {
         let drives = rig.drives();
         let damping = rig.damping();
+        let coupling = rig.coupling();
         let zero = R::Scalar::ZERO;
         let mut counts_per_radian = [zero; N];
         let mut electrical_decay = [zero; N];
@@ -90,6 +94,7 @@ where
             sense_decay,
             adc_step,
             operator_force: [zero; M],
+            coupling,
             broken: false,
         }
     }
@@ -97,6 +102,15 @@ where
     /// The rig model.
     pub fn rig(&self) -> &R {
         &self.rig
+    }
+
+    /// The drives' outputs `C x` for joint-side values `x` (travel, velocities); `x` itself
+    /// without a transmission.
+    fn drive_outputs(&self, joint_side: &[R::Scalar; N]) -> [R::Scalar; N] {
+        match &self.coupling {
+            Some(coupling) => linalg::mat_vec(&coupling.drive_from_joint, joint_side),
+            None => *joint_side,
+        }
     }
 
     /// The voltages last applied.
@@ -114,18 +128,28 @@ where
         let one = R::Scalar::ONE;
         let terms = self.rig.terms(&self.q, &self.qd);
         let external = linalg::transpose_mul_vec(&terms.jacobian, force);
-        let mut rhs = [R::Scalar::ZERO; N];
+        let output_velocity = self.drive_outputs(&self.qd);
+        let mut output_torque = [R::Scalar::ZERO; N];
         for j in 0..N {
             let d = &self.drives[j];
-            let back_emf = d.torque_constant * d.gear_ratio * self.qd[j];
+            let back_emf = d.torque_constant * d.gear_ratio * output_velocity[j];
             let a = self.electrical_decay[j];
             let i = a * self.current[j] + (one - a) * (self.volts[j] - back_emf) / d.resistance;
             self.current[j] = i;
             let c = self.sense_decay;
             self.filtered_current[j] = c * self.filtered_current[j] + (one - c) * i;
-            let torque = d.gear_ratio * d.efficiency * d.torque_constant * i;
-            rhs[j] = torque - terms.coriolis_times_qdot[j] - self.damping[j] * self.qd[j] - terms.gravity[j]
-                + external[j];
+            output_torque[j] = d.gear_ratio * d.efficiency * d.torque_constant * i;
+        }
+        // The joints feel `Cᵀ τ_a` through a transmission.
+        let torque = match &self.coupling {
+            Some(coupling) => linalg::transpose_mul_vec(&coupling.drive_from_joint, &output_torque),
+            None => output_torque,
+        };
+        let mut rhs = [R::Scalar::ZERO; N];
+        for j in 0..N {
+            rhs[j] =
+                torque[j] - terms.coriolis_times_qdot[j] - self.damping[j] * self.qd[j] - terms.gravity[j]
+                    + external[j];
         }
         match linalg::cholesky_solve(&terms.inertia_matrix, &rhs) {
             Ok(qdd) => {
@@ -144,9 +168,14 @@ where
     R: RigModel<N, M>,
 {
     fn counts(&mut self) -> [i32; N] {
+        let mut travel = [R::Scalar::ZERO; N];
+        for j in 0..N {
+            travel[j] = self.q[j] - self.home[j];
+        }
+        let output_travel = self.drive_outputs(&travel);
         let mut counts = [0; N];
         for j in 0..N {
-            let c = ((self.q[j] - self.home[j]) * self.counts_per_radian[j]).floor();
+            let c = (output_travel[j] * self.counts_per_radian[j]).floor();
             counts[j] = c.to_f64() as i32;
         }
         counts

@@ -142,6 +142,50 @@ pub mod fig4_step {
     }
 }
 
+/// A spring in joint space for a rig whose task is its joint coordinates (`task: {joints}`,
+/// any `N = M`), such as a wrist: Controller 3 holds the start with the model's rendering
+/// stiffness and damping on every axis, and the operator twists the last axis by
+/// [`SHARE`](joint_spring::SHARE) of that stiffness (a torque that settles at 0.1 rad) from
+/// 0.1 s to 1.0 s, then lets go; 1.5 s in all. On a coupled rig (a differential) the last axis
+/// takes both drives turning against each other, the others standing still.
+pub mod joint_spring {
+    use super::*;
+    use hapticgen_runtime::control::TaskReference;
+
+    /// The twist over the stiffness, rad: where the twisted axis settles.
+    pub const SHARE: f64 = 0.1;
+
+    /// The reference source: fixed at the start.
+    pub type Source<R, const N: usize, const M: usize> = TaskReference<<R as RigModel<N, M>>::Scalar, M>;
+
+    /// The scenario type for a rig `R`.
+    pub type Run<R, const N: usize, const M: usize> = Scenario<R, Source<R, N, M>, N, M>;
+
+    /// Builds the run; `None` if the rig's rates are unusable or `M = 0`.
+    pub fn new<R: FusedImpedance<N, M> + Clone, const N: usize, const M: usize>(
+        name: &'static str,
+        rig: R,
+        setup: &Setup<R::Scalar, N>,
+        sense_time_constant: R::Scalar,
+        profile: bool,
+    ) -> Option<Run<R, N, M>> {
+        let [_, stiffness, damping] = rendering(setup);
+        let reference = TaskReference::at_rest(rig.position(&setup.start));
+        let mut twist = [R::Scalar::ZERO; M];
+        *twist.last_mut()? = s::<R::Scalar>(SHARE) * stiffness;
+        pushed_run(
+            name,
+            rig,
+            setup,
+            sense_time_constant,
+            profile,
+            reference,
+            [stiffness, damping, R::Scalar::ZERO],
+            twist,
+        )
+    }
+}
+
 /// A virtual wall for a planar task (`M = 2`, any number of joints) with Controller 3 and the
 /// runtime's proxy renderer: the task point starts in free space at the line's pose, a solid
 /// wall's face [`WALL`](wall_contact::WALL) (5 mm) to its +x1 side; the operator pushes along
