@@ -99,7 +99,7 @@ for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
     def columns_in_hapticgen_order(jacobian):
         return np.asarray(jacobian)[:, velocity_index]
 
-    armature = np.diag(ref["armature"])
+    armature = np.array(ref["armature"])  # N x N: C^T diag(N^2 J_m) C
     worst = {"D": 0.0, "nle": 0.0, "g": 0.0, "J": 0.0, "p": 0.0, "R": 0.0, "Jw": 0.0}
 
     def compare(what, got, want, state):

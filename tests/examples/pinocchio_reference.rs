@@ -70,10 +70,21 @@ fn write_reference(
     let params = m.nominal_parameters();
     let gravity: Vec<f64> =
         m.gravity.iter().map(|p| p.eval(&hapticgen_codegen::eval::NominalAtoms(&params))).collect();
-    let armature: Vec<f64> = m
+    // The rotors' inertia reflected to the joints, Cᵀ diag(N² J_m) C (C = I without a
+    // transmission): URDF has no drives, so it is added to Pinocchio's CRBA as an armature
+    // matrix.
+    let rotor: Vec<f64> = m
         .joints
         .iter()
         .map(|j| j.drive.gear_ratio * j.drive.gear_ratio * j.drive.motor.rotor_inertia)
+        .collect();
+    let n = rotor.len();
+    let coupling = |k: usize, j: usize| match &m.coupling {
+        Some(coupling) => coupling.drive_from_joint[k][j],
+        None => f64::from(u8::from(k == j)),
+    };
+    let armature: Vec<Vec<f64>> = (0..n)
+        .map(|a| (0..n).map(|b| (0..n).map(|k| coupling(k, a) * rotor[k] * coupling(k, b)).sum()).collect())
         .collect();
     let mut json = String::new();
     let _ = write!(
@@ -81,7 +92,7 @@ fn write_reference(
         "{{\"model\": \"{display}\", \"variant\": {}, \"gravity\": {}, \"armature\": {}, \"joints\": [{}], \"states\": [",
         variant.map_or("null".to_string(), |v| format!("\"{v}\"")),
         json_vector(&gravity),
-        json_vector(&armature),
+        json_matrix(&armature),
         m.joints.iter().map(|j| format!("\"{}\"", j.name)).collect::<Vec<_>>().join(", ")
     );
     let mut rng = SmallRng::seed_from_u64(0x9170_c410);
