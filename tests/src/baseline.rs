@@ -46,7 +46,7 @@ pub struct PlanarBaseline {
     task: Result<Chain, usize>,
     gravity: Vector2<f64>,
     damping: DVector<f64>,
-    rotor: DVector<f64>,
+    rotor: DMatrix<f64>,
 }
 
 /// The terms of one tick, as nalgebra values.
@@ -66,12 +66,21 @@ pub struct BaselineTerms {
     pub jacobian_dot_times_qdot: DVector<f64>,
 }
 
-/// Each joint's reflected rotor inertia `N² J_m` (the diagonal both baselines add to `D`).
-pub fn rotor_inertias(model: &Model) -> DVector<f64> {
-    DVector::from_iterator(
-        model.joints.len(),
+/// The rotors' inertia reflected to the joints, which both baselines add to `D`: `N² J_m` on
+/// the diagonal, or `Cᵀ diag(N² J_m) C` through a transmission `a = C q`.
+pub fn rotor_inertias(model: &Model) -> DMatrix<f64> {
+    let n = model.joints.len();
+    let rotor = DMatrix::from_diagonal(&DVector::from_iterator(
+        n,
         model.joints.iter().map(|j| j.drive.gear_ratio.powi(2) * j.drive.motor.rotor_inertia),
-    )
+    ));
+    match &model.coupling {
+        Some(coupling) => {
+            let c = DMatrix::from_fn(n, n, |k, j| coupling.drive_from_joint[k][j]);
+            c.transpose() * rotor * c
+        }
+        None => rotor,
+    }
 }
 
 fn constant(p: &Poly) -> Option<f64> {
@@ -197,7 +206,7 @@ impl PlanarBaseline {
 
     /// `D(q)`.
     pub fn inertia_matrix(&self, q: &DVector<f64>) -> DMatrix<f64> {
-        let mut d = DMatrix::from_diagonal(&self.rotor);
+        let mut d = self.rotor.clone();
         for b in &self.bodies {
             let jv = b.com.jacobian(q, self.n);
             d += b.mass * jv.transpose() * &jv + b.inertia * &b.angle * b.angle.transpose();

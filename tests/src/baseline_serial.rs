@@ -119,7 +119,7 @@ pub struct SerialBaseline {
     task: Task,
     gravity: Vector3<f64>,
     damping: DVector<f64>,
-    rotor: DVector<f64>,
+    rotor: DMatrix<f64>,
 }
 
 fn vector(p: &[Poly; 3], at: &Nominal<'_>) -> Vector3<f64> {
@@ -313,7 +313,7 @@ impl SerialBaseline {
                 tau[j.index] = match j.kind {
                     JointKind::Revolute => pose.axis.dot(&moment[i]),
                     JointKind::Prismatic => pose.axis.dot(&force[i]),
-                } + qdd.map_or(0.0, |a| self.rotor[j.index] * a[j.index]);
+                } + qdd.map_or(0.0, |a| self.rotor.row(j.index).dot(&a.transpose()));
             }
             if let Some(p) = link.parent {
                 let (fi, ni) = (force[i], moment[i]);
@@ -356,7 +356,7 @@ impl SerialBaseline {
                 inertia[p] += i_o;
             }
         }
-        let mut d = DMatrix::from_diagonal(&self.rotor);
+        let mut d = self.rotor.clone();
         for (b, link) in self.links.iter().enumerate() {
             let Some(joint) = link.joint else { continue };
             let pose = &poses[b];
