@@ -12,7 +12,7 @@ use crate::sym::poly::{Atom, Poly};
 /// for a prismatic joint), from the drives' kinetic energy `½ Σ_k J_m,k (N_k ȧ_k)²` with the
 /// drives' outputs `a = C q`; diagonal, `N² J_m` per joint, without a coupling. Rotor axes are
 /// taken as fixed to the base (no gyroscopic terms).
-pub(crate) fn reflected_rotor_inertia(model: &Model) -> Vec<Vec<f64>> {
+pub fn reflected_rotor_inertia(model: &Model) -> Vec<Vec<f64>> {
     let n = model.joints.len();
     let rotor: Vec<f64> = model
         .joints

@@ -23,6 +23,7 @@ pub mod three_spheres;
 
 use crate::model::Model;
 use closure::Closures;
+pub use lagrangian::reflected_rotor_inertia;
 use mechanics::{choose_derivations, derive_tree, Mechanics};
 use reduction::reduce;
 

@@ -128,19 +128,11 @@ impl CompiledModel {
             coriolis: compile(coriolis),
             jacobian_dot: compile(jacobian_dot),
             damping: mech.damping.iter().map(|p| p.eval(&nominal)).collect(),
-            reflected_rotor_inertia: {
-                let rotor: Vec<f64> = model
-                    .joints
-                    .iter()
-                    .map(|j| j.drive.gear_ratio * j.drive.gear_ratio * j.drive.motor.rotor_inertia)
-                    .collect();
-                match &model.coupling {
-                    None => rotor,
-                    Some(coupling) => (0..n)
-                        .map(|j| (0..n).map(|k| coupling.drive_from_joint[k][j].powi(2) * rotor[k]).sum())
-                        .collect(),
-                }
-            },
+            reflected_rotor_inertia: hapticgen_codegen::dynamics::reflected_rotor_inertia(model)
+                .iter()
+                .enumerate()
+                .map(|(j, row)| row[j])
+                .collect(),
             coupling: model.coupling.clone(),
             parameters,
             drives: drive_trains(model),
