@@ -60,7 +60,7 @@ use crate::linalg;
 use crate::render::Scene;
 use crate::safety::{FaultCode, SafeCommand, SafetyMonitor};
 use crate::schedule::Scheduler;
-use crate::{Coupling, Real, RigModel};
+use crate::{Real, RigModel};
 
 /// Marks "no impedance tick pending" in the current loop's watchdog.
 const NO_IMPEDANCE_PENDING: u32 = u32::MAX;
@@ -197,9 +197,6 @@ where
     current_setpoints: [R::Scalar; N],
     /// Back-EMF feedforward of each current loop, `k_t N ȧ` (volts), from the last tick.
     back_emf_volts: [R::Scalar; N],
-    /// The rig's coupling between joints and drive outputs (`None`: each drive turns its
-    /// joint), read once: the estimator and the safety rules work per drive, the laws per joint.
-    coupling: Option<Coupling<R::Scalar, N>>,
     /// `k_t N` of each drive (V·s/rad at its output; at the joint for an uncoupled rig).
     back_emf_constants: [R::Scalar; N],
     /// Current ticks since an impedance tick became due without running
@@ -222,9 +219,8 @@ where
         for (k, drive) in back_emf_constants.iter_mut().zip(drives.iter()) {
             *k = drive.torque_constant * drive.gear_ratio;
         }
-        let coupling = rig.coupling();
         // The estimator counts each drive's output; the homing pose is given in joints.
-        let drive_zero_offset = match &coupling {
+        let drive_zero_offset = match &rig.coupling() {
             Some(coupling) => linalg::mat_vec(&coupling.drive_from_joint, &settings.zero_offset),
             None => settings.zero_offset,
         };
@@ -248,7 +244,6 @@ where
             current_setpoints: [R::Scalar::ZERO; N],
             back_emf_volts: [R::Scalar::ZERO; N],
             back_emf_constants,
-            coupling,
             pending_impedance: NO_IMPEDANCE_PENDING,
             // Half an impedance period (rounded up) in current ticks: 4 at 7.5 kHz / 1 kHz.
             impedance_grace: (R::CURRENT_LOOP_HZ / R::IMPEDANCE_LOOP_HZ.max(1) + 1) / 2 + 1,
@@ -322,8 +317,10 @@ where
             EstimationStatus::NonFinite => self.safety.latch(FaultCode::NonFiniteInput),
             EstimationStatus::Implausible => self.safety.latch(FaultCode::SensorImplausible),
         }
+        // The rig's coupling is read where it is used, not stored: a generated rig's is a
+        // constant or the default `None`, so an uncoupled rig pays neither a branch nor a copy.
         let drive_state = *self.estimator.state();
-        let state = match &self.coupling {
+        let state = match &self.rig.coupling() {
             Some(coupling) => JointState {
                 position: linalg::mat_vec(&coupling.joint_from_drive, &drive_state.position),
                 velocity: linalg::mat_vec(&coupling.joint_from_drive, &drive_state.velocity),
@@ -385,14 +382,15 @@ where
         }
         // A coupled rig's limits hold per drive: `τ_a = C⁻ᵀ τ`, limited, and the joints then get
         // `Cᵀ τ_a` (the torques the limited currents make).
-        let (mut command, drive_velocity) = match &self.coupling {
+        let coupling = self.rig.coupling();
+        let (mut command, drive_velocity) = match &coupling {
             Some(coupling) => (
                 self.safety.limit(&linalg::transpose_mul_vec(&coupling.joint_from_drive, &output.torque)),
                 linalg::mat_vec(&coupling.drive_from_joint, joint_velocity),
             ),
             None => (self.safety.limit(&output.torque), *joint_velocity),
         };
-        if let Some(coupling) = &self.coupling {
+        if let Some(coupling) = &coupling {
             command.torque = linalg::transpose_mul_vec(&coupling.drive_from_joint, &command.torque);
         }
         self.current_setpoints = command.current;
