@@ -83,3 +83,22 @@ fn the_generated_rig_carries_the_coupling_and_its_inverse() {
         "impl_rig_model!(CoupledWrist,f64,2,2,\"coupled_wrist\",7500u32,1000u32;couplingCOUPLING)"
     ));
 }
+
+#[test]
+fn the_urdf_export_says_what_it_cannot_carry() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/good-models/coupled_wrist.yaml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let model =
+        load(&Source { name: "coupled_wrist.yaml", text: &text }, None).unwrap_or_else(|d| panic!("{d}"));
+    let urdf = hapticgen_codegen::urdf::export(&model).unwrap();
+    assert!(urdf.contains("transmission: joint pitch's drive turns pitch 1.0 (not part of URDF)"), "{urdf}");
+    assert!(
+        urdf.contains("transmission: joint roll's drive turns pitch 1.0, roll 1.0 (not part of URDF)"),
+        "{urdf}"
+    );
+    // Cᵀ diag(J, J) C with J = N² J_m = 4.25e-6: [[2J, J], [J, J]].
+    assert!(
+        urdf.contains("reflected rotor inertia Cᵀ diag(N² J_m) C (adds to D instead): [8.5e-6 4.25e-6; 4.25e-6 4.25e-6]"),
+        "{urdf}"
+    );
+}

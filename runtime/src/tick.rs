@@ -279,9 +279,25 @@ where
     }
 
     /// The state estimator: of the joints, or of the drives' outputs `a = C q` for a rig with
-    /// a [`RigModel::coupling`].
+    /// a [`RigModel::coupling`] (see [`HapticLoop::joint_state`]).
     pub fn estimator(&self) -> &JointStateEstimator<R::Scalar, N> {
         &self.estimator
+    }
+
+    /// The joints' last estimate: the estimator's, mapped from the drives' outputs by `C⁻¹`
+    /// for a rig with a [`RigModel::coupling`].
+    pub fn joint_state(&self) -> JointState<R::Scalar, N> {
+        // The rig's coupling is read where it is used, not stored: a generated rig's is a
+        // constant or the default `None`, so an uncoupled rig pays neither a branch nor a copy.
+        let drive_state = *self.estimator.state();
+        match &self.rig.coupling() {
+            Some(coupling) => JointState {
+                position: linalg::mat_vec(&coupling.joint_from_drive, &drive_state.position),
+                velocity: linalg::mat_vec(&coupling.joint_from_drive, &drive_state.velocity),
+                acceleration: linalg::mat_vec(&coupling.joint_from_drive, &drive_state.acceleration),
+            },
+            None => drive_state,
+        }
     }
 
     /// The current setpoints the current loops track, A.
@@ -317,17 +333,7 @@ where
             EstimationStatus::NonFinite => self.safety.latch(FaultCode::NonFiniteInput),
             EstimationStatus::Implausible => self.safety.latch(FaultCode::SensorImplausible),
         }
-        // The rig's coupling is read where it is used, not stored: a generated rig's is a
-        // constant or the default `None`, so an uncoupled rig pays neither a branch nor a copy.
-        let drive_state = *self.estimator.state();
-        let state = match &self.rig.coupling() {
-            Some(coupling) => JointState {
-                position: linalg::mat_vec(&coupling.joint_from_drive, &drive_state.position),
-                velocity: linalg::mat_vec(&coupling.joint_from_drive, &drive_state.velocity),
-                acceleration: linalg::mat_vec(&coupling.joint_from_drive, &drive_state.acceleration),
-            },
-            None => drive_state,
-        };
+        let state = self.joint_state();
         if R::HAS_LOOPS {
             self.safety.check_loop_margin(self.rig.loop_margin(&state.position));
         }

@@ -107,6 +107,11 @@ fn joints_come_from_the_drives_counters_and_torques_go_back_through_the_transpos
     assert_eq!(report.command.fault, None);
     // q₁ = a₁ − a₂, q₂ = a₂; the spring to the origin gives τ = −K q.
     let (a1, a2) = (output_angle(counts[0]), output_angle(counts[1]));
+    // The estimator keeps the drives' outputs; the loop reports the joints.
+    let drives = haptic.estimator().state().position;
+    assert!((drives[0] - a1).abs() < 1e-15 && (drives[1] - a2).abs() < 1e-15, "{drives:?}");
+    let joints = haptic.joint_state().position;
+    assert!((joints[0] - (a1 - a2)).abs() < 1e-15 && (joints[1] - a2).abs() < 1e-15, "{joints:?}");
     let joint_torque = [-STIFFNESS * (a1 - a2), -STIFFNESS * a2];
     for (got, want) in report.command.torque.iter().zip(joint_torque) {
         assert!(

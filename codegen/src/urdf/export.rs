@@ -259,6 +259,35 @@ fn write_tree(model: &Model) -> Result<String, String> {
             number(d.gear_ratio * d.gear_ratio * d.motor.rotor_inertia)
         );
     }
+    // A transmission couples the drives: its rows, and the rotor inertia it reflects, which
+    // replaces the diagonal above (URDF's joints carry neither).
+    if let Some(coupling) = &model.coupling {
+        for (joint, row) in model.joints.iter().zip(&coupling.drive_from_joint) {
+            let turns: Vec<String> = model
+                .joints
+                .iter()
+                .zip(row)
+                .filter(|(_, &ratio)| ratio != 0.0)
+                .map(|(other, &ratio)| format!("{} {}", other.name, number(ratio)))
+                .collect();
+            let _ = writeln!(
+                out,
+                "     transmission: joint {}'s drive turns {} (not part of URDF)",
+                joint.name,
+                turns.join(", ")
+            );
+        }
+        let reflected = crate::dynamics::reflected_rotor_inertia(model);
+        let rows: Vec<String> = reflected
+            .iter()
+            .map(|row| row.iter().map(|&x| number(x)).collect::<Vec<_>>().join(" "))
+            .collect();
+        let _ = writeln!(
+            out,
+            "     reflected rotor inertia Cᵀ diag(N² J_m) C (adds to D instead): [{}]",
+            rows.join("; ")
+        );
+    }
     for passive in &model.passive {
         let _ = writeln!(out, "     joint {}: passive (a closed chain's loop moves it)", passive.name);
     }

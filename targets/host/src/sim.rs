@@ -8,7 +8,10 @@
 //! loop runs on the filtered measured currents, the impedance tick runs when the runtime's
 //! `Scheduler` says it is due (1 kHz) on the encoder counts and force-sensor readings of that
 //! instant, and the plant is integrated over the period (RK4, `substeps` steps) with the
-//! armature voltages held.
+//! armature voltages held. The operator's force is evaluated again at each substep, so that a
+//! stiff hand on a light axis stays stable: `hapticgen simulate` chooses the substeps from the
+//! hand and the rig's lightest axis (`Simulation::hand_substeps`; 1 for the paper's rigs, 25
+//! for the differential wrist's 1.05e-5 kg·m² roll).
 //!
 //! **Signs.** The operator pushes the device with the force `f_op` (task space; N or N·m), a
 //! joint torque `Jᵀ f_op`. In eq. (1) the operator's force `f_l` enters as `+Jᵀ f_l` on the
@@ -684,9 +687,18 @@ where
         }
         reference = command.reference;
         hip = command.hip;
-        let external = linalg::transpose_mul_vec(&task.jacobian, &force);
-        for _ in 0..substeps {
-            plant.step(dt / substeps as f64, &command.volts, &command.current_setpoints, &external);
+        let mut external = linalg::transpose_mul_vec(&task.jacobian, &force);
+        let substep = dt / substeps as f64;
+        for sub in 0..substeps {
+            // With substeps, the operator's force follows the device within the period: a
+            // stiff hand on a light axis, held over a whole period, would not be stable.
+            if sub > 0 {
+                let task = plant.task();
+                let force = cfg.operator.force(t + sub as f64 * substep, &task.position, &task.velocity);
+                let force: [f64; M] = std::array::from_fn(|i| force.get(i).copied().unwrap_or(0.0));
+                external = linalg::transpose_mul_vec(&task.jacobian, &force);
+            }
+            plant.step(substep, &command.volts, &command.current_setpoints, &external);
         }
         if show_progress && k % 2000 == 0 {
             if bar.is_none() && wall.elapsed().as_secs_f64() > 1.0 {

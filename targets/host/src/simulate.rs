@@ -358,6 +358,36 @@ impl Simulation {
         (0..m).map(|k| out[m + k * n..m + (k + 1) * n].to_vec()).collect()
     }
 
+    /// Integration substeps per current-loop period that keep an operator's hand of
+    /// `stiffness` and `damping` (task space) numerically stable on the rig's lightest axis at
+    /// `q`: the hand's rates there, `b |J_j|² / D_jj` and `√(k |J_j|² / D_jj)`, times a
+    /// substep at most 0.5 (1 for every rig whose axes are heavy enough, the paper's included).
+    pub fn hand_substeps(&self, q: &[f64], stiffness: f64, damping: f64) -> usize {
+        let (n, m) = (self.joints(), self.task_dim());
+        let evaluate = |tape: &Tape| {
+            let mut out = vec![0.0; tape.len()];
+            tape.eval(&mut tape.scratch(), q, &vec![0.0; n], &self.nominal.parameters, &mut out);
+            out
+        };
+        let (dynamics, kinematics) = (evaluate(&self.nominal.dynamics), evaluate(&self.nominal.kinematics));
+        let period = 1.0 / f64::from(self.data.current_loop_hz);
+        let fastest = (0..n)
+            .map(|j| {
+                let lever: f64 = (0..m).map(|k| kinematics[m + k * n + j].powi(2)).sum();
+                let inertia = dynamics[j * n + j];
+                let rate = damping.abs() * lever / inertia;
+                let frequency = (stiffness.abs() * lever / inertia).sqrt();
+                rate.max(frequency)
+            })
+            .fold(0.0, f64::max);
+        let substeps = (fastest * period / 0.5).ceil();
+        if substeps.is_finite() && substeps > 1.0 {
+            substeps.min(1000.0) as usize
+        } else {
+            1
+        }
+    }
+
     /// Task position and Jacobian determinant (square tasks; 0 otherwise) at `q`.
     pub fn task_at(&self, q: &[f64]) -> (Vec<f64>, f64) {
         let (n, m) = (self.joints(), self.task_dim());
@@ -548,6 +578,7 @@ impl Simulation {
                 };
                 cfg.reference = Reference::Solids(placed.solids.clone());
                 cfg.duration = cfg.duration.max(placed.duration);
+                cfg.substeps = cfg.substeps.max(self.hand_substeps(&q0, hand_k, hand_b));
                 return Ok(Some(placed));
             }
             Scenario::FreeDrift => {
@@ -563,6 +594,9 @@ impl Simulation {
                     Reference::Fixed(None)
                 };
             }
+        }
+        if let Operator::Hand { stiffness, damping, .. } = &cfg.operator {
+            cfg.substeps = cfg.substeps.max(self.hand_substeps(&q0, *stiffness, *damping));
         }
         Ok(None)
     }

@@ -157,7 +157,7 @@ pub fn state_frame<R, const N: usize, const M: usize>(
 where
     R: FusedImpedance<N, M, Scalar = f32> + Clone,
 {
-    let state = *control.haptic.estimator().state();
+    let state = control.haptic.joint_state();
     let position = rig.position(&state.position);
     let velocity = mat_vec(&rig.jacobian(&state.position), &state.velocity);
     let safety_fault = control.first_fault.map_or(0, |(_, fault)| fault.number());

@@ -189,12 +189,12 @@ fn the_state_frame_carries_the_task_velocity_of_the_estimated_joint_velocities()
     let rig = image::Rig::NOMINAL;
     let scales = hapticgen_protocol::ChannelScales::DESKTOP;
     // Set the plant moving (the bridges are off: it coasts to a stop); every tick's frame
-    // against `J q̇` of the estimator's state.
+    // against `J q̇` of the joints' estimated state.
     device.board.qd = [3.0, -2.0];
     let mut speed = 0.0f32;
     for _ in 0..30 {
         let frame = device.state();
-        let state = *device.control.haptic.estimator().state();
+        let state = device.control.haptic.joint_state();
         let jacobian = rig.jacobian(&state.position);
         let mut tick_speed = 0.0f32;
         for (k, row) in jacobian.iter().enumerate() {
