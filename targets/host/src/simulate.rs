@@ -652,3 +652,27 @@ impl Simulation {
             .ok_or_else(|| "error: no singular configuration within the joint limits".to_string())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Simulation;
+
+    /// The scenarios' hand (200 N/m, 1 N·s/m) needs no substeps on any shipped rig but the
+    /// differential wrist, so every other rig's runs, the paper's included, are integrated as
+    /// before substeps were chosen.
+    #[test]
+    fn only_the_wrist_needs_substeps_under_the_hand() {
+        let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
+        let mut checked = 0;
+        for entry in std::fs::read_dir(&models).unwrap() {
+            let path = entry.unwrap().path();
+            // The simulator takes 1 to 3 joints (not the PUMA 560).
+            let Ok(simulation) = Simulation::load(&path, None) else { continue };
+            let substeps = simulation.hand_substeps(&simulation.home(), 200.0, 1.0);
+            let wrist = path.ends_with("differential_wrist.yaml");
+            assert_eq!(substeps > 1, wrist, "{}: {substeps} substeps", path.display());
+            checked += 1;
+        }
+        assert!(checked >= 7, "{checked} models");
+    }
+}
