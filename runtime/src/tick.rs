@@ -316,7 +316,7 @@ where
         let sensed = self.sensed(inputs, &state, &terms.jacobian, &terms.jacobian_dot_times_qdot);
         let reference = self.source.update_reference(&terms.position, &mut self.controller.parameters);
         let output = self.controller.torque(&self.rig, &terms, &state.velocity, &reference, &sensed);
-        self.finish(output, estimation_status, &state.velocity)
+        self.finish(output, estimation_status)
     }
 
     /// Watchdog, estimation and the loops' singularity check: the first step of every
@@ -376,7 +376,6 @@ where
         &mut self,
         output: ControlOutput<R::Scalar, N>,
         estimation_status: EstimationStatus,
-        joint_velocity: &[R::Scalar; N],
     ) -> ImpedanceReport<R::Scalar, N> {
         match output.status {
             ControlStatus::Ok | ControlStatus::SingularFallback => {}
@@ -388,18 +387,19 @@ where
         }
         // A coupled rig's limits hold per drive: `τ_a = C⁻ᵀ τ`, limited, and the joints then get
         // `Cᵀ τ_a` (the torques the limited currents make).
-        let coupling = self.rig.coupling();
-        let (mut command, drive_velocity) = match &coupling {
-            Some(coupling) => (
-                self.safety.limit(&linalg::transpose_mul_vec(&coupling.joint_from_drive, &output.torque)),
-                linalg::mat_vec(&coupling.drive_from_joint, joint_velocity),
-            ),
-            None => (self.safety.limit(&output.torque), *joint_velocity),
+        let command = match self.rig.coupling() {
+            Some(coupling) => {
+                let drive_torque = linalg::transpose_mul_vec(&coupling.joint_from_drive, &output.torque);
+                let mut command = self.safety.limit(&drive_torque);
+                command.torque = linalg::transpose_mul_vec(&coupling.drive_from_joint, &command.torque);
+                command
+            }
+            None => self.safety.limit(&output.torque),
         };
-        if let Some(coupling) = &coupling {
-            command.torque = linalg::transpose_mul_vec(&coupling.drive_from_joint, &command.torque);
-        }
         self.current_setpoints = command.current;
+        // Each motor's back EMF follows its own output's velocity, which the estimator keeps
+        // (the joints' for an uncoupled rig).
+        let drive_velocity = self.estimator.state().velocity;
         for ((volts, &k), &velocity) in
             self.back_emf_volts.iter_mut().zip(self.back_emf_constants.iter()).zip(drive_velocity.iter())
         {
@@ -481,6 +481,6 @@ where
         let reference = self.source.update_reference(&position, &mut self.controller.parameters);
         let output =
             fused_torque(&self.rig, &self.controller, &state.position, &state.velocity, &reference, &sensed);
-        self.finish(output, estimation_status, &state.velocity)
+        self.finish(output, estimation_status)
     }
 }

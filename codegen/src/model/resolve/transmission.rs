@@ -20,8 +20,9 @@ pub(super) fn transmission(
     let n = joints.len();
     let index_of = |name: &str| joints.iter().position(|j| j.name == name);
     let actuated = || joints.iter().map(|j| j.name.as_str()).collect::<Vec<_>>().join(", ");
-    let mut drive_from_joint: Vec<Vec<f64>> =
+    let identity: Vec<Vec<f64>> =
         (0..n).map(|a| (0..n).map(|b| if a == b { 1.0 } else { 0.0 }).collect()).collect();
+    let mut drive_from_joint = identity.clone();
     let mut complete = true;
     for (drive_joint, turns) in &file.transmission {
         let Some(row) = index_of(drive_joint) else {
@@ -60,8 +61,6 @@ pub(super) fn transmission(
     if !complete {
         return None;
     }
-    let identity: Vec<Vec<f64>> =
-        (0..n).map(|a| (0..n).map(|b| if a == b { 1.0 } else { 0.0 }).collect()).collect();
     match dense::solve(drive_from_joint.clone(), identity) {
         Some(joint_from_drive) => Some(Coupling { drive_from_joint, joint_from_drive }),
         None => {
