@@ -10,10 +10,15 @@
 #
 # Rotor inertia: hapticgen adds N²·J_m to D's diagonal; URDF has no place for it, so the check
 # compares D − diag(N²·J_m) with crba. Viscous damping is not part of nonLinearEffects and not
-# part of hapticgen's C·q̇ + g either. Models with direct poses (closed chains) are skipped.
+# part of hapticgen's C·q̇ + g either. Other models with direct poses (closed chains) are skipped.
 #
 # The check fails, rather than passing on nothing, when no model was exported, when the set of
 # exported models differs from the set checked, or when a model has no states to compare.
+#
+# A closed chain whose loop makes its open tree's angles linear in its coordinates (the PHANToM
+# Premium-like arm's parallelogram) is checked through a hand-written open tree,
+# tests/urdf-trees/NAME.urdf, and the loop's map NAME.map.json (q_tree = S q): Pinocchio's tree
+# dynamics reduced by S (D = Sᵀ D_tree S, C·q̇ + g = Sᵀ nle_tree(S q, S q̇), J = J_tree S).
 #
 # Usage: scripts/pinocchio-check.sh   (creates <target dir>/pinocchio-venv on first use; the
 # target directory is cargo's: `target/` or wherever CARGO_TARGET_DIR puts it)
@@ -64,40 +69,58 @@ for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
     model = pin.buildModelFromUrdf(os.path.join(directory, name + ".urdf"))
     data = model.createData()
     model.gravity.linear = np.array(ref["gravity"])
-    # The same joints by name, each with one velocity; the order may differ (Pinocchio numbers a
-    # branching tree depth first, the URDF importer in document order) and a continuous joint
-    # has two configuration entries in Pinocchio (cos q, sin q).
+    # Every quantity goes through S, the tree's velocities from hapticgen's (q_tree = S q):
+    # for a serial model, a permutation (Pinocchio numbers a branching tree depth first, the
+    # URDF importer in document order); for a closed chain written as a hand-written open tree,
+    # the loop's map (tests/urdf-trees/NAME.map.json). Then D = S^T D_tree S, C qd + g = S^T nle_tree(S q, S qd)
+    # (S is constant, so the tree's accelerations are S qdd exactly), J = J_tree S.
     names = [model.names[i] for i in range(1, model.njoints)]
-    if sorted(names) != sorted(ref["joints"]) or model.nv != len(ref["joints"]):
+    map_path = os.path.join(directory, name + ".map")
+    if os.path.exists(map_path):
+        with open(map_path) as f:
+            tree_from_model = json.load(f)["tree_from_model"]
+        unknown = {c for row in tree_from_model.values() for c in row} - set(ref["joints"])
+        if sorted(names) != sorted(tree_from_model) or model.nv != len(names):
+            failures.append(f"{name}: the tree's joints {names} differ from the map's {sorted(tree_from_model)}")
+            continue
+        if unknown:
+            failures.append(f"{name}: the map names {sorted(unknown)}, not coordinates of the model")
+            continue
+    elif sorted(names) != sorted(ref["joints"]) or model.nv != len(ref["joints"]):
         failures.append(f"{name}: Pinocchio's joints {names} differ from hapticgen's {ref['joints']}")
         continue
-    joints = [model.joints[model.getJointId(j)] for j in ref["joints"]]
-    if any(j.nv != 1 for j in joints):
+    else:
+        tree_from_model = {j: {j: 1.0} for j in ref["joints"]}
+    tree_joints = [model.joints[model.getJointId(j)] for j in names]
+    if any(j.nv != 1 for j in tree_joints):
         failures.append(f"{name}: a joint with other than one velocity")
         continue
-    velocity_index = [j.idx_v for j in joints]  # hapticgen's joint k is Pinocchio's velocity velocity_index[k]
+    S = np.zeros((model.nv, len(ref["joints"])))
+    for joint_name, row in tree_from_model.items():
+        for column, value in row.items():
+            S[model.joints[model.getJointId(joint_name)].idx_v, ref["joints"].index(column)] = value
 
     def configuration(q_hapticgen):
+        angles = S @ np.asarray(q_hapticgen)
         q = np.zeros(model.nq)
-        for joint, value in zip(joints, q_hapticgen):
-            if joint.nq == 2:
+        for joint in tree_joints:
+            value = angles[joint.idx_v]
+            if joint.nq == 2:  # a continuous joint: (cos q, sin q)
                 q[joint.idx_q:joint.idx_q + 2] = [np.cos(value), np.sin(value)]
             else:
                 q[joint.idx_q] = value
         return q
 
     def velocity(v_hapticgen):
-        v = np.zeros(model.nv)
-        v[velocity_index] = v_hapticgen
-        return v
+        return S @ np.asarray(v_hapticgen)
 
     def in_hapticgen_order(x):
-        """A joint-space vector or the joint-space matrix D, in hapticgen's joint order."""
+        """A joint-space force vector or the joint-space matrix D, reduced to hapticgen's coordinates."""
         x = np.asarray(x)
-        return x[velocity_index] if x.ndim == 1 else x[np.ix_(velocity_index, velocity_index)]
+        return S.T @ x if x.ndim == 1 else S.T @ x @ S
 
     def columns_in_hapticgen_order(jacobian):
-        return np.asarray(jacobian)[:, velocity_index]
+        return np.asarray(jacobian) @ S
 
     armature = np.array(ref["armature"])  # N x N: C^T diag(N^2 J_m) C
     worst = {"D": 0.0, "nle": 0.0, "g": 0.0, "J": 0.0, "p": 0.0, "R": 0.0, "Jw": 0.0}

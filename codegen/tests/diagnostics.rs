@@ -59,6 +59,9 @@ const CASES: &[(&str, Option<&str>)] = &[
     ("passive-prismatic", None),
     ("passive-with-drive", None),
     ("pose-parent-cycle", None),
+    ("pose-plane-cycle", None),
+    ("pose-planar-plane", None),
+    ("pose-spatial-no-plane", None),
     ("scalar-inertia-spatial", None),
     ("spherical-angle-as-joint", None),
     ("spherical-assembly-count", None),
@@ -564,6 +567,49 @@ fn parent_and_pose_forming_a_cycle() {
             token: "name",
             path: "bodies[0]",
             message: "bodies form a cycle: link1 → link4 → link1",
+        },
+    );
+}
+
+#[test]
+fn a_pose_and_its_plane_forming_a_cycle() {
+    let d = check(
+        "pose-plane-cycle",
+        None,
+        Expect {
+            context: "  - name: upper_arm\n",
+            token: "name",
+            path: "bodies[1]",
+            message: "bodies form a cycle: upper_arm → forearm → upper_arm",
+        },
+    );
+    assert_eq!(d.0.len(), 1, "one cycle, reported once: {d}");
+}
+
+#[test]
+fn a_spatial_direct_pose_names_its_plane() {
+    check(
+        "pose-spatial-no-plane",
+        None,
+        Expect {
+            context: "      origin: {body: upper_arm, point: [l1, 0.0, 0.0]}",
+            token: "origin",
+            path: "bodies[2].pose",
+            message: "body `forearm`: a spatial direct pose names the plane its angle turns in",
+        },
+    );
+}
+
+#[test]
+fn a_planar_direct_pose_turns_in_the_base_plane() {
+    check(
+        "pose-planar-plane",
+        None,
+        Expect {
+            context: "      plane: {body: base}",
+            token: "{",
+            path: "bodies[2].pose.plane",
+            message: "body `link3`: a planar model's direct pose turns in the base plane",
         },
     );
 }

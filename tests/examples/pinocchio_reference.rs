@@ -10,6 +10,11 @@
 //! (listed on standard error): they are closed chains. `models.txt` lists the names written,
 //! one per line, for the check to compare with what it found; writing none is an error.
 //!
+//! A closed chain whose loops make its open tree's angles linear in its coordinates (a
+//! parallelogram) is checked through a hand-written open tree, `tests/urdf-trees/NAME.urdf`,
+//! and the loop's map `NAME.map.json` (`q_tree = S q`): both are copied as `tree_NAME.*` beside
+//! hapticgen's quantities, and the check reduces Pinocchio's tree dynamics by `S`.
+//!
 //! Then, for every hand-written URDF of `tests/urdf/` (files no exporter wrote), `urdf_NAME.urdf`
 //! (the file itself, copied) and `urdf_NAME.json` with hapticgen's quantities of the model that
 //! `import-urdf` makes of it: Pinocchio then reads the original file, so a mistake in how the
@@ -155,6 +160,7 @@ fn main() {
     std::fs::create_dir_all(&out).expect("the output directory can be created");
     let root = workspace_root();
     let mut written: Vec<String> = Vec::new();
+    let mut trees_used: Vec<String> = Vec::new();
     for dir in ["models", "codegen/tests/good-models"] {
         for path in files_with_extension(&root.join(dir), "yaml") {
             let display = format!("{dir}/{}", path.file_name().expect("a file").to_string_lossy());
@@ -170,6 +176,23 @@ fn main() {
                 let text = match urdf::export(&m) {
                     Ok(text) => text,
                     Err(why) => {
+                        // A closed chain with a hand-written open tree and loop map is checked
+                        // through them; any other is skipped, and said so.
+                        let tree = root.join("tests/urdf-trees").join(format!("{}.urdf", m.name));
+                        if dir == "models" && tree.exists() {
+                            let name = format!(
+                                "tree_{}{}",
+                                m.name,
+                                variant.as_ref().map(|v| format!("_{v}")).unwrap_or_default()
+                            );
+                            std::fs::copy(&tree, out.join(format!("{name}.urdf"))).expect("writable");
+                            std::fs::copy(tree.with_extension("map.json"), out.join(format!("{name}.map")))
+                                .unwrap_or_else(|e| panic!("{}: its loop map: {e}", tree.display()));
+                            write_reference(&out, &name, &display, variant.as_deref(), &m, PointLinks::HandWritten);
+                            trees_used.push(m.name.clone());
+                            written.push(name);
+                            continue;
+                        }
                         eprintln!("skipped {display}: {why}");
                         break;
                     }
@@ -184,6 +207,15 @@ fn main() {
                 write_reference(&out, &name, &display, variant.as_deref(), &m, PointLinks::Exported);
                 written.push(name);
             }
+        }
+    }
+    // Every hand-written tree must belong to a shipped closed chain (a renamed model would
+    // otherwise leave its tree unchecked, silently).
+    for tree in files_with_extension(&root.join("tests/urdf-trees"), "urdf") {
+        let stem = tree.file_stem().expect("a file").to_string_lossy().into_owned();
+        if !trees_used.contains(&stem) {
+            eprintln!("error: tests/urdf-trees/{stem}.urdf names no closed chain of models/");
+            std::process::exit(1);
         }
     }
     // Hand-written URDFs: imported with `import-urdf`'s code, checked against Pinocchio reading

@@ -158,7 +158,8 @@ impl PlanarBaseline {
                     };
                     (chain, phase + fixed, angle)
                 }
-                Motion::Direct { origin_body, point, angle_joint } => {
+                // A planar model's direct pose turns in the base plane (`plane_body` is None).
+                Motion::Direct { origin_body, point, angle_joint, .. } => {
                     let (chain, phase, angle) = origin_body.map_or(base.clone(), |p| frames[p].clone());
                     (chain.extended(phase, &angle, xy(point)?), 0.0, unit(*angle_joint, 1.0))
                 }

@@ -1,5 +1,6 @@
 //! Kinematics of the open tree as polynomials: every body frame by composing the fixed
-//! transforms and joint rotations `R = I + sin q [u]× + (1 − cos q) [u]×²` from the base, the
+//! transforms and joint rotations `R = I + sin q [u]× + (1 − cos q) [u]×²` from the base (a
+//! direct pose: its plane's frame turned by `Rz(q)`, `q` an absolute angle in that plane), the
 //! world positions of named points, and the rotations and angular-velocity Jacobians
 //! `J_ω = vee(∂R/∂q_k · Rᵀ)` of named frames.
 
@@ -117,15 +118,19 @@ pub(crate) fn body_frames(model: &Model) -> Vec<Frame> {
                     },
                 }
             }
-            Motion::Direct { origin_body, point, angle_joint } => {
+            Motion::Direct { origin_body, point, angle_joint, plane_body, plane_rotation } => {
                 let carrier = match origin_body {
                     Some(b) => &frames[*b],
                     None => &base(),
                 };
-                Frame {
-                    origin: vec_add(&carrier.origin, &mat_vec(&carrier.rotation, point)),
-                    rotation: axis_rotation([0.0, 0.0, 1.0], dof(*angle_joint)),
-                }
+                let in_plane = axis_rotation([0.0, 0.0, 1.0], dof(*angle_joint));
+                // The base plane (every planar model) needs no product: `I · I · Rz(q)`.
+                let rotation = match plane_body {
+                    None if *plane_rotation == IDENTITY => in_plane,
+                    None => mat_mul(&constant_matrix(*plane_rotation), &in_plane),
+                    Some(b) => mat_mul(&mat_mul(&frames[*b].rotation, &constant_matrix(*plane_rotation)), &in_plane),
+                };
+                Frame { origin: vec_add(&carrier.origin, &mat_vec(&carrier.rotation, point)), rotation }
             }
         };
         frames.push(frame);

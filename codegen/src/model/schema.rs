@@ -463,8 +463,25 @@ pub struct DenavitHartenberg {
 pub struct DirectPose {
     /// Where the frame's origin is: a point fixed on another body (or on `base`).
     pub origin: BodyPoint,
-    /// Planar models: the joint whose coordinate is the frame's absolute angle from x.
+    /// The joint whose coordinate is the frame's absolute angle: from the base's x axis about
+    /// z in a planar model, from the `plane`'s x axis about its z axis in a spatial one.
     pub angle: String,
+    /// Spatial models: the plane the angle turns in (a planar loop carried by a moving body,
+    /// such as a parallelogram on a turret).
+    #[serde(default)]
+    pub plane: Option<DirectPlane>,
+}
+
+/// The plane a spatial direct pose's angle turns in: the xy plane of a body's frame turned
+/// by `rpy`. The posed frame is that frame turned by the angle about its z axis.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DirectPlane {
+    /// The body whose frame carries the plane (or `base`).
+    pub body: String,
+    /// Fixed roll, pitch, yaw from that body's frame to the plane's (rad; default none).
+    #[serde(default)]
+    pub rpy: Option<Vec<f64>>,
 }
 
 /// A point fixed on a body.

@@ -68,7 +68,9 @@ pub enum Motion {
         /// A fixed transform after the joint (standard DH: `Tx(a) · Rx(alpha)`), if any.
         tail: Option<Box<FixedTransform>>,
     },
-    /// Origin at a point of another body; orientation: rotation about z by a coordinate.
+    /// Origin at a point of another body; orientation: the plane's frame turned about its z
+    /// axis by a coordinate (`R = R_plane_body · plane_rotation · Rz(q)`; planar models: the
+    /// base, so `R = Rz(q)`).
     Direct {
         /// Body carrying the origin point, `None` for the base.
         origin_body: Option<usize>,
@@ -76,6 +78,10 @@ pub enum Motion {
         point: [Poly; 3],
         /// The coordinate giving the absolute angle.
         angle_joint: usize,
+        /// Body whose frame carries the plane the angle turns in, `None` for the base.
+        plane_body: Option<usize>,
+        /// Fixed rotation from that body's frame to the plane's.
+        plane_rotation: [[f64; 3]; 3],
     },
 }
 

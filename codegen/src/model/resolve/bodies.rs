@@ -13,12 +13,12 @@ use crate::model::types::{FixedTransform, Motion, ResolvedBody, ResolvedFrame, R
 use crate::sym::poly::Poly;
 use std::collections::HashMap;
 
-/// Resolves the bodies (`None` where a body could not be resolved) and, for each, the body it
-/// is placed from (its parent or its pose's origin body).
+/// Resolves the bodies (`None` where a body could not be resolved) and, for each, the bodies
+/// it is placed from (its parent, or its pose's origin body and plane body).
 pub(super) fn bodies(
     r: &mut Resolver<'_, '_>,
     file: &ModelFile,
-) -> (Vec<Option<ResolvedBody>>, Vec<Option<usize>>) {
+) -> (Vec<Option<ResolvedBody>>, Vec<Vec<usize>>) {
     let (planar, dim) = (r.planar, r.dim);
     // Bodies: names first, so that references can point forwards.
     for (i, b) in file.bodies.iter().enumerate() {
@@ -36,7 +36,7 @@ pub(super) fn bodies(
         r.error(&[key("bodies")], "a model needs at least one body");
     }
     let mut bodies: Vec<Option<ResolvedBody>> = Vec::new();
-    let mut depends_on: Vec<Option<usize>> = Vec::new();
+    let mut depends_on: Vec<Vec<usize>> = Vec::new();
     let mut serial_joint_users: HashMap<usize, usize> = HashMap::new();
     let mut joint_used = vec![false; file.joints.len()];
     for (i, b) in file.bodies.iter().enumerate() {
@@ -137,13 +137,13 @@ pub(super) fn bodies(
                     format!("{what} must have exactly one of `parent` (serial chain) or `pose` (direct pose)"),
                     "a serial body names `parent`, optional `origin` and `joint`; a directly posed body names `pose`",
                 );
-                depends_on.push(None);
+                depends_on.push(Vec::new());
                 bodies.push(None);
                 continue;
             }
             (Some(parent), None) => {
                 let Ok(parent_index) = lookup_body(r, parent, &at(&["parent"]), &what) else {
-                    depends_on.push(None);
+                    depends_on.push(Vec::new());
                     bodies.push(None);
                     continue;
                 };
@@ -243,7 +243,7 @@ pub(super) fn bodies(
                         j
                     }
                 };
-                depends_on.push(parent_index);
+                depends_on.push(parent_index.into_iter().collect());
                 Motion::Serial { parent: parent_index, xyz, rotation, joint, tail }
             }
             (None, Some(pose)) => {
@@ -254,23 +254,56 @@ pub(super) fn bodies(
                         "a serial body names `parent`, then `dh` (or `origin`) and `joint`",
                     );
                 }
-                if !planar {
-                    r.error_hint(
-                        &at(&["pose"]),
-                        "direct poses are supported for planar models only",
-                        "describe spatial bodies as a serial chain (`parent`, `origin`, `joint`)",
-                    );
-                }
                 let Ok(origin_body) =
                     lookup_body(r, &pose.origin.body, &at(&["pose", "origin", "body"]), &what)
                 else {
-                    depends_on.push(None);
+                    depends_on.push(Vec::new());
                     bodies.push(None);
                     continue;
                 };
+                let (plane_body, plane_rotation) = match (&pose.plane, planar) {
+                    (None, true) => (None, snap(rotation_rpy([0.0; 3]))),
+                    (Some(_), true) => {
+                        r.error_hint(
+                            &at(&["pose", "plane"]),
+                            format!("{what}: a planar model's direct pose turns in the base plane"),
+                            "remove `plane`; it places the angle of a spatial model's direct pose",
+                        );
+                        (None, snap(rotation_rpy([0.0; 3])))
+                    }
+                    (None, false) => {
+                        r.error_hint(
+                            &at(&["pose"]),
+                            format!("{what}: a spatial direct pose names the plane its angle turns in"),
+                            "add `plane: {body: <body or base>, rpy: [roll, pitch, yaw]}`: the angle turns about that frame's z axis, from its x axis",
+                        );
+                        (None, snap(rotation_rpy([0.0; 3])))
+                    }
+                    (Some(plane), false) => {
+                        let Ok(plane_body) =
+                            lookup_body(r, &plane.body, &at(&["pose", "plane", "body"]), &what)
+                        else {
+                            depends_on.push(Vec::new());
+                            bodies.push(None);
+                            continue;
+                        };
+                        let rpy = match plane.rpy.as_deref() {
+                            None => [0.0; 3],
+                            Some(&[roll, pitch, yaw]) => [roll, pitch, yaw],
+                            Some(v) => {
+                                r.error(
+                                    &at(&["pose", "plane", "rpy"]),
+                                    format!("expected 3 entries (roll, pitch, yaw), got {}", v.len()),
+                                );
+                                [0.0; 3]
+                            }
+                        };
+                        (plane_body, snap(rotation_rpy(rpy)))
+                    }
+                };
                 let (point, _) = r.vector(&pose.origin.point, dim, &at(&["pose", "origin", "point"]));
                 let Some(angle_joint) = lookup_joint(r, &pose.angle, &at(&["pose", "angle"]), &what) else {
-                    depends_on.push(None);
+                    depends_on.push(Vec::new());
                     bodies.push(None);
                     continue;
                 };
@@ -278,8 +311,8 @@ pub(super) fn bodies(
                 if file.joints[angle_joint].kind != JointType::Revolute {
                     r.error(&at(&["pose", "angle"]), format!("joint `{}` is not revolute", pose.angle));
                 }
-                depends_on.push(origin_body);
-                Motion::Direct { origin_body, point, angle_joint }
+                depends_on.push(origin_body.into_iter().chain(plane_body).collect());
+                Motion::Direct { origin_body, point, angle_joint, plane_body, plane_rotation }
             }
         };
         bodies.push(Some(ResolvedBody {
@@ -310,48 +343,62 @@ pub(super) fn bodies(
     (bodies, depends_on)
 }
 
-/// The bodies in dependency order (parents and pose origins first); a cycle is an error.
+/// The bodies in dependency order (parents, pose origins and planes first); a cycle is an
+/// error, reported once at the first body found on it.
 pub(super) fn dependency_order(
     r: &mut Resolver<'_, '_>,
     file: &ModelFile,
-    depends_on: &[Option<usize>],
+    depends_on: &[Vec<usize>],
 ) -> Vec<usize> {
+    #[derive(Clone, Copy, PartialEq)]
+    enum Visit {
+        New,
+        OnPath,
+        Done,
+    }
     let n = depends_on.len();
-    // Dependency order of bodies (parents and pose origins first); cycles are errors.
     let mut order = Vec::with_capacity(n);
-    let mut state = vec![0u8; n]; // 0 new, 1 visiting, 2 done
+    let mut state = vec![Visit::New; n];
+    let mut cycle_reported = false;
     for start in 0..n {
-        let mut chain = Vec::new();
-        let mut current = Some(start);
-        while let Some(c) = current {
-            if state[c] == 2 {
-                break;
-            }
-            if state[c] == 1 {
-                let cycle: Vec<&str> = chain
-                    .iter()
-                    .skip_while(|&&x| x != c)
-                    .map(|&x: &usize| file.bodies[x].name.as_str())
-                    .collect();
-                r.error_hint(
-                    &[key("bodies"), Segment::Index(c)],
-                    format!("bodies form a cycle: {} → {}", cycle.join(" → "), file.bodies[c].name),
-                    "each body must be placed relative to bodies closer to the base",
-                );
-                break;
-            }
-            state[c] = 1;
-            chain.push(c);
-            current = depends_on.get(c).copied().flatten();
+        if state[start] != Visit::New {
+            continue;
         }
-        for &c in chain.iter().rev() {
-            if state[c] == 1 {
-                state[c] = 2;
-                order.push(c);
+        // Depth first without recursion: the path from `start`, each body with the index of
+        // the next dependency to visit.
+        let mut path: Vec<(usize, usize)> = vec![(start, 0)];
+        state[start] = Visit::OnPath;
+        while let Some(&mut (body, ref mut next)) = path.last_mut() {
+            let Some(&dependency) = depends_on[body].get(*next) else {
+                state[body] = Visit::Done;
+                order.push(body);
+                path.pop();
+                continue;
+            };
+            *next += 1;
+            match state.get(dependency).copied() {
+                Some(Visit::New) => {
+                    state[dependency] = Visit::OnPath;
+                    path.push((dependency, 0));
+                }
+                Some(Visit::OnPath) if !cycle_reported => {
+                    cycle_reported = true;
+                    let cycle: Vec<&str> = path
+                        .iter()
+                        .map(|&(b, _)| b)
+                        .skip_while(|&b| b != dependency)
+                        .map(|b| file.bodies[b].name.as_str())
+                        .collect();
+                    r.error_hint(
+                        &[key("bodies"), Segment::Index(dependency)],
+                        format!("bodies form a cycle: {} → {}", cycle.join(" → "), file.bodies[dependency].name),
+                        "each body must be placed relative to bodies closer to the base",
+                    );
+                }
+                _ => {}
             }
         }
     }
-
     order
 }
 
@@ -381,9 +428,13 @@ pub(super) fn into_dependency_order(
             Motion::Serial { parent, xyz, rotation, joint, tail } => {
                 Motion::Serial { parent: remap(parent), xyz, rotation, joint, tail }
             }
-            Motion::Direct { origin_body, point, angle_joint } => {
-                Motion::Direct { origin_body: remap(origin_body), point, angle_joint }
-            }
+            Motion::Direct { origin_body, point, angle_joint, plane_body, plane_rotation } => Motion::Direct {
+                origin_body: remap(origin_body),
+                point,
+                angle_joint,
+                plane_body: remap(plane_body),
+                plane_rotation,
+            },
         };
         ordered.push(body);
     }
