@@ -188,7 +188,14 @@ fn main() {
                             std::fs::copy(&tree, out.join(format!("{name}.urdf"))).expect("writable");
                             std::fs::copy(tree.with_extension("map.json"), out.join(format!("{name}.map")))
                                 .unwrap_or_else(|e| panic!("{}: its loop map: {e}", tree.display()));
-                            write_reference(&out, &name, &display, variant.as_deref(), &m, PointLinks::HandWritten);
+                            write_reference(
+                                &out,
+                                &name,
+                                &display,
+                                variant.as_deref(),
+                                &m,
+                                PointLinks::HandWritten,
+                            );
                             trees_used.push(m.name.clone());
                             written.push(name);
                             continue;

@@ -128,7 +128,9 @@ pub(crate) fn body_frames(model: &Model) -> Vec<Frame> {
                 let rotation = match plane_body {
                     None if *plane_rotation == IDENTITY => in_plane,
                     None => mat_mul(&constant_matrix(*plane_rotation), &in_plane),
-                    Some(b) => mat_mul(&mat_mul(&frames[*b].rotation, &constant_matrix(*plane_rotation)), &in_plane),
+                    Some(b) => {
+                        mat_mul(&mat_mul(&frames[*b].rotation, &constant_matrix(*plane_rotation)), &in_plane)
+                    }
                 };
                 Frame { origin: vec_add(&carrier.origin, &mat_vec(&carrier.rotation, point)), rotation }
             }

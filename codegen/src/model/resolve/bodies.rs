@@ -391,7 +391,11 @@ pub(super) fn dependency_order(
                         .collect();
                     r.error_hint(
                         &[key("bodies"), Segment::Index(dependency)],
-                        format!("bodies form a cycle: {} → {}", cycle.join(" → "), file.bodies[dependency].name),
+                        format!(
+                            "bodies form a cycle: {} → {}",
+                            cycle.join(" → "),
+                            file.bodies[dependency].name
+                        ),
                         "each body must be placed relative to bodies closer to the base",
                     );
                 }
@@ -428,13 +432,15 @@ pub(super) fn into_dependency_order(
             Motion::Serial { parent, xyz, rotation, joint, tail } => {
                 Motion::Serial { parent: remap(parent), xyz, rotation, joint, tail }
             }
-            Motion::Direct { origin_body, point, angle_joint, plane_body, plane_rotation } => Motion::Direct {
-                origin_body: remap(origin_body),
-                point,
-                angle_joint,
-                plane_body: remap(plane_body),
-                plane_rotation,
-            },
+            Motion::Direct { origin_body, point, angle_joint, plane_body, plane_rotation } => {
+                Motion::Direct {
+                    origin_body: remap(origin_body),
+                    point,
+                    angle_joint,
+                    plane_body: remap(plane_body),
+                    plane_rotation,
+                }
+            }
         };
         ordered.push(body);
     }

@@ -1,0 +1,54 @@
+//! Spatial direct poses: the PHANToM Premium-like arm (`models/phantom_premium.yaml`), whose
+//! parallelogram's links are absolute angles in the turning turret's plane, against the closed
+//! form a published model of the Premium 1.5 gives (`../shared/spec/devices.md`, section 2):
+//! `x = cos θ1 (l1 cos θ2 + l2 sin θ3)`, `y = sin θ1 (…)`, `z = l1 sin θ2 − l2 cos θ3`, and the
+//! parallelogram's fourth corner `l3` behind the elbow along the forearm. Its dynamics are
+//! checked against Pinocchio (`scripts/pinocchio-check.sh`, on a hand-written open tree) and by
+//! `tests/tests/numerical.rs` (finite differences of `J`, energy), as for every shipped model.
+
+use std::path::Path;
+
+use hapticgen_codegen::eval::{evaluate, State};
+
+const L1: f64 = 0.20955;
+const L2: f64 = 0.169545;
+const L3: f64 = 0.03175;
+
+#[test]
+fn the_premium_follows_the_published_closed_form() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/phantom_premium.yaml");
+    let model = hapticgen_codegen::load_file(&path, "models/phantom_premium.yaml", None)
+        .unwrap_or_else(|d| panic!("{d}"));
+    let mechanics = hapticgen_codegen::derive(&model);
+    let point = |name: &str| mechanics.points.iter().find(|p| p.name == name).expect("the point exists");
+    let (tip, rear_hinge) = (point("gimbal_centre"), point("rear_hinge"));
+    // A grid over the joint limits (θ1 ∈ [−1, 1], θ2, θ3 ∈ [−0.35, 0.6]), 125 states.
+    let steps = |lower: f64, upper: f64| (0..5).map(move |k| lower + (upper - lower) * f64::from(k) / 4.0);
+    let mut states = 0;
+    for t1 in steps(-1.0, 1.0) {
+        for t2 in steps(-0.35, 0.6) {
+            for t3 in steps(-0.35, 0.6) {
+                let q = [t1, t2, t3];
+                let state = State { q: &q, qd: &[0.0; 3], parameters: &[] };
+                let reach = L1 * t2.cos() + L2 * t3.sin();
+                let expected_tip = [t1.cos() * reach, t1.sin() * reach, L1 * t2.sin() - L2 * t3.cos()];
+                let behind = L1 * t2.cos() - L3 * t3.sin();
+                let expected_rear = [t1.cos() * behind, t1.sin() * behind, L1 * t2.sin() + L3 * t3.cos()];
+                for (point, expected) in [(tip, expected_tip), (rear_hinge, expected_rear)] {
+                    let got = evaluate(&mechanics, &state, Some(point)).p;
+                    for axis in 0..3 {
+                        assert!(
+                            (got[axis] - expected[axis]).abs() < 1e-14,
+                            "{} at q = {q:?}: axis {axis} is {}, the closed form gives {}",
+                            point.name,
+                            got[axis],
+                            expected[axis]
+                        );
+                    }
+                }
+                states += 1;
+            }
+        }
+    }
+    assert_eq!(states, 125);
+}
