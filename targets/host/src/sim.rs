@@ -303,6 +303,10 @@ impl Trace {
     }
 }
 
+/// The contact scenarios' proxy tolerance, m: the god object stops a move shorter than this
+/// (so a proxy may lag its goal by up to it) and holds the proxy this far outside a surface.
+pub const PROXY_SKIN: f64 = 1e-6;
+
 /// The reference source handed to the [`HapticLoop`]; remembers the last proxy for the trace.
 pub struct SimSource<const M: usize> {
     fixed: Option<TaskReference<f64, M>>,
@@ -551,7 +555,7 @@ where
         }
         Reference::Solids(solids) => {
             // A point proxy (radius 0) with a 1 µm contact tolerance (see `GodObject::new`).
-            let mut god_object = Box::new(GodObject::new(cfg.stiffness, cfg.damping, 0.0, 1e-6));
+            let mut god_object = Box::new(GodObject::new(cfg.stiffness, cfg.damping, 0.0, PROXY_SKIN));
             for solid in solids {
                 god_object.add(solid.object::<M>()?).ok_or_else(|| {
                     format!("error: a scene holds at most {MAX_SOLIDS} solids, this one has {}", solids.len())
