@@ -49,6 +49,9 @@ const CASES: &[(&str, Option<&str>)] = &[
     ("transmission-unknown-row", None),
     ("joint-moves-no-body", None),
     ("limits-inverted", None),
+    ("measured-body-with-mass", None),
+    ("measured-point", None),
+    ("measured-with-drive", None),
     ("missing-key", None),
     ("nan-literal", None),
     ("negative-counts", None),
@@ -610,6 +613,48 @@ fn a_planar_direct_pose_turns_in_the_base_plane() {
             token: "{",
             path: "bodies[2].pose.plane",
             message: "body `link3`: a planar model's direct pose turns in the base plane",
+        },
+    );
+}
+
+#[test]
+fn a_measured_joint_has_no_drive() {
+    check(
+        "measured-with-drive",
+        None,
+        Expect {
+            context: "    drive: arm_capstan\n    measured",
+            token: "arm_capstan",
+            path: "joints[4].drive",
+            message: "joint `gimbal_pitch` is measured: it takes no `drive`",
+        },
+    );
+}
+
+#[test]
+fn a_measured_joint_s_bodies_are_massless() {
+    check(
+        "measured-body-with-mass",
+        None,
+        Expect {
+            context: "mass: 0.005",
+            token: "0.005",
+            path: "bodies[7].mass",
+            message: "body `gimbal_yoke` turns with measured joint `gimbal_pitch`, whose bodies are lumped (`dynamics: lumped`): it must be massless",
+        },
+    );
+}
+
+#[test]
+fn no_point_turns_with_a_measured_joint() {
+    check(
+        "measured-point",
+        None,
+        Expect {
+            context: "    body: stylus\n    position",
+            token: "stylus",
+            path: "points[0].body",
+            message: "point `stylus_tip` turns with measured joint `stylus_spin`: it would not be a function of the actuated joints",
         },
     );
 }

@@ -17,6 +17,7 @@ pub mod estimation;
 pub mod fused;
 pub mod linalg;
 pub mod loops;
+pub mod measured;
 pub mod proxy;
 pub mod real;
 pub mod render;

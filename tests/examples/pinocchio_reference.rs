@@ -28,6 +28,7 @@ use hapticgen_codegen::urdf;
 use hapticgen_tests::check::random_state;
 use hapticgen_tests::workspace_root;
 use rand::rngs::SmallRng;
+use rand::Rng;
 use rand::SeedableRng;
 
 /// States per model.
@@ -88,9 +89,26 @@ fn write_reference(
         Some(coupling) => coupling.drive_from_joint[k][j],
         None => f64::from(u8::from(k == j)),
     };
-    let armature: Vec<Vec<f64>> = (0..n)
-        .map(|a| (0..n).map(|b| (0..n).map(|k| coupling(k, a) * rotor[k] * coupling(k, b)).sum()).collect())
+    // Measured joints (a gimbal) are coordinates after the actuated ones: their bodies are
+    // massless, so every dynamic quantity is padded with zeros for them, and the frames'
+    // angular Jacobians have their columns.
+    let coordinates = n + m.measured.len();
+    let armature: Vec<Vec<f64>> = (0..coordinates)
+        .map(|a| {
+            (0..coordinates)
+                .map(|b| {
+                    if a < n && b < n {
+                        (0..n).map(|k| coupling(k, a) * rotor[k] * coupling(k, b)).sum()
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        })
         .collect();
+    let pad = |v: &[f64]| -> Vec<f64> {
+        v.iter().copied().chain(std::iter::repeat(0.0)).take(coordinates).collect()
+    };
     let mut json = String::new();
     let _ = write!(
         json,
@@ -98,19 +116,32 @@ fn write_reference(
         variant.map_or("null".to_string(), |v| format!("\"{v}\"")),
         json_vector(&gravity),
         json_matrix(&armature),
-        m.joints.iter().map(|j| format!("\"{}\"", j.name)).collect::<Vec<_>>().join(", ")
+        m.joints
+            .iter()
+            .map(|j| &j.name)
+            .chain(m.measured.iter().map(|j| &j.name))
+            .map(|name| format!("\"{name}\""))
+            .collect::<Vec<_>>()
+            .join(", ")
     );
     let mut rng = SmallRng::seed_from_u64(0x9170_c410);
     for s in 0..STATES {
-        let (q, qd) = random_state(m, &mut rng);
+        let (mut q, mut qd) = random_state(m, &mut rng);
+        for joint in &m.measured {
+            q.push(rng.gen_range(joint.lower..joint.upper));
+            qd.push(rng.gen_range(-2.0..2.0));
+        }
         let state = State { q: &q, qd: &qd, parameters: &params };
         let e = evaluate(&mech, &state, None);
-        let nle: Vec<f64> = e.coriolis_times_qdot.iter().zip(&e.g).map(|(c, g)| c + g).collect();
+        let nle: Vec<f64> =
+            pad(&e.coriolis_times_qdot.iter().zip(&e.g).map(|(c, g)| c + g).collect::<Vec<_>>());
+        let inertia_matrix: Vec<Vec<f64>> =
+            (0..coordinates).map(|a| pad(e.inertia_matrix.get(a).map_or(&[][..], |row| row))).collect();
         let mut points = Vec::new();
         for p in &mech.points {
             let pe = evaluate(&mech, &state, Some(p));
             let mut position = pe.p.clone();
-            let mut jacobian = pe.jacobian.clone();
+            let mut jacobian: Vec<Vec<f64>> = pe.jacobian.iter().map(|row| pad(row)).collect();
             while position.len() < 3 {
                 position.push(0.0);
                 jacobian.push(vec![0.0; q.len()]);
@@ -144,9 +175,9 @@ fn write_reference(
             if s == 0 { "" } else { ", " },
             json_vector(&q),
             json_vector(&qd),
-            json_matrix(&e.inertia_matrix),
+            json_matrix(&inertia_matrix),
             json_vector(&nle),
-            json_vector(&e.g),
+            json_vector(&pad(&e.g)),
             points.join(", "),
             frames.join(", ")
         );

@@ -1,4 +1,6 @@
-//! Orientation outputs (`frames:`) of the shipped spatial models, at random states:
+//! Orientation outputs (`frames:`) of the shipped spatial models, at random states (a model's
+//! measured joints, such as the PHANToM Premium-like arm's gimbal, at random angles and rates
+//! within their limits too: their angles turn the frames, and `J_ω` has a column for each):
 //! - `R` orthonormal with determinant +1;
 //! - `Ṙ Rᵀ = [J_ω q̇]×`, with `Ṙ` the central finite difference of `R(q + t q̇)`;
 //! - the compiled `<frame>_orientation` and `<frame>_angular_jacobian` equal to the evaluator
@@ -39,6 +41,28 @@ fn frame_at(mech: &Mechanics, params: &[f64], index: usize, q: &[f64], qd: &[f64
     evaluate_frame(mech, &State { q, qd, parameters: params }, &mech.frames[index])
 }
 
+/// A random state of the actuated joints followed by the measured ones (angles within their
+/// limits): the coordinates a frame is a function of.
+fn random_frame_state(model: &Model, rng: &mut SmallRng) -> (Vec<f64>, Vec<f64>) {
+    use rand::Rng;
+    let (mut q, mut qd) = random_state(model, rng);
+    for joint in &model.measured {
+        q.push(rng.gen_range(joint.lower..joint.upper));
+        qd.push(rng.gen_range(-2.0..2.0));
+    }
+    (q, qd)
+}
+
+#[test]
+fn the_premium_s_stylus_turns_with_its_measured_gimbal() {
+    let frames = with_frames();
+    let (_, _, model, _) =
+        frames.iter().find(|(file, ..)| file == "models/phantom_premium.yaml").expect("the Premium");
+    let names: Vec<&str> = model.measured.iter().map(|j| j.name.as_str()).collect();
+    assert_eq!(names, ["gimbal_roll", "gimbal_pitch", "stylus_spin"]);
+    assert!(model.frames.iter().any(|f| f.name == "stylus"));
+}
+
 #[test]
 fn the_phantom_and_the_puma_declare_frames() {
     let names: Vec<String> =
@@ -53,7 +77,7 @@ fn rotations_are_orthonormal_and_proper() {
         let params = model.nominal_parameters();
         let mut rng = SmallRng::seed_from_u64(19);
         for _ in 0..STATES {
-            let (q, qd) = random_state(&model, &mut rng);
+            let (q, qd) = random_frame_state(&model, &mut rng);
             for (f, frame) in model.frames.iter().enumerate() {
                 let r = frame_at(&mech, &params, f, &q, &qd).rotation;
                 for i in 0..3 {
@@ -81,10 +105,10 @@ fn angular_jacobian_matches_finite_differences_of_the_rotation() {
     let h = 1e-6;
     for (file, variant, model, mech) in with_frames() {
         let params = model.nominal_parameters();
-        let n = model.joints.len();
+        let n = model.joints.len() + model.measured.len();
         let mut rng = SmallRng::seed_from_u64(23);
         for _ in 0..STATES {
-            let (q, qd) = random_state(&model, &mut rng);
+            let (q, qd) = random_frame_state(&model, &mut rng);
             let along = |f: usize, t: f64| {
                 let qq: Vec<f64> = q.iter().zip(&qd).map(|(a, b)| a + t * b).collect();
                 frame_at(&mech, &params, f, &qq, &qd).rotation
@@ -124,15 +148,17 @@ fn angular_jacobian_matches_finite_differences_of_the_rotation() {
     }
 }
 
-/// Compares a compiled frame's outputs with the evaluator at random states.
-fn compare<const N: usize, S: Copy + Into<f64>>(
+/// Compares a compiled frame's outputs with the evaluator at random states: `N` actuated
+/// joints, `K` measured ones, `C = N + K` columns of `J_ω`.
+fn compare<const N: usize, const K: usize, const C: usize, S: Copy + Into<f64>>(
     file: &str,
     frame: &str,
     tolerance: f64,
     from: fn(f64) -> S,
-    orientation: impl Fn(&[S; N]) -> [[S; 3]; 3],
-    angular_jacobian: impl Fn(&[S; N]) -> [[S; N]; 3],
+    orientation: impl Fn(&[S; N], &[S; K]) -> [[S; 3]; 3],
+    angular_jacobian: impl Fn(&[S; N], &[S; K]) -> [[S; C]; 3],
 ) {
+    assert_eq!(C, N + K);
     let path = workspace_root().join(file);
     let m = hapticgen_codegen::load_file(&path, file, None).unwrap();
     let mech = hapticgen_codegen::derive(&m);
@@ -140,13 +166,15 @@ fn compare<const N: usize, S: Copy + Into<f64>>(
     let params = m.nominal_parameters();
     let mut rng = SmallRng::seed_from_u64(29);
     for _ in 0..STATES {
-        let (q, qd) = random_state(&m, &mut rng);
+        let (q, qd) = random_frame_state(&m, &mut rng);
+        assert_eq!(q.len(), C, "{file}: the model has {} coordinates for the frame", q.len());
         // Both sides at the same (rounded) state.
         let qs: [S; N] = std::array::from_fn(|i| from(q[i]));
-        let q: Vec<f64> = qs.iter().map(|&x| x.into()).collect();
+        let measured: [S; K] = std::array::from_fn(|k| from(q[N + k]));
+        let q: Vec<f64> = qs.iter().chain(&measured).map(|&x| x.into()).collect();
         let e = frame_at(&mech, &params, index, &q, &qd);
-        let r = orientation(&qs);
-        let jw = angular_jacobian(&qs);
+        let r = orientation(&qs, &measured);
+        let jw = angular_jacobian(&qs, &measured);
         for i in 0..3 {
             for j in 0..3 {
                 let got: f64 = r[i][j].into();
@@ -156,7 +184,7 @@ fn compare<const N: usize, S: Copy + Into<f64>>(
                     e.rotation[i][j]
                 );
             }
-            for k in 0..N {
+            for k in 0..C {
                 let got: f64 = jw[i][k].into();
                 assert!(
                     (got - e.angular_jacobian[i][k]).abs() < tolerance,
@@ -170,36 +198,66 @@ fn compare<const N: usize, S: Copy + Into<f64>>(
 
 #[test]
 fn compiled_orientation_equals_the_evaluator() {
-    use hapticgen_tests::{phantom_3dof_f32, phantom_3dof_f64, puma560_f32, puma560_f64};
+    use hapticgen_tests::{
+        phantom_3dof_f32, phantom_3dof_f64, phantom_premium_f32, phantom_premium_f64, puma560_f32,
+        puma560_f64,
+    };
     let phantom = "models/phantom_3dof.yaml";
     let rig = phantom_3dof_f64::Phantom3dof::NOMINAL;
-    compare(
+    compare::<3, 0, 3, _>(
         phantom,
         "gimbal_mount",
         1e-12,
         |x| x,
-        |q| rig.gimbal_mount_orientation(q),
-        |q| rig.gimbal_mount_angular_jacobian(q),
+        |q, _| rig.gimbal_mount_orientation(q),
+        |q, _| rig.gimbal_mount_angular_jacobian(q),
     );
     let rig = phantom_3dof_f32::Phantom3dof::NOMINAL;
-    compare(
+    compare::<3, 0, 3, _>(
         phantom,
         "gimbal_mount",
         1e-5,
         |x| x as f32,
-        |q| rig.gimbal_mount_orientation(q),
-        |q| rig.gimbal_mount_angular_jacobian(q),
+        |q, _| rig.gimbal_mount_orientation(q),
+        |q, _| rig.gimbal_mount_angular_jacobian(q),
     );
     let puma = "models/puma560.yaml";
     let rig = puma560_f64::Puma560::NOMINAL;
-    compare(puma, "flange", 1e-12, |x| x, |q| rig.flange_orientation(q), |q| rig.flange_angular_jacobian(q));
+    compare::<6, 0, 6, _>(
+        puma,
+        "flange",
+        1e-12,
+        |x| x,
+        |q, _| rig.flange_orientation(q),
+        |q, _| rig.flange_angular_jacobian(q),
+    );
     let rig = puma560_f32::Puma560::NOMINAL;
-    compare(
+    compare::<6, 0, 6, _>(
         puma,
         "flange",
         1e-5,
         |x| x as f32,
-        |q| rig.flange_orientation(q),
-        |q| rig.flange_angular_jacobian(q),
+        |q, _| rig.flange_orientation(q),
+        |q, _| rig.flange_angular_jacobian(q),
+    );
+    // The Premium's stylus turns with its three measured gimbal joints.
+    let premium = "models/phantom_premium.yaml";
+    let rig = phantom_premium_f64::PhantomPremium::NOMINAL;
+    compare::<3, 3, 6, _>(
+        premium,
+        "stylus",
+        1e-12,
+        |x| x,
+        |q, measured| rig.stylus_orientation(q, measured),
+        |q, measured| rig.stylus_angular_jacobian(q, measured),
+    );
+    let rig = phantom_premium_f32::PhantomPremium::NOMINAL;
+    compare::<3, 3, 6, _>(
+        premium,
+        "stylus",
+        1e-5,
+        |x| x as f32,
+        |q, measured| rig.stylus_orientation(q, measured),
+        |q, measured| rig.stylus_angular_jacobian(q, measured),
     );
 }

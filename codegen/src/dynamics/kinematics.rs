@@ -153,10 +153,11 @@ pub(crate) fn angular_jacobian_columns(rotation: &Mat3, n: usize) -> Vec<Vec3> {
         .collect()
 }
 
-/// Rotation and angular-velocity Jacobian of named frame `index`, over all tree coordinates.
+/// Rotation and angular-velocity Jacobian of named frame `index`, over all tree coordinates
+/// and then the measured joints' (a gimbal's), whose angles turn the frames they carry.
 pub(crate) fn frame_kinematics(model: &Model, frames: &[Frame], index: usize) -> FrameKinematics {
     let frame = &model.frames[index];
-    let n = model.tree_coordinates();
+    let n = model.tree_coordinates() + model.measured.len();
     let offset = constant_matrix(frame.rotation);
     let rotation = match frame.body {
         Some(b) => mat_mul(&frames[b].rotation, &offset),

@@ -37,6 +37,8 @@ pub struct FunctionSpec<'a> {
     pub takes_qd: bool,
     /// Takes `qdd` (the inverse dynamics).
     pub takes_qdd: bool,
+    /// Takes `measured`, the measured joints' angles (a frame a gimbal turns).
+    pub takes_measured: bool,
     /// The task function with the same outputs (a function of the task's point), which this
     /// one calls instead of repeating its body.
     pub same_as: Option<String>,
@@ -117,6 +119,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: quantity(Quantity::InertiaMatrix, n * n),
             takes_qd: false,
             takes_qdd: false,
+            takes_measured: false,
             same_as: None,
         },
         FunctionSpec {
@@ -127,6 +130,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: quantity(Quantity::CoriolisMatrix, n * n),
             takes_qd: true,
             takes_qdd: false,
+            takes_measured: false,
             same_as: None,
         },
         FunctionSpec {
@@ -136,6 +140,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: quantity(Quantity::CoriolisTimesQdot, n),
             takes_qd: true,
             takes_qdd: false,
+            takes_measured: false,
             same_as: None,
         },
         FunctionSpec {
@@ -145,6 +150,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: quantity(Quantity::Gravity, n),
             takes_qd: false,
             takes_qdd: false,
+            takes_measured: false,
             same_as: None,
         },
         FunctionSpec {
@@ -156,6 +162,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: quantity(Quantity::InverseDynamics, n),
             takes_qd: true,
             takes_qdd: true,
+            takes_measured: false,
             same_as: None,
         },
         FunctionSpec {
@@ -165,6 +172,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: vec![Output::Poly(&mech.potential_energy)],
             takes_qd: false,
             takes_qdd: false,
+            takes_measured: false,
             same_as: None,
         },
         FunctionSpec {
@@ -174,6 +182,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: task(mech, PointQuantity::Position),
             takes_qd: false,
             takes_qdd: false,
+            takes_measured: false,
             same_as: None,
         },
         FunctionSpec {
@@ -183,6 +192,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: task(mech, PointQuantity::Jacobian),
             takes_qd: false,
             takes_qdd: false,
+            takes_measured: false,
             same_as: None,
         },
         FunctionSpec {
@@ -192,6 +202,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: row_major(&mech.task.jacobian_dot),
             takes_qd: true,
             takes_qdd: false,
+            takes_measured: false,
             same_as: None,
         },
         FunctionSpec {
@@ -201,6 +212,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: task(mech, PointQuantity::JacobianDotTimesQdot),
             takes_qd: true,
             takes_qdd: false,
+            takes_measured: false,
             same_as: None,
         },
     ];
@@ -241,6 +253,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: point_outputs(PointQuantity::Position, d),
             takes_qd: false,
             takes_qdd: false,
+            takes_measured: false,
             same_as: task_fn("position"),
         });
         specs.push(FunctionSpec {
@@ -250,6 +263,7 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: point_outputs(PointQuantity::Jacobian, d * n),
             takes_qd: false,
             takes_qdd: false,
+            takes_measured: false,
             same_as: motion_fn("jacobian"),
         });
         specs.push(FunctionSpec {
@@ -259,27 +273,40 @@ pub fn function_specs<'a>(model: &Model, mech: &'a Mechanics) -> Vec<FunctionSpe
             outputs: point_outputs(PointQuantity::JacobianDotTimesQdot, d),
             takes_qd: true,
             takes_qdd: false,
+            takes_measured: false,
             same_as: motion_fn("jacobian_dot_times_qdot"),
         });
     }
+    // With measured joints (a gimbal), every frame takes their angles, and its `J_ω` has a
+    // column per actuated joint, then per measured joint.
+    let measured = !model.measured.is_empty();
+    let columns = n + model.measured.len();
+    let measured_note = if measured { ", `measured` the measured joints' angles" } else { "" };
+    let jacobian_note = if measured {
+        ", with `q̇` the actuated joints' velocities followed by the measured joints'"
+    } else {
+        ""
+    };
     for (index, frame) in model.frames.iter().enumerate() {
         let what = frame.description.clone().unwrap_or_else(|| format!("frame `{}`", frame.name));
         specs.push(FunctionSpec {
             name: format!("{}_orientation", frame.name),
-            doc: format!(" Orientation of {what}: the rotation matrix `R(q)` from the frame to the base frame (columns: its axes in base coordinates)."),
+            doc: format!(" Orientation of {what}: the rotation matrix `R(q)` from the frame to the base frame (columns: its axes in base coordinates){}.", measured_note),
             shape: Shape::Matrix(3, 3),
             outputs: quantity(Quantity::Frame(index, FrameQuantity::Orientation), 9),
             takes_qd: false,
             takes_qdd: false,
+            takes_measured: measured,
             same_as: None,
         });
         specs.push(FunctionSpec {
             name: format!("{}_angular_jacobian", frame.name),
-            doc: format!(" Angular-velocity Jacobian of {what}: `ω = J_ω(q) q̇` in base-frame coordinates (`Ṙ Rᵀ = [ω]×`)."),
-            shape: Shape::Matrix(3, n),
-            outputs: quantity(Quantity::Frame(index, FrameQuantity::AngularJacobian), 3 * n),
+            doc: format!(" Angular-velocity Jacobian of {what}: `ω = J_ω(q) q̇` in base-frame coordinates (`Ṙ Rᵀ = [ω]×`){}.", jacobian_note),
+            shape: Shape::Matrix(3, columns),
+            outputs: quantity(Quantity::Frame(index, FrameQuantity::AngularJacobian), 3 * columns),
             takes_qd: false,
             takes_qdd: false,
+            takes_measured: measured,
             same_as: None,
         });
     }

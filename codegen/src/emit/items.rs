@@ -180,6 +180,33 @@ pub fn items(
         }
         None => (TokenStream::new(), TokenStream::new()),
     };
+    // Measured joints (a gimbal): their names and encoders, for `hapticgen_runtime::measured`.
+    let measured_consts = if model.measured.is_empty() {
+        TokenStream::new()
+    } else {
+        let k = unsuffixed(model.measured.len());
+        let names = model.measured.iter().map(|j| j.name.as_str());
+        let joints = model.measured.iter().map(|j| {
+            let (counts, lower, upper) =
+                (j.counts_per_turn, scalar.literal(j.lower), scalar.literal(j.upper));
+            let revolute = j.kind == JointKind::Revolute;
+            quote! {
+                ::hapticgen_runtime::measured::MeasuredJoint {
+                    counts_per_turn: #counts,
+                    revolute: #revolute,
+                    lower: #lower,
+                    upper: #upper,
+                }
+            }
+        });
+        quote! {
+            /// The measured joints' names, in the order of the frame functions' `measured`.
+            pub const MEASURED_JOINT_NAMES: [&'static str; #k] = [#(#names),*];
+            /// The measured joints' encoders and ranges (`hapticgen_runtime::measured::measured_angles`
+            /// turns their counts into `measured`).
+            pub const MEASURED_JOINTS: [::hapticgen_runtime::measured::MeasuredJoint<#s>; #k] = [#(#joints),*];
+        }
+    };
     let gains = model.analyses.current_loop_designs.iter().map(|d| {
         let (kp, ki, t, beta) = (
             scalar.literal(d.kp),
@@ -337,6 +364,7 @@ pub fn items(
             /// The drive train of each joint, in the order of `q`.
             pub const DRIVES: [::hapticgen_runtime::DriveTrain<#s>; #n] = [#(#drives),*];
             #coupling_const
+            #measured_consts
             #(#[doc = #gains_doc])*
             pub const CURRENT_LOOP_GAINS: [::hapticgen_runtime::current_loop::CurrentLoopGains<#s>; #n] =
                 [#(#gains),*];

@@ -406,10 +406,7 @@ impl<'m> BodyEmitter<'m> {
                         quote!(::hapticgen_runtime::Real::cos(#angle))
                     }
                 },
-                (None, Node::Input(Atom::Q(j))) => {
-                    let j = unsuffixed(usize::from(j));
-                    quote!(q[#j])
-                }
+                (None, Node::Input(Atom::Q(j))) => self.coordinate_tokens(j),
                 (None, Node::Input(Atom::Qd(j))) => {
                     let j = unsuffixed(usize::from(j));
                     quote!(qd[#j])
@@ -461,6 +458,18 @@ impl<'m> BodyEmitter<'m> {
     fn angle_tokens(&self, j: u16) -> TokenStream {
         match self.naming.loops.and_then(|l| Some(l.tokens(l.read(Atom::Q(j))?))) {
             Some(read) => read,
+            None => self.coordinate_tokens(j),
+        }
+    }
+
+    /// Where coordinate `j` is read: `q[j]`, or a measured joint's `measured[k]`.
+    fn coordinate_tokens(&self, j: u16) -> TokenStream {
+        let measured_from = self.naming.model.tree_coordinates();
+        match usize::from(j).checked_sub(measured_from) {
+            Some(k) => {
+                let k = unsuffixed(k);
+                quote!(measured[#k])
+            }
             None => {
                 let j = unsuffixed(usize::from(j));
                 quote!(q[#j])

@@ -54,8 +54,10 @@ fn uses_atom(dag: &Dag, roots: &[NodeId], pred: impl Fn(Atom) -> bool) -> bool {
 fn arguments_used(body: &BodyEmitter<'_>, roots: &[NodeId]) -> (bool, bool) {
     let loops = body.naming.loops;
     let reads_loops = |a: Atom| loops.is_some_and(|l| l.read(a).is_some());
+    let measured_from = body.naming.model.tree_coordinates();
     let q_used = uses_atom(&body.dag, roots, |a| {
-        matches!(a, Atom::Sin(_) | Atom::Cos(_) | Atom::Q(_)) || reads_loops(a)
+        matches!(a, Atom::Sin(j) | Atom::Cos(j) | Atom::Q(j) if usize::from(j) < measured_from)
+            || reads_loops(a)
     });
     let qd_used = uses_atom(&body.dag, roots, |a| body.naming.reads_velocity(a));
     (q_used, qd_used)
@@ -96,7 +98,17 @@ pub(crate) fn function_sharing(
     let q = if q_used { quote!(q) } else { quote!(_q) };
     let qd = if qd_used { quote!(qd) } else { quote!(_qd) };
     let name = format_ident!("{}", spec.name);
-    let args = if spec.takes_qdd {
+    let measured_from = model.tree_coordinates();
+    let measured_used = uses_atom(
+        &body.dag,
+        &roots,
+        |a| matches!(a, Atom::Sin(j) | Atom::Cos(j) | Atom::Q(j) if usize::from(j) >= measured_from),
+    );
+    let measured = if measured_used { quote!(measured) } else { quote!(_measured) };
+    let k = unsuffixed(model.measured.len());
+    let args = if spec.takes_measured {
+        quote!(&self, #q: &[#s; #n], #measured: &[#s; #k])
+    } else if spec.takes_qdd {
         let qdd_used = uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Qdd(_)));
         let qdd = if qdd_used { quote!(qdd) } else { quote!(_qdd) };
         quote!(&self, #q: &[#s; #n], #qd: &[#s; #n], #qdd: &[#s; #n])

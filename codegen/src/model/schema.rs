@@ -262,6 +262,31 @@ pub struct Joint {
     /// one angle per axis.
     #[serde(default)]
     pub assembly: Option<Assembly>,
+    /// A measured passive joint: an encoder and no motor (a gimbal's joints), outside any
+    /// loop. Its angle is an input of the generated frame functions; it is not a coordinate of
+    /// the dynamics.
+    #[serde(default)]
+    pub measured: Option<Measured>,
+}
+
+/// A measured passive joint's encoder, and how the bodies it moves enter the dynamics.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Measured {
+    /// Encoder counts per turn of the joint (after quadrature decoding).
+    pub counts_per_turn: u32,
+    /// How the bodies the joint moves enter the dynamics.
+    pub dynamics: MeasuredDynamics,
+}
+
+/// How a measured joint's bodies enter the dynamics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum MeasuredDynamics {
+    /// Lumped: the bodies the joint moves are massless in the file, their mass given to the
+    /// body that carries the joint (a gimbal's mass at its centre); the dynamics have the
+    /// actuated coordinates only.
+    Lumped,
 }
 
 /// A loop-closure constraint.

@@ -184,6 +184,9 @@ pub struct Model {
     pub spatial_closures: Vec<SpatialClosure>,
     /// The model's `transmission`, if it has one.
     pub coupling: Option<Coupling>,
+    /// Measured passive joints: coordinates `tree_coordinates() + k` of the kinematics, inputs
+    /// of the frame functions, not coordinates of the dynamics.
+    pub measured: Vec<MeasuredJoint>,
 }
 
 /// A constant coupling between the joint coordinates and the drives' outputs, `a = C q`
@@ -210,6 +213,26 @@ pub struct PassiveJoint {
     /// Spatial closed chains: the angle (a prismatic joint's travel) in the file's assembly at
     /// the middle of the actuated ranges (where the elimination starts; 0 unless given).
     pub assembly: f64,
+}
+
+/// A measured passive joint: an encoder, no motor, outside any loop (a gimbal's joint); the
+/// bodies it moves are massless (their mass lumped on the body carrying it).
+#[derive(Clone, Debug)]
+pub struct MeasuredJoint {
+    /// Name of its angle.
+    pub name: String,
+    /// Documentation.
+    pub description: Option<String>,
+    /// Revolute or prismatic.
+    pub kind: JointKind,
+    /// Unit axis in the joint frame.
+    pub axis: [f64; 3],
+    /// Lower limit (rad or m): the range its encoder reading is trusted in.
+    pub lower: f64,
+    /// Upper limit.
+    pub upper: f64,
+    /// Encoder counts per turn of the joint (per metre for a prismatic joint).
+    pub counts_per_turn: u32,
 }
 
 /// A loop closure of a spatial closed chain as declared: two points coincide and, optionally,
@@ -269,23 +292,34 @@ impl Model {
         self.joints.len() + self.passive.len()
     }
 
-    /// Kind and axis of coordinate `j` of the open tree (actuated, then passive joints).
-    pub fn coordinate_axis(&self, j: usize) -> (JointKind, [f64; 3]) {
-        match self.joints.get(j) {
-            Some(joint) => (joint.kind, joint.axis),
-            None => self
-                .passive
-                .get(j - self.joints.len())
-                .map_or((JointKind::Revolute, [0.0, 0.0, 1.0]), |p| (p.kind, p.axis)),
-        }
+    /// The coordinate of measured joint `k` in the kinematics: after the open tree's.
+    pub fn measured_coordinate(&self, k: usize) -> usize {
+        self.tree_coordinates() + k
     }
 
-    /// Name of coordinate `j` of the open tree.
-    pub fn coordinate_name(&self, j: usize) -> &str {
-        match self.joints.get(j) {
-            Some(joint) => &joint.name,
-            None => self.passive.get(j - self.joints.len()).map(|p| p.name.as_str()).unwrap_or("passive"),
+    /// Kind and axis of coordinate `j` of the kinematics (actuated, passive, then measured
+    /// joints).
+    pub fn coordinate_axis(&self, j: usize) -> (JointKind, [f64; 3]) {
+        if let Some(joint) = self.joints.get(j) {
+            return (joint.kind, joint.axis);
         }
+        if let Some(p) = self.passive.get(j - self.joints.len()) {
+            return (p.kind, p.axis);
+        }
+        self.measured
+            .get(j - self.tree_coordinates())
+            .map_or((JointKind::Revolute, [0.0, 0.0, 1.0]), |m| (m.kind, m.axis))
+    }
+
+    /// Name of coordinate `j` of the kinematics.
+    pub fn coordinate_name(&self, j: usize) -> &str {
+        if let Some(joint) = self.joints.get(j) {
+            return &joint.name;
+        }
+        if let Some(p) = self.passive.get(j - self.joints.len()) {
+            return &p.name;
+        }
+        self.measured.get(j - self.tree_coordinates()).map_or("passive", |m| m.name.as_str())
     }
 
     /// Nominal values of the tunable parameters.

@@ -345,6 +345,26 @@ fn write_tree(model: &Model) -> Result<String, String> {
         };
         let origin = parent_tail.then(&Transform { xyz: nominal3(xyz, &parameters), rotation: *rotation });
         match joint {
+            Some(j) if *j >= model.tree_coordinates() => {
+                // A measured joint (a gimbal's): an encoder, no motor, its bodies massless.
+                let measured = model.measured.get(*j - model.tree_coordinates()).ok_or_else(|| {
+                    format!("body `{}`: coordinate {j} is no joint of the model", body.name)
+                })?;
+                let head = JointHead { name: &measured.name, kind: measured.kind, axis: &measured.axis };
+                head.write(&mut out, parent_link, &body.name, &origin);
+                let _ = writeln!(
+                    out,
+                    "    <!-- measured: {} counts per turn, no motor -->",
+                    measured.counts_per_turn
+                );
+                let _ = writeln!(
+                    out,
+                    "    <limit lower=\"{}\" upper=\"{}\" effort=\"0.0\" velocity=\"100.0\"/>",
+                    number(measured.lower),
+                    number(measured.upper)
+                );
+                let _ = writeln!(out, "  </joint>");
+            }
             Some(j) if *j >= model.joints.len() => {
                 // A passive joint of a closed chain's open tree: undamped, no drive.
                 let passive = model.passive.get(*j - model.joints.len()).ok_or_else(|| {

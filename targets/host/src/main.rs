@@ -85,6 +85,9 @@ enum Command {
         /// `J_omega` instead.
         #[arg(long, conflicts_with = "point")]
         frame: Option<String>,
+        /// With --frame: the measured joints' angles, comma-separated (default zero).
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, requires = "frame")]
+        measured: Vec<f64>,
         /// Print JSON (the only format).
         #[arg(long)]
         json: bool,
@@ -557,17 +560,25 @@ fn run(cli: Cli) -> Result<(), String> {
                 None => String::new(),
             };
             // Massless bodies are the crosses of universal and spherical joints (the loader
-            // adds them for a joint written as one entry).
+            // adds them for a joint written as one entry) and the bodies measured joints move
+            // (their mass lumped on the body carrying them).
             let massless = m.bodies.iter().filter(|b| b.mass.is_zero()).count();
+            let measured = match m.measured.len() {
+                0 => String::new(),
+                k => format!(
+                    " (+{k} measured: {}, inputs of the frames)",
+                    m.measured.iter().map(|j| j.name.as_str()).collect::<Vec<_>>().join(", ")
+                ),
+            };
             println!(
-                "{}: ok: rig `{}`{}, {} joint{}{passive}, {} bodies{}, task dimension {}",
+                "{}: ok: rig `{}`{}, {} joint{}{passive}{measured}, {} bodies{}, task dimension {}",
                 model.display(),
                 m.name,
                 m.variant.as_ref().map(|v| format!(" (variant {v})")).unwrap_or_default(),
                 m.joints.len(),
                 if m.joints.len() == 1 { "" } else { "s" },
                 m.bodies.len(),
-                if massless > 0 { format!(" ({massless} of them massless crosses)") } else { String::new() },
+                if massless > 0 { format!(" ({massless} of them massless)") } else { String::new() },
                 m.task_dim()
             );
             Ok(())
@@ -582,7 +593,7 @@ fn run(cli: Cli) -> Result<(), String> {
             let text = hapticgen_codegen::generate_model_with(m, scalar, options).file_text();
             write_or_print(output.as_deref(), &text)
         }
-        Command::Eval { model, variant, q, qd, point, frame, json: _ } => {
+        Command::Eval { model, variant, q, qd, point, frame, measured, json: _ } => {
             let m = load(&model, variant.as_deref())?;
             let n = m.joints.len();
             if q.len() != n {
@@ -592,7 +603,15 @@ fn run(cli: Cli) -> Result<(), String> {
             if qd.len() != n {
                 return Err(format!("error: --qd needs {n} values (one per joint), got {}", qd.len()));
             }
-            if let Some(bad) = q.iter().chain(&qd).find(|v| !v.is_finite()) {
+            let k = m.measured.len();
+            let measured = if measured.is_empty() { vec![0.0; k] } else { measured };
+            if measured.len() != k {
+                return Err(format!(
+                    "error: --measured needs {k} values (one per measured joint), got {}",
+                    measured.len()
+                ));
+            }
+            if let Some(bad) = q.iter().chain(&qd).chain(&measured).find(|v| !v.is_finite()) {
                 return Err(format!("error: state values must be finite, got {bad}"));
             }
             let mech = hapticgen_codegen::derive(&m);
@@ -614,6 +633,11 @@ fn run(cli: Cli) -> Result<(), String> {
                         format!("error: unknown frame `{name}`; the model defines: {}", names.join(", "))
                     }
                 })?;
+                // The measured joints are the coordinates after the actuated ones (a model
+                // with measured joints has no passive ones).
+                let q_measured: Vec<f64> = q.iter().chain(&measured).copied().collect();
+                let qd_measured = vec![0.0; q_measured.len()];
+                let state = eval::State { q: &q_measured, qd: &qd_measured, parameters: &parameters };
                 let values = eval::evaluate_frame(&mech, &state, kin);
                 println!("{}", serde_json::to_string(&values).map_err(|e| e.to_string())?);
                 return Ok(());

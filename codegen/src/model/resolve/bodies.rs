@@ -50,8 +50,11 @@ pub(super) fn bodies(
         let (mass, mass_nominal) = r.value(&b.mass, &at(&["mass"]));
         // A massless body is the cross of a universal joint (two passive revolute joints):
         // the loops' elimination gives the reduced inertia, whose definiteness is checked there.
-        let moved_by_passive_joint =
-            b.joint.as_ref().is_some_and(|name| file.joints.iter().any(|j| &j.name == name && j.passive));
+        // So is a body a measured joint moves (its mass lumped on the body carrying the joint;
+        // `lumped_bodies` requires it massless).
+        let moved_by_passive_joint = b.joint.as_ref().is_some_and(|name| {
+            file.joints.iter().any(|j| &j.name == name && (j.passive || j.measured.is_some()))
+        });
         if !(mass_nominal == 0.0 && moved_by_passive_joint) {
             r.positive(mass_nominal, &at(&["mass"]));
         }
@@ -462,4 +465,56 @@ pub(super) fn into_dependency_order(
         point => point,
     };
     (ordered, task)
+}
+
+/// A measured joint's bodies are lumped: every body it moves (and every body placed on those)
+/// is massless, carries no named point and turns no direct pose by its angle, so that the
+/// dynamics and the task are those of the actuated coordinates alone.
+pub(super) fn lumped_bodies(
+    r: &mut Resolver<'_, '_>,
+    file: &ModelFile,
+    bodies: &[Option<ResolvedBody>],
+    depends_on: &[Vec<usize>],
+    order: &[usize],
+    points: &[ResolvedPoint],
+) {
+    let measured_joint = |name: &str| file.joints.iter().find(|j| j.name == name && j.measured.is_some());
+    // The measured joint that moves each body (its own, or the one moving a body it is
+    // placed from), in dependency order.
+    let mut moved_by: Vec<Option<&str>> = vec![None; file.bodies.len()];
+    for &i in order {
+        let b = &file.bodies[i];
+        let own = b.joint.as_deref().and_then(measured_joint).map(|j| j.name.as_str());
+        moved_by[i] = own.or_else(|| depends_on[i].iter().find_map(|&d| moved_by[d]));
+        if let Some(pose) = &b.pose {
+            if measured_joint(&pose.angle).is_some() {
+                r.error_hint(
+                    &[key("bodies"), Segment::Index(i), key("pose"), key("angle")],
+                    format!("joint `{}` is measured: it cannot pose body `{}`", pose.angle, b.name),
+                    "a measured joint moves a serial body (`parent`, `joint`) whose mass is lumped",
+                );
+            }
+        }
+        let (Some(joint), Some(body)) = (moved_by[i], &bodies[i]) else { continue };
+        let massless = body.mass.is_zero() && body.inertia.iter().flatten().all(Poly::is_zero);
+        if !massless {
+            r.error_hint(
+                &[key("bodies"), Segment::Index(i), key("mass")],
+                format!(
+                    "body `{}` turns with measured joint `{joint}`, whose bodies are lumped (`dynamics: lumped`): it must be massless",
+                    b.name
+                ),
+                "write `mass: 0.0` and a zero inertia, and add the mass and inertia to the body carrying the joint",
+            );
+        }
+    }
+    for (k, point) in points.iter().enumerate() {
+        if let Some(joint) = point.body.and_then(|b| moved_by.get(b).copied().flatten()) {
+            r.error_hint(
+                &[key("points"), Segment::Index(k), key("body")],
+                format!("point `{}` turns with measured joint `{joint}`: it would not be a function of the actuated joints", point.name),
+                "put the point on the body carrying the gimbal; a body a measured joint moves reports its orientation through `frames`",
+            );
+        }
+    }
 }

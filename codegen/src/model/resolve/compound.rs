@@ -218,7 +218,13 @@ pub(super) fn expand(r: &mut Resolver<'_, '_>, mut file: ModelFile) -> (ModelFil
                 "a planar model's joints turn about z or slide in the plane; write `space: spatial`",
             );
         }
-        if !j.passive {
+        if j.measured.is_some() {
+            r.error_hint(
+                &at("measured"),
+                format!("{kind} joint `{}` cannot be measured", j.name),
+                "write a measured gimbal as one revolute joint per axis, each with `measured`, and massless bodies between",
+            );
+        } else if !j.passive {
             r.error_hint(
                 &[key("joints"), Segment::Index(i)],
                 format!("{kind} joint `{}` must be passive", j.name),
@@ -339,6 +345,7 @@ pub(super) fn expand(r: &mut Resolver<'_, '_>, mut file: ModelFile) -> (ModelFil
                 drive: j.drive.clone(),
                 passive: true,
                 assembly: Some(Assembly::Single(assembly.get(m).copied().unwrap_or(0.0))),
+                measured: None,
             });
         }
         sources.compound_names.insert(i, (j.name.clone(), kind));

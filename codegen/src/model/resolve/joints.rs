@@ -1,10 +1,11 @@
 //! The `joints` section: names, limits, axes and drives of the actuated joints, the passive
-//! joints of closed chains, and the coordinate of each joint (actuated first, then passive).
+//! joints of closed chains, the measured passive joints (an encoder, no motor), and the
+//! coordinate of each joint (actuated first, then passive, then measured).
 
 use super::{is_identifier, key, Resolver};
 use crate::model::positions::Segment;
 use crate::model::schema::{Assembly, JointKind, ModelFile};
-use crate::model::types::{PassiveJoint, ResolvedJoint};
+use crate::model::types::{MeasuredJoint, PassiveJoint, ResolvedJoint};
 use crate::sym::poly::Poly;
 
 /// The resolved joints: actuated, passive, and each file joint's coordinate.
@@ -13,7 +14,9 @@ pub(super) struct Joints {
     pub(super) actuated: Vec<ResolvedJoint>,
     /// The passive joints, in file order.
     pub(super) passive: Vec<PassiveJoint>,
-    /// The coordinate of each joint of the file: actuated first, then passive.
+    /// The measured joints, in file order.
+    pub(super) measured: Vec<MeasuredJoint>,
+    /// The coordinate of each joint of the file: actuated first, then passive, then measured.
     pub(super) coordinate_of: Vec<usize>,
 }
 
@@ -23,6 +26,7 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
     // Joints.
     let mut joints = Vec::new();
     let mut passive = Vec::new();
+    let mut measured = Vec::new();
     if file.joints.is_empty() {
         r.error(&[key("joints")], "a model needs at least one joint");
     }
@@ -62,13 +66,30 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
                 }
                 (l.lower, l.upper)
             }
-            None if j.passive => (-std::f64::consts::PI, std::f64::consts::PI),
+            None if j.passive || j.measured.is_some() => (-std::f64::consts::PI, std::f64::consts::PI),
             None => {
                 r.error(&base, "missing key `limits`");
                 (0.0, 0.0)
             }
         };
-        if j.passive {
+        if let Some(m) = &j.measured {
+            for (present, field, why) in [
+                (j.passive, "passive", "a measured joint is outside every loop; a loop's passive joints are eliminated, not measured"),
+                (j.drive.is_some(), "drive", "a measured joint has an encoder and no motor: remove `drive`, or `measured` if a motor turns it"),
+                (j.damping.is_some(), "damping", "its bodies are lumped out of the dynamics (`dynamics: lumped`), so nothing would feel it"),
+                (j.assembly.is_some(), "assembly", "only a loop's passive joints have an assembly angle"),
+            ] {
+                if present {
+                    r.error_hint(&at(field), format!("joint `{}` is measured: it takes no `{field}`", j.name), why);
+                }
+            }
+            if m.counts_per_turn == 0 {
+                r.error(
+                    &[key("joints"), Segment::Index(i), key("measured"), key("counts_per_turn")],
+                    "must be positive",
+                );
+            }
+        } else if j.passive {
             let label = r.sources.joint_label(i, &j.name);
             if j.drive.is_some() {
                 r.error_hint(
@@ -124,7 +145,7 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
             }
             None => Poly::zero(),
         };
-        let drive = match (&j.drive, j.passive) {
+        let drive = match (&j.drive, j.passive || j.measured.is_some()) {
             (_, true) => None,
             (None, false) => {
                 r.error_hint(
@@ -189,6 +210,18 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
                 }
             }
         };
+        if let (Some(m), None) = (&j.measured, &drive) {
+            measured.push(MeasuredJoint {
+                name: j.name.clone(),
+                description: j.description.clone(),
+                kind,
+                axis,
+                lower,
+                upper,
+                counts_per_turn: m.counts_per_turn,
+            });
+            continue;
+        }
         let Some(drive) = drive else {
             passive.push(PassiveJoint {
                 name: j.name.clone(),
@@ -211,19 +244,27 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
             drive,
         });
     }
-    // Coordinates: the actuated joints in file order, then the passive ones.
-    let actuated_count = file.joints.iter().filter(|j| !j.passive).count();
+    // Coordinates: the actuated joints in file order, then the passive ones, then the
+    // measured ones.
+    let actuated_count = file.joints.iter().filter(|j| !j.passive && j.measured.is_none()).count();
+    let passive_count = file.joints.iter().filter(|j| j.passive).count();
     let coordinate_of: Vec<usize> = {
-        let (mut a, mut p) = (0, actuated_count);
+        let (mut a, mut p, mut m) = (0, actuated_count, actuated_count + passive_count);
         file.joints
             .iter()
             .map(|j| {
-                let slot = if j.passive { &mut p } else { &mut a };
+                let slot = if j.passive {
+                    &mut p
+                } else if j.measured.is_some() {
+                    &mut m
+                } else {
+                    &mut a
+                };
                 *slot += 1;
                 *slot - 1
             })
             .collect()
     };
 
-    Joints { actuated: joints, passive, coordinate_of }
+    Joints { actuated: joints, passive, measured, coordinate_of }
 }

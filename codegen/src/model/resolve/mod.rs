@@ -240,7 +240,7 @@ pub(crate) fn resolve(
     let tunable = parameters::parameters(&mut r, &file);
     let (gravity, _) = r.vector(&file.gravity, dim, &[key("gravity")]);
     drives::drives(&mut r, &file);
-    let joints::Joints { actuated: joints, passive, coordinate_of } = joints::joints(&mut r, &file);
+    let joints::Joints { actuated: joints, passive, measured, coordinate_of } = joints::joints(&mut r, &file);
     let (bodies, depends_on) = bodies::bodies(&mut r, &file);
     let (mut points, point_index) = points::points(&mut r, &file);
     let mut frames = points::frames(&mut r, &file, &point_index);
@@ -249,6 +249,16 @@ pub(crate) fn resolve(
     let coupling = transmission::transmission(&mut r, &file, &joints);
     settings::settings(&mut r, &file, &variant);
     let order = bodies::dependency_order(&mut r, &file, &depends_on);
+    if !measured.is_empty() {
+        bodies::lumped_bodies(&mut r, &file, &bodies, &depends_on, &order, &points);
+        if !declared.is_empty() || !spatial_closures.is_empty() {
+            r.error_hint(
+                &[key("closures")],
+                "a model with measured joints has no closures",
+                "measured joints (a gimbal) on a closed chain are not supported yet: see docs/model-format.md",
+            );
+        }
+    }
     settings::current_loop_filter(&mut r, &file);
     if !r.errors.is_empty() {
         return Err(Diagnostics(r.errors));
@@ -296,6 +306,7 @@ pub(crate) fn resolve(
         closures,
         spatial_closures,
         coupling,
+        measured,
     };
     Ok(model)
 }

@@ -32,7 +32,7 @@ pub(super) fn task(r: &mut Resolver<'_, '_>, file: &ModelFile, points: &[Resolve
                     if !seen.insert(j) {
                         r.error(&path, format!("joint `{name}` is listed twice"));
                     }
-                    if file.joints[j].passive {
+                    if file.joints[j].passive || file.joints[j].measured.is_some() {
                         r.error_hint(
                             &path,
                             format!("joint `{name}` is passive: a joint-space task uses actuated joints"),
