@@ -6,7 +6,8 @@
 # exports, at 50 random states per model; every entry must agree with hapticgen's evaluator to
 # 1e-10 (relative to the quantity's scale when that exceeds 1). The same for the hand-written
 # URDFs of tests/urdf/ (written by no exporter): hapticgen imports each (`import-urdf`'s code)
-# and Pinocchio reads the original file.
+# and Pinocchio reads the original file (with its <mimic> joints, `mimic=True`: a hand-written
+# arm has two, which hapticgen imports as mimic joints).
 #
 # Rotor inertia: hapticgen adds N²·J_m to D's diagonal; URDF has no place for it, so the check
 # compares D − diag(N²·J_m) with crba. Viscous damping is not part of nonLinearEffects and not
@@ -66,7 +67,9 @@ for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
     name = os.path.basename(path)[:-5]
     with open(path) as f:
         ref = json.load(f)
-    model = pin.buildModelFromUrdf(os.path.join(directory, name + ".urdf"))
+    # mimic=True: a URDF's <mimic> joints follow their leaders in Pinocchio's model (no
+    # velocity of their own), as hapticgen's mimic joints do.
+    model = pin.buildModelFromUrdf(os.path.join(directory, name + ".urdf"), mimic=True)
     data = model.createData()
     model.gravity.linear = np.array(ref["gravity"])
     # Every quantity goes through S, the tree's velocities from hapticgen's (q_tree = S q):
@@ -74,7 +77,8 @@ for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
     # URDF importer in document order); for a closed chain written as a hand-written open tree,
     # the loop's map (tests/urdf-trees/NAME.map.json). Then D = S^T D_tree S, C qd + g = S^T nle_tree(S q, S qd)
     # (S is constant, so the tree's accelerations are S qdd exactly), J = J_tree S.
-    names = [model.names[i] for i in range(1, model.njoints)]
+    names = [model.names[i] for i in range(1, model.njoints) if model.joints[i].shortname() != "JointModelMimic"]
+    mimics = model.njoints - 1 - len(names)
     map_path = os.path.join(directory, name + ".map")
     if os.path.exists(map_path):
         with open(map_path) as f:
@@ -157,7 +161,7 @@ for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
             compare(f"Jw[{frame}]", columns_in_hapticgen_order(jacobian), np.array(values["Jw"]), k)
             compare(f"R[{frame}]", data.oMf[fid].rotation, np.array(values["R"]), k)
     summary.append(
-        f"{name:<36} {model.nv} dof, {len(ref['states'])} states: max error "
+        f"{name:<36} {model.nv} dof{f' (+{mimics} mimic)' if mimics else ''}, {len(ref['states'])} states: max error "
         + ", ".join(f"{k} {v:.1e}" for k, v in worst.items())
     )
 

@@ -52,6 +52,8 @@ const CASES: &[(&str, Option<&str>)] = &[
     ("measured-body-with-mass", None),
     ("measured-point", None),
     ("measured-with-drive", None),
+    ("mimic-multiplier", None),
+    ("mimic-not-actuated", None),
     ("missing-key", None),
     ("nan-literal", None),
     ("negative-counts", None),
@@ -655,6 +657,34 @@ fn no_point_turns_with_a_measured_joint() {
             token: "stylus",
             path: "points[0].body",
             message: "point `stylus_tip` turns with measured joint `stylus_spin`: it would not be a function of the actuated joints",
+        },
+    );
+}
+
+#[test]
+fn a_revolute_mimic_joint_turns_by_plus_or_minus_its_leader() {
+    check(
+        "mimic-multiplier",
+        None,
+        Expect {
+            context: "multiplier: 2.0",
+            token: "2.0",
+            path: "joints[4].mimic.multiplier",
+            message: "a revolute mimic joint's multiplier must be 1 or -1, not 2",
+        },
+    );
+}
+
+#[test]
+fn a_mimic_joint_follows_an_actuated_joint() {
+    check(
+        "mimic-not-actuated",
+        None,
+        Expect {
+            context: "mimic: {joint: finger_joint",
+            token: "finger_joint",
+            path: "joints[4].mimic.joint",
+            message: "joint `plate` mimics `finger_joint`, which is no actuated joint",
         },
     );
 }

@@ -77,6 +77,40 @@ fn spatial_models_round_trip_through_urdf() {
     }
 }
 
+/// A URDF with `<mimic>` joints (tests/urdf/mimic_arm.urdf, written by hand): imported, its
+/// two mimic joints follow their leaders; exported again, it writes both `<mimic>` elements and
+/// imports back to the same numbers. (Pinocchio's own mimic joints check the numbers
+/// themselves: scripts/pinocchio-check.sh.)
+#[test]
+fn mimic_joints_import_and_export() {
+    let text = std::fs::read_to_string(root().join("tests/urdf/mimic_arm.urdf")).unwrap();
+    let yaml = urdf::import(&text, "mimic_arm.urdf", urdf::DEFAULT_DRIVE).unwrap_or_else(|d| panic!("{d}"));
+    let model =
+        load(&Source { name: "imported.yaml", text: &yaml }, None).unwrap_or_else(|d| panic!("{d}\n{yaml}"));
+    assert_eq!(model.joints.len(), 3, "yaw, shoulder, elbow are the coordinates");
+    let followed: Vec<(&str, &str, f64, f64)> = model
+        .mimic
+        .iter()
+        .map(|m| (m.name.as_str(), model.coordinate_name(m.leader), m.multiplier, m.offset))
+        .collect();
+    assert_eq!(followed, [("finger_joint", "shoulder", 1.0, -0.4), ("plate", "elbow", -1.0, 0.2)]);
+    let exported = urdf::export(&model).unwrap_or_else(|e| panic!("{e}"));
+    assert!(exported.contains(r#"<mimic joint="elbow" multiplier="-1.0" offset="0.2"/>"#), "{exported}");
+    assert!(exported.contains(r#"<mimic joint="shoulder" multiplier="1.0" offset="-0.4"/>"#), "{exported}");
+    let again =
+        urdf::import(&exported, "exported.urdf", urdf::DEFAULT_DRIVE).unwrap_or_else(|d| panic!("{d}"));
+    let reloaded =
+        load(&Source { name: "again.yaml", text: &again }, None).unwrap_or_else(|d| panic!("{d}\n{again}"));
+    let (a, b) = (hapticgen_codegen::derive(&model), hapticgen_codegen::derive(&reloaded));
+    let q = [0.3, -0.4, 0.8];
+    let qd = [0.5, 1.1, -0.7];
+    let (x, y) = (numbers(&model, &a, &q, &qd), numbers(&reloaded, &b, &q, &qd));
+    assert_eq!(x.len(), y.len());
+    for (i, (u, v)) in x.iter().zip(&y).enumerate() {
+        assert!((u - v).abs() <= 1e-12 * u.abs().max(1.0), "value {i}: {u} vs {v}");
+    }
+}
+
 fn reject(urdf_text: &str) -> hapticgen_codegen::Diagnostic {
     match urdf::import(urdf_text, "robot.urdf", urdf::DEFAULT_DRIVE) {
         Ok(yaml) => panic!("accepted:\n{yaml}"),
@@ -104,13 +138,21 @@ fn what_the_model_cannot_express_is_an_error_at_the_element() {
     assert_eq!(d.path, "robot/joint[name=free]");
     assert!(d.message.contains("`floating`"), "{d}");
 
+    // A revolute mimic joint turning twice as fast as its leader: the model's mimic joints
+    // turn by ±q + offset only (their kinematics stay in the leader's sine and cosine).
     let mimic = robot(&format!(
-        "{REVOLUTE_A}\n<joint name=\"j2\" type=\"revolute\"><parent link=\"a\"/><child link=\"b\"/><mimic joint=\"j1\"/><limit lower=\"-1\" upper=\"1\"/></joint>"
+        "{REVOLUTE_A}\n<joint name=\"j2\" type=\"revolute\"><parent link=\"a\"/><child link=\"b\"/><mimic joint=\"j1\" multiplier=\"2\"/><limit lower=\"-1\" upper=\"1\"/></joint>"
     ));
     let d = reject(&mimic);
     assert_eq!(d.line, 6, "{d}");
     assert_eq!(d.path, "robot/joint[name=j2]/mimic");
-    assert!(d.message.contains("mimics"), "{d}");
+    assert!(d.message.contains("multiplier must be 1 or -1"), "{d}");
+    let unknown_leader = robot(&format!(
+        "{REVOLUTE_A}\n<joint name=\"j2\" type=\"revolute\"><parent link=\"a\"/><child link=\"b\"/><mimic joint=\"j9\"/><limit lower=\"-1\" upper=\"1\"/></joint>"
+    ));
+    let d = reject(&unknown_leader);
+    assert_eq!(d.path, "robot/joint[name=j2]/mimic");
+    assert!(d.message.contains("mimics unknown joint `j9`"), "{d}");
 
     let two_roots = robot(REVOLUTE_A);
     let d = reject(&two_roots);

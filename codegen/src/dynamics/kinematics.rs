@@ -1,10 +1,12 @@
 //! Kinematics of the open tree as polynomials: every body frame by composing the fixed
 //! transforms and joint rotations `R = I + sin q [u]× + (1 − cos q) [u]×²` from the base (a
-//! direct pose: its plane's frame turned by `Rz(q)`, `q` an absolute angle in that plane), the
+//! direct pose: its plane's frame turned by `Rz(q)`, `q` an absolute angle in that plane; a
+//! mimic joint: its leader's angle, `±q + offset`), the
 //! world positions of named points, and the rotations and angular-velocity Jacobians
 //! `J_ω = vee(∂R/∂q_k · Rᵀ)` of named frames.
 
 use crate::math::matrix::{mat3_mul, mat3_vec, transpose3, vec3_add, IDENTITY};
+use crate::math::rotation::exact_sin_cos;
 use crate::model::{JointKind, Model, Motion};
 use crate::sym::poly::{Atom, Poly, Polynomials};
 
@@ -56,9 +58,41 @@ pub(crate) fn vec_add(a: &Vec3, b: &Vec3) -> Vec3 {
 
 /// Rotation by `q_j` about the unit axis `u`: `I + sin q [u]× + (1 − cos q) [u]×²`.
 fn axis_rotation(u: [f64; 3], joint: u16) -> Mat3 {
-    let s = Poly::atom(Atom::Sin(joint));
-    let c = Poly::atom(Atom::Cos(joint));
-    let one_minus_c = Poly::constant(1.0).sub(&c);
+    axis_rotation_by(u, &Poly::atom(Atom::Sin(joint)), &Poly::atom(Atom::Cos(joint)))
+}
+
+/// The angle of a joint as the sine and cosine of its coordinate, or for a mimic joint
+/// (`θ = ±q_leader + offset`) of its leader's: `sin θ = ±sin q cos o + cos q sin o`,
+/// `cos θ = cos q cos o ∓ sin q sin o`.
+fn joint_sin_cos(model: &Model, joint: usize) -> (Poly, Poly) {
+    let atoms = |j: usize| (Poly::atom(Atom::Sin(j as u16)), Poly::atom(Atom::Cos(j as u16)));
+    match model.mimic_joint(joint) {
+        None => atoms(joint),
+        Some(mimic) => {
+            let (sin_q, cos_q) = atoms(mimic.leader);
+            let (sin_o, cos_o) = exact_sin_cos(mimic.offset);
+            let signed_sin_q = sin_q.scale(mimic.multiplier);
+            (
+                signed_sin_q.scale(cos_o).add(&cos_q.scale(sin_o)),
+                cos_q.scale(cos_o).sub(&signed_sin_q.scale(sin_o)),
+            )
+        }
+    }
+}
+
+/// A prismatic joint's travel: its coordinate, or for a mimic joint `m q_leader + offset`.
+fn joint_travel(model: &Model, joint: usize) -> Poly {
+    match model.mimic_joint(joint) {
+        None => Poly::atom(Atom::Q(joint as u16)),
+        Some(mimic) => Poly::atom(Atom::Q(mimic.leader as u16))
+            .scale(mimic.multiplier)
+            .add(&Poly::constant(mimic.offset)),
+    }
+}
+
+/// Rotation by the angle whose sine and cosine are `s`, `c` about the unit axis `u`.
+fn axis_rotation_by(u: [f64; 3], s: &Poly, c: &Poly) -> Mat3 {
+    let one_minus_c = Poly::constant(1.0).sub(c);
     let k = [[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]];
     let mut k2 = [[0.0; 3]; 3];
     for i in 0..3 {
@@ -100,9 +134,12 @@ pub(crate) fn body_frames(model: &Model) -> Vec<Frame> {
                     Some(j) => {
                         let (kind, axis) = model.coordinate_axis(*j);
                         match kind {
-                            JointKind::Revolute => mat_mul(&offset_rotation, &axis_rotation(axis, dof(*j))),
+                            JointKind::Revolute => {
+                                let (sin, cos) = joint_sin_cos(model, *j);
+                                mat_mul(&offset_rotation, &axis_rotation_by(axis, &sin, &cos))
+                            }
                             JointKind::Prismatic => {
-                                let q = Poly::atom(Atom::Q(dof(*j)));
+                                let q = joint_travel(model, *j);
                                 let slide: Vec3 = axis.map(|a| q.scale(a));
                                 origin = vec_add(&origin, &mat_vec(&offset_rotation, &slide));
                                 offset_rotation

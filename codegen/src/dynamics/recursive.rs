@@ -79,10 +79,12 @@ pub enum PointQuantity {
 /// Whether the recursive algorithms apply: every body hangs from its parent (or the base) by
 /// one joint or a weld, and no loop closes. Direct poses (closed chains written as absolute
 /// angles) and closures (reduced as polynomials, see `crate::dynamics::closure`) do not, nor
-/// do measured joints (their frames take the measured angles: the polynomial kinematics).
+/// do measured joints (their frames take the measured angles: the polynomial kinematics) or
+/// mimic joints (one coordinate turning two joints).
 pub fn applies(model: &Model) -> bool {
     model.passive.is_empty()
         && model.measured.is_empty()
+        && model.mimic.is_empty()
         && model.bodies.iter().all(|b| matches!(b.motion, Motion::Serial { .. }))
 }
 

@@ -21,8 +21,8 @@ use crate::sym::poly::Poly;
 use positions::{display_path, KeyPath, PositionIndex, Segment};
 pub use schema::{Branch, Drive, JointKind, ModelFile, Rendering, Sensor};
 pub use types::{
-    Coupling, FixedTransform, LoopClosure, MeasuredJoint, Model, Motion, PassiveJoint, ResolvedBody,
-    ResolvedFrame, ResolvedJoint, ResolvedParameter, ResolvedPoint, SpatialClosure, TaskSpec,
+    Coupling, FixedTransform, LoopClosure, MeasuredJoint, MimicJoint, Model, Motion, PassiveJoint,
+    ResolvedBody, ResolvedFrame, ResolvedJoint, ResolvedParameter, ResolvedPoint, SpatialClosure, TaskSpec,
 };
 
 /// The text of a model file and how to name it in diagnostics.

@@ -267,6 +267,27 @@ pub struct Joint {
     /// the dynamics.
     #[serde(default)]
     pub measured: Option<Measured>,
+    /// A joint that follows another: its coordinate is `multiplier · q_leader + offset` (URDF's
+    /// `<mimic>`: a link coupled to another joint, such as a parallelogram's link cut open).
+    /// It has no drive and is not a coordinate.
+    #[serde(default)]
+    pub mimic: Option<Mimic>,
+}
+
+/// The joint a mimic joint follows, and how.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Mimic {
+    /// The actuated joint it follows (of the same type).
+    pub joint: String,
+    /// `multiplier` in `multiplier · q_leader + offset` (default 1): ±1 for a revolute joint
+    /// (the kinematics stay polynomials in the leader's sine and cosine), any number for a
+    /// prismatic one.
+    #[serde(default)]
+    pub multiplier: Option<f64>,
+    /// `offset`, rad or m (default 0).
+    #[serde(default)]
+    pub offset: Option<f64>,
 }
 
 /// A measured passive joint's encoder, and how the bodies it moves enter the dynamics.

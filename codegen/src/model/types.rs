@@ -187,6 +187,9 @@ pub struct Model {
     /// Measured passive joints: coordinates `tree_coordinates() + k` of the kinematics, inputs
     /// of the frame functions, not coordinates of the dynamics.
     pub measured: Vec<MeasuredJoint>,
+    /// Mimic joints: numbered `tree_coordinates() + measured.len() + k` where a body names its
+    /// joint, but no coordinate of anything (their angle is their leader's, scaled and offset).
+    pub mimic: Vec<MimicJoint>,
 }
 
 /// A constant coupling between the joint coordinates and the drives' outputs, `a = C q`
@@ -233,6 +236,26 @@ pub struct MeasuredJoint {
     pub upper: f64,
     /// Encoder counts per turn of the joint (per metre for a prismatic joint).
     pub counts_per_turn: u32,
+}
+
+/// A mimic joint: its coordinate is `multiplier · q_leader + offset` (URDF's `<mimic>`); it has
+/// no drive and is not a coordinate of the generated code.
+#[derive(Clone, Debug)]
+pub struct MimicJoint {
+    /// Name.
+    pub name: String,
+    /// Documentation.
+    pub description: Option<String>,
+    /// Revolute or prismatic (as its leader).
+    pub kind: JointKind,
+    /// Unit axis in the joint frame.
+    pub axis: [f64; 3],
+    /// The actuated joint it follows (its coordinate).
+    pub leader: usize,
+    /// ±1 for a revolute joint; any finite number for a prismatic one.
+    pub multiplier: f64,
+    /// rad or m.
+    pub offset: f64,
 }
 
 /// A loop closure of a spatial closed chain as declared: two points coincide and, optionally,
@@ -292,13 +315,13 @@ impl Model {
         self.joints.len() + self.passive.len()
     }
 
-    /// The coordinate of measured joint `k` in the kinematics: after the open tree's.
-    pub fn measured_coordinate(&self, k: usize) -> usize {
-        self.tree_coordinates() + k
+    /// The mimic joint a body's joint index `j` names, if it is one.
+    pub fn mimic_joint(&self, j: usize) -> Option<&MimicJoint> {
+        j.checked_sub(self.tree_coordinates() + self.measured.len()).and_then(|k| self.mimic.get(k))
     }
 
-    /// Kind and axis of coordinate `j` of the kinematics (actuated, passive, then measured
-    /// joints).
+    /// Kind and axis of coordinate `j` of the kinematics (actuated, passive, measured, then
+    /// mimic joints).
     pub fn coordinate_axis(&self, j: usize) -> (JointKind, [f64; 3]) {
         if let Some(joint) = self.joints.get(j) {
             return (joint.kind, joint.axis);
@@ -306,9 +329,10 @@ impl Model {
         if let Some(p) = self.passive.get(j - self.joints.len()) {
             return (p.kind, p.axis);
         }
-        self.measured
-            .get(j - self.tree_coordinates())
-            .map_or((JointKind::Revolute, [0.0, 0.0, 1.0]), |m| (m.kind, m.axis))
+        if let Some(m) = self.measured.get(j - self.tree_coordinates()) {
+            return (m.kind, m.axis);
+        }
+        self.mimic_joint(j).map_or((JointKind::Revolute, [0.0, 0.0, 1.0]), |m| (m.kind, m.axis))
     }
 
     /// Name of coordinate `j` of the kinematics.
@@ -319,7 +343,10 @@ impl Model {
         if let Some(p) = self.passive.get(j - self.joints.len()) {
             return &p.name;
         }
-        self.measured.get(j - self.tree_coordinates()).map_or("passive", |m| m.name.as_str())
+        if let Some(m) = self.measured.get(j - self.tree_coordinates()) {
+            return &m.name;
+        }
+        self.mimic_joint(j).map_or("passive", |m| m.name.as_str())
     }
 
     /// Nominal values of the tunable parameters.

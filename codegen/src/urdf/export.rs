@@ -345,6 +345,24 @@ fn write_tree(model: &Model) -> Result<String, String> {
         };
         let origin = parent_tail.then(&Transform { xyz: nominal3(xyz, &parameters), rotation: *rotation });
         match joint {
+            Some(j) if model.mimic_joint(*j).is_some() => {
+                let Some(mimic) = model.mimic_joint(*j) else { continue };
+                let head = JointHead { name: &mimic.name, kind: mimic.kind, axis: &mimic.axis };
+                head.write(&mut out, parent_link, &body.name, &origin);
+                let pi = number(std::f64::consts::PI);
+                let _ = writeln!(
+                    out,
+                    "    <limit lower=\"-{pi}\" upper=\"{pi}\" effort=\"0.0\" velocity=\"100.0\"/>"
+                );
+                let _ = writeln!(
+                    out,
+                    "    <mimic joint=\"{}\" multiplier=\"{}\" offset=\"{}\"/>",
+                    model.coordinate_name(mimic.leader),
+                    number(mimic.multiplier),
+                    number(mimic.offset)
+                );
+                let _ = writeln!(out, "  </joint>");
+            }
             Some(j) if *j >= model.tree_coordinates() => {
                 // A measured joint (a gimbal's): an encoder, no motor, its bodies massless.
                 let measured = model.measured.get(*j - model.tree_coordinates()).ok_or_else(|| {

@@ -12,7 +12,8 @@
 //! when given; gravity is `[0, 0, −9.81]`; the task is the last named point (else the origin of
 //! the last body); rates and current-loop targets are the paper's. The header of the written
 //! model says so. What the format cannot express is an error naming the element, with its line
-//! and column: floating and planar joints, `mimic`, several roots, a link with two parents
+//! and column: floating and planar joints, a revolute `mimic` whose multiplier is not ±1 (a
+//! `<mimic>` becomes a mimic joint, following its leader), several roots, a link with two parents
 //! (a closed loop), massless moving links, joints without limits other than `continuous`
 //! (which get ±π).
 
@@ -132,6 +133,8 @@ struct Joint<'a, 'input> {
     kind: &'static str,
     parent: String,
     child: String,
+    /// `<mimic>`: its element, the leader's URDF name, the multiplier and the offset.
+    mimic: Option<(roxmltree::Node<'a, 'input>, String, f64, f64)>,
 }
 
 /// Imports a URDF document; `file` names it in diagnostics, `drive` is the YAML of the drive
@@ -193,18 +196,30 @@ pub fn import(text: &str, file: &str, drive: &str) -> Result<String, Diagnostics
                 continue;
             }
         };
-        if let Some(mimic) = child(node, "mimic") {
-            errors.push(
-                r.error(
-                    mimic,
-                    format!(
-                        "joint `{name}` mimics another joint: couplings between joints cannot be expressed"
-                    ),
-                )
-                .with_hint("make it an independent joint, or fix it"),
-            );
-            continue;
-        }
+        let mimic = match child(node, "mimic") {
+            None => None,
+            Some(element) => {
+                let Some(leader) = element.attribute("joint") else {
+                    errors.push(r.error(element, format!("joint `{name}`: a <mimic> names its `joint`")));
+                    continue;
+                };
+                let multiplier = r.number(element, "multiplier")?.unwrap_or(1.0);
+                let offset = r.number(element, "offset")?.unwrap_or(0.0);
+                if kind != "prismatic" && multiplier.abs() != 1.0 {
+                    errors.push(
+                        r.error(
+                            element,
+                            format!(
+                                "joint `{name}` mimics `{leader}` with multiplier {multiplier}: a revolute mimic joint's multiplier must be 1 or -1"
+                            ),
+                        )
+                        .with_hint("the model's kinematics are polynomials in the leader's sine and cosine; sin(k q) for other k is not one"),
+                    );
+                    continue;
+                }
+                Some((element, leader.to_string(), multiplier, offset))
+            }
+        };
         let parent = child(node, "parent").and_then(|p| p.attribute("link"));
         let child_link = child(node, "child").and_then(|p| p.attribute("link"));
         let (Some(parent), Some(child_link)) = (parent, child_link) else {
@@ -216,7 +231,35 @@ pub fn import(text: &str, file: &str, drive: &str) -> Result<String, Diagnostics
                 errors.push(r.error(node, format!("joint `{name}` names unknown link `{l}`")));
             }
         }
-        joints.push(Joint { node, name, kind, parent: parent.to_string(), child: child_link.to_string() });
+        joints.push(Joint {
+            node,
+            name,
+            kind,
+            parent: parent.to_string(),
+            child: child_link.to_string(),
+            mimic,
+        });
+    }
+
+    // A mimic joint follows a moving joint that follows none (the model's leader is actuated).
+    for j in &joints {
+        let Some((element, leader, ..)) = &j.mimic else { continue };
+        match joints.iter().find(|l| &l.name == leader) {
+            Some(l)
+                if l.mimic.is_none()
+                    && l.kind != "fixed"
+                    && (l.kind == "prismatic") == (j.kind == "prismatic") => {}
+            Some(_) => errors.push(r.error(
+                *element,
+                format!(
+                    "joint `{}` mimics `{leader}`, which is fixed, a mimic itself, or of another type",
+                    j.name
+                ),
+            )),
+            None => {
+                errors.push(r.error(*element, format!("joint `{}` mimics unknown joint `{leader}`", j.name)))
+            }
+        }
     }
 
     // The tree: one parent joint per link, one root.
@@ -413,6 +456,25 @@ pub fn import(text: &str, file: &str, drive: &str) -> Result<String, Diagnostics
         }
         let _ = writeln!(joint_yaml, "    axis: {}", list(&axis));
         let _ = writeln!(joint_yaml, "    limits: {{lower: {}, upper: {}}}", number(lower), number(upper));
+        if let Some((element, leader, multiplier, offset)) = &j.mimic {
+            // A mimic joint: no drive of its own, and no damping (nothing drives it against one).
+            if damping.is_some_and(|d| d != 0.0) {
+                errors.push(
+                    r.error(*element, format!("joint `{}` mimics `{leader}` and has damping", j.name))
+                        .with_hint(
+                            "a mimic joint has no damping of its own: model the friction at its leader",
+                        ),
+                );
+            }
+            let _ = writeln!(
+                joint_yaml,
+                "    mimic: {{joint: {}, multiplier: {}, offset: {}}}",
+                identifier(leader),
+                number(*multiplier),
+                number(*offset)
+            );
+            continue;
+        }
         if let Some(d) = damping.filter(|d| *d != 0.0) {
             let _ = writeln!(joint_yaml, "    damping: {}", number(d));
         }

@@ -218,7 +218,13 @@ pub(super) fn expand(r: &mut Resolver<'_, '_>, mut file: ModelFile) -> (ModelFil
                 "a planar model's joints turn about z or slide in the plane; write `space: spatial`",
             );
         }
-        if j.measured.is_some() {
+        if j.mimic.is_some() {
+            r.error_hint(
+                &at("mimic"),
+                format!("{kind} joint `{}` cannot mimic a joint", j.name),
+                "a mimic joint is one revolute or prismatic joint following one actuated joint",
+            );
+        } else if j.measured.is_some() {
             r.error_hint(
                 &at("measured"),
                 format!("{kind} joint `{}` cannot be measured", j.name),
@@ -346,6 +352,7 @@ pub(super) fn expand(r: &mut Resolver<'_, '_>, mut file: ModelFile) -> (ModelFil
                 passive: true,
                 assembly: Some(Assembly::Single(assembly.get(m).copied().unwrap_or(0.0))),
                 measured: None,
+                mimic: None,
             });
         }
         sources.compound_names.insert(i, (j.name.clone(), kind));

@@ -1,11 +1,12 @@
 //! The `joints` section: names, limits, axes and drives of the actuated joints, the passive
-//! joints of closed chains, the measured passive joints (an encoder, no motor), and the
-//! coordinate of each joint (actuated first, then passive, then measured).
+//! joints of closed chains, the measured passive joints (an encoder, no motor), the mimic
+//! joints (following another joint), and the index of each joint (actuated first, then
+//! passive, measured, mimic).
 
 use super::{is_identifier, key, Resolver};
 use crate::model::positions::Segment;
 use crate::model::schema::{Assembly, JointKind, ModelFile};
-use crate::model::types::{MeasuredJoint, PassiveJoint, ResolvedJoint};
+use crate::model::types::{MeasuredJoint, MimicJoint, PassiveJoint, ResolvedJoint};
 use crate::sym::poly::Poly;
 
 /// The resolved joints: actuated, passive, and each file joint's coordinate.
@@ -16,7 +17,9 @@ pub(super) struct Joints {
     pub(super) passive: Vec<PassiveJoint>,
     /// The measured joints, in file order.
     pub(super) measured: Vec<MeasuredJoint>,
-    /// The coordinate of each joint of the file: actuated first, then passive, then measured.
+    /// The mimic joints, in file order.
+    pub(super) mimic: Vec<MimicJoint>,
+    /// The index of each joint of the file: actuated first, then passive, measured, mimic.
     pub(super) coordinate_of: Vec<usize>,
 }
 
@@ -27,6 +30,8 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
     let mut joints = Vec::new();
     let mut passive = Vec::new();
     let mut measured = Vec::new();
+    // Mimic joints with their leader's file index, renumbered once every index is known.
+    let mut mimic: Vec<(MimicJoint, usize)> = Vec::new();
     if file.joints.is_empty() {
         r.error(&[key("joints")], "a model needs at least one joint");
     }
@@ -66,13 +71,31 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
                 }
                 (l.lower, l.upper)
             }
-            None if j.passive || j.measured.is_some() => (-std::f64::consts::PI, std::f64::consts::PI),
+            None if j.passive || j.measured.is_some() || j.mimic.is_some() => {
+                (-std::f64::consts::PI, std::f64::consts::PI)
+            }
             None => {
                 r.error(&base, "missing key `limits`");
                 (0.0, 0.0)
             }
         };
-        if let Some(m) = &j.measured {
+        if let Some(follows) = &j.mimic {
+            for (present, field) in [
+                (j.passive, "passive"),
+                (j.drive.is_some(), "drive"),
+                (j.damping.is_some(), "damping"),
+                (j.assembly.is_some(), "assembly"),
+                (j.measured.is_some(), "measured"),
+            ] {
+                if present {
+                    r.error_hint(
+                        &at(field),
+                        format!("joint `{}` mimics `{}`: it takes no `{field}`", j.name, follows.joint),
+                        "a mimic joint turns with its leader, which the leader's drive moves",
+                    );
+                }
+            }
+        } else if let Some(m) = &j.measured {
             for (present, field, why) in [
                 (j.passive, "passive", "a measured joint is outside every loop; a loop's passive joints are eliminated, not measured"),
                 (j.drive.is_some(), "drive", "a measured joint has an encoder and no motor: remove `drive`, or `measured` if a motor turns it"),
@@ -145,7 +168,7 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
             }
             None => Poly::zero(),
         };
-        let drive = match (&j.drive, j.passive || j.measured.is_some()) {
+        let drive = match (&j.drive, j.passive || j.measured.is_some() || j.mimic.is_some()) {
             (_, true) => None,
             (None, false) => {
                 r.error_hint(
@@ -210,6 +233,60 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
                 }
             }
         };
+        if let (Some(follows), None) = (&j.mimic, &drive) {
+            let mimic_at = |k: &str| {
+                let mut p = at("mimic");
+                p.push(key(k));
+                p
+            };
+            let leader = file.joints.iter().position(|l| l.name == follows.joint);
+            let leader = match leader {
+                Some(l) if file.joints[l].drive.is_some() && file.joints[l].mimic.is_none() => {
+                    if file.joints[l].kind != j.kind {
+                        r.error(
+                            &mimic_at("joint"),
+                            format!(
+                                "joint `{}` and its leader `{}` are not of one type",
+                                j.name, follows.joint
+                            ),
+                        );
+                    }
+                    l
+                }
+                _ => {
+                    r.error_hint(
+                        &mimic_at("joint"),
+                        format!("joint `{}` mimics `{}`, which is no actuated joint", j.name, follows.joint),
+                        "a mimic joint follows an actuated joint (one with a `drive`)",
+                    );
+                    continue;
+                }
+            };
+            let multiplier = follows.multiplier.unwrap_or(1.0);
+            let offset = follows.offset.unwrap_or(0.0);
+            if !multiplier.is_finite() || !offset.is_finite() {
+                r.error(&at("mimic"), "multiplier and offset must be finite");
+            } else if kind == JointKind::Revolute && multiplier.abs() != 1.0 {
+                r.error_hint(
+                    &mimic_at("multiplier"),
+                    format!("a revolute mimic joint's multiplier must be 1 or -1, not {multiplier}"),
+                    "the kinematics are polynomials in the leader's sine and cosine: sin(k q) for other k is not one",
+                );
+            }
+            mimic.push((
+                MimicJoint {
+                    name: j.name.clone(),
+                    description: j.description.clone(),
+                    kind,
+                    axis,
+                    leader: 0,
+                    multiplier,
+                    offset,
+                },
+                leader,
+            ));
+            continue;
+        }
         if let (Some(m), None) = (&j.measured, &drive) {
             measured.push(MeasuredJoint {
                 name: j.name.clone(),
@@ -246,17 +323,27 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
     }
     // Coordinates: the actuated joints in file order, then the passive ones, then the
     // measured ones.
-    let actuated_count = file.joints.iter().filter(|j| !j.passive && j.measured.is_none()).count();
-    let passive_count = file.joints.iter().filter(|j| j.passive).count();
+    let is_mimic = |j: &crate::model::schema::Joint| j.mimic.is_some();
+    let is_measured = |j: &crate::model::schema::Joint| j.measured.is_some() && !is_mimic(j);
+    let is_passive = |j: &crate::model::schema::Joint| j.passive && !is_measured(j) && !is_mimic(j);
+    let count =
+        |pred: &dyn Fn(&crate::model::schema::Joint) -> bool| file.joints.iter().filter(|j| pred(j)).count();
+    let (passive_count, measured_count) = (count(&is_passive), count(&is_measured));
+    let actuated_count = file.joints.len() - passive_count - measured_count - count(&is_mimic);
     let coordinate_of: Vec<usize> = {
-        let (mut a, mut p, mut m) = (0, actuated_count, actuated_count + passive_count);
+        let mut a = 0;
+        let mut p = actuated_count;
+        let mut m = actuated_count + passive_count;
+        let mut f = actuated_count + passive_count + measured_count;
         file.joints
             .iter()
             .map(|j| {
-                let slot = if j.passive {
-                    &mut p
-                } else if j.measured.is_some() {
+                let slot = if is_mimic(j) {
+                    &mut f
+                } else if is_measured(j) {
                     &mut m
+                } else if is_passive(j) {
+                    &mut p
                 } else {
                     &mut a
                 };
@@ -265,6 +352,10 @@ pub(super) fn joints(r: &mut Resolver<'_, '_>, file: &ModelFile) -> Joints {
             })
             .collect()
     };
+    let mimic = mimic
+        .into_iter()
+        .map(|(joint, leader)| MimicJoint { leader: coordinate_of[leader], ..joint })
+        .collect();
 
-    Joints { actuated: joints, passive, measured, coordinate_of }
+    Joints { actuated: joints, passive, measured, mimic, coordinate_of }
 }

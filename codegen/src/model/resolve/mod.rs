@@ -240,7 +240,8 @@ pub(crate) fn resolve(
     let tunable = parameters::parameters(&mut r, &file);
     let (gravity, _) = r.vector(&file.gravity, dim, &[key("gravity")]);
     drives::drives(&mut r, &file);
-    let joints::Joints { actuated: joints, passive, measured, coordinate_of } = joints::joints(&mut r, &file);
+    let joints::Joints { actuated: joints, passive, measured, mimic, coordinate_of } =
+        joints::joints(&mut r, &file);
     let (bodies, depends_on) = bodies::bodies(&mut r, &file);
     let (mut points, point_index) = points::points(&mut r, &file);
     let mut frames = points::frames(&mut r, &file, &point_index);
@@ -307,6 +308,7 @@ pub(crate) fn resolve(
         spatial_closures,
         coupling,
         measured,
+        mimic,
     };
     Ok(model)
 }
