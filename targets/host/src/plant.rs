@@ -22,6 +22,11 @@
 //! * **Encoder** on the motor shaft: `counts = round(θ N cpt / 2π)` (quantisation), wrapping
 //!   like a hardware counter.
 //!
+//! * **Transmission** (`a = C q`): the drives turn their outputs `a`, so the encoders count
+//!   `C q`, the motors' torques reach the joints as `Cᵀ τ_a`, each back EMF is its own
+//!   output's, and friction acts on each motor's output velocity `ȧ = C q̇` against the
+//!   torque on it, `C⁻ᵀ τ_net` (backlash with a transmission is refused).
+//!
 //! The inputs (armature voltages, operator torques) are held over a step (zero-order hold).
 //! Every effect can be switched off through [`Effects`].
 
@@ -156,6 +161,8 @@ pub struct Plant<const N: usize, const M: usize> {
     drives: [Drive; N],
     /// The transmission's `C` (drive outputs `a = C θ`); `None`: each drive turns its joint.
     coupling: Option<[[f64; N]; N]>,
+    /// `C⁻¹`, which maps joint torques to the drives' (`C⁻ᵀ τ`) for friction on the motor side.
+    joint_from_drive: Option<[[f64; N]; N]>,
     filter_time_constant: f64,
     dynamics_scratch: Vec<f64>,
     dynamics_out: Vec<f64>,
@@ -193,6 +200,9 @@ impl<const N: usize, const M: usize> Plant<N, M> {
         }
         let coupling: Option<[[f64; N]; N]> = model.coupling.as_ref().map(|coupling| {
             std::array::from_fn(|k| std::array::from_fn(|j| coupling.drive_from_joint[k][j]))
+        });
+        let joint_from_drive: Option<[[f64; N]; N]> = model.coupling.as_ref().map(|coupling| {
+            std::array::from_fn(|j| std::array::from_fn(|k| coupling.joint_from_drive[j][k]))
         });
         if coupling.is_some()
             && effects.backlash
@@ -259,6 +269,7 @@ impl<const N: usize, const M: usize> Plant<N, M> {
             effects,
             drives,
             coupling,
+            joint_from_drive,
             filter_time_constant: filter_time_constant.max(0.0),
             state,
         })
@@ -420,6 +431,27 @@ impl<const N: usize, const M: usize> Plant<N, M> {
                 d.theta_dot[j] = (net + friction) / drive.rotor;
             }
             d.qd = linalg::cholesky_solve(&inertia, &link_rhs).unwrap_or([0.0; N]);
+        } else if let (Some(_), Some(joint_from_drive)) = (&self.coupling, &self.joint_from_drive) {
+            // Friction acts on the motors: each drive's on its own output velocity `ȧ = C q̇`,
+            // against the torque on it `C⁻ᵀ τ` and its inertia `(C⁻ᵀ D C⁻¹)_kk`; the joints feel
+            // `Cᵀ τ_f`.
+            let net: [f64; N] = std::array::from_fn(|j| motor[j] + external[j] - bias[j]);
+            let drive_velocity = self.drive_outputs(&s.qd);
+            let drive_net = linalg::transpose_mul_vec(joint_from_drive, &net);
+            let drive_friction: [f64; N] = std::array::from_fn(|k| {
+                let inertia_on_drive: f64 = (0..N)
+                    .map(|i| {
+                        (0..N)
+                            .map(|j| joint_from_drive[i][k] * inertia[i][j] * joint_from_drive[j][k])
+                            .sum::<f64>()
+                    })
+                    .sum();
+                Self::friction(&self.drives[k], drive_velocity[k], drive_net[k], inertia_on_drive)
+            });
+            let joint_friction = self.joint_torques(&drive_friction);
+            let rhs: [f64; N] = std::array::from_fn(|j| net[j] + joint_friction[j]);
+            d.qd = linalg::cholesky_solve(&inertia, &rhs).unwrap_or([0.0; N]);
+            d.theta_dot = d.qd;
         } else {
             let mut rhs = [0.0; N];
             for j in 0..N {
@@ -474,6 +506,29 @@ mod tests {
         let torque = plant.motor_torque();
         let want = [per_amp * 1.0 + per_amp * 2.0, per_amp * 2.0];
         assert!((torque[0] - want[0]).abs() < 1e-15 && (torque[1] - want[1]).abs() < 1e-15, "{torque:?}");
+    }
+
+    #[test]
+    fn friction_acts_on_the_motors_through_the_transmission() {
+        // q̇ = (1, 0) turns both outputs (ȧ = C q̇ = (1, 1)): both drives slide, with Coulomb
+        // torques 0.01 and 0.02 N·m, and the joints feel Cᵀ (−0.01, −0.02) = (−0.03, −0.02).
+        // (Friction per joint would make the still roll joint stick instead.)
+        let mut plant = coupled_wrist();
+        plant.state.qd = [1.0, 0.0];
+        plant.state.theta_dot = [1.0, 0.0];
+        let state = plant.state;
+        let without = plant.derivative(&state, &[0.0; 2], &[0.0; 2]);
+        plant.effects.friction = true;
+        for (drive, coulomb) in plant.drives.iter_mut().zip([0.01, 0.02]) {
+            (drive.coulomb, drive.stiction) = (coulomb, coulomb);
+        }
+        let with = plant.derivative(&state, &[0.0; 2], &[0.0; 2]);
+        let mut scratch = plant.model.dynamics.scratch();
+        let mut out = vec![0.0; plant.model.dynamics.len()];
+        plant.model.dynamics.eval(&mut scratch, &state.q, &state.qd, &plant.model.parameters, &mut out);
+        let friction: Vec<f64> =
+            (0..2).map(|i| (0..2).map(|j| out[i * 2 + j] * (with.qd[j] - without.qd[j])).sum()).collect();
+        assert!((friction[0] + 0.03).abs() < 1e-12 && (friction[1] + 0.02).abs() < 1e-12, "{friction:?}");
     }
 
     #[test]
