@@ -13,7 +13,8 @@
 //! ```
 //!
 //! Each object is a map of one key, its kind: `sphere` (`cavity: true` keeps the point inside
-//! instead), `box` (axis-aligned), `half_space` (behind the plane; the normal points to free
+//! instead), `box` (axis-aligned, or turned by `rotation`: `[angle]` in 2-D, `[roll, pitch,
+//! yaw]` in 3-D), `half_space` (behind the plane; the normal points to free
 //! space and is normalised here), `capsule` and `cylinder` (`a`, `b`: the axis's ends, the
 //! cylinder's cap centres; `radius`) or `mesh` (a closed triangle mesh from an OBJ or STL file,
 //! named relative to the scene file, placed at `offset`; 3-D tasks only). Every object has a
@@ -56,11 +57,14 @@ pub enum SceneShape {
         /// Radius, m.
         radius: f64,
     },
-    /// An axis-aligned box.
+    /// A box, turned by the entry's `rotation` (axis-aligned without one).
     Box {
         /// Centre.
         center: Vec<f64>,
-        /// Half the edge lengths, m.
+        /// The box's axes in task coordinates, one unit row per axis (orthonormal; the
+        /// identity for an axis-aligned box).
+        axes: Vec<Vec<f64>>,
+        /// Half the edge lengths along its axes, m.
         half_extents: Vec<f64>,
     },
     /// The points within `radius` of the segment `ab`.
@@ -92,6 +96,24 @@ pub enum SceneShape {
 }
 
 impl SceneShape {
+    /// An axis-aligned box.
+    pub fn axis_aligned_box(center: Vec<f64>, half_extents: Vec<f64>) -> Self {
+        let dim = center.len();
+        let axes = (0..dim).map(|i| (0..dim).map(|k| f64::from(u8::from(i == k))).collect()).collect();
+        SceneShape::Box { center, axes, half_extents }
+    }
+
+    /// `true` unless the shape is a box turned off the task axes.
+    pub fn is_axis_aligned(&self) -> bool {
+        match self {
+            SceneShape::Box { axes, .. } => axes
+                .iter()
+                .enumerate()
+                .all(|(i, axis)| axis.iter().enumerate().all(|(k, &a)| a == f64::from(u8::from(i == k)))),
+            _ => true,
+        }
+    }
+
     /// How deep `p` is inside the shape, m: positive inside, negative outside (minus the
     /// distance to the surface); `None` for a mesh. Closed forms written from the shapes'
     /// definitions, apart from the runtime's closest-point code, so that the host's simulator
@@ -102,11 +124,12 @@ impl SceneShape {
                 -dot(&difference(p, point), normal) / dot(normal, normal).sqrt()
             }
             SceneShape::Sphere { center, radius } => radius - distance(p, center),
-            SceneShape::Box { center, half_extents } => {
-                // Inside: the nearest face; outside: the distance to the box, through its
-                // edges and corners (the gaps beyond each face make the offset).
+            SceneShape::Box { center, axes, half_extents } => {
+                // In the box's axes; inside: the nearest face; outside: the distance to the box,
+                // through its edges and corners (the gaps beyond each face make the offset).
+                let offset = difference(p, center);
                 let gaps: Vec<f64> =
-                    p.iter().zip(center).zip(half_extents).map(|((p, c), h)| h - (p - c).abs()).collect();
+                    axes.iter().zip(half_extents).map(|(axis, h)| h - dot(&offset, axis).abs()).collect();
                 if gaps.iter().all(|&gap| gap > 0.0) {
                     gaps.iter().copied().fold(f64::INFINITY, f64::min)
                 } else {
@@ -193,7 +216,7 @@ impl Scene {
                     vec![("point", point.len()), ("normal", normal.len())]
                 }
                 SceneShape::Sphere { center, .. } => vec![("centre", center.len())],
-                SceneShape::Box { center, half_extents } => {
+                SceneShape::Box { center, half_extents, .. } => {
                     vec![("centre", center.len()), ("half_extents", half_extents.len())]
                 }
                 SceneShape::Capsule { a, b, .. } | SceneShape::Cylinder { a, b, .. } => {
@@ -240,6 +263,8 @@ enum ObjectEntry {
     Box {
         centre: Vec<f64>,
         half_extents: Vec<f64>,
+        #[serde(default)]
+        rotation: Option<Vec<f64>>,
         stiffness: f64,
         damping: f64,
         #[serde(default)]
@@ -322,6 +347,36 @@ struct FrictionEntry {
 /// The most coordinates a scene's vector may have.
 const MAX_COORDINATES: usize = 3;
 
+/// A box's axes (unit rows) from its entry's `rotation`: none, the identity; in 2-D `[angle]`
+/// (rad, about the normal of the plane); in 3-D `[roll, pitch, yaw]` (rad, about the fixed x,
+/// y, z axes in that order, as URDF and the model's `rpy`): row `i` is the rotated `e_i`.
+fn box_axes(dim: usize, rotation: Option<&[f64]>) -> Result<Vec<Vec<f64>>, String> {
+    match (dim, rotation) {
+        (_, None) => match SceneShape::axis_aligned_box(vec![0.0; dim], vec![1.0; dim]) {
+            SceneShape::Box { axes, .. } => Ok(axes),
+            _ => Ok(Vec::new()),
+        },
+        (_, Some(angles)) if angles.iter().any(|a| !a.is_finite()) => {
+            Err(format!("must be finite angles, got {angles:?}"))
+        }
+        (2, Some(&[angle])) => {
+            let (sin, cos) = angle.sin_cos();
+            Ok(vec![vec![cos, sin], vec![-sin, cos]])
+        }
+        (3, Some(&[roll, pitch, yaw])) => {
+            let r = crate::math::rotation::rotation_rpy([roll, pitch, yaw]);
+            Ok((0..3).map(|i| (0..3).map(|k| r[k][i]).collect()).collect())
+        }
+        (2, Some(angles)) => {
+            Err(format!("a 2-D box turns by one angle, `[angle]`; got {} values", angles.len()))
+        }
+        (3, Some(angles)) => {
+            Err(format!("a 3-D box turns by `[roll, pitch, yaw]`; got {} values", angles.len()))
+        }
+        (_, Some(_)) => Err(format!("a {dim}-D box cannot turn")),
+    }
+}
+
 /// Reads a scene file (module docs); meshes are read relative to its directory.
 pub fn load(path: &Path) -> Result<Scene, String> {
     let name = path.display().to_string();
@@ -382,12 +437,15 @@ pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> 
                 },
                 *cavity,
             ),
-            ObjectEntry::Box { centre, half_extents, .. } => {
+            ObjectEntry::Box { centre, half_extents, rotation, .. } => {
                 let half = vector("half_extents", half_extents)?;
                 if half.iter().any(|h| *h <= 0.0) {
                     return Err(error("half_extents", format!("must be positive, got {half_extents:?}")));
                 }
-                (SceneShape::Box { center: vector("centre", centre)?, half_extents: half }, false)
+                let center = vector("centre", centre)?;
+                let axes = box_axes(center.len(), rotation.as_deref())
+                    .map_err(|message| error("rotation", message))?;
+                (SceneShape::Box { center, axes, half_extents: half }, false)
             }
             ObjectEntry::HalfSpace { point, normal, .. } => {
                 let n = vector("normal", normal)?;
@@ -490,13 +548,9 @@ pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, St
                 let (center, radius) = (vector(center), number(*radius));
                 quote!(#shape::Sphere { center: #center, radius: #radius })
             }
-            SceneShape::Box { center, half_extents } => {
+            SceneShape::Box { center, axes, half_extents } => {
                 let (center, half_extents) = (vector(center), vector(half_extents));
-                let axes: Vec<TokenStream> = (0..task_dim)
-                    .map(|i| {
-                        vector(&(0..task_dim).map(|k| if i == k { 1.0 } else { 0.0 }).collect::<Vec<_>>())
-                    })
-                    .collect();
+                let axes: Vec<TokenStream> = axes.iter().map(|axis| vector(axis)).collect();
                 quote!(#shape::Box { center: #center, axes: [#(#axes),*], half_extents: #half_extents })
             }
             SceneShape::Capsule { a, b, radius } => {
@@ -566,12 +620,28 @@ mod tests {
         let ball = || SceneShape::Sphere { center: vec![1.0, 0.0, 0.0], radius: 0.5 };
         assert_eq!(depth(ball(), [1.0, 0.25, 0.0]), 0.25);
         assert_eq!(depth(ball(), [1.0, 0.0, -2.0]), -1.5);
-        let cube = || SceneShape::Box { center: vec![0.0; 3], half_extents: vec![1.0, 2.0, 3.0] };
+        let cube = || SceneShape::axis_aligned_box(vec![0.0; 3], vec![1.0, 2.0, 3.0]);
         assert_eq!(depth(cube(), [0.5, 0.0, 0.0]), 0.5);
         assert_eq!(depth(cube(), [0.0, 1.75, 0.0]), 0.25);
         // Outside beyond an edge: √(1² + 1²); beyond a corner: √3.
         assert!((depth(cube(), [2.0, 3.0, 0.0]) + 2f64.sqrt()).abs() < 1e-15);
         assert!((depth(cube(), [-2.0, -3.0, 4.0]) + 3f64.sqrt()).abs() < 1e-15);
+        // The same box turned by 90° about z: its x half extent (1) now lies along y, its y
+        // (2) along x; and a 2-D square turned by 45°, whose corner reaches √2 along x.
+        let turned = SceneShape::Box {
+            center: vec![0.0; 3],
+            axes: super::box_axes(3, Some(&[0.0, 0.0, std::f64::consts::FRAC_PI_2])).unwrap(),
+            half_extents: vec![1.0, 2.0, 3.0],
+        };
+        assert!((depth(turned.clone(), [1.75, 0.0, 0.0]) - 0.25).abs() < 1e-15);
+        assert!((depth(turned, [0.0, 1.5, 0.0]) + 0.5).abs() < 1e-15);
+        let diamond = SceneShape::Box {
+            center: vec![1.0, 0.0],
+            axes: super::box_axes(2, Some(&[std::f64::consts::FRAC_PI_4])).unwrap(),
+            half_extents: vec![1.0, 1.0],
+        };
+        assert!((diamond.depth(&[1.0 + 2f64.sqrt() - 0.1, 0.0]).unwrap() - 0.1 / 2f64.sqrt()).abs() < 1e-15);
+        assert!(super::box_axes(3, Some(&[0.1])).is_err() && super::box_axes(1, Some(&[0.1])).is_err());
         // A capsule and a cylinder along z from 0 to 2, radius 0.5.
         let capsule = || SceneShape::Capsule { a: vec![0.0; 3], b: vec![0.0, 0.0, 2.0], radius: 0.5 };
         assert!((depth(capsule(), [0.25, 0.0, 1.0]) - 0.25).abs() < 1e-15);

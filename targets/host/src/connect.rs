@@ -150,8 +150,15 @@ fn device_objects(scene: &crate::scene::Scene) -> Result<Vec<SceneObject>, Strin
                 stiffness,
                 damping,
             },
-            SolidShape::Box { center, half_extents } => {
+            SolidShape::Box { center, half_extents, .. } if object.shape.is_axis_aligned() => {
                 SceneObject::Box { centre: padded(center), half_extents: padded(half_extents), stiffness, damping }
+            }
+            SolidShape::Box { .. } => {
+                return Err(format!(
+                    "error: {}: a device's scene slots hold axis-aligned boxes; a turned box (`rotation`) is rendered \
+                     by `hapticgen simulate --scene` and by firmware images built with the scene",
+                    object.location
+                ))
             }
             SolidShape::HalfSpace { point, normal } => {
                 SceneObject::HalfSpace { point: padded(point), normal: padded(normal), stiffness, damping }
@@ -863,6 +870,11 @@ mod tests {
                      friction: {static: 0.3, dynamic: 0.2}}\n";
         let error = parse_scene("s.yaml", rough).unwrap_err();
         assert!(error.starts_with("error: s.yaml:2:") && error.contains("carries no friction"), "{error}");
+        let turned = "objects:\n  - box: {centre: [0, 0], half_extents: [1, 1], rotation: [0.5], stiffness: 1, damping: 0}\n";
+        let error = parse_scene("s.yaml", turned).unwrap_err();
+        assert!(error.starts_with("error: s.yaml:2:") && error.contains("axis-aligned boxes"), "{error}");
+        let level = "objects:\n  - box: {centre: [0, 0], half_extents: [1, 1], stiffness: 1, damping: 0}\n";
+        assert!(matches!(parse_scene("s.yaml", level).unwrap()[0], SceneObject::Box { .. }));
     }
 
     #[test]

@@ -290,7 +290,7 @@ pub fn setup(contact: Contact, x0: &[f64], settings: &ContactSettings) -> Result
             let half = [2.0 * CM, 2.0 * CM, CM];
             let (edge_x, edge_y, top) = (x0[0] + 0.5 * CM, x0[1] + 0.5 * CM, x0[2] - CM);
             let centre = vec![edge_x - half[0], edge_y - half[1], top - half[2]];
-            setup.solids = vec![solid(SolidShape::Box { center: centre, half_extents: half.to_vec() })];
+            setup.solids = vec![solid(SolidShape::axis_aligned_box(centre, half.to_vec()))];
             let depth = 2.0 * push * settings.hand.0 / (stiffness + settings.hand.0);
             let gap = 0.6 * depth;
             let pressed = top - 2.0 * push;
@@ -316,7 +316,7 @@ pub fn setup(contact: Contact, x0: &[f64], settings: &ContactSettings) -> Result
             let half = [5.0 * CM, 5.0 * CM, 0.05 * CM];
             let top = x0[2] - CM;
             let centre = vec![x0[0], x0[1], top - half[2]];
-            setup.solids = vec![solid(SolidShape::Box { center: centre, half_extents: half.to_vec() })];
+            setup.solids = vec![solid(SolidShape::axis_aligned_box(centre, half.to_vec()))];
             let through = at(&down(CM + 3.0 * push));
             setup.keys = press_and_hold(start, through, 2.3);
             setup.duration = 3.8;
@@ -534,7 +534,7 @@ pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Chec
             up[last] = 1.0;
             // The plate is thinner than the device sinks: below its top is what counts there.
             let pushed_in = |x: &[f64]| match (&setup.solids[0].shape, setup.contact) {
-                (SolidShape::Box { center, half_extents }, Contact::ThinPlate) => {
+                (SolidShape::Box { center, half_extents, .. }, Contact::ThinPlate) => {
                     x[last] < center[last] + half_extents[last]
                 }
                 _ => setup.solids[0].depth(x) > 0.0,

@@ -61,11 +61,20 @@ impl Solid {
             SolidShape::Sphere { center, radius } => {
                 Shape::Sphere { center: array::<M>(center, "a sphere's centre")?, radius: *radius }
             }
-            SolidShape::Box { center, half_extents } => Shape::Box {
-                center: array::<M>(center, "a box's centre")?,
-                axes: std::array::from_fn(|i| std::array::from_fn(|k| if i == k { 1.0 } else { 0.0 })),
-                half_extents: array::<M>(half_extents, "a box's half extents")?,
-            },
+            SolidShape::Box { center, axes, half_extents } => {
+                if axes.len() != M {
+                    return Err(format!("error: a box needs {M} axes, got {}", axes.len()));
+                }
+                let mut rows = [[0.0; M]; M];
+                for (row, axis) in rows.iter_mut().zip(axes) {
+                    *row = array::<M>(axis, "a box's axis")?;
+                }
+                Shape::Box {
+                    center: array::<M>(center, "a box's centre")?,
+                    axes: rows,
+                    half_extents: array::<M>(half_extents, "a box's half extents")?,
+                }
+            }
             SolidShape::Capsule { a, b, radius } => Shape::Capsule {
                 a: array::<M>(a, "a capsule's end")?,
                 b: array::<M>(b, "a capsule's end")?,
@@ -157,25 +166,34 @@ impl Solid {
         match &self.shape {
             SolidShape::HalfSpace { normal, .. } => unit(normal.clone()),
             SolidShape::Sphere { center, .. } => unit(p.iter().zip(center).map(|(p, c)| p - c).collect()),
-            SolidShape::Box { center, half_extents } => {
-                // Outside: towards the point from its closest point; on a face, that face's normal.
-                let offsets: Vec<f64> = p.iter().zip(center).map(|(p, c)| p - c).collect();
+            SolidShape::Box { center, axes, half_extents } => {
+                // In the box's axes: outside, towards the point from its closest point; on a
+                // face, that face's normal. Then back to task coordinates.
+                let world: Vec<f64> = p.iter().zip(center).map(|(p, c)| p - c).collect();
+                let offsets: Vec<f64> =
+                    axes.iter().map(|axis| axis.iter().zip(&world).map(|(a, w)| a * w).sum()).collect();
                 let beyond: Vec<f64> = offsets
                     .iter()
                     .zip(half_extents)
                     .map(|(d, h)| if d.abs() > *h { d - h * d.signum() } else { 0.0 })
                     .collect();
-                if beyond.iter().any(|&b| b != 0.0) {
-                    unit(beyond)
+                let local = if beyond.iter().any(|&b| b != 0.0) {
+                    beyond
                 } else {
-                    let axis = (0..p.len())
+                    let axis = (0..offsets.len())
                         .min_by(|&a, &b| {
                             (half_extents[a] - offsets[a].abs())
                                 .total_cmp(&(half_extents[b] - offsets[b].abs()))
                         })
                         .unwrap_or(0);
-                    Some((0..p.len()).map(|k| if k == axis { offsets[k].signum() } else { 0.0 }).collect())
-                }
+                    (0..offsets.len()).map(|k| if k == axis { offsets[k].signum() } else { 0.0 }).collect()
+                };
+                // Σ_i local_i · axis_i: the axes are the rows.
+                unit(
+                    (0..p.len())
+                        .map(|k| axes.iter().zip(&local).map(|(axis, l)| axis[k] * l).sum())
+                        .collect(),
+                )
             }
             SolidShape::Capsule { .. } | SolidShape::Cylinder { .. } | SolidShape::Mesh { .. } => None,
         }
@@ -301,7 +319,7 @@ mod tests {
         let ball = solid(SolidShape::Sphere { center: vec![1.0, 0.0, 0.0], radius: 2.0 });
         assert_eq!(ball.depth(&[1.0, 0.0, 1.5]), 0.5);
         assert_eq!(ball.depth(&[4.0, 0.0, 0.0]), -1.0);
-        let cube = solid(SolidShape::Box { center: vec![0.0; 3], half_extents: vec![1.0, 2.0, 3.0] });
+        let cube = solid(SolidShape::axis_aligned_box(vec![0.0; 3], vec![1.0, 2.0, 3.0]));
         assert_eq!(cube.depth(&[0.5, 0.0, 0.0]), 0.5);
         assert_eq!(cube.depth(&[0.0, 1.75, 0.0]), 0.25);
         // Outside beyond an edge: √(1² + 1²).

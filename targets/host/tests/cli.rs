@@ -468,3 +468,61 @@ fn a_light_axis_under_the_hand_is_integrated_in_substeps() {
     let held = stdout.lines().find(|l| l.contains("held depth")).unwrap_or_else(|| panic!("{stdout}"));
     assert!(held.ends_with("| pass |"), "{held}");
 }
+
+/// A scene's box turned by `rotation` (pitch 0.35 rad): the Delta's hand presses straight down
+/// on its tilted top face, and the rendered force (the proxy's offset from the HIP) points
+/// along that face's normal `Ry(0.35) e_z = (sin 0.35, 0, cos 0.35)`, never inside the box.
+#[test]
+fn a_turned_box_pushes_along_its_tilted_face() {
+    let output = scratch("turned-box");
+    std::fs::create_dir_all(&output).expect("a scratch directory");
+    let scene = output.join("turned.yaml");
+    std::fs::write(
+        &scene,
+        "objects:\n  - box: {centre: [0.0, 0.0, -0.1288], half_extents: [0.03, 0.03, 0.01], rotation: [0.0, 0.35, 0.0], stiffness: 1500, damping: 5}\n",
+    )
+    .expect("writable");
+    let run = hapticgen(&[
+        "simulate",
+        "models/falcon_delta.yaml",
+        "--controller",
+        "3",
+        "--scenario",
+        "wall",
+        "--duration",
+        "2.5",
+        "--scene",
+        &scene.to_string_lossy(),
+        "--output",
+        &output.to_string_lossy(),
+    ]);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{stdout}{}", String::from_utf8_lossy(&run.stderr));
+    assert!(
+        stdout.contains("| wall | the proxy never inside a solid |") && !stdout.contains("FAIL"),
+        "{stdout}"
+    );
+    let trace = std::fs::read_to_string(output.join("trace.csv")).expect("a trace");
+    let header: Vec<&str> = trace.lines().next().expect("a header").split(',').collect();
+    let column = |name: &str| header.iter().position(|&h| h == name).unwrap_or_else(|| panic!("{name}"));
+    let (t, proxy, hip) = (column("t"), column("xp0"), column("xh0"));
+    let pressed: Vec<[f64; 3]> = trace
+        .lines()
+        .skip(1)
+        .map(|line| line.split(',').map(|v| v.parse().expect("a number")).collect::<Vec<f64>>())
+        .filter(|row| (2.0..2.5).contains(&row[t]))
+        .map(|row| std::array::from_fn(|k| row[proxy + k] - row[hip + k]))
+        .collect();
+    assert!(pressed.len() > 100, "{} rows pressed", pressed.len());
+    let normal = [0.35f64.sin(), 0.0, 0.35f64.cos()];
+    for offset in pressed {
+        let length = offset.iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!(length > 1e-4, "not pressed in: {offset:?}");
+        for k in 0..3 {
+            assert!(
+                (offset[k] / length - normal[k]).abs() < 1e-6,
+                "force {offset:?} off the face's normal {normal:?}"
+            );
+        }
+    }
+}
