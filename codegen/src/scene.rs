@@ -15,7 +15,8 @@
 //! Each object is a map of one key, its kind: `sphere` (`cavity: true` keeps the point inside
 //! instead), `box` (axis-aligned, or turned by `rotation`: `[angle]` in 2-D, `[roll, pitch,
 //! yaw]` in 3-D), `half_space` (behind the plane; the normal points to free
-//! space and is normalised here), `capsule` and `cylinder` (`a`, `b`: the axis's ends, the
+//! space and is normalised here), `polytope` (`planes`: a list of `{point, normal}`, the solid
+//! behind every one), `capsule` and `cylinder` (`a`, `b`: the axis's ends, the
 //! cylinder's cap centres; `radius`) or `mesh` (a closed triangle mesh from an OBJ or STL file,
 //! named relative to the scene file, placed at `offset`; 3-D tasks only). Every object has a
 //! surface `stiffness` (N/m) and `damping` (N·s/m), and optionally `friction` with `static`
@@ -86,6 +87,11 @@ pub enum SceneShape {
         /// Radius, m.
         radius: f64,
     },
+    /// The convex polytope inside every plane, `{x : n_i · x ≤ d_i}`.
+    Polytope {
+        /// The bounding planes.
+        planes: Vec<ScenePlane>,
+    },
     /// A closed triangle mesh (with its BVH) placed at `offset`; 3-D tasks only.
     Mesh {
         /// The mesh in its own frame, BVH built.
@@ -93,6 +99,15 @@ pub enum SceneShape {
         /// Where the mesh's origin is.
         offset: Vec<f64>,
     },
+}
+
+/// One bounding plane of a polytope: `n · x = d`, the polytope behind it (`n · x ≤ d`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScenePlane {
+    /// Unit outward normal `n`.
+    pub normal: Vec<f64>,
+    /// Offset `d`, m.
+    pub offset: f64,
 }
 
 impl SceneShape {
@@ -151,6 +166,12 @@ impl SceneShape {
                     let beyond_caps = (-along).max(along - length).max(0.0);
                     -beyond_side.hypot(beyond_caps)
                 }
+            }
+            // Inside: the nearest plane; outside: the farthest plane's distance, a lower bound
+            // of the distance (the distance itself is a projection onto the polytope).
+            SceneShape::Polytope { planes } => {
+                let beyond = planes.iter().map(|plane| dot(p, &plane.normal) - plane.offset);
+                -beyond.fold(f64::NEG_INFINITY, f64::max)
             }
             SceneShape::Mesh { .. } => return None,
         })
@@ -221,6 +242,9 @@ impl Scene {
                 }
                 SceneShape::Capsule { a, b, .. } | SceneShape::Cylinder { a, b, .. } => {
                     vec![("a", a.len()), ("b", b.len())]
+                }
+                SceneShape::Polytope { planes } => {
+                    planes.iter().map(|plane| ("a plane's normal", plane.normal.len())).collect()
                 }
                 SceneShape::Mesh { offset, .. } => vec![("offset", offset.len()), ("the mesh's vertices", 3)],
             };
@@ -296,6 +320,13 @@ enum ObjectEntry {
         #[serde(default)]
         friction: Option<FrictionEntry>,
     },
+    Polytope {
+        planes: Vec<PlaneEntry>,
+        stiffness: f64,
+        damping: f64,
+        #[serde(default)]
+        friction: Option<FrictionEntry>,
+    },
     Mesh {
         file: PathBuf,
         #[serde(default)]
@@ -315,6 +346,7 @@ impl ObjectEntry {
             ObjectEntry::HalfSpace { .. } => "half_space",
             ObjectEntry::Capsule { .. } => "capsule",
             ObjectEntry::Cylinder { .. } => "cylinder",
+            ObjectEntry::Polytope { .. } => "polytope",
             ObjectEntry::Mesh { .. } => "mesh",
         }
     }
@@ -328,11 +360,19 @@ impl ObjectEntry {
             | ObjectEntry::HalfSpace { stiffness, damping, friction, .. }
             | ObjectEntry::Capsule { stiffness, damping, friction, .. }
             | ObjectEntry::Cylinder { stiffness, damping, friction, .. }
+            | ObjectEntry::Polytope { stiffness, damping, friction, .. }
             | ObjectEntry::Mesh { stiffness, damping, friction, .. } => {
                 (*stiffness, *damping, friction.as_ref())
             }
         }
     }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PlaneEntry {
+    point: Vec<f64>,
+    normal: Vec<f64>,
 }
 
 #[derive(Deserialize)]
@@ -473,6 +513,47 @@ pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> 
                 };
                 (shape, false)
             }
+            ObjectEntry::Polytope { planes, .. } => {
+                if planes.is_empty() {
+                    return Err(error("planes", "a polytope needs at least one plane".to_string()));
+                }
+                let mut bounding = Vec::with_capacity(planes.len());
+                for (k, plane) in planes.iter().enumerate() {
+                    // `objects[i].polytope.planes[k].normal`.
+                    let plane_error = |key: &str, message: String| {
+                        let mut path = at("planes");
+                        path.extend([Segment::Index(k), Segment::Key(key.into())]);
+                        format!("error: {}: {message}", located(&path))
+                    };
+                    let finite = |key: &str, values: &[f64]| {
+                        if values.is_empty()
+                            || values.len() > MAX_COORDINATES
+                            || values.iter().any(|v| !v.is_finite())
+                        {
+                            let message =
+                                format!("must be 1 to {MAX_COORDINATES} finite coordinates, got {values:?}");
+                            Err(plane_error(key, message))
+                        } else {
+                            Ok(values.to_vec())
+                        }
+                    };
+                    let (normal, point) = (finite("normal", &plane.normal)?, finite("point", &plane.point)?);
+                    let length = normal.iter().map(|v| v * v).sum::<f64>().sqrt();
+                    if length.is_nan() || length < 1e-9 {
+                        return Err(plane_error(
+                            "normal",
+                            format!("must not be zero, got {:?}", plane.normal),
+                        ));
+                    }
+                    if point.len() != normal.len() {
+                        let message = format!("has {} coordinates, its point {}", normal.len(), point.len());
+                        return Err(plane_error("normal", message));
+                    }
+                    let normal: Vec<f64> = normal.iter().map(|v| v / length).collect();
+                    bounding.push(ScenePlane { offset: dot(&normal, &point), normal });
+                }
+                (SceneShape::Polytope { planes: bounding }, false)
+            }
             ObjectEntry::Mesh { file, offset, .. } => {
                 let path = directory.join(file);
                 let mesh = crate::mesh::load(&path)
@@ -536,6 +617,7 @@ pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, St
     let shape = quote!(::hapticgen_runtime::shape::Shape);
     let mut meshes = String::new();
     let mut mesh_count = 0;
+    let mut polytopes: Vec<TokenStream> = Vec::new();
     let mut objects: Vec<TokenStream> = Vec::new();
     for object in &scene.objects {
         let geometry = match &object.shape {
@@ -560,6 +642,19 @@ pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, St
             SceneShape::Cylinder { a, b, radius } => {
                 let (a, b, radius) = (vector(a), vector(b), number(*radius));
                 quote!(#shape::Cylinder { a: #a, b: #b, radius: #radius })
+            }
+            SceneShape::Polytope { planes } => {
+                let name = Ident::new(&format!("POLYTOPE_{}", polytopes.len()), Span::call_site());
+                let count = Literal::usize_unsuffixed(planes.len());
+                let m = Literal::usize_unsuffixed(task_dim);
+                let entries = planes.iter().map(|plane| {
+                    let (normal, offset) = (vector(&plane.normal), number(plane.offset));
+                    quote!(::hapticgen_runtime::shape::Plane { normal: #normal, offset: #offset })
+                });
+                polytopes.push(quote! {
+                    static #name: [::hapticgen_runtime::shape::Plane<#ty, #m>; #count] = [#(#entries),*];
+                });
+                quote!(#shape::Polytope { planes: &#name })
             }
             SceneShape::Mesh { mesh, offset } => {
                 let name = format!("MESH_{mesh_count}");
@@ -589,6 +684,7 @@ pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, St
     let count = Literal::usize_unsuffixed(objects.len());
     let m = Literal::usize_unsuffixed(task_dim);
     let tokens = quote! {
+        #(#polytopes)*
         /// Objects in the scene.
         pub const OBJECTS: usize = #count;
         /// The scene's objects, as the runtime renders them.
@@ -642,6 +738,20 @@ mod tests {
         };
         assert!((diamond.depth(&[1.0 + 2f64.sqrt() - 0.1, 0.0]).unwrap() - 0.1 / 2f64.sqrt()).abs() < 1e-15);
         assert!(super::box_axes(3, Some(&[0.1])).is_err() && super::box_axes(1, Some(&[0.1])).is_err());
+        // The unit cube as six planes: inside, the nearest face (as the box); outside, the
+        // farthest plane's distance (beyond an edge, 1, a lower bound of √2).
+        let planes = (0..3)
+            .flat_map(|i| {
+                [1.0, -1.0].map(|side| super::ScenePlane {
+                    normal: (0..3).map(|k| if k == i { side } else { 0.0 }).collect(),
+                    offset: 1.0,
+                })
+            })
+            .collect();
+        let polytope = SceneShape::Polytope { planes };
+        assert_eq!(depth(polytope.clone(), [0.5, 0.25, 0.0]), 0.5);
+        assert_eq!(depth(polytope.clone(), [2.0, 0.0, 0.0]), -1.0);
+        assert_eq!(depth(polytope, [2.0, 2.0, 0.0]), -1.0);
         // A capsule and a cylinder along z from 0 to 2, radius 0.5.
         let capsule = || SceneShape::Capsule { a: vec![0.0; 3], b: vec![0.0, 0.0, 2.0], radius: 0.5 };
         assert!((depth(capsule(), [0.25, 0.0, 1.0]) - 0.25).abs() < 1e-15);

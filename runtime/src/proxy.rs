@@ -552,17 +552,21 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 // the proxy is inside of (beyond the skin) allows nothing, whatever the
                 // direction: moving along or away from it does not take the proxy outside it
                 // now, and only being outside a plane keeps it out of the polytope.
-                let mut best: Option<(S, [S; M])> = None;
+                // Of planes allowing the same step (no step at all, when the proxy rests on the
+                // polytope and moves into it), the one it is least inside of, the face it rests
+                // on, gives the normal: not the first plane listed, whose constraint would hold
+                // a proxy resting on a tilted face where it first touched.
+                let mut best: Option<(S, S, [S; M])> = None;
                 for plane in planes {
                     let gap = dot(&plane.normal, y) - plane.offset - margin;
                     let rate = dot(d, &plane.normal);
                     let step =
                         if gap > -self.skin { convex_step(gap, rate, limit, half_skin) } else { S::ZERO };
-                    if best.map_or(true, |(b, _)| step > b) {
-                        best = Some((step, plane.normal));
+                    if best.map_or(true, |(b, g, _)| step > b || (step == b && gap > g)) {
+                        best = Some((step, gap, plane.normal));
                     }
                 }
-                best
+                best.map(|(step, _, normal)| (step, normal))
             }
             Shape::Polytope { planes } => {
                 // Free while inside every plane: the shortest step any plane allows.

@@ -1538,3 +1538,40 @@ fn on_flat_faces_and_a_capsule_the_frictionless_proxy_slides_to_the_hips_project
         }
     }
 }
+
+#[test]
+fn on_a_tilted_polytope_face_the_proxy_slides_to_the_hip_s_projection() {
+    // A slab pitched by 0.35 rad as six planes; the HIP comes straight down through its top
+    // face. Frictionless, the proxy is the HIP's projection on the face (a skin above it), so
+    // the force points along the face's normal. (Before the fix, the proxy pushed into the
+    // polytope took the first plane listed as its constraint and stayed where it touched: the
+    // force came out vertical.)
+    let pitch: f64 = 0.35;
+    let axes = [[pitch.cos(), 0.0, -pitch.sin()], [0.0, 1.0, 0.0], [pitch.sin(), 0.0, pitch.cos()]];
+    let half = [0.03, 0.03, 0.01];
+    let mut planes = [Plane { normal: [0.0; 3], offset: 0.0 }; 6];
+    for i in 0..3 {
+        for (k, side) in [1.0, -1.0].iter().enumerate() {
+            planes[2 * i + k] = Plane { normal: axes[i].map(|a| side * a), offset: half[i] };
+        }
+    }
+    let top = axes[2];
+    let skin = 1e-6;
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, 0.0, skin);
+    scene.add(solid(Shape::Polytope { planes: &planes })).unwrap();
+    scene.reset([0.0, 0.0, 0.05]);
+    for step in 0..=40 {
+        let hip = [0.0, 0.0, 0.05 - 0.05 * f64::from(step) / 40.0];
+        let out = scene.render(&hip);
+        let offset = sub(out.proxy, hip);
+        let depth = half[2] - (top[0] * hip[0] + top[1] * hip[1] + top[2] * hip[2]);
+        if depth <= 0.0 {
+            assert!(out.contact.is_none() && norm(offset) == 0.0, "free at {hip:?}: {out:?}");
+            continue;
+        }
+        assert_eq!(out.contact, Some(0));
+        for k in 0..3 {
+            assert!((offset[k] - (depth + skin) * top[k]).abs() < 1e-12, "at {hip:?}: offset {offset:?}");
+        }
+    }
+}

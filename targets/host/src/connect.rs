@@ -163,10 +163,14 @@ fn device_objects(scene: &crate::scene::Scene) -> Result<Vec<SceneObject>, Strin
             SolidShape::HalfSpace { point, normal } => {
                 SceneObject::HalfSpace { point: padded(point), normal: padded(normal), stiffness, damping }
             }
-            SolidShape::Capsule { .. } | SolidShape::Cylinder { .. } | SolidShape::Mesh { .. } => {
+            SolidShape::Capsule { .. }
+            | SolidShape::Cylinder { .. }
+            | SolidShape::Polytope { .. }
+            | SolidShape::Mesh { .. } => {
                 return Err(format!(
-                    "error: {}: a device's scene slots hold spheres, boxes and half-spaces; capsules, cylinders and \
-                     meshes are rendered by `hapticgen simulate --scene` and by firmware images built with the scene",
+                    "error: {}: a device's scene slots hold spheres, boxes and half-spaces; capsules, cylinders, \
+                     polytopes and meshes are rendered by `hapticgen simulate --scene` and by firmware images built \
+                     with the scene",
                     object.location
                 ))
             }

@@ -5,7 +5,7 @@
 
 use hapticgen_codegen::mesh::TriangleMesh;
 use hapticgen_runtime::render::ObjectKind;
-use hapticgen_runtime::shape::{BvhNode, Material, Mesh, Object, Shape};
+use hapticgen_runtime::shape::{BvhNode, Material, Mesh, Object, Plane, Shape};
 
 /// The geometry of a solid, in task coordinates: a scene file's (`hapticgen_codegen::scene`).
 pub use hapticgen_codegen::scene::SceneShape as SolidShape;
@@ -85,6 +85,17 @@ impl Solid {
                 b: array::<M>(b, "a cylinder's cap centre")?,
                 radius: *radius,
             },
+            SolidShape::Polytope { planes } => {
+                let mut bounding = Vec::with_capacity(planes.len());
+                for plane in planes {
+                    bounding.push(Plane {
+                        normal: array::<M>(&plane.normal, "a plane's normal")?,
+                        offset: plane.offset,
+                    });
+                }
+                // Leaked like a mesh's arrays: the runtime's shape borrows its planes.
+                Shape::Polytope { planes: Box::leak(bounding.into_boxed_slice()) }
+            }
             SolidShape::Mesh { mesh, offset } => {
                 if M != 3 {
                     return Err(format!("error: a mesh needs a 3-D task; this one has {M} coordinates"));
@@ -195,6 +206,16 @@ impl Solid {
                         .collect(),
                 )
             }
+            // The plane the point is farthest beyond (on the surface: the face it is on).
+            SolidShape::Polytope { planes } => planes
+                .iter()
+                .max_by(|a, b| {
+                    let beyond = |plane: &hapticgen_codegen::scene::ScenePlane| {
+                        plane.normal.iter().zip(p).map(|(n, x)| n * x).sum::<f64>() - plane.offset
+                    };
+                    beyond(a).total_cmp(&beyond(b))
+                })
+                .map(|plane| plane.normal.clone()),
             SolidShape::Capsule { .. } | SolidShape::Cylinder { .. } | SolidShape::Mesh { .. } => None,
         }
     }

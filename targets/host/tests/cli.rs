@@ -469,60 +469,79 @@ fn a_light_axis_under_the_hand_is_integrated_in_substeps() {
     assert!(held.ends_with("| pass |"), "{held}");
 }
 
-/// A scene's box turned by `rotation` (pitch 0.35 rad): the Delta's hand presses straight down
-/// on its tilted top face, and the rendered force (the proxy's offset from the HIP) points
-/// along that face's normal `Ry(0.35) e_z = (sin 0.35, 0, cos 0.35)`, never inside the box.
+/// A scene's box turned by `rotation` (pitch 0.35 rad), and the same slab written as a
+/// polytope of its six planes: the Delta's hand presses straight down on the tilted top face,
+/// and the rendered force (the proxy's offset from the HIP) points along that face's normal
+/// `Ry(0.35) e_z = (sin 0.35, 0, cos 0.35)`, never inside the solid.
 #[test]
-fn a_turned_box_pushes_along_its_tilted_face() {
-    let output = scratch("turned-box");
-    std::fs::create_dir_all(&output).expect("a scratch directory");
-    let scene = output.join("turned.yaml");
-    std::fs::write(
-        &scene,
-        "objects:\n  - box: {centre: [0.0, 0.0, -0.1288], half_extents: [0.03, 0.03, 0.01], rotation: [0.0, 0.35, 0.0], stiffness: 1500, damping: 5}\n",
-    )
-    .expect("writable");
-    let run = hapticgen(&[
-        "simulate",
-        "models/falcon_delta.yaml",
-        "--controller",
-        "3",
-        "--scenario",
-        "wall",
-        "--duration",
-        "2.5",
-        "--scene",
-        &scene.to_string_lossy(),
-        "--output",
-        &output.to_string_lossy(),
-    ]);
-    let stdout = String::from_utf8_lossy(&run.stdout);
-    assert!(run.status.success(), "{stdout}{}", String::from_utf8_lossy(&run.stderr));
-    assert!(
-        stdout.contains("| wall | the proxy never inside a solid |") && !stdout.contains("FAIL"),
-        "{stdout}"
+fn a_turned_box_and_a_polytope_push_along_their_tilted_face() {
+    let (centre, half, pitch) = ([0.0, 0.0, -0.1288], [0.03, 0.03, 0.01], 0.35f64);
+    let turned_box = format!(
+        "objects:\n  - box: {{centre: {centre:?}, half_extents: {half:?}, rotation: [0.0, {pitch}, 0.0], stiffness: 1500, damping: 5}}\n"
     );
-    let trace = std::fs::read_to_string(output.join("trace.csv")).expect("a trace");
-    let header: Vec<&str> = trace.lines().next().expect("a header").split(',').collect();
-    let column = |name: &str| header.iter().position(|&h| h == name).unwrap_or_else(|| panic!("{name}"));
-    let (t, proxy, hip) = (column("t"), column("xp0"), column("xh0"));
-    let pressed: Vec<[f64; 3]> = trace
-        .lines()
-        .skip(1)
-        .map(|line| line.split(',').map(|v| v.parse().expect("a number")).collect::<Vec<f64>>())
-        .filter(|row| (2.0..2.5).contains(&row[t]))
-        .map(|row| std::array::from_fn(|k| row[proxy + k] - row[hip + k]))
-        .collect();
-    assert!(pressed.len() > 100, "{} rows pressed", pressed.len());
-    let normal = [0.35f64.sin(), 0.0, 0.35f64.cos()];
-    for offset in pressed {
-        let length = offset.iter().map(|v| v * v).sum::<f64>().sqrt();
-        assert!(length > 1e-4, "not pressed in: {offset:?}");
-        for k in 0..3 {
-            assert!(
-                (offset[k] / length - normal[k]).abs() < 1e-6,
-                "force {offset:?} off the face's normal {normal:?}"
-            );
+    // The slab's axes: Ry(pitch) e_x, e_y, Ry(pitch) e_z; a plane on each side of each.
+    let axes = [[pitch.cos(), 0.0, -pitch.sin()], [0.0, 1.0, 0.0], [pitch.sin(), 0.0, pitch.cos()]];
+    let mut planes = String::new();
+    for (axis, h) in axes.iter().zip(half) {
+        for side in [1.0, -1.0] {
+            let normal: Vec<f64> = axis.iter().map(|a| side * a).collect();
+            let point: Vec<f64> = centre.iter().zip(axis).map(|(c, a)| c + side * h * a).collect();
+            planes.push_str(&format!("      - {{point: {point:?}, normal: {normal:?}}}\n"));
+        }
+    }
+    let polytope =
+        format!("objects:\n  - polytope:\n      stiffness: 1500\n      damping: 5\n      planes:\n{planes}");
+    for (name, scene_text) in [("turned-box", turned_box), ("polytope", polytope)] {
+        let output = scratch(name);
+        std::fs::create_dir_all(&output).expect("a scratch directory");
+        let scene = output.join("scene.yaml");
+        std::fs::write(&scene, &scene_text).expect("writable");
+        let run = hapticgen(&[
+            "simulate",
+            "models/falcon_delta.yaml",
+            "--controller",
+            "3",
+            "--scenario",
+            "wall",
+            "--duration",
+            "2.5",
+            "--scene",
+            &scene.to_string_lossy(),
+            "--output",
+            &output.to_string_lossy(),
+        ]);
+        let stdout = String::from_utf8_lossy(&run.stdout);
+        assert!(
+            run.status.success(),
+            "{name}: {stdout}{}\n{scene_text}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        assert!(
+            stdout.contains("| wall | the proxy never inside a solid |") && !stdout.contains("FAIL"),
+            "{stdout}"
+        );
+        let trace = std::fs::read_to_string(output.join("trace.csv")).expect("a trace");
+        let header: Vec<&str> = trace.lines().next().expect("a header").split(',').collect();
+        let column = |name: &str| header.iter().position(|&h| h == name).unwrap_or_else(|| panic!("{name}"));
+        let (t, proxy, hip) = (column("t"), column("xp0"), column("xh0"));
+        let pressed: Vec<[f64; 3]> = trace
+            .lines()
+            .skip(1)
+            .map(|line| line.split(',').map(|v| v.parse().expect("a number")).collect::<Vec<f64>>())
+            .filter(|row| (2.0..2.5).contains(&row[t]))
+            .map(|row| std::array::from_fn(|k| row[proxy + k] - row[hip + k]))
+            .collect();
+        assert!(pressed.len() > 100, "{name}: {} rows pressed", pressed.len());
+        let normal = axes[2];
+        for offset in pressed {
+            let length = offset.iter().map(|v| v * v).sum::<f64>().sqrt();
+            assert!(length > 1e-4, "{name}: not pressed in: {offset:?}");
+            for k in 0..3 {
+                assert!(
+                    (offset[k] / length - normal[k]).abs() < 1e-6,
+                    "{name}: force {offset:?} off the face's normal {normal:?}"
+                );
+            }
         }
     }
 }
