@@ -10,18 +10,24 @@
 
 use std::path::Path;
 
+use hapticgen_codegen::dynamics::mechanics::Mechanics;
 use hapticgen_codegen::eval::{evaluate, evaluate_frame, State};
 
 const L1: f64 = 0.20955;
 const L2: f64 = 0.169545;
 const L3: f64 = 0.03175;
 
-#[test]
-fn the_premium_follows_the_published_closed_form() {
+/// The shipped model's mechanics.
+fn premium() -> Mechanics {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/phantom_premium.yaml");
     let model = hapticgen_codegen::load_file(&path, "models/phantom_premium.yaml", None)
         .unwrap_or_else(|d| panic!("{d}"));
-    let mechanics = hapticgen_codegen::derive(&model);
+    hapticgen_codegen::derive(&model)
+}
+
+#[test]
+fn the_premium_follows_the_published_closed_form() {
+    let mechanics = premium();
     let point = |name: &str| mechanics.points.iter().find(|p| p.name == name).expect("the point exists");
     let (tip, rear_hinge) = (point("gimbal_centre"), point("rear_hinge"));
     // A grid over the joint limits (θ1 ∈ [−1, 1], θ2, θ3 ∈ [−0.35, 0.6]), 125 states.
@@ -71,10 +77,7 @@ fn product(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
 
 #[test]
 fn the_premium_s_stylus_turns_on_the_forearm_by_its_gimbal() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/phantom_premium.yaml");
-    let model = hapticgen_codegen::load_file(&path, "models/phantom_premium.yaml", None)
-        .unwrap_or_else(|d| panic!("{d}"));
-    let mechanics = hapticgen_codegen::derive(&model);
+    let mechanics = premium();
     let stylus = mechanics.frames.iter().find(|f| f.name == "stylus").expect("the stylus frame");
     let mut states = 0;
     for (t1, t2, t3) in [(0.0_f64, 0.0_f64, 0.0_f64), (0.3, 0.2, 0.4), (-0.9, -0.3, 0.55), (0.7, 0.5, -0.2)] {
