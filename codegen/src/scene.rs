@@ -20,7 +20,9 @@
 //! cylinder's cap centres; `radius`) or `mesh` (a closed triangle mesh from an OBJ or STL file,
 //! named relative to the scene file, placed at `offset`; 3-D tasks only). Every object has a
 //! surface `stiffness` (N/m) and `damping` (N·s/m), and optionally `friction` with `static`
-//! and `dynamic` coefficients (0 ≤ dynamic ≤ static). Vectors hold one coordinate per task
+//! and `dynamic` coefficients (0 ≤ dynamic ≤ static). A file may name one free-space `effect`
+//! (`spring: {anchor, stiffness}`, `viscous: {damping}`, `force: {force}` or `vibration:
+//! {direction, amplitude, frequency}`: `hapticgen_runtime::effects`), which the simulator renders. Vectors hold one coordinate per task
 //! axis ([`Scene::check_task_dim`]). Every error names the file, line and column of the value.
 
 use std::path::{Path, PathBuf};
@@ -39,6 +41,40 @@ use crate::Scalar;
 pub struct Scene {
     /// The objects, in the file's order.
     pub objects: Vec<SceneObject>,
+    /// What the operator feels away from every object (`hapticgen_runtime::effects`), if the
+    /// file names an effect.
+    pub effect: Option<SceneEffect>,
+}
+
+/// A free-space effect (`hapticgen_runtime::effects::Effect`), in task coordinates.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SceneEffect {
+    /// A spring pulling towards `anchor`, N/m.
+    Spring {
+        /// The point it pulls towards.
+        anchor: Vec<f64>,
+        /// Stiffness, N/m.
+        stiffness: f64,
+    },
+    /// A viscous field, N·s/m.
+    Viscous {
+        /// Damping, N·s/m.
+        damping: f64,
+    },
+    /// A constant force, N.
+    Force {
+        /// The force.
+        force: Vec<f64>,
+    },
+    /// A sinusoidal force along a unit direction.
+    Vibration {
+        /// Unit direction (normalised when read).
+        direction: Vec<f64>,
+        /// Amplitude, N.
+        amplitude: f64,
+        /// Frequency, Hz.
+        frequency: f64,
+    },
 }
 
 /// The geometry of an object, in task coordinates.
@@ -255,6 +291,17 @@ impl Scene {
                 ));
             }
         }
+        let effect_lengths: Vec<(&str, usize)> = match &self.effect {
+            Some(SceneEffect::Spring { anchor, .. }) => vec![("spring.anchor", anchor.len())],
+            Some(SceneEffect::Force { force }) => vec![("force.force", force.len())],
+            Some(SceneEffect::Vibration { direction, .. }) => vec![("vibration.direction", direction.len())],
+            Some(SceneEffect::Viscous { .. }) | None => Vec::new(),
+        };
+        if let Some((field, n)) = effect_lengths.into_iter().find(|&(_, n)| n != task_dim) {
+            return Err(format!(
+                "error: the scene's effect: {field} has {n} coordinates; this rig's task has {task_dim}"
+            ));
+        }
         Ok(())
     }
 }
@@ -269,6 +316,17 @@ struct SceneFile {
     // enum is a YAML tag, `!sphere`).
     #[serde(with = "serde_yaml::with::singleton_map_recursive")]
     objects: Vec<ObjectEntry>,
+    #[serde(default, with = "serde_yaml::with::singleton_map_recursive")]
+    effect: Option<EffectEntry>,
+}
+
+#[derive(Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+enum EffectEntry {
+    Spring { anchor: Vec<f64>, stiffness: f64 },
+    Viscous { damping: f64 },
+    Force { force: Vec<f64> },
+    Vibration { direction: Vec<f64>, amplitude: f64, frequency: f64 },
 }
 
 #[derive(Deserialize)]
@@ -386,6 +444,48 @@ struct FrictionEntry {
 
 /// The most coordinates a scene's vector may have.
 const MAX_COORDINATES: usize = 3;
+
+/// A scene file's `effect`, checked; `error(field, message)` names the value.
+fn effect(entry: &EffectEntry, error: &dyn Fn(&str, String) -> String) -> Result<SceneEffect, String> {
+    let vector = |field: &str, values: &[f64]| -> Result<Vec<f64>, String> {
+        if values.is_empty() || values.len() > MAX_COORDINATES || values.iter().any(|v| !v.is_finite()) {
+            return Err(error(
+                field,
+                format!("must be 1 to {MAX_COORDINATES} finite coordinates, got {values:?}"),
+            ));
+        }
+        Ok(values.to_vec())
+    };
+    let non_negative = |field: &str, value: f64| {
+        if value.is_finite() && value >= 0.0 {
+            Ok(value)
+        } else {
+            Err(error(field, format!("must be finite and not negative, got {value}")))
+        }
+    };
+    Ok(match entry {
+        EffectEntry::Spring { anchor, stiffness } => SceneEffect::Spring {
+            anchor: vector("spring.anchor", anchor)?,
+            stiffness: non_negative("spring.stiffness", *stiffness)?,
+        },
+        EffectEntry::Viscous { damping } => {
+            SceneEffect::Viscous { damping: non_negative("viscous.damping", *damping)? }
+        }
+        EffectEntry::Force { force } => SceneEffect::Force { force: vector("force.force", force)? },
+        EffectEntry::Vibration { direction, amplitude, frequency } => {
+            let direction = vector("vibration.direction", direction)?;
+            let length = direction.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if length.is_nan() || length < 1e-9 {
+                return Err(error("vibration.direction", format!("must not be zero, got {direction:?}")));
+            }
+            SceneEffect::Vibration {
+                direction: direction.iter().map(|v| v / length).collect(),
+                amplitude: non_negative("vibration.amplitude", *amplitude)?,
+                frequency: non_negative("vibration.frequency", *frequency)?,
+            }
+        }
+    })
+}
 
 /// A box's axes (unit rows) from its entry's `rotation`: none, the identity; in 2-D `[angle]`
 /// (rad, about the normal of the plane); in 3-D `[roll, pitch, yaw]` (rad, about the fixed x,
@@ -593,7 +693,15 @@ pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> 
             location,
         });
     }
-    Ok(Scene { objects })
+    let effect = match &file.effect {
+        None => None,
+        Some(entry) => Some(effect(entry, &|field: &str, message: String| {
+            let mut path = vec![Segment::Key("effect".into())];
+            path.extend(field.split('.').map(|key| Segment::Key(key.into())));
+            format!("error: {}: {message}", located(&path))
+        })?),
+    };
+    Ok(Scene { objects, effect })
 }
 
 /// Rust source (formatted) of a scene for a `task_dim`-dimensional rig in `scalar`: a module
@@ -602,6 +710,11 @@ pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> 
 /// the runtime's objects.
 pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, String> {
     scene.check_task_dim(task_dim)?;
+    if scene.effect.is_some() {
+        return Err("error: a firmware image does not render a scene's `effect` yet (the simulator does): \
+                    remove it from the image's scene file"
+            .to_string());
+    }
     let ty = match scalar {
         Scalar::F32 => quote!(f32),
         Scalar::F64 => quote!(f64),
@@ -752,6 +865,15 @@ mod tests {
         assert_eq!(depth(polytope.clone(), [0.5, 0.25, 0.0]), 0.5);
         assert_eq!(depth(polytope.clone(), [2.0, 0.0, 0.0]), -1.0);
         assert_eq!(depth(polytope, [2.0, 2.0, 0.0]), -1.0);
+    }
+
+    #[test]
+    fn a_firmware_image_refuses_a_scene_s_effect() {
+        let text = "objects: []\neffect: {viscous: {damping: 2}}\n";
+        let scene = super::parse("s.yaml", text, std::path::Path::new(".")).unwrap();
+        assert_eq!(scene.effect, Some(super::SceneEffect::Viscous { damping: 2.0 }));
+        let error = super::emit(&scene, 3, crate::Scalar::F32).unwrap_err();
+        assert!(error.contains("does not render a scene's `effect` yet"), "{error}");
         // A capsule and a cylinder along z from 0 to 2, radius 0.5.
         let capsule = || SceneShape::Capsule { a: vec![0.0; 3], b: vec![0.0, 0.0, 2.0], radius: 0.5 };
         assert!((depth(capsule(), [0.25, 0.0, 1.0]) - 0.25).abs() < 1e-15);

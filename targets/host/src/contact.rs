@@ -434,7 +434,15 @@ pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Chec
     check(
         "the proxy never inside a solid",
         "depth ≤ 1 nm".into(),
-        format!("deepest {:.3} µm {}", 1e6 * deepest.abs(), if deepest > 0.0 { "inside" } else { "outside" }),
+        if setup.solids.is_empty() {
+            "no solid in the scene".to_string()
+        } else {
+            format!(
+                "deepest {:.3} µm {}",
+                1e6 * deepest.abs(),
+                if deepest > 0.0 { "inside" } else { "outside" }
+            )
+        },
         deepest <= 1e-9,
     );
     // The other checks are about the scenario's own solids.

@@ -846,25 +846,29 @@ fn configure(args: &SimulateArgs) -> Result<Configured, String> {
     cfg.singular_fallback = args.singular_fallback;
     cfg.spring_lead_time = args.spring_lead;
     cfg.progress = true;
-    let settings =
-        ScenarioSettings {
-            grid_spacing: args.grid,
-            start: Some(start.clone()),
-            friction: friction(args.friction.as_deref())?,
-            mesh: args.mesh.as_deref().map(hapticgen_host::contact::mesh_file).transpose()?,
-            scene: match &args.scene {
-                None => None,
-                Some(_) if !matches!(scenario, Scenario::Contact(_)) => return Err(
-                    "error: --scene needs a contact scenario (wall, slide, sphere, box-edges, thin-plate, \
-                            mesh), whose hand path it keeps"
-                        .into(),
-                ),
-                Some(path) => {
-                    Some(hapticgen_host::scene::solids(&hapticgen_host::scene::load(path)?, sim.task_dim())?)
-                }
-            },
-            ..ScenarioSettings::default()
-        };
+    let scene = match &args.scene {
+        None => None,
+        Some(_) if !matches!(scenario, Scenario::Contact(_)) => {
+            return Err(
+                "error: --scene needs a contact scenario (wall, slide, sphere, box-edges, thin-plate, \
+                        mesh), whose hand path it keeps"
+                    .into(),
+            )
+        }
+        Some(path) => Some(hapticgen_host::scene::load(path)?),
+    };
+    let settings = ScenarioSettings {
+        grid_spacing: args.grid,
+        start: Some(start.clone()),
+        friction: friction(args.friction.as_deref())?,
+        mesh: args.mesh.as_deref().map(hapticgen_host::contact::mesh_file).transpose()?,
+        scene: scene
+            .as_ref()
+            .map(|scene| hapticgen_host::scene::solids(scene, sim.task_dim()))
+            .transpose()?,
+        effect: scene.and_then(|scene| scene.effect),
+        ..ScenarioSettings::default()
+    };
     let contact = sim.apply_scenario(scenario, &settings, &mut cfg)?;
     let largest_det = sim.largest_jacobian_determinant();
     let singularity = |q: &[f64]| largest_det.map(|largest| sim.task_at(q).1.abs() / largest);

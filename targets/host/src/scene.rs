@@ -62,6 +62,8 @@ mod tests {
             ("objects:\n  - half_space: {point: [0, 0], normal: [0, 0], stiffness: 1, damping: 0}\n", "s.yaml:2:", "objects[0].half_space.normal: must not be zero"),
             ("objects:\n  - mesh: {file: no-such.obj, stiffness: 1, damping: 0}\n", "s.yaml:2:", "objects[0].mesh.file:"),
             ("objects:\n  - capsule: {a: [0, 1], b: [0, 1], radius: 1, stiffness: 1, damping: 0}\n", "s.yaml:2:", "objects[0].capsule.b: must differ from `a`"),
+            ("objects: []\neffect: {vibration: {direction: [0, 0], amplitude: 1, frequency: 100}}\n", "s.yaml:2:", "effect.vibration.direction: must not be zero"),
+            ("objects: []\neffect: {spring: {anchor: [0], stiffness: -1}}\n", "s.yaml:2:", "effect.spring.stiffness: must be finite and not negative"),
             ("objects:\n  - polytope:\n      planes:\n        - {point: [0, 0], normal: [0, 1]}\n        - {point: [0, 0], normal: [0, 0]}\n      stiffness: 1\n      damping: 0\n", "s.yaml:5:", "objects[0].polytope.planes[1].normal: must not be zero"),
             ("objects:\n  - polytope: {planes: [], stiffness: 1, damping: 0}\n", "s.yaml:2:", "objects[0].polytope.planes: a polytope needs at least one plane"),
         ];

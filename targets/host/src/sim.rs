@@ -22,10 +22,12 @@ use std::io::IsTerminal as _;
 use std::sync::Arc;
 use std::time::Instant;
 
+use hapticgen_codegen::scene::SceneEffect;
 use hapticgen_runtime::control::{
     ControlOptions, ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference,
 };
 use hapticgen_runtime::current_loop::CurrentLoopGains;
+use hapticgen_runtime::effects::Effect;
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::linalg;
 use hapticgen_runtime::proxy::GodObject;
@@ -150,8 +152,13 @@ pub enum Reference {
         grid_spacing: f64,
     },
     /// Solids rendered by [`GodObject`] (a point proxy that never enters them, with history);
-    /// free space with the law's gains.
-    Solids(Vec<Solid>),
+    /// free space with the law's gains, or the scene's free-space effect.
+    Solids {
+        /// The solids.
+        solids: Vec<Solid>,
+        /// The free-space effect (`None`: none).
+        effect: Option<SceneEffect>,
+    },
 }
 
 /// The most solids a [`Reference::Solids`] scene holds (as many as a firmware scene, `SCENE_CAPACITY`).
@@ -347,6 +354,23 @@ impl<const M: usize> ReferenceSource<f64, M> for SimSource<M> {
         self.last = reference.position;
         reference
     }
+}
+
+/// A scene file's effect as the runtime's, updated every `period` seconds.
+fn runtime_effect<const M: usize>(effect: &SceneEffect, period: f64) -> Result<Effect<f64, M>, String> {
+    Ok(match effect {
+        SceneEffect::Spring { anchor, stiffness } => {
+            Effect::Spring { anchor: array(anchor, "the spring's anchor")?, stiffness: *stiffness }
+        }
+        SceneEffect::Viscous { damping } => Effect::Viscous { damping: *damping },
+        SceneEffect::Force { force } => Effect::Force { force: array(force, "the force")? },
+        SceneEffect::Vibration { direction, amplitude, frequency } => Effect::Vibration {
+            direction: array(direction, "the vibration's direction")?,
+            amplitude: *amplitude,
+            frequency: *frequency,
+            period,
+        },
+    })
 }
 
 /// A standard normal sample (Box–Muller).
@@ -553,9 +577,12 @@ where
                 last_hip: start.position,
             }
         }
-        Reference::Solids(solids) => {
+        Reference::Solids { solids, effect } => {
             // A point proxy (radius 0) with a 1 µm contact tolerance (see `GodObject::new`).
             let mut god_object = Box::new(GodObject::new(cfg.stiffness, cfg.damping, 0.0, PROXY_SKIN));
+            if let Some(effect) = effect {
+                god_object.effect = runtime_effect::<M>(effect, 1.0 / f64::from(data.impedance_loop_hz))?;
+            }
             for solid in solids {
                 god_object.add(solid.object::<M>()?).ok_or_else(|| {
                     format!("error: a scene holds at most {MAX_SOLIDS} solids, this one has {}", solids.len())

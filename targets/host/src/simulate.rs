@@ -13,6 +13,7 @@ use hapticgen_codegen::check::current_loop::{
     design_current_loop, CurrentLoopDesign, CurrentLoopDesignInput,
 };
 use hapticgen_codegen::mesh::TriangleMesh;
+use hapticgen_codegen::scene::SceneEffect;
 use hapticgen_codegen::CheckedModel;
 use hapticgen_runtime::current_loop::CurrentLoopGains;
 use hapticgen_runtime::render::{ObjectKind, Shape, VirtualObject};
@@ -124,6 +125,8 @@ pub struct ScenarioSettings {
     /// Contact scenarios: the solids to render instead of the scenario's own (a scene file's,
     /// [`crate::scene`]); the scenario still gives the hand's path.
     pub scene: Option<Vec<Solid>>,
+    /// Contact scenarios: the scene file's free-space effect, if it names one.
+    pub effect: Option<SceneEffect>,
 }
 
 impl Default for ScenarioSettings {
@@ -141,6 +144,7 @@ impl Default for ScenarioSettings {
             friction: (0.0, 0.0),
             mesh: None,
             scene: None,
+            effect: None,
         }
     }
 }
@@ -197,7 +201,7 @@ impl RigVisitor for PilVisitor<'_> {
             |_, source, settings| {
                 let scene = match &self.cfg.reference {
                     Reference::Fixed(_) => None,
-                    Reference::Solids(_) => {
+                    Reference::Solids { .. } => {
                         return Err(
                             "error: the contact scenarios render with the host's god object, which the \
                                     firmware images do not run yet; run them without --pil"
@@ -576,7 +580,8 @@ impl Simulation {
                     damping: hand_b,
                     path: HandPath { keys: placed.keys.clone() },
                 };
-                cfg.reference = Reference::Solids(placed.solids.clone());
+                cfg.reference =
+                    Reference::Solids { solids: placed.solids.clone(), effect: settings.effect.clone() };
                 cfg.duration = cfg.duration.max(placed.duration);
                 cfg.substeps = cfg.substeps.max(self.hand_substeps(&q0, hand_k, hand_b));
                 return Ok(Some(placed));

@@ -545,3 +545,57 @@ fn a_turned_box_and_a_polytope_push_along_their_tilted_face() {
         }
     }
 }
+
+/// A scene file's free-space effect: a spring of 500 N/m anchored at the Delta's start, and no
+/// object. The wall scenario's hand (200 N/m) pulls 3 cm down and holds: the grip settles
+/// where the two springs balance, `k d = k_h (3 cm − d)`, d = 8.57 mm, and the reference (the
+/// trace's proxy) is the anchor throughout.
+#[test]
+fn a_scene_s_spring_effect_holds_the_grip_against_the_hand() {
+    let output = scratch("spring-effect");
+    std::fs::create_dir_all(&output).expect("a scratch directory");
+    let scene = output.join("spring.yaml");
+    let anchor = [0.0, 0.0, -0.0987734318];
+    std::fs::write(
+        &scene,
+        format!("objects: []\neffect: {{spring: {{anchor: {anchor:?}, stiffness: 500}}}}\n"),
+    )
+    .expect("writable");
+    let run = hapticgen(&[
+        "simulate",
+        "models/falcon_delta.yaml",
+        "--controller",
+        "3",
+        "--scenario",
+        "wall",
+        "--duration",
+        "3",
+        "--scene",
+        &scene.to_string_lossy(),
+        "--output",
+        &output.to_string_lossy(),
+    ]);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{stdout}{}", String::from_utf8_lossy(&run.stderr));
+    let trace = std::fs::read_to_string(output.join("trace.csv")).expect("a trace");
+    let header: Vec<&str> = trace.lines().next().expect("a header").split(',').collect();
+    let column = |name: &str| header.iter().position(|&h| h == name).unwrap_or_else(|| panic!("{name}"));
+    let (t, z, proxy_z) = (column("t"), column("x2"), column("xp2"));
+    let rows: Vec<Vec<f64>> = trace
+        .lines()
+        .skip(1)
+        .map(|line| line.split(',').map(|v| v.parse().expect("a number")).collect())
+        .collect();
+    let expected = 200.0 * 0.03 / (500.0 + 200.0);
+    let held: Vec<&Vec<f64>> = rows.iter().filter(|r| (2.0..3.0).contains(&r[t])).collect();
+    assert!(held.len() > 100, "{} rows held", held.len());
+    for row in held {
+        let depth = anchor[2] - row[z];
+        assert!(
+            (depth - expected).abs() < 0.01 * expected,
+            "{depth} m at t = {}, expected {expected}",
+            row[t]
+        );
+        assert!((row[proxy_z] - anchor[2]).abs() < 1e-9, "the reference left the anchor: {row:?}");
+    }
+}
