@@ -445,24 +445,29 @@ struct FrictionEntry {
 /// The most coordinates a scene's vector may have.
 const MAX_COORDINATES: usize = 3;
 
+/// A vector of 1 to [`MAX_COORDINATES`] finite coordinates, or what is wrong with it.
+fn checked_vector(values: &[f64]) -> Result<Vec<f64>, String> {
+    if values.is_empty() || values.len() > MAX_COORDINATES || values.iter().any(|v| !v.is_finite()) {
+        return Err(format!("must be 1 to {MAX_COORDINATES} finite coordinates, got {values:?}"));
+    }
+    Ok(values.to_vec())
+}
+
+/// A finite value not below zero, or what is wrong with it.
+fn checked_non_negative(value: f64) -> Result<f64, String> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(value)
+    } else {
+        Err(format!("must be finite and not negative, got {value}"))
+    }
+}
+
 /// A scene file's `effect`, checked; `error(field, message)` names the value.
 fn effect(entry: &EffectEntry, error: &dyn Fn(&str, String) -> String) -> Result<SceneEffect, String> {
-    let vector = |field: &str, values: &[f64]| -> Result<Vec<f64>, String> {
-        if values.is_empty() || values.len() > MAX_COORDINATES || values.iter().any(|v| !v.is_finite()) {
-            return Err(error(
-                field,
-                format!("must be 1 to {MAX_COORDINATES} finite coordinates, got {values:?}"),
-            ));
-        }
-        Ok(values.to_vec())
-    };
-    let non_negative = |field: &str, value: f64| {
-        if value.is_finite() && value >= 0.0 {
-            Ok(value)
-        } else {
-            Err(error(field, format!("must be finite and not negative, got {value}")))
-        }
-    };
+    let vector =
+        |field: &str, values: &[f64]| checked_vector(values).map_err(|message| error(field, message));
+    let non_negative =
+        |field: &str, value: f64| checked_non_negative(value).map_err(|message| error(field, message));
     Ok(match entry {
         EffectEntry::Spring { anchor, stiffness } => SceneEffect::Spring {
             anchor: vector("spring.anchor", anchor)?,
@@ -546,22 +551,10 @@ pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> 
             path
         };
         let error = |field: &str, message: String| format!("error: {}: {message}", located(&at(field)));
-        let vector = |field: &str, values: &[f64]| -> Result<Vec<f64>, String> {
-            if values.is_empty() || values.len() > MAX_COORDINATES || values.iter().any(|v| !v.is_finite()) {
-                return Err(error(
-                    field,
-                    format!("must be 1 to {MAX_COORDINATES} finite coordinates, got {values:?}"),
-                ));
-            }
-            Ok(values.to_vec())
-        };
-        let non_negative = |field: &str, value: f64| {
-            if value.is_finite() && value >= 0.0 {
-                Ok(value)
-            } else {
-                Err(error(field, format!("must be finite and not negative, got {value}")))
-            }
-        };
+        let vector =
+            |field: &str, values: &[f64]| checked_vector(values).map_err(|message| error(field, message));
+        let non_negative =
+            |field: &str, value: f64| checked_non_negative(value).map_err(|message| error(field, message));
         let positive = |field: &str, value: f64| {
             if value.is_finite() && value > 0.0 {
                 Ok(value)
@@ -626,16 +619,7 @@ pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> 
                         format!("error: {}: {message}", located(&path))
                     };
                     let finite = |key: &str, values: &[f64]| {
-                        if values.is_empty()
-                            || values.len() > MAX_COORDINATES
-                            || values.iter().any(|v| !v.is_finite())
-                        {
-                            let message =
-                                format!("must be 1 to {MAX_COORDINATES} finite coordinates, got {values:?}");
-                            Err(plane_error(key, message))
-                        } else {
-                            Ok(values.to_vec())
-                        }
+                        checked_vector(values).map_err(|message| plane_error(key, message))
                     };
                     let (normal, point) = (finite("normal", &plane.normal)?, finite("point", &plane.point)?);
                     let length = normal.iter().map(|v| v * v).sum::<f64>().sqrt();

@@ -469,6 +469,39 @@ fn a_light_axis_under_the_hand_is_integrated_in_substeps() {
     assert!(held.ends_with("| pass |"), "{held}");
 }
 
+/// The Delta under the `wall` scenario's hand (Controller 3) on a scene file written from
+/// `scene_text` for `duration` seconds: the report's text and the trace, as its header and rows.
+fn delta_wall_on_scene(name: &str, scene_text: &str, duration: &str) -> (String, Vec<String>, Vec<Vec<f64>>) {
+    let output = scratch(name);
+    std::fs::create_dir_all(&output).expect("a scratch directory");
+    let scene = output.join("scene.yaml");
+    std::fs::write(&scene, scene_text).expect("writable");
+    let run = hapticgen(&[
+        "simulate",
+        "models/falcon_delta.yaml",
+        "--controller",
+        "3",
+        "--scenario",
+        "wall",
+        "--duration",
+        duration,
+        "--scene",
+        &scene.to_string_lossy(),
+        "--output",
+        &output.to_string_lossy(),
+    ]);
+    let stdout = String::from_utf8_lossy(&run.stdout).into_owned();
+    assert!(run.status.success(), "{name}: {stdout}{}\n{scene_text}", String::from_utf8_lossy(&run.stderr));
+    let trace = std::fs::read_to_string(output.join("trace.csv")).expect("a trace");
+    let header: Vec<String> = trace.lines().next().expect("a header").split(',').map(String::from).collect();
+    let rows = trace
+        .lines()
+        .skip(1)
+        .map(|line| line.split(',').map(|v| v.parse().expect("a number")).collect())
+        .collect();
+    (stdout, header, rows)
+}
+
 /// A scene's box turned by `rotation` (pitch 0.35 rad), and the same slab written as a
 /// polytope of its six planes: the Delta's hand presses straight down on the tilted top face,
 /// and the rendered force (the proxy's offset from the HIP) points along that face's normal
@@ -492,42 +525,15 @@ fn a_turned_box_and_a_polytope_push_along_their_tilted_face() {
     let polytope =
         format!("objects:\n  - polytope:\n      stiffness: 1500\n      damping: 5\n      planes:\n{planes}");
     for (name, scene_text) in [("turned-box", turned_box), ("polytope", polytope)] {
-        let output = scratch(name);
-        std::fs::create_dir_all(&output).expect("a scratch directory");
-        let scene = output.join("scene.yaml");
-        std::fs::write(&scene, &scene_text).expect("writable");
-        let run = hapticgen(&[
-            "simulate",
-            "models/falcon_delta.yaml",
-            "--controller",
-            "3",
-            "--scenario",
-            "wall",
-            "--duration",
-            "2.5",
-            "--scene",
-            &scene.to_string_lossy(),
-            "--output",
-            &output.to_string_lossy(),
-        ]);
-        let stdout = String::from_utf8_lossy(&run.stdout);
-        assert!(
-            run.status.success(),
-            "{name}: {stdout}{}\n{scene_text}",
-            String::from_utf8_lossy(&run.stderr)
-        );
+        let (stdout, header, rows) = delta_wall_on_scene(name, &scene_text, "2.5");
         assert!(
             stdout.contains("| wall | the proxy never inside a solid |") && !stdout.contains("FAIL"),
             "{stdout}"
         );
-        let trace = std::fs::read_to_string(output.join("trace.csv")).expect("a trace");
-        let header: Vec<&str> = trace.lines().next().expect("a header").split(',').collect();
-        let column = |name: &str| header.iter().position(|&h| h == name).unwrap_or_else(|| panic!("{name}"));
+        let column = |name: &str| header.iter().position(|h| h == name).unwrap_or_else(|| panic!("{name}"));
         let (t, proxy, hip) = (column("t"), column("xp0"), column("xh0"));
-        let pressed: Vec<[f64; 3]> = trace
-            .lines()
-            .skip(1)
-            .map(|line| line.split(',').map(|v| v.parse().expect("a number")).collect::<Vec<f64>>())
+        let pressed: Vec<[f64; 3]> = rows
+            .iter()
             .filter(|row| (2.0..2.5).contains(&row[t]))
             .map(|row| std::array::from_fn(|k| row[proxy + k] - row[hip + k]))
             .collect();
@@ -552,40 +558,11 @@ fn a_turned_box_and_a_polytope_push_along_their_tilted_face() {
 /// trace's proxy) is the anchor throughout.
 #[test]
 fn a_scene_s_spring_effect_holds_the_grip_against_the_hand() {
-    let output = scratch("spring-effect");
-    std::fs::create_dir_all(&output).expect("a scratch directory");
-    let scene = output.join("spring.yaml");
     let anchor = [0.0, 0.0, -0.0987734318];
-    std::fs::write(
-        &scene,
-        format!("objects: []\neffect: {{spring: {{anchor: {anchor:?}, stiffness: 500}}}}\n"),
-    )
-    .expect("writable");
-    let run = hapticgen(&[
-        "simulate",
-        "models/falcon_delta.yaml",
-        "--controller",
-        "3",
-        "--scenario",
-        "wall",
-        "--duration",
-        "3",
-        "--scene",
-        &scene.to_string_lossy(),
-        "--output",
-        &output.to_string_lossy(),
-    ]);
-    let stdout = String::from_utf8_lossy(&run.stdout);
-    assert!(run.status.success(), "{stdout}{}", String::from_utf8_lossy(&run.stderr));
-    let trace = std::fs::read_to_string(output.join("trace.csv")).expect("a trace");
-    let header: Vec<&str> = trace.lines().next().expect("a header").split(',').collect();
-    let column = |name: &str| header.iter().position(|&h| h == name).unwrap_or_else(|| panic!("{name}"));
+    let scene_text = format!("objects: []\neffect: {{spring: {{anchor: {anchor:?}, stiffness: 500}}}}\n");
+    let (_, header, rows) = delta_wall_on_scene("spring-effect", &scene_text, "3");
+    let column = |name: &str| header.iter().position(|h| h == name).unwrap_or_else(|| panic!("{name}"));
     let (t, z, proxy_z) = (column("t"), column("x2"), column("xp2"));
-    let rows: Vec<Vec<f64>> = trace
-        .lines()
-        .skip(1)
-        .map(|line| line.split(',').map(|v| v.parse().expect("a number")).collect())
-        .collect();
     let expected = 200.0 * 0.03 / (500.0 + 200.0);
     let held: Vec<&Vec<f64>> = rows.iter().filter(|r| (2.0..3.0).contains(&r[t])).collect();
     assert!(held.len() > 100, "{} rows held", held.len());
