@@ -111,6 +111,32 @@ fn mimic_joints_import_and_export() {
     }
 }
 
+/// A measured joint (a gimbal's: an encoder, no motor) exports as a URDF joint with no effort,
+/// its encoder in a comment: the mimic arm with a measured roll under its tool plate.
+#[test]
+fn measured_joints_export_as_joints_without_effort() {
+    let text = std::fs::read_to_string(root().join("codegen/tests/good-models/mimic_arm.yaml")).unwrap();
+    let with_gimbal = text
+        .replacen(
+            "joints:\n",
+            "joints:\n  - name: tool_roll\n    type: revolute\n    axis: [1.0, 0.0, 0.0]\n    limits: {lower: -2.0, upper: 2.0}\n    measured: {counts_per_turn: 4096, dynamics: lumped}\n",
+            1,
+        )
+        .replacen(
+            "bodies:\n",
+            "bodies:\n  - name: tool_ring\n    mass: 0.0\n    com: [0.0, 0.0, 0.0]\n    inertia: {ixx: 0.0, iyy: 0.0, izz: 0.0}\n    parent: tool_plate\n    joint: tool_roll\n",
+            1,
+        );
+    let model =
+        load(&Source { name: "gimbal.yaml", text: &with_gimbal }, None).unwrap_or_else(|d| panic!("{d}"));
+    assert_eq!(model.measured.len(), 1);
+    let exported = urdf::export(&model).unwrap_or_else(|e| panic!("{e}"));
+    let joint = exported.split("<joint name=\"tool_roll\"").nth(1).expect("the measured joint is written");
+    let joint = &joint[..joint.find("</joint>").expect("closed")];
+    assert!(joint.contains("<!-- measured: 4096 counts per turn, no motor -->"), "{joint}");
+    assert!(joint.contains("lower=\"-2.0\" upper=\"2.0\" effort=\"0.0\""), "{joint}");
+}
+
 fn reject(urdf_text: &str) -> hapticgen_codegen::Diagnostic {
     match urdf::import(urdf_text, "robot.urdf", urdf::DEFAULT_DRIVE) {
         Ok(yaml) => panic!("accepted:\n{yaml}"),

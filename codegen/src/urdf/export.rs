@@ -344,9 +344,8 @@ fn write_tree(model: &Model) -> Result<String, String> {
             None => ("base", Transform::IDENTITY),
         };
         let origin = parent_tail.then(&Transform { xyz: nominal3(xyz, &parameters), rotation: *rotation });
-        match joint {
-            Some(j) if model.mimic_joint(*j).is_some() => {
-                let Some(mimic) = model.mimic_joint(*j) else { continue };
+        match joint.map(|j| (j, model.mimic_joint(j))) {
+            Some((_, Some(mimic))) => {
                 let head = JointHead { name: &mimic.name, kind: mimic.kind, axis: &mimic.axis };
                 head.write(&mut out, parent_link, &body.name, &origin);
                 let pi = number(std::f64::consts::PI);
@@ -363,9 +362,9 @@ fn write_tree(model: &Model) -> Result<String, String> {
                 );
                 let _ = writeln!(out, "  </joint>");
             }
-            Some(j) if *j >= model.tree_coordinates() => {
+            Some((j, None)) if j >= model.tree_coordinates() => {
                 // A measured joint (a gimbal's): an encoder, no motor, its bodies massless.
-                let measured = model.measured.get(*j - model.tree_coordinates()).ok_or_else(|| {
+                let measured = model.measured.get(j - model.tree_coordinates()).ok_or_else(|| {
                     format!("body `{}`: coordinate {j} is no joint of the model", body.name)
                 })?;
                 let head = JointHead { name: &measured.name, kind: measured.kind, axis: &measured.axis };
@@ -383,9 +382,9 @@ fn write_tree(model: &Model) -> Result<String, String> {
                 );
                 let _ = writeln!(out, "  </joint>");
             }
-            Some(j) if *j >= model.joints.len() => {
+            Some((j, None)) if j >= model.joints.len() => {
                 // A passive joint of a closed chain's open tree: undamped, no drive.
-                let passive = model.passive.get(*j - model.joints.len()).ok_or_else(|| {
+                let passive = model.passive.get(j - model.joints.len()).ok_or_else(|| {
                     format!("body `{}`: coordinate {j} is neither an actuated nor a passive joint", body.name)
                 })?;
                 let head = JointHead { name: &passive.name, kind: passive.kind, axis: &passive.axis };
@@ -399,8 +398,8 @@ fn write_tree(model: &Model) -> Result<String, String> {
                 );
                 let _ = writeln!(out, "  </joint>");
             }
-            Some(j) => {
-                let joint = &model.joints[*j];
+            Some((j, None)) => {
+                let joint = &model.joints[j];
                 let head = JointHead { name: &joint.name, kind: joint.kind, axis: &joint.axis };
                 head.write(&mut out, parent_link, &body.name, &origin);
                 // URDF requires a velocity limit; the model has none, so a generous one.
