@@ -20,10 +20,13 @@
 //! cylinder's cap centres; `radius`) or `mesh` (a closed triangle mesh from an OBJ or STL file,
 //! named relative to the scene file, placed at `offset`; 3-D tasks only). Every object has a
 //! surface `stiffness` (N/m) and `damping` (N·s/m), and optionally `friction` with `static`
-//! and `dynamic` coefficients (0 ≤ dynamic ≤ static). A file may name one free-space `effect`
-//! (`spring: {anchor, stiffness}`, `viscous: {damping}`, `force: {force}` or `vibration:
-//! {direction, amplitude, frequency}`: `hapticgen_runtime::effects`), which the simulator renders. Vectors hold one coordinate per task
-//! axis ([`Scene::check_task_dim`]). Every error names the file, line and column of the value.
+//! and `dynamic` coefficients (0 ≤ dynamic ≤ static), and optionally `motion` (`velocity`,
+//! `angular_velocity` and the `pivot` it turns about: [`SceneMotion`]; the simulator moves it,
+//! firmware images refuse it). A file may name one free-space `effect` (`spring: {anchor,
+//! stiffness}`, `viscous: {damping}`, `force: {force}` or `vibration: {direction, amplitude,
+//! frequency}`: `hapticgen_runtime::effects`), which the simulator and the firmware images render.
+//! Vectors hold one coordinate per task axis ([`Scene::check_task_dim`]). Every error names the
+//! file, line and column of the value.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -147,6 +150,17 @@ pub struct ScenePlane {
 }
 
 impl SceneShape {
+    /// The number of coordinates of the shape's vectors (a mesh's offset's).
+    pub fn dimension(&self) -> usize {
+        match self {
+            SceneShape::HalfSpace { point, .. } => point.len(),
+            SceneShape::Sphere { center, .. } | SceneShape::Box { center, .. } => center.len(),
+            SceneShape::Capsule { a, .. } | SceneShape::Cylinder { a, .. } => a.len(),
+            SceneShape::Polytope { planes } => planes.first().map_or(0, |plane| plane.normal.len()),
+            SceneShape::Mesh { offset, .. } => offset.len(),
+        }
+    }
+
     /// An axis-aligned box.
     pub fn axis_aligned_box(center: Vec<f64>, half_extents: Vec<f64>) -> Self {
         let dim = center.len();
@@ -250,6 +264,8 @@ pub struct SceneObject {
     pub static_friction: f64,
     /// Dynamic friction coefficient, at most the static one.
     pub dynamic_friction: f64,
+    /// How it moves, if it does (the shape is its pose at time 0).
+    pub motion: Option<SceneMotion>,
     /// Where it is written, for errors about it later (`FILE:LINE:COLUMN: objects[K].KIND`).
     pub location: String,
 }
@@ -257,9 +273,82 @@ pub struct SceneObject {
 impl SceneObject {
     /// How deep `p` is in the object, m, positive where the object pushes the point out: inside
     /// a solid, or beyond a cavity's wall ([`SceneShape::depth`], negated for a cavity); `None`
-    /// for a mesh.
+    /// for a mesh. A moving object is taken where it is at time 0.
     pub fn depth(&self, p: &[f64]) -> Option<f64> {
         self.shape.depth(p).map(|depth| if self.cavity { -depth } else { depth })
+    }
+}
+
+/// How a scene object moves: it turns at the constant `angular_velocity` about `pivot` while
+/// the pivot moves at the constant `velocity`, so that at time `t` a point `x` of the object
+/// (where it is at time 0) is at `P(t) x = R(ω t) (x − c) + c + v t`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneMotion {
+    /// `v`, m/s; one coordinate per task axis.
+    pub velocity: Vec<f64>,
+    /// `ω`, rad/s: `[ω]` in a 2-D task (counter-clockwise), `[ω_x, ω_y, ω_z]` in 3-D (about
+    /// that axis, right-handed, by its length).
+    pub angular_velocity: Vec<f64>,
+    /// `c`, the point it turns about at time 0, m.
+    pub pivot: Vec<f64>,
+}
+
+impl SceneMotion {
+    /// The rotation `R(ω t)`, by rows, in a `dim`-dimensional task (2 or 3; the identity for
+    /// any other or for no turn).
+    pub fn rotation_at(&self, time: f64, dim: usize) -> Vec<Vec<f64>> {
+        let identity: Vec<Vec<f64>> =
+            (0..dim).map(|i| (0..dim).map(|k| f64::from(u8::from(i == k))).collect()).collect();
+        match (dim, self.angular_velocity.as_slice()) {
+            (2, &[rate]) => {
+                let (sin, cos) = (rate * time).sin_cos();
+                vec![vec![cos, -sin], vec![sin, cos]]
+            }
+            (3, &[wx, wy, wz]) => {
+                let rate = (wx * wx + wy * wy + wz * wz).sqrt();
+                if rate == 0.0 {
+                    return identity;
+                }
+                // Rodrigues: R = I + sin θ [u]× + (1 − cos θ) [u]×², θ = |ω| t, u = ω/|ω|.
+                let (x, y, z) = (wx / rate, wy / rate, wz / rate);
+                let (sin, cos) = (rate * time).sin_cos();
+                let one_minus_cos = 1.0 - cos;
+                vec![
+                    vec![
+                        cos + x * x * one_minus_cos,
+                        x * y * one_minus_cos - z * sin,
+                        x * z * one_minus_cos + y * sin,
+                    ],
+                    vec![
+                        y * x * one_minus_cos + z * sin,
+                        cos + y * y * one_minus_cos,
+                        y * z * one_minus_cos - x * sin,
+                    ],
+                    vec![
+                        z * x * one_minus_cos - y * sin,
+                        z * y * one_minus_cos + x * sin,
+                        cos + z * z * one_minus_cos,
+                    ],
+                ]
+            }
+            _ => identity,
+        }
+    }
+
+    /// Where the pivot is at `time`: `c + v t`.
+    pub fn pivot_at(&self, time: f64) -> Vec<f64> {
+        self.pivot.iter().zip(&self.velocity).map(|(c, v)| c + v * time).collect()
+    }
+
+    /// The point of the object (as it is at time 0) that is at `p` at `time`: `P(t)⁻¹ p =
+    /// R(ω t)ᵀ (p − c − v t) + c`. Depths and inside tests of the moving object at `time` are the
+    /// unmoved object's at this point (a rigid motion keeps distances).
+    pub fn carried_back(&self, time: f64, p: &[f64]) -> Vec<f64> {
+        let rotation = self.rotation_at(time, p.len());
+        let offset = difference(p, &self.pivot_at(time));
+        (0..p.len())
+            .map(|k| rotation.iter().zip(&offset).map(|(row, o)| row[k] * o).sum::<f64>() + self.pivot[k])
+            .collect()
     }
 }
 
@@ -289,6 +378,26 @@ impl Scene {
                     "error: {}: {field} has {n} coordinates; this rig's task has {task_dim}",
                     object.location
                 ));
+            }
+            if let Some(motion) = &object.motion {
+                let turn_rates = match task_dim {
+                    2 => 1,
+                    3 => 3,
+                    _ => 0,
+                };
+                let lengths = [
+                    ("motion.velocity", motion.velocity.len(), task_dim),
+                    ("motion.pivot", motion.pivot.len(), task_dim),
+                    ("motion.angular_velocity", motion.angular_velocity.len(), turn_rates),
+                ];
+                if let Some((field, n, expected)) =
+                    lengths.into_iter().find(|&(_, n, expected)| n != expected)
+                {
+                    return Err(format!(
+                        "error: {}: {field} has {n} values; a {task_dim}-D task needs {expected}",
+                        object.location
+                    ));
+                }
             }
         }
         let effect_lengths: Vec<(&str, usize)> = match &self.effect {
@@ -341,6 +450,8 @@ enum ObjectEntry {
         damping: f64,
         #[serde(default)]
         friction: Option<FrictionEntry>,
+        #[serde(default)]
+        motion: Option<MotionEntry>,
     },
     Box {
         centre: Vec<f64>,
@@ -351,6 +462,8 @@ enum ObjectEntry {
         damping: f64,
         #[serde(default)]
         friction: Option<FrictionEntry>,
+        #[serde(default)]
+        motion: Option<MotionEntry>,
     },
     HalfSpace {
         point: Vec<f64>,
@@ -359,6 +472,8 @@ enum ObjectEntry {
         damping: f64,
         #[serde(default)]
         friction: Option<FrictionEntry>,
+        #[serde(default)]
+        motion: Option<MotionEntry>,
     },
     Capsule {
         a: Vec<f64>,
@@ -368,6 +483,8 @@ enum ObjectEntry {
         damping: f64,
         #[serde(default)]
         friction: Option<FrictionEntry>,
+        #[serde(default)]
+        motion: Option<MotionEntry>,
     },
     Cylinder {
         a: Vec<f64>,
@@ -377,6 +494,8 @@ enum ObjectEntry {
         damping: f64,
         #[serde(default)]
         friction: Option<FrictionEntry>,
+        #[serde(default)]
+        motion: Option<MotionEntry>,
     },
     Polytope {
         planes: Vec<PlaneEntry>,
@@ -384,6 +503,8 @@ enum ObjectEntry {
         damping: f64,
         #[serde(default)]
         friction: Option<FrictionEntry>,
+        #[serde(default)]
+        motion: Option<MotionEntry>,
     },
     Mesh {
         file: PathBuf,
@@ -393,6 +514,8 @@ enum ObjectEntry {
         damping: f64,
         #[serde(default)]
         friction: Option<FrictionEntry>,
+        #[serde(default)]
+        motion: Option<MotionEntry>,
     },
 }
 
@@ -409,21 +532,32 @@ impl ObjectEntry {
         }
     }
 
-    /// Stiffness, damping and friction, which every kind has (not `#[serde(flatten)]`ed into
-    /// a struct of their own: serde cannot refuse unknown keys through a flattened field).
-    fn surface(&self) -> (f64, f64, Option<&FrictionEntry>) {
+    /// Stiffness, damping, friction and motion, which every kind has (not `#[serde(flatten)]`ed
+    /// into a struct of their own: serde cannot refuse unknown keys through a flattened field).
+    fn surface(&self) -> (f64, f64, Option<&FrictionEntry>, Option<&MotionEntry>) {
         match self {
-            ObjectEntry::Sphere { stiffness, damping, friction, .. }
-            | ObjectEntry::Box { stiffness, damping, friction, .. }
-            | ObjectEntry::HalfSpace { stiffness, damping, friction, .. }
-            | ObjectEntry::Capsule { stiffness, damping, friction, .. }
-            | ObjectEntry::Cylinder { stiffness, damping, friction, .. }
-            | ObjectEntry::Polytope { stiffness, damping, friction, .. }
-            | ObjectEntry::Mesh { stiffness, damping, friction, .. } => {
-                (*stiffness, *damping, friction.as_ref())
+            ObjectEntry::Sphere { stiffness, damping, friction, motion, .. }
+            | ObjectEntry::Box { stiffness, damping, friction, motion, .. }
+            | ObjectEntry::HalfSpace { stiffness, damping, friction, motion, .. }
+            | ObjectEntry::Capsule { stiffness, damping, friction, motion, .. }
+            | ObjectEntry::Cylinder { stiffness, damping, friction, motion, .. }
+            | ObjectEntry::Polytope { stiffness, damping, friction, motion, .. }
+            | ObjectEntry::Mesh { stiffness, damping, friction, motion, .. } => {
+                (*stiffness, *damping, friction.as_ref(), motion.as_ref())
             }
         }
     }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MotionEntry {
+    #[serde(default)]
+    velocity: Option<Vec<f64>>,
+    #[serde(default)]
+    angular_velocity: Option<Vec<f64>>,
+    #[serde(default)]
+    pivot: Option<Vec<f64>>,
 }
 
 #[derive(Deserialize)]
@@ -650,7 +784,38 @@ pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> 
                 (SceneShape::Mesh { mesh: Arc::new(mesh), offset }, false)
             }
         };
-        let (stiffness, damping, friction) = entry.surface();
+        let (stiffness, damping, friction, motion) = entry.surface();
+        let motion = match motion {
+            None => None,
+            Some(motion) => {
+                // Absent rates are zero, in the object's own dimension (a mesh's is 3).
+                let dim = match &shape {
+                    SceneShape::Mesh { .. } => 3,
+                    other => other.dimension(),
+                };
+                let zeros = |n: usize| vec![0.0; n];
+                let velocity = match &motion.velocity {
+                    Some(values) => vector("motion.velocity", values)?,
+                    None => zeros(dim),
+                };
+                let angular_velocity = match &motion.angular_velocity {
+                    Some(values) => vector("motion.angular_velocity", values)?,
+                    None => zeros(if dim == 2 { 1 } else { 3 }),
+                };
+                let turns = angular_velocity.iter().any(|w| *w != 0.0);
+                let pivot = match (&motion.pivot, turns) {
+                    (Some(values), _) => vector("motion.pivot", values)?,
+                    (None, false) => zeros(dim),
+                    (None, true) => {
+                        return Err(error(
+                            "motion",
+                            "a turning object needs `pivot`, the point it turns about".to_string(),
+                        ))
+                    }
+                };
+                Some(SceneMotion { velocity, angular_velocity, pivot })
+            }
+        };
         let (static_friction, dynamic_friction) = match friction {
             None => (0.0, 0.0),
             Some(friction) => {
@@ -674,6 +839,7 @@ pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> 
             damping: non_negative("damping", damping)?,
             static_friction,
             dynamic_friction,
+            motion,
             location,
         });
     }
@@ -690,15 +856,11 @@ pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> 
 
 /// Rust source (formatted) of a scene for a `task_dim`-dimensional rig in `scalar`: a module
 /// body with `pub const OBJECTS: usize`, the meshes as `static` arrays (`MESH_0`, …, in flash
-/// on a target; [`crate::mesh::emit`]) and `pub fn objects() -> [Object<'static, S, M>; OBJECTS]`,
-/// the runtime's objects.
+/// on a target; [`crate::mesh::emit`]), `pub fn objects() -> [Object<'static, S, M>; OBJECTS]`,
+/// the runtime's objects, and `pub fn effect(impedance_period: S) -> Effect<S, M>`, the free-space
+/// effect (`Effect::None` when the file names none).
 pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, String> {
     scene.check_task_dim(task_dim)?;
-    if scene.effect.is_some() {
-        return Err("error: a firmware image does not render a scene's `effect` yet (the simulator does): \
-                    remove it from the image's scene file"
-            .to_string());
-    }
     let ty = match scalar {
         Scalar::F32 => quote!(f32),
         Scalar::F64 => quote!(f64),
@@ -717,6 +879,13 @@ pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, St
     let mut polytopes: Vec<TokenStream> = Vec::new();
     let mut objects: Vec<TokenStream> = Vec::new();
     for object in &scene.objects {
+        if object.motion.is_some() {
+            return Err(format!(
+                "error: {}: a firmware image does not move scene objects yet (the simulator does): \
+                 remove its `motion` from the image's scene file",
+                object.location
+            ));
+        }
         let geometry = match &object.shape {
             SceneShape::HalfSpace { point, normal } => {
                 // The normal was normalised when the file was read.
@@ -759,7 +928,10 @@ pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, St
                 meshes.push_str(&crate::mesh::emit(mesh, &name, scalar));
                 let ident = Ident::new(&name, Span::call_site());
                 let offset = vector(offset);
-                quote!(#shape::MeshAt { mesh: &#ident, offset: #offset })
+                quote!(#shape::MeshAt {
+                    mesh: &#ident,
+                    placement: ::hapticgen_runtime::shape::RigidMotion::translation(#offset),
+                })
             }
         };
         let kind = if object.cavity { quote!(Cavity) } else { quote!(Solid) };
@@ -780,6 +952,40 @@ pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, St
     }
     let count = Literal::usize_unsuffixed(objects.len());
     let m = Literal::usize_unsuffixed(task_dim);
+    let effect_type = quote!(::hapticgen_runtime::effects::Effect);
+    // Only a vibration advances with the tick; the other effects take the period to keep one
+    // signature for every scene.
+    let (period, effect) = match &scene.effect {
+        None => (quote!(_impedance_period), quote!(#effect_type::None)),
+        Some(SceneEffect::Spring { anchor, stiffness }) => {
+            let (anchor, stiffness) = (vector(anchor), number(*stiffness));
+            (
+                quote!(_impedance_period),
+                quote!(#effect_type::Spring { anchor: #anchor, stiffness: #stiffness }),
+            )
+        }
+        Some(SceneEffect::Viscous { damping }) => {
+            let damping = number(*damping);
+            (quote!(_impedance_period), quote!(#effect_type::Viscous { damping: #damping }))
+        }
+        Some(SceneEffect::Force { force }) => {
+            let force = vector(force);
+            (quote!(_impedance_period), quote!(#effect_type::Force { force: #force }))
+        }
+        Some(SceneEffect::Vibration { direction, amplitude, frequency }) => {
+            let (direction, amplitude, frequency) =
+                (vector(direction), number(*amplitude), number(*frequency));
+            (
+                quote!(impedance_period),
+                quote!(#effect_type::Vibration {
+                    direction: #direction,
+                    amplitude: #amplitude,
+                    frequency: #frequency,
+                    period: impedance_period,
+                }),
+            )
+        }
+    };
     let tokens = quote! {
         #(#polytopes)*
         /// Objects in the scene.
@@ -787,6 +993,11 @@ pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, St
         /// The scene's objects, as the runtime renders them.
         pub fn objects() -> [::hapticgen_runtime::shape::Object<'static, #ty, #m>; OBJECTS] {
             [#(#objects),*]
+        }
+        /// The scene's free-space effect, for an impedance loop ticking every
+        /// `impedance_period` seconds.
+        pub fn effect(#period: #ty) -> #effect_type<#ty, #m> {
+            #effect
         }
     };
     Ok(format!(
@@ -851,13 +1062,43 @@ mod tests {
         assert_eq!(depth(polytope, [2.0, 2.0, 0.0]), -1.0);
     }
 
+    /// Each effect kind is emitted as the runtime's, with the file's numbers; only a vibration
+    /// uses the tick's period.
     #[test]
-    fn a_firmware_image_refuses_a_scene_s_effect() {
-        let text = "objects: []\neffect: {viscous: {damping: 2}}\n";
-        let scene = super::parse("s.yaml", text, std::path::Path::new(".")).unwrap();
-        assert_eq!(scene.effect, Some(super::SceneEffect::Viscous { damping: 2.0 }));
-        let error = super::emit(&scene, 3, crate::Scalar::F32).unwrap_err();
-        assert!(error.contains("does not render a scene's `effect` yet"), "{error}");
+    fn a_scene_s_effect_is_emitted_as_the_runtime_s() {
+        let emitted = |effect: &str| {
+            let text = format!("objects: []\neffect: {effect}\n");
+            let scene = super::parse("s.yaml", &text, std::path::Path::new(".")).unwrap();
+            let code = super::emit(&scene, 3, crate::Scalar::F64).unwrap();
+            let start = code.find("pub fn effect(").unwrap();
+            // Whitespace and the formatter's trailing commas aside.
+            code[start..].split_whitespace().collect::<Vec<_>>().join(" ").replace(", }", " }")
+        };
+        let effect = "::hapticgen_runtime::effects::Effect";
+        assert_eq!(
+            emitted("{viscous: {damping: 2}}"),
+            format!("pub fn effect(_impedance_period: f64) -> {effect}<f64, 3> {{ {effect}::Viscous {{ damping: 2.0 }} }}")
+        );
+        assert!(emitted("{spring: {anchor: [0, 0, -0.1], stiffness: 500}}")
+            .contains(&format!("{effect}::Spring {{ anchor: [0.0, 0.0, -0.1], stiffness: 500.0 }}")));
+        assert!(emitted("{force: {force: [0, 1, 0]}}")
+            .contains(&format!("{effect}::Force {{ force: [0.0, 1.0, 0.0] }}")));
+        let vibration = emitted("{vibration: {direction: [0, 0, 2], amplitude: 0.5, frequency: 100}}");
+        assert!(vibration.starts_with("pub fn effect(impedance_period: f64)"), "{vibration}");
+        assert!(
+            vibration.contains(&format!(
+                "{effect}::Vibration {{ direction: [0.0, 0.0, 1.0], amplitude: 0.5, frequency: 100.0, period: impedance_period }}"
+            )),
+            "{vibration}"
+        );
+        let none =
+            super::emit(&super::Scene { objects: vec![], effect: None }, 2, crate::Scalar::F32).unwrap();
+        let none = none.split_whitespace().collect::<Vec<_>>().join(" ");
+        assert!(none.contains(&format!("-> {effect}<f32, 2> {{ {effect}::None }}")), "{none}");
+    }
+
+    #[test]
+    fn capsule_and_cylinder_depths_are_closed_forms() {
         // A capsule and a cylinder along z from 0 to 2, radius 0.5.
         let capsule = || SceneShape::Capsule { a: vec![0.0; 3], b: vec![0.0, 0.0, 2.0], radius: 0.5 };
         assert!((depth(capsule(), [0.25, 0.0, 1.0]) - 0.25).abs() < 1e-15);

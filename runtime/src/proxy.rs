@@ -57,7 +57,8 @@ use crate::control::{ImpedanceParameters, TaskReference};
 use crate::effects::{Effect, EffectState};
 use crate::render::ObjectKind;
 use crate::shape::{
-    add_scaled, dot, exceeds, finite, norm, segment_box_entry, sub, triangle_entry, unit, Object, Shape,
+    add_scaled, direction_into_frame, direction_out_of_frame, dot, exceeds, finite, into_frame, norm,
+    segment_box_entry, sub, triangle_entry, unit, Object, Plane, RigidMotion, Shape,
 };
 use crate::tick::ReferenceSource;
 use crate::Real;
@@ -72,15 +73,31 @@ pub const ADVANCE_STEPS: usize = 32;
 /// Bisection steps for the exit from a curved cavity.
 const BISECTIONS: usize = 48;
 
-/// The most faces of one mesh an update keeps as its candidates (see [`GodObject::render`]);
-/// with more faces near the HIP, the update searches the mesh's BVH at every step instead.
-pub const CANDIDATE_FACES: usize = 8;
+/// The most faces, over every mesh of the scene, kept as the candidates that can limit the
+/// proxy's sweeps (see `GodObject::gather_candidates`); a mesh with more faces near the HIP is
+/// searched through its BVH at every step instead.
+pub const CANDIDATE_FACES: usize = 32;
 
-/// The faces of one mesh that can limit this update's sweeps.
+/// The radius the candidates are gathered within, over the update's reach: the slack lets
+/// later updates reuse them while the HIP stays within it.
+const GATHER_GROWTH: f64 = 1.25;
+
+/// The faces of the scene's meshes that can limit the proxy's sweeps: every face of a mesh
+/// with a range that lies within `radius` of `center`, kept from update to update while the
+/// HIP's reach stays inside that ball and no object is added or moved.
 #[derive(Clone, Copy, Debug)]
-struct Candidates {
+struct CandidateCache<S, const K: usize, const M: usize> {
+    /// Face indices of every mesh, one range per object.
     faces: [u32; CANDIDATE_FACES],
-    count: usize,
+    /// Per object, its faces' range in `faces` (start, count); `None` for an object that is not
+    /// a mesh or whose faces did not fit (its BVH is then searched at every step).
+    ranges: [Option<(u16, u16)>; K],
+    /// The centre of the ball the faces were gathered in, task frame.
+    center: [S; M],
+    /// Its radius.
+    radius: S,
+    /// `true` while the gathering holds for later updates (every mesh fitted, nothing moved).
+    reusable: bool,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -109,8 +126,9 @@ pub struct ProxyOutput<S, const M: usize> {
 /// A god-object renderer of up to `K` objects in an `M`-dimensional task space.
 #[derive(Clone, Copy, Debug)]
 pub struct GodObject<'a, S, const K: usize, const M: usize> {
-    /// The objects; `None` slots are empty.
-    pub objects: [Option<Object<'a, S, M>>; K],
+    /// The objects; `None` slots are empty (changed only by [`GodObject::add`] and
+    /// [`GodObject::move_object`], which keep the candidate faces in step).
+    objects: [Option<Object<'a, S, M>>; K],
     /// `K_d` in free space (the proxy is at the HIP there, so this only matters at the moment
     /// of leaving contact).
     pub free_space_stiffness: S,
@@ -125,8 +143,8 @@ pub struct GodObject<'a, S, const K: usize, const M: usize> {
     proxy: Option<[S; M]>,
     contact: Option<usize>,
     sticking: bool,
-    /// Per object, this update's candidate faces (meshes only; `None`: search the BVH).
-    candidates: [Option<Candidates>; K],
+    /// The candidate faces of the meshes.
+    candidates: CandidateCache<S, K, M>,
 }
 
 impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
@@ -145,7 +163,13 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             proxy: None,
             contact: None,
             sticking: false,
-            candidates: [None; K],
+            candidates: CandidateCache {
+                faces: [0; CANDIDATE_FACES],
+                ranges: [None; K],
+                center: [S::ZERO; M],
+                radius: S::ZERO,
+                reusable: false,
+            },
         }
     }
 
@@ -155,6 +179,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         if let Some(slot) = self.objects.get_mut(index) {
             *slot = Some(object);
         }
+        self.candidates.reusable = false;
         Some(index)
     }
 
@@ -175,48 +200,28 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         self.radius
     }
 
-    /// Moves object `index` rigidly by `displacement` (a moving object, updated each tick
+    /// Moves object `index` by the rigid motion `motion` (a moving object, updated each tick
     /// before [`GodObject::render`]); a proxy in contact with it is carried along, as if the
-    /// object pushed or dragged it. `false` for an empty slot, a non-finite displacement or a
-    /// shape that cannot be moved in place (a borrowed polytope; a mesh becomes a [`Shape::MeshAt`]).
-    pub fn translate(&mut self, index: usize, displacement: &[S; M]) -> bool {
-        if !finite(displacement) {
+    /// object pushed or dragged it. A mesh or a polytope (borrowed arrays) becomes a
+    /// [`Shape::MeshAt`] or [`Shape::PolytopeAt`]. `false`, and nothing moved, for an empty
+    /// slot or a motion that is not rigid to within 10⁻⁶ ([`RigidMotion::is_rigid`]: a
+    /// non-finite entry, a rotation that is not orthonormal or a reflection).
+    pub fn move_object(&mut self, index: usize, motion: &RigidMotion<S, M>) -> bool {
+        if !motion.is_rigid(S::from_f64(1e-6)) {
             return false;
         }
         let object = match self.objects.get_mut(index).and_then(|slot| slot.as_mut()) {
             Some(object) => object,
             None => return false,
         };
-        let moved = match &mut object.shape {
-            Shape::HalfSpace { point, .. } => {
-                *point = add_scaled(point, S::ONE, displacement);
-                true
-            }
-            Shape::Sphere { center, .. } | Shape::Box { center, .. } => {
-                *center = add_scaled(center, S::ONE, displacement);
-                true
-            }
-            Shape::Capsule { a, b, .. } | Shape::Cylinder { a, b, .. } => {
-                *a = add_scaled(a, S::ONE, displacement);
-                *b = add_scaled(b, S::ONE, displacement);
-                true
-            }
-            Shape::Mesh(mesh) => {
-                object.shape = Shape::MeshAt { mesh: *mesh, offset: *displacement };
-                true
-            }
-            Shape::MeshAt { offset, .. } => {
-                *offset = add_scaled(offset, S::ONE, displacement);
-                true
-            }
-            Shape::Polytope { .. } => false,
-        };
-        if moved && self.contact == Some(index) {
+        object.shape = object.shape.moved(motion);
+        self.candidates.reusable = false;
+        if self.contact == Some(index) {
             if let Some(p) = self.proxy.as_mut() {
-                *p = add_scaled(p, S::ONE, displacement);
+                *p = motion.apply(p);
             }
         }
-        moved
+        true
     }
 
     /// Updates the proxy for the HIP `hip` (see the module docs).
@@ -265,14 +270,16 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
     }
 
     /// The faces of each mesh that this update's sweeps can meet, found with one BVH walk per
-    /// mesh instead of one per sweep step. Every point the proxy moves through in an update is
-    /// within `ρ = |x − p₀|` of the HIP `x` (each goal is the point nearest `x` on constraints
-    /// the proxy satisfies, a friction slide ends between the frictionless proxy and `p₀`, and
-    /// the ball is convex), so only faces within `ρ + r + ε` of `x` can stop a sweep. Not used
-    /// with a curved cavity in the scene (its projected goal is not bound to that ball), nor
-    /// for a mesh with more such faces than [`CANDIDATE_FACES`].
+    /// mesh instead of one per sweep step, and kept for later updates. Every point the proxy
+    /// moves through in an update is within `ρ = |x − p₀|` of the HIP `x` (each goal is the
+    /// point nearest `x` on constraints the proxy satisfies, a friction slide ends between the
+    /// frictionless proxy and `p₀`, and the ball is convex), so only faces within the reach
+    /// `ρ + r + ε` of `x` can stop a sweep. They are gathered within [`GATHER_GROWTH`] times the
+    /// reach, so that while `|x − c| + reach` stays within that radius of the gathering's
+    /// centre `c` (the triangle inequality) and no object is added or moved, the same faces
+    /// serve. Not used with a curved cavity in the scene (its projected goal is not bound to
+    /// that ball); a mesh with more faces than fit in [`CANDIDATE_FACES`] is searched per step.
     fn gather_candidates(&mut self, previous: &[S; M], hip: &[S; M]) {
-        self.candidates = [None; K];
         let curved_cavity = self.objects.iter().flatten().any(|o| {
             o.kind == ObjectKind::Cavity
                 && matches!(
@@ -281,18 +288,49 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 )
         });
         if curved_cavity {
+            self.candidates.ranges = [None; K];
+            self.candidates.reusable = false;
             return;
         }
         // The skin once more: rounding in the sweeps' arithmetic.
         let reach = norm(&sub(hip, previous)) + self.radius + self.skin + self.skin;
-        for (slot, candidates) in self.objects.iter().zip(self.candidates.iter_mut()) {
-            if let Some((mesh, offset)) = slot.as_ref().and_then(|o| o.shape.placed_mesh()) {
-                let mut faces = [0u32; CANDIDATE_FACES];
-                if let Some(count) = mesh.faces_near(&sub(hip, &offset), reach, &mut faces) {
-                    *candidates = Some(Candidates { faces, count });
+        let cache = &self.candidates;
+        if cache.reusable && norm(&sub(hip, &cache.center)) + reach <= cache.radius {
+            return;
+        }
+        // With slack for later updates; if the faces do not fit, the reach alone.
+        for radius in [reach * S::from_f64(GATHER_GROWTH), reach] {
+            if self.gather_within(hip, radius) {
+                self.candidates.center = *hip;
+                self.candidates.radius = radius;
+                self.candidates.reusable = true;
+                return;
+            }
+        }
+        self.candidates.reusable = false;
+    }
+
+    /// Puts every mesh's faces within `radius` of `hip` in the candidates; `false` when some
+    /// mesh's did not fit (that mesh gets no range).
+    fn gather_within(&mut self, hip: &[S; M], radius: S) -> bool {
+        let mut used = 0usize;
+        let mut all_fit = true;
+        let cache = &mut self.candidates;
+        for (slot, range) in self.objects.iter().zip(cache.ranges.iter_mut()) {
+            *range = None;
+            if let Some((mesh, placement)) = slot.as_ref().and_then(|o| o.shape.placed_mesh()) {
+                let free = cache.faces.get_mut(used..).unwrap_or(&mut []);
+                match mesh.faces_near(&into_frame(&placement, hip), radius, free) {
+                    // `used + count` ≤ CANDIDATE_FACES, far below `u16::MAX`.
+                    Some(count) => {
+                        *range = Some((used as u16, count as u16));
+                        used += count;
+                    }
+                    None => all_fit = false,
                 }
             }
         }
+        all_fit
     }
 
     fn invalid(&mut self, proxy: [S; M]) -> ProxyOutput<S, M> {
@@ -470,10 +508,10 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         let solid = object.kind == ObjectKind::Solid;
         match object.shape {
             Shape::Mesh(_) | Shape::MeshAt { .. } => {
-                let (mesh, offset) = object.shape.placed_mesh()?;
-                // The sweep in the mesh's frame (a translation: directions and normals are
-                // the same in both frames).
-                let y = &sub(y, &offset);
+                let (mesh, placement) = object.shape.placed_mesh()?;
+                // The sweep in the mesh's frame; the normal found back in the task frame.
+                let y = &into_frame(&placement, y);
+                let d = &direction_into_frame(&placement, d);
                 // Nearest first along the segment: a box the segment enters beyond the best
                 // step so far cannot limit it.
                 let mut best: Option<(S, [S; M])> = None;
@@ -481,6 +519,11 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 let mut consider = |face: usize| {
                     if let Some([a, b, c]) = mesh.triangle(face) {
                         let bound = best.map_or(limit, |(b, _)| b);
+                        if M == 3
+                            && beyond_the_face_plane(mesh.face_normals.get(face), y, d, &a, bound, margin)
+                        {
+                            return bound;
+                        }
                         let (q, _) = crate::shape::closest_on_triangle(y, &a, &b, &c);
                         let offset = sub(y, &q);
                         let gap = norm(&offset) - margin;
@@ -489,8 +532,13 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                         // a face within the margin limits it now (or never, receding). Only
                         // the faces left get the exact entry into the triangle grown by the
                         // margin (one query where conservative advancement approaches a
-                        // surface met at a grazing angle in many). No grazing allowance here:
-                        // the exact entry decides, and the bound must stay a lower bound of it.
+                        // surface met at a grazing angle in many). No grazing allowance for
+                        // them: the exact entry decides, and the bound must stay a lower bound
+                        // of it. A proxy resting on the face (within the margin) and sweeping
+                        // along it gets the allowance of the other shapes (`convex_step`): its
+                        // direction, projected onto the face's plane, comes out a few ulps
+                        // towards the face as often as away, and without the allowance it
+                        // could not slide.
                         let step = match unit(&offset) {
                             Some(n) if gap > S::ZERO => {
                                 if convex_step(gap, dot(d, &n), bound, S::ZERO) >= bound {
@@ -499,7 +547,10 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                                     triangle_entry(y, d, bound, margin, [&a, &b, &c])
                                 }
                             }
-                            Some(n) => (dot(d, &n) < S::ZERO).then_some(S::ZERO),
+                            Some(n) => {
+                                let step = convex_step(gap, dot(d, &n), bound, half_skin);
+                                (step < bound).then_some(step)
+                            }
                             None => Some(S::ZERO),
                         };
                         if let Some(step) = step {
@@ -527,10 +578,12 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                     }
                     best.map_or(limit, |(b, _)| b)
                 };
-                match self.candidates.get(index).copied().flatten() {
+                match self.candidates.ranges.get(index).copied().flatten() {
                     // This update's candidates (see `gather_candidates`).
-                    Some(set) => {
-                        for &face in set.faces.iter().take(set.count) {
+                    Some((start, count)) => {
+                        for &face in
+                            self.candidates.faces.iter().skip(usize::from(start)).take(usize::from(count))
+                        {
                             consider(face as usize);
                         }
                     }
@@ -540,46 +593,23 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                         &mut consider,
                     ),
                 }
-                best
+                best.map(|(step, normal)| (step, direction_out_of_frame(&placement, &normal)))
             }
             Shape::HalfSpace { point, normal } => {
                 let n = if solid { normal } else { negate(&normal) };
                 let gap = dot(&n, &sub(y, &point)) - margin;
                 Some((convex_step(gap, dot(d, &n), limit, half_skin), n))
             }
-            Shape::Polytope { planes } if solid => {
-                // Free while outside any one plane: the longest step any plane allows. A plane
-                // the proxy is inside of (beyond the skin) allows nothing, whatever the
-                // direction: moving along or away from it does not take the proxy outside it
-                // now, and only being outside a plane keeps it out of the polytope.
-                // Of planes allowing the same step (no step at all, when the proxy rests on the
-                // polytope and moves into it), the one it is least inside of, the face it rests
-                // on, gives the normal: not the first plane listed, whose constraint would hold
-                // a proxy resting on a tilted face where it first touched.
-                let mut best: Option<(S, S, [S; M])> = None;
-                for plane in planes {
-                    let gap = dot(&plane.normal, y) - plane.offset - margin;
-                    let rate = dot(d, &plane.normal);
-                    let step =
-                        if gap > -self.skin { convex_step(gap, rate, limit, half_skin) } else { S::ZERO };
-                    if best.map_or(true, |(b, g, _)| step > b || (step == b && gap > g)) {
-                        best = Some((step, gap, plane.normal));
-                    }
-                }
-                best.map(|(step, _, normal)| (step, normal))
-            }
-            Shape::Polytope { planes } => {
-                // Free while inside every plane: the shortest step any plane allows.
-                let mut best: Option<(S, [S; M])> = None;
-                for plane in planes {
-                    let n = negate(&plane.normal);
-                    let gap = dot(&n, y) + plane.offset - margin;
-                    let step = convex_step(gap, dot(d, &n), limit, half_skin);
-                    if best.map_or(true, |(b, _)| step < b) {
-                        best = Some((step, n));
-                    }
-                }
-                best
+            Shape::Polytope { .. } | Shape::PolytopeAt { .. } => {
+                let (planes, placement) = object.shape.placed_polytope()?;
+                // The sweep in the polytope's frame; the normal found back in the task frame.
+                let (y, d) = (into_frame(&placement, y), direction_into_frame(&placement, d));
+                let (step, normal) = if solid {
+                    solid_polytope_step(planes, &y, &d, limit, margin, self.skin)?
+                } else {
+                    polytope_cavity_step(planes, &y, &d, limit, margin, half_skin)?
+                };
+                Some((step, direction_out_of_frame(&placement, &normal)))
             }
             _ if solid => {
                 let closest = object.shape.closest(y)?;
@@ -618,6 +648,87 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             }
         }
     }
+}
+
+/// `true` when a sweep from `y` along the unit `d` cannot come within `margin` of a triangle
+/// (through `a`, with the unit `normal` of a 3-D mesh's face) before `bound`: the distance to
+/// a triangle is at least the distance `|n · (z − a)|` to its plane, which the sweep brings
+/// down to `margin` no sooner than `(|h| − margin)/rate`, `h = n · (y − a)`, and never if it
+/// moves away from the plane or along it. A cheap test before the triangle's closest point;
+/// `false` (decide by the triangle) without a finite normal.
+fn beyond_the_face_plane<S: Real, const M: usize>(
+    normal: Option<&[S; M]>,
+    y: &[S; M],
+    d: &[S; M],
+    a: &[S; M],
+    bound: S,
+    margin: S,
+) -> bool {
+    let normal = match normal {
+        Some(n) if finite(n) => n,
+        _ => return false,
+    };
+    let height = dot(normal, &sub(y, a));
+    let rate = dot(normal, d);
+    // Towards the plane from the side `y` is on: the height falls at `approach` per metre.
+    let (height, approach) = if height >= S::ZERO { (height, -rate) } else { (-height, rate) };
+    if !exceeds(height, margin) {
+        return false;
+    }
+    approach <= S::ZERO || (height - margin) >= bound * approach
+}
+
+/// The safe step from `y` along `d` (up to `limit`) outside a solid polytope of `planes`, with
+/// the free-side normal, all in the polytope's frame (see [`GodObject::safe_step`]).
+fn solid_polytope_step<S: Real, const M: usize>(
+    planes: &[Plane<S, M>],
+    y: &[S; M],
+    d: &[S; M],
+    limit: S,
+    margin: S,
+    skin: S,
+) -> Option<(S, [S; M])> {
+    // Free while outside any one plane: the longest step any plane allows. A plane the proxy is
+    // inside of (beyond the skin) allows nothing, whatever the direction: moving along or away
+    // from it does not take the proxy outside it now, and only being outside a plane keeps it
+    // out of the polytope. Of planes allowing the same step (no step at all, when the proxy
+    // rests on the polytope and moves into it), the one it is least inside of, the face it
+    // rests on, gives the normal: not the first plane listed, whose constraint would hold a
+    // proxy resting on a tilted face where it first touched.
+    let half_skin = skin * S::from_f64(0.5);
+    let mut best: Option<(S, S, [S; M])> = None;
+    for plane in planes {
+        let gap = dot(&plane.normal, y) - plane.offset - margin;
+        let rate = dot(d, &plane.normal);
+        let step = if gap > -skin { convex_step(gap, rate, limit, half_skin) } else { S::ZERO };
+        if best.map_or(true, |(b, g, _)| step > b || (step == b && gap > g)) {
+            best = Some((step, gap, plane.normal));
+        }
+    }
+    best.map(|(step, _, normal)| (step, normal))
+}
+
+/// The safe step from `y` along `d` (up to `limit`) inside a polytope cavity of `planes`, with
+/// the free-side normal, all in the polytope's frame: free while inside every plane, the
+/// shortest step any plane allows.
+fn polytope_cavity_step<S: Real, const M: usize>(
+    planes: &[Plane<S, M>],
+    y: &[S; M],
+    d: &[S; M],
+    limit: S,
+    margin: S,
+    half_skin: S,
+) -> Option<(S, [S; M])> {
+    let mut best: Option<(S, [S; M])> = None;
+    for plane in planes {
+        let n = negate(&plane.normal);
+        let gap = dot(&n, y) + plane.offset - margin;
+        let step = convex_step(gap, dot(d, &n), limit, half_skin);
+        if best.map_or(true, |(b, _)| step < b) {
+            best = Some((step, n));
+        }
+    }
+    best
 }
 
 fn negate<S: Real, const M: usize>(v: &[S; M]) -> [S; M] {

@@ -104,6 +104,104 @@ fn perpendicular<S: Real, const M: usize>(u: &[S; M]) -> [S; M] {
     unit(&v).unwrap_or(e)
 }
 
+/// A rigid motion `x ↦ R x + t` of the task space: where a moving object goes
+/// ([`crate::proxy::GodObject::move_object`]), or where a borrowed shape (a mesh or a polytope,
+/// whose arrays stay in flash in their own frame) is placed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RigidMotion<S, const M: usize> {
+    /// The rotation `R`, by rows: orthonormal, determinant 1.
+    pub rotation: [[S; M]; M],
+    /// The translation `t`.
+    pub translation: [S; M],
+}
+
+impl<S: Real, const M: usize> RigidMotion<S, M> {
+    /// No motion.
+    pub fn identity() -> Self {
+        Self::translation([S::ZERO; M])
+    }
+
+    /// A translation by `t` alone.
+    pub fn translation(translation: [S; M]) -> Self {
+        let mut rotation = [[S::ZERO; M]; M];
+        for (i, row) in rotation.iter_mut().enumerate() {
+            *row = basis(i);
+        }
+        Self { rotation, translation }
+    }
+
+    /// `R v` (a direction or normal moved).
+    pub fn rotate(&self, v: &[S; M]) -> [S; M] {
+        let mut out = [S::ZERO; M];
+        for (o, row) in out.iter_mut().zip(self.rotation.iter()) {
+            *o = dot(row, v);
+        }
+        out
+    }
+
+    /// `Rᵀ v` (a direction taken back into the moved shape's own frame).
+    pub fn unrotate(&self, v: &[S; M]) -> [S; M] {
+        let mut out = [S::ZERO; M];
+        for (row, x) in self.rotation.iter().zip(v.iter()) {
+            out = add_scaled(&out, *x, row);
+        }
+        out
+    }
+
+    /// `R x + t` (a point moved).
+    pub fn apply(&self, x: &[S; M]) -> [S; M] {
+        add_scaled(&self.rotate(x), S::ONE, &self.translation)
+    }
+
+    /// `Rᵀ (y − t)`: the point that the motion takes to `y`.
+    pub fn unapply(&self, y: &[S; M]) -> [S; M] {
+        self.unrotate(&sub(y, &self.translation))
+    }
+
+    /// This motion followed by `next`: `x ↦ R_next (R x + t) + t_next`.
+    pub fn then(&self, next: &Self) -> Self {
+        let mut rotation = [[S::ZERO; M]; M];
+        for (row, next_row) in rotation.iter_mut().zip(next.rotation.iter()) {
+            // Row i of R_next R is (row i of R_next) R = Rᵀ (row i of R_next) as a column.
+            *row = self.unrotate(next_row);
+        }
+        Self { rotation, translation: next.apply(&self.translation) }
+    }
+
+    /// `true` when every entry is finite and `R` is a rotation to within `tolerance`:
+    /// `|R Rᵀ − I|` at most `tolerance` entry by entry and `det R > 0` (a reflection would turn
+    /// solids inside out).
+    pub fn is_rigid(&self, tolerance: S) -> bool {
+        let entries_finite = self.rotation.iter().all(finite) && finite(&self.translation);
+        let orthonormal = self.rotation.iter().enumerate().all(|(i, a)| {
+            self.rotation.iter().enumerate().all(|(j, b)| {
+                let expected = if i == j { S::ONE } else { S::ZERO };
+                !exceeds((dot(a, b) - expected).abs(), tolerance)
+            })
+        });
+        entries_finite && orthonormal && determinant_positive(&self.rotation)
+    }
+}
+
+/// Where a borrowed shape (a mesh's or a polytope's arrays) is placed: `None` for its own frame.
+pub type Placement<S, const M: usize> = Option<RigidMotion<S, M>>;
+
+/// The sign of an orthonormal matrix's determinant (`M` of 1 to 3; for more, the first rows'
+/// triple product as in 3-D), `true` when positive.
+fn determinant_positive<S: Real, const M: usize>(rows: &[[S; M]; M]) -> bool {
+    let entry = |i: usize, j: usize| rows.get(i).and_then(|row| row.get(j)).copied().unwrap_or(S::ZERO);
+    let determinant = match M {
+        1 => entry(0, 0),
+        2 => entry(0, 0) * entry(1, 1) - entry(0, 1) * entry(1, 0),
+        _ => {
+            entry(0, 0) * (entry(1, 1) * entry(2, 2) - entry(1, 2) * entry(2, 1))
+                - entry(0, 1) * (entry(1, 0) * entry(2, 2) - entry(1, 2) * entry(2, 0))
+                + entry(0, 2) * (entry(1, 0) * entry(2, 1) - entry(1, 1) * entry(2, 0))
+        }
+    };
+    determinant > S::ZERO
+}
+
 /// A plane `n · x = d` bounding a convex polytope `{x : n · x ≤ d}` (`n` unit, outward).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Plane<S, const M: usize> {
@@ -144,7 +242,9 @@ pub struct Mesh<'a, S, const M: usize> {
     pub vertices: &'a [[S; M]],
     /// Triangles as vertex indices, ordered so every BVH leaf's faces are contiguous.
     pub faces: &'a [[u32; 3]],
-    /// Unit normal of each face (used when the query point lies on the face's plane).
+    /// Unit normal of each face, perpendicular to it: used when the query point lies on the
+    /// face's plane, and by the god object's sweeps in 3-D to rule a face out by its plane
+    /// (a wrong normal there could let the proxy through the face).
     pub face_normals: &'a [[S; M]],
     /// Unit normal of each vertex for force shading; empty for flat faces.
     pub vertex_normals: &'a [[S; M]],
@@ -565,28 +665,102 @@ pub enum Shape<'a, S, const M: usize> {
         /// The bounding planes.
         planes: &'a [Plane<S, M>],
     },
+    /// A convex polytope moved by `placement` (its planes stay where they are, in their own
+    /// frame; [`crate::proxy::GodObject::move_object`] turns a [`Shape::Polytope`] into one).
+    PolytopeAt {
+        /// The bounding planes, in the polytope's own frame.
+        planes: &'a [Plane<S, M>],
+        /// Where the polytope's frame is.
+        placement: RigidMotion<S, M>,
+    },
     /// A triangle mesh (a surface: it has no inside).
     Mesh(&'a Mesh<'a, S, M>),
-    /// A triangle mesh translated by `offset`: a mesh placed or moved at run time
-    /// ([`crate::proxy::GodObject::translate`] turns a [`Shape::Mesh`] into one), while its
+    /// A triangle mesh moved by `placement`: a mesh placed or moved at run time
+    /// ([`crate::proxy::GodObject::move_object`] turns a [`Shape::Mesh`] into one), while its
     /// vertices, normals and BVH stay where they are (in flash, in the mesh's own frame).
     MeshAt {
         /// The mesh, in its own frame.
         mesh: &'a Mesh<'a, S, M>,
-        /// Where the mesh's origin is.
-        offset: [S; M],
+        /// Where the mesh's frame is.
+        placement: RigidMotion<S, M>,
     },
 }
 
 impl<'a, S: Real, const M: usize> Shape<'a, S, M> {
-    /// The mesh of a [`Shape::Mesh`] or [`Shape::MeshAt`] and where its origin is.
-    pub fn placed_mesh(&self) -> Option<(&'a Mesh<'a, S, M>, [S; M])> {
+    /// The mesh of a [`Shape::Mesh`] or [`Shape::MeshAt`] and where it is placed (`None` for
+    /// the mesh's own frame).
+    pub fn placed_mesh(&self) -> Option<(&'a Mesh<'a, S, M>, Placement<S, M>)> {
         match *self {
-            Shape::Mesh(mesh) => Some((mesh, [S::ZERO; M])),
-            Shape::MeshAt { mesh, offset } => Some((mesh, offset)),
+            Shape::Mesh(mesh) => Some((mesh, None)),
+            Shape::MeshAt { mesh, placement } => Some((mesh, Some(placement))),
             _ => None,
         }
     }
+
+    /// The planes of a [`Shape::Polytope`] or [`Shape::PolytopeAt`] and where they are placed
+    /// (`None` for their own frame).
+    pub fn placed_polytope(&self) -> Option<(&'a [Plane<S, M>], Placement<S, M>)> {
+        match *self {
+            Shape::Polytope { planes } => Some((planes, None)),
+            Shape::PolytopeAt { planes, placement } => Some((planes, Some(placement))),
+            _ => None,
+        }
+    }
+
+    /// The shape after the rigid motion `motion` (see [`RigidMotion`]): points moved, axes and
+    /// normals turned; a mesh or a polytope, whose arrays are borrowed, gets (or composes) a
+    /// placement. The motion is not checked here ([`RigidMotion::is_rigid`]).
+    pub fn moved(&self, motion: &RigidMotion<S, M>) -> Self {
+        match *self {
+            Shape::HalfSpace { point, normal } => {
+                Shape::HalfSpace { point: motion.apply(&point), normal: motion.rotate(&normal) }
+            }
+            Shape::Sphere { center, radius } => Shape::Sphere { center: motion.apply(&center), radius },
+            Shape::Box { center, axes, half_extents } => {
+                let mut turned = axes;
+                for axis in turned.iter_mut() {
+                    *axis = motion.rotate(axis);
+                }
+                Shape::Box { center: motion.apply(&center), axes: turned, half_extents }
+            }
+            Shape::Capsule { a, b, radius } => {
+                Shape::Capsule { a: motion.apply(&a), b: motion.apply(&b), radius }
+            }
+            Shape::Cylinder { a, b, radius } => {
+                Shape::Cylinder { a: motion.apply(&a), b: motion.apply(&b), radius }
+            }
+            Shape::Polytope { planes } => Shape::PolytopeAt { planes, placement: *motion },
+            Shape::PolytopeAt { planes, placement } => {
+                Shape::PolytopeAt { planes, placement: placement.then(motion) }
+            }
+            Shape::Mesh(mesh) => Shape::MeshAt { mesh, placement: *motion },
+            Shape::MeshAt { mesh, placement } => Shape::MeshAt { mesh, placement: placement.then(motion) },
+        }
+    }
+}
+
+/// `p` in the own frame of a shape placed by `placement` (`p` itself for none).
+pub(crate) fn into_frame<S: Real, const M: usize>(
+    placement: &Option<RigidMotion<S, M>>,
+    p: &[S; M],
+) -> [S; M] {
+    placement.as_ref().map_or(*p, |motion| motion.unapply(p))
+}
+
+/// The direction `d` in the own frame of a shape placed by `placement`.
+pub(crate) fn direction_into_frame<S: Real, const M: usize>(
+    placement: &Placement<S, M>,
+    d: &[S; M],
+) -> [S; M] {
+    placement.as_ref().map_or(*d, |motion| motion.unrotate(d))
+}
+
+/// The direction `d`, given in the own frame of a shape placed by `placement`, in the task frame.
+pub(crate) fn direction_out_of_frame<S: Real, const M: usize>(
+    placement: &Placement<S, M>,
+    d: &[S; M],
+) -> [S; M] {
+    placement.as_ref().map_or(*d, |motion| motion.rotate(d))
 }
 
 /// The closest boundary point of a shape to a query point.
@@ -639,28 +813,30 @@ impl<'a, S: Real, const M: usize> Shape<'a, S, M> {
                 sphere(&add_scaled(&a, t, &axis), radius, p)?
             }
             Shape::Cylinder { a, b, radius } => cylinder(&a, &b, radius, p)?,
-            Shape::Polytope { planes } => {
+            Shape::Polytope { .. } | Shape::PolytopeAt { .. } => {
+                let (planes, placement) = self.placed_polytope()?;
+                // The query in the polytope's frame; the point and normal back in the task frame.
+                let local = into_frame(&placement, p);
                 let mut best: Option<(S, &Plane<S, M>)> = None;
                 for plane in planes {
-                    let value = dot(&plane.normal, p) - plane.offset;
+                    let value = dot(&plane.normal, &local) - plane.offset;
                     if best.map_or(true, |(v, _)| value > v) {
                         best = Some((value, plane));
                     }
                 }
                 let (value, plane) = best?;
-                Closest {
-                    point: add_scaled(p, -value, &plane.normal),
-                    normal: plane.normal,
-                    inside: value < S::ZERO,
-                }
+                let normal = direction_out_of_frame(&placement, &plane.normal);
+                Closest { point: add_scaled(p, -value, &normal), normal, inside: value < S::ZERO }
             }
             Shape::Mesh(_) | Shape::MeshAt { .. } => {
-                let (mesh, offset) = self.placed_mesh()?;
-                // The query in the mesh's frame; the point found back in the task frame.
-                let local = sub(p, &offset);
+                let (mesh, placement) = self.placed_mesh()?;
+                // The query in the mesh's frame; the point and normal back in the task frame.
+                let local = into_frame(&placement, p);
                 let mut face = mesh.closest(&local)?;
-                let shading = mesh.normal_at(&face)?;
-                face.point = add_scaled(&face.point, S::ONE, &offset);
+                let shading = direction_out_of_frame(&placement, &mesh.normal_at(&face)?);
+                if let Some(motion) = &placement {
+                    face.point = motion.apply(&face.point);
+                }
                 // The side of the surface the query is on.
                 let normal = if dot(&shading, &sub(p, &face.point)) < S::ZERO {
                     let mut flipped = shading;
@@ -685,7 +861,7 @@ impl<'a, S: Real, const M: usize> Shape<'a, S, M> {
     /// largest plane distance, a lower bound of the distance; for a mesh, unsigned).
     pub fn signed_distance(&self, p: &[S; M]) -> Option<S> {
         let closest = self.closest(p)?;
-        if let Shape::Polytope { .. } = self {
+        if let Shape::Polytope { .. } | Shape::PolytopeAt { .. } = self {
             return Some(dot(&closest.normal, &sub(p, &closest.point)));
         }
         let distance = norm(&sub(p, &closest.point));
@@ -752,7 +928,11 @@ impl<'a, S: Real, const M: usize> Shape<'a, S, M> {
                 out = add_scaled(&out, S::ONE, &radial);
                 Some(out)
             }
-            Shape::HalfSpace { .. } | Shape::Polytope { .. } | Shape::Mesh(_) | Shape::MeshAt { .. } => None,
+            Shape::HalfSpace { .. }
+            | Shape::Polytope { .. }
+            | Shape::PolytopeAt { .. }
+            | Shape::Mesh(_)
+            | Shape::MeshAt { .. } => None,
         }
     }
 }

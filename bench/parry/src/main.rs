@@ -26,7 +26,6 @@ use parry3d_f64::shape::TriMesh;
 
 const RADIUS: f64 = 0.05;
 
-
 /// The HIP's path: a circle 2 mm inside the sphere's surface.
 fn hip(k: usize) -> [f64; 3] {
     let a = k as f64 * 1e-3;
@@ -56,13 +55,78 @@ fn best_ns(rounds: &mut [f64], round: usize, calls: usize, f: impl FnOnce() -> f
     rounds[round] = ns;
 }
 
+/// The mesh of size `index` (0, 1, 2: about 1k, 10k and 100k triangles) as hapticgen builds it.
+fn sphere(index: usize) -> TriangleMesh {
+    let [(rings, segments), ..] = &SIZES[index..] else { panic!("size index {index} out of 0..3") };
+    TriangleMesh::uv_sphere(RADIUS, *rings, *segments).expect("a valid sphere").with_bvh(4)
+}
+
+/// UV spheres' rings and segments: 960, 9,800 and 99,224 triangles.
+const SIZES: [(usize, usize); 3] = [(16, 32), (50, 100), (158, 316)];
+
+/// `count OPERATION SIZE N`: only `N` operations (`update`, `closest` or `project`) on mesh
+/// `SIZE` (0, 1, 2), for exact instruction counts under callgrind (`bench/render-vs-parry.sh
+/// --instructions`: the difference between `N` and 0 operations, over `N`).
+fn count(operation: &str, size: usize, n: usize) {
+    let built = sphere(size);
+    let nodes: Vec<BvhNode<f64, 3>> = built
+        .nodes
+        .iter()
+        .map(|n| BvhNode { min: n.min, max: n.max, first: n.first, count: n.count })
+        .collect();
+    let mesh = Mesh {
+        vertices: &built.vertices,
+        faces: &built.faces,
+        face_normals: &built.face_normals,
+        vertex_normals: &built.vertex_normals,
+        nodes: &nodes,
+    };
+    let vertices: Vec<Vector> = built.vertices.iter().map(|v| Vector::new(v[0], v[1], v[2])).collect();
+    let parry = TriMesh::new(vertices, built.faces.clone()).expect("a valid mesh for parry3d");
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, 1e-3, 1e-9);
+    scene
+        .add(Object {
+            shape: Shape::Mesh(&mesh),
+            kind: ObjectKind::Solid,
+            material: Material::frictionless(1500.0, 5.0),
+        })
+        .expect("one slot");
+    scene.reset([0.0, 0.0, RADIUS + 0.01]);
+    // Into contact first, so that every counted update slides on the surface.
+    for k in 0..100 {
+        black_box(scene.render(&hip(k)));
+    }
+    let sum: f64 = match operation {
+        "update" => (100..100 + n).map(|k| scene.render(&hip(k)).proxy[2]).sum(),
+        "closest" => (0..n).map(|k| mesh.closest(&hip(k)).map_or(0.0, |f| f.point[2])).sum(),
+        "project" => (0..n)
+            .map(|k| {
+                let p = hip(k);
+                parry.project_point(&Pose::IDENTITY, Vector::new(p[0], p[1], p[2]), false).point.z
+            })
+            .sum(),
+        other => panic!("unknown operation {other}: update, closest or project"),
+    };
+    black_box(sum);
+}
+
 fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    if args.get(1).map(String::as_str) == Some("count") {
+        let parse =
+            |i: usize| args.get(i).and_then(|v| v.parse::<usize>().ok()).expect("count OPERATION SIZE N");
+        count(args.get(2).map_or("", String::as_str), parse(3), parse(4));
+        return;
+    }
     println!("| triangles | proxy update (ns) | closest point, hapticgen BVH (ns) | point projection, parry3d (ns) | parry3d / proxy update | parry3d / closest point |");
     println!("| --- | --- | --- | --- | --- | --- |");
-    for (rings, segments) in [(16, 32), (50, 100), (158, 316)] {
-        let built = TriangleMesh::uv_sphere(RADIUS, rings, segments).expect("a valid sphere").with_bvh(4);
-        let nodes: Vec<BvhNode<f64, 3>> =
-            built.nodes.iter().map(|n| BvhNode { min: n.min, max: n.max, first: n.first, count: n.count }).collect();
+    for size in 0..SIZES.len() {
+        let built = sphere(size);
+        let nodes: Vec<BvhNode<f64, 3>> = built
+            .nodes
+            .iter()
+            .map(|n| BvhNode { min: n.min, max: n.max, first: n.first, count: n.count })
+            .collect();
         let mesh = Mesh {
             vertices: &built.vertices,
             faces: &built.faces,
@@ -104,7 +168,9 @@ fn main() {
         let (mut update, mut closest, mut projection) = ([0.0; 5], [0.0; 5], [0.0; 5]);
         for round in 0..5 {
             scene.reset([0.0, 0.0, RADIUS + 0.01]);
-            best_ns(&mut update, round, updates, || (0..updates).map(|k| scene.render(&hip(k)).proxy[2]).sum());
+            best_ns(&mut update, round, updates, || {
+                (0..updates).map(|k| scene.render(&hip(k)).proxy[2]).sum()
+            });
             best_ns(&mut closest, round, queries, || {
                 (0..queries).map(|k| mesh.closest(&hip(k * 4)).map_or(0.0, |f| f.point[2])).sum()
             });

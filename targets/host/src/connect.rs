@@ -141,6 +141,13 @@ fn device_objects(scene: &crate::scene::Scene) -> Result<Vec<SceneObject>, Strin
                 object.location
             ));
         }
+        if object.motion.is_some() {
+            return Err(format!(
+                "error: {}: a device's scene slots hold still objects; a moving one (`motion`) is rendered by \
+                 `hapticgen simulate --scene`",
+                object.location
+            ));
+        }
         let (stiffness, damping) = (object.stiffness as f32, object.damping as f32);
         objects.push(match &object.shape {
             SolidShape::Sphere { center, radius } => SceneObject::Sphere {

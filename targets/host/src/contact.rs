@@ -160,6 +160,7 @@ pub fn setup(contact: Contact, x0: &[f64], settings: &ContactSettings) -> Result
         damping,
         static_friction: settings.friction.0,
         dynamic_friction: settings.friction.1,
+        motion: None,
     };
     let at = |offset: &[f64]| -> Vec<f64> { x0.iter().zip(offset).map(|(x, d)| x + d).collect() };
     let down = |depth: f64| -> Vec<f64> {
@@ -351,6 +352,7 @@ struct Samples<'a> {
     device: Vec<usize>,
     proxy: Vec<usize>,
     hip: Vec<usize>,
+    rendered_at: usize,
 }
 
 impl<'a> Samples<'a> {
@@ -363,6 +365,7 @@ impl<'a> Samples<'a> {
             device: (0..task).map(|k| index(&format!("x{k}"))).collect::<Option<_>>()?,
             proxy: (0..task).map(|k| index(&format!("xp{k}"))).collect::<Option<_>>()?,
             hip: (0..task).map(|k| index(&format!("xh{k}"))).collect::<Option<_>>()?,
+            rendered_at: index("tr")?,
         })
     }
 
@@ -374,6 +377,7 @@ impl<'a> Samples<'a> {
             device: pick(row, &self.device),
             proxy: pick(row, &self.proxy),
             hip: pick(row, &self.hip),
+            rendered_at: row[self.rendered_at],
         })
     }
 }
@@ -385,6 +389,8 @@ struct Sample {
     device: Vec<f64>,
     proxy: Vec<f64>,
     hip: Vec<f64>,
+    /// When the proxy was rendered (moving solids were where their motion had them then).
+    rendered_at: f64,
 }
 
 fn norm(v: &[f64]) -> f64 {
@@ -412,7 +418,7 @@ pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Chec
         });
     };
     let Some(samples) = Samples::new(trace) else {
-        check("trace", "columns t, x*, xp*".into(), "missing".into(), false);
+        check("trace", "columns t, x*, xp*, xh*, tr".into(), "missing".into(), false);
         return checks;
     };
     if let Some((t, fault)) = &trace.fault {
@@ -426,10 +432,14 @@ pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Chec
         format!("{:.1} %", 100.0 * trace.saturation_fraction()),
         trace.clamped_ticks == 0,
     );
-    // The proxy never inside a solid (a tolerance of a nanometre for rounding).
+    // The proxy never inside a solid (a tolerance of a nanometre for rounding), a moving one
+    // taken where it was when the proxy was rendered.
     let deepest = samples
         .rows()
-        .flat_map(|sample| setup.solids.iter().map(|s| s.depth(&sample.proxy)).collect::<Vec<_>>())
+        .filter(|sample| sample.rendered_at.is_finite())
+        .flat_map(|sample| {
+            setup.solids.iter().map(|s| s.depth_at(&sample.proxy, sample.rendered_at)).collect::<Vec<_>>()
+        })
         .fold(f64::NEG_INFINITY, f64::max);
     check(
         "the proxy never inside a solid",

@@ -505,6 +505,7 @@ impl<const N: usize, const M: usize> DeviceController<N, M> for Pil<N, M> {
                 impedance: None,
                 reference: self.reference,
                 hip: [f64::NAN; M],
+                rendered_at: f64::NAN,
             });
         }
         self.tick = self.tick.wrapping_add(1);
@@ -563,6 +564,7 @@ impl<const N: usize, const M: usize> DeviceController<N, M> for Pil<N, M> {
             reference: self.reference,
             // The firmware does not send the task position it measured.
             hip: [f64::NAN; M],
+            rendered_at: f64::NAN,
         })
     }
 }

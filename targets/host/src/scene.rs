@@ -66,11 +66,41 @@ mod tests {
             ("objects: []\neffect: {spring: {anchor: [0], stiffness: -1}}\n", "s.yaml:2:", "effect.spring.stiffness: must be finite and not negative"),
             ("objects:\n  - polytope:\n      planes:\n        - {point: [0, 0], normal: [0, 1]}\n        - {point: [0, 0], normal: [0, 0]}\n      stiffness: 1\n      damping: 0\n", "s.yaml:5:", "objects[0].polytope.planes[1].normal: must not be zero"),
             ("objects:\n  - polytope: {planes: [], stiffness: 1, damping: 0}\n", "s.yaml:2:", "objects[0].polytope.planes: a polytope needs at least one plane"),
+            ("objects:\n  - sphere: {centre: [0, 0], radius: 1, stiffness: 1, damping: 0,\n      motion: {angular_velocity: [1]}}\n", "s.yaml:3:", "objects[0].sphere.motion: a turning object needs `pivot`"),
+            ("objects:\n  - sphere: {centre: [0, 0], radius: 1, stiffness: 1, damping: 0,\n      motion: {velocity: [0, .nan]}}\n", "s.yaml:3:", "objects[0].sphere.motion.velocity: must be 1 to 3 finite coordinates"),
+            ("objects:\n  - sphere: {centre: [0, 0], radius: 1, stiffness: 1, damping: 0,\n      motion: {speed: 1}}\n", "s.yaml:3:", "unknown field `speed`"),
         ];
         for (text, at, message) in cases {
             let error = parsed(text).unwrap_err();
             assert!(error.starts_with(&format!("error: {at}")) && error.contains(message), "{error}");
         }
+    }
+
+    /// A motion's absent rates are zero in the object's dimension; its vectors are checked
+    /// against the task's dimension like the shape's.
+    #[test]
+    fn a_motion_defaults_to_rest_and_is_checked_against_the_task() {
+        let text = "objects:\n\
+                    \x20 - box: {centre: [0, 0, 0], half_extents: [1, 1, 1], stiffness: 1, damping: 0,\n\
+                    \x20        motion: {velocity: [0, 0, 0.01]}}\n\
+                    \x20 - sphere: {centre: [0, 0, 0], radius: 1, stiffness: 1, damping: 0,\n\
+                    \x20           motion: {angular_velocity: [0, 0, 2], pivot: [1, 0, 0]}}\n";
+        let scene = parsed(text).unwrap();
+        let lift = scene.objects[0].motion.as_ref().unwrap();
+        assert_eq!((lift.angular_velocity.as_slice(), lift.pivot.as_slice()), (&[0.0; 3][..], &[0.0; 3][..]));
+        let spin = scene.objects[1].motion.as_ref().unwrap();
+        assert_eq!(spin.velocity, vec![0.0; 3]);
+        // A quarter turn about z through (1, 0, 0) takes the origin to (1, −1, 0): carried back,
+        // (1, −1, 0) is the origin.
+        let back = spin.carried_back(std::f64::consts::FRAC_PI_4, &[1.0, -1.0, 0.0]);
+        assert!(back.iter().all(|v| v.abs() < 1e-15), "{back:?}");
+        assert!(solids(&scene, 3).is_ok());
+        let planar = "objects:\n  - sphere: {centre: [0, 0], radius: 1, stiffness: 1, damping: 0,\n      motion: {angular_velocity: [1, 0, 0], pivot: [0, 0]}}\n";
+        let error = solids(&parsed(planar).unwrap(), 2).unwrap_err();
+        assert!(
+            error.contains("objects[0].sphere: motion.angular_velocity has 3 values; a 2-D task needs 1"),
+            "{error}"
+        );
     }
 
     /// A mesh is read relative to the scene file: the repository's knob, from scenes/.

@@ -22,7 +22,7 @@ use std::io::IsTerminal as _;
 use std::sync::Arc;
 use std::time::Instant;
 
-use hapticgen_codegen::scene::SceneEffect;
+use hapticgen_codegen::scene::{SceneEffect, SceneMotion};
 use hapticgen_runtime::control::{
     ControlOptions, ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference,
 };
@@ -33,6 +33,7 @@ use hapticgen_runtime::linalg;
 use hapticgen_runtime::proxy::GodObject;
 use hapticgen_runtime::render::{Scene, VirtualObject};
 use hapticgen_runtime::schedule::Scheduler;
+use hapticgen_runtime::shape::RigidMotion;
 use hapticgen_runtime::tick::{HapticLoop, HapticLoopSettings, ImpedanceInputs, ReferenceSource};
 use hapticgen_runtime::{Coupling, DriveTrain, RigModel};
 use rand::rngs::SmallRng;
@@ -270,7 +271,9 @@ pub struct Trace {
     /// Task dimension.
     pub task_dim: usize,
     /// Column names: `t`, `q*`, `qd*`, `x*`, `u*`, `f*`, `xp*` (the proxy), `xh*` (the HIP
-    /// the proxy was rendered for: the task position as the controller measured it).
+    /// the proxy was rendered for: the task position as the controller measured it), `tr`
+    /// (when the proxy was rendered, s; moving solids were where their motion had taken them
+    /// then).
     pub columns: Vec<String>,
     /// Rows of samples.
     pub rows: Vec<Vec<f64>>,
@@ -319,11 +322,71 @@ pub struct SimSource<const M: usize> {
     fixed: Option<TaskReference<f64, M>>,
     scene: Option<Box<Scene<f64, SCENE_OBJECTS, SCENE_VERTICES>>>,
     god_object: Option<Box<GodObject<'static, f64, MAX_SOLIDS, M>>>,
+    /// The god object's moving solids: slot and motion.
+    motions: Vec<(usize, SceneMotion)>,
+    /// When the moving solids were last put where their motions take them, s.
+    posed_at: f64,
+    /// The simulated time of the current period, s (set by the controller before each tick).
+    pub time: f64,
+    /// When the last reference was rendered, s.
+    pub rendered_at: f64,
+    /// The first time the god object refused a solid's motion (not rigid: never for a motion
+    /// read from a scene file), s.
+    pub refused_motion_at: Option<f64>,
     /// The last reference position (proxy).
     pub last: [f64; M],
     /// The task position the last reference was rendered for (the HIP as the controller
     /// measured it).
     pub last_hip: [f64; M],
+}
+
+impl<const M: usize> SimSource<M> {
+    /// A source of `reference` alone, the device at `hip`, before any tick.
+    fn new(
+        fixed: Option<TaskReference<f64, M>>,
+        scene: Option<Box<Scene<f64, SCENE_OBJECTS, SCENE_VERTICES>>>,
+        god_object: Option<Box<GodObject<'static, f64, MAX_SOLIDS, M>>>,
+        reference: [f64; M],
+        hip: [f64; M],
+    ) -> Self {
+        Self {
+            fixed,
+            scene,
+            god_object,
+            motions: Vec::new(),
+            posed_at: 0.0,
+            time: 0.0,
+            rendered_at: f64::NAN,
+            refused_motion_at: None,
+            last: reference,
+            last_hip: hip,
+        }
+    }
+
+    /// Moves every moving solid from where it was at `posed_at` to where its motion has taken
+    /// it at `time`: by `P(t₁) P(t₀)⁻¹ y = R(ω (t₁ − t₀)) (y − c − v t₀) + c + v t₁`, the turn
+    /// about the pivot where it was, then the pivot's travel.
+    fn pose_moving_solids(&mut self) {
+        let (from, to) = (self.posed_at, self.time);
+        if self.motions.is_empty() || to == from {
+            return;
+        }
+        let Some(god_object) = self.god_object.as_mut() else { return };
+        for (slot, motion) in &self.motions {
+            let turn = motion.rotation_at(to - from, M);
+            let rotation: [[f64; M]; M] = std::array::from_fn(|i| std::array::from_fn(|k| turn[i][k]));
+            let (pivot_before, pivot_after) = (motion.pivot_at(from), motion.pivot_at(to));
+            let pivot_before: [f64; M] = std::array::from_fn(|k| pivot_before[k]);
+            let turned_pivot = linalg::mat_vec(&rotation, &pivot_before);
+            let translation: [f64; M] = std::array::from_fn(|k| pivot_after[k] - turned_pivot[k]);
+            if !god_object.move_object(*slot, &RigidMotion { rotation, translation })
+                && self.refused_motion_at.is_none()
+            {
+                self.refused_motion_at = Some(to);
+            }
+        }
+        self.posed_at = to;
+    }
 }
 
 impl<const M: usize> ReferenceSource<f64, M> for SimSource<M> {
@@ -333,6 +396,8 @@ impl<const M: usize> ReferenceSource<f64, M> for SimSource<M> {
         parameters: &mut ImpedanceParameters<f64, M>,
     ) -> TaskReference<f64, M> {
         self.last_hip = *task_position;
+        self.rendered_at = self.time;
+        self.pose_moving_solids();
         if let Some(god_object) = &mut self.god_object {
             let reference = god_object.update_reference(task_position, parameters);
             self.last = reference.position;
@@ -397,6 +462,8 @@ pub struct PeriodSensors<const N: usize, const M: usize> {
     /// Force-sensor readings (raw units), when the simulation's scheduler says an impedance
     /// tick is due this period.
     pub force_readings: Option<[f64; M]>,
+    /// The simulated time at the start of the period, s.
+    pub time: f64,
 }
 
 /// What one impedance tick of the device's controller did, for the trace.
@@ -426,6 +493,8 @@ pub struct PeriodCommand<const N: usize, const M: usize> {
     /// The task position that reference was rendered for (the HIP the controller measured);
     /// NaN where the controller does not report it (the firmware under PIL).
     pub hip: [f64; M],
+    /// When that reference was rendered, s (NaN where the controller does not report it).
+    pub rendered_at: f64,
 }
 
 /// The controller in the closed loop of [`run_with`]: the runtime's [`HapticLoop`] on the host
@@ -452,6 +521,7 @@ where
 {
     fn period(&mut self, sensors: &PeriodSensors<N, M>) -> Result<PeriodCommand<N, M>, String> {
         let haptic = &mut self.haptic;
+        haptic.source.time = sensors.time;
         let (voltages, _) = haptic.current_tick(&sensors.measured_current);
         let impedance = sensors.force_readings.map(|readings| {
             self.tick = self.tick.wrapping_add(1);
@@ -477,6 +547,7 @@ where
             impedance,
             reference: haptic.source.last,
             hip: haptic.source.last_hip,
+            rendered_at: haptic.source.rendered_at,
         })
     }
 }
@@ -506,7 +577,10 @@ where
             .ok_or_else(|| "error: unusable loop rates in the generated rig".to_string())?;
         Ok(LocalController { haptic, tick: 0 })
     })
-    .map(|(trace, _)| trace)
+    .and_then(|(trace, controller)| match controller.haptic.source.refused_motion_at {
+        Some(time) => Err(format!("error: the renderer refused a moving solid's motion at t = {time:.4} s")),
+        None => Ok(trace),
+    })
 }
 
 /// Runs one simulation of `plant_model` with the controller `make` builds from the rig (with
@@ -551,13 +625,7 @@ where
                 Some(p) => array::<M>(p, "the reference position")?,
                 None => start.position,
             };
-            SimSource {
-                fixed: Some(TaskReference::at_rest(position)),
-                scene: None,
-                god_object: None,
-                last: position,
-                last_hip: start.position,
-            }
+            SimSource::new(Some(TaskReference::at_rest(position)), None, None, position, start.position)
         }
         Reference::Scene { objects, free_stiffness, free_damping, grid_spacing } => {
             if M != 2 {
@@ -569,13 +637,7 @@ where
             for object in objects {
                 scene.add(*object).ok_or_else(|| "error: too many virtual objects".to_string())?;
             }
-            SimSource {
-                fixed: None,
-                scene: Some(scene),
-                god_object: None,
-                last: start.position,
-                last_hip: start.position,
-            }
+            SimSource::new(None, Some(scene), None, start.position, start.position)
         }
         Reference::Solids { solids, effect } => {
             // A point proxy (radius 0) with a 1 µm contact tolerance (see `GodObject::new`).
@@ -583,18 +645,18 @@ where
             if let Some(effect) = effect {
                 god_object.effect = runtime_effect::<M>(effect, 1.0 / f64::from(data.impedance_loop_hz))?;
             }
+            let mut motions = Vec::new();
             for solid in solids {
-                god_object.add(solid.object::<M>()?).ok_or_else(|| {
+                let slot = god_object.add(solid.object::<M>()?).ok_or_else(|| {
                     format!("error: a scene holds at most {MAX_SOLIDS} solids, this one has {}", solids.len())
                 })?;
+                if let Some(motion) = &solid.motion {
+                    motions.push((slot, motion.clone()));
+                }
             }
-            SimSource {
-                fixed: None,
-                scene: None,
-                god_object: Some(god_object),
-                last: start.position,
-                last_hip: start.position,
-            }
+            let mut source = SimSource::new(None, None, Some(god_object), start.position, start.position);
+            source.motions = motions;
+            source
         }
     };
     let sensors: [SensorSpec; M] = std::array::from_fn(|k| {
@@ -654,6 +716,8 @@ where
     for (prefix, count) in [("q", N), ("qd", N), ("x", M), ("u", N), ("f", M), ("xp", M), ("xh", M)] {
         trace.columns.extend((0..count).map(|k| format!("{prefix}{k}")));
     }
+    trace.columns.push("tr".into());
+    let mut rendered_at = f64::NAN;
     let mut torque = [0.0; N];
     let wall = Instant::now();
     let mut bar: Option<indicatif::ProgressBar> = None;
@@ -674,6 +738,7 @@ where
             row.extend_from_slice(&force);
             row.extend_from_slice(&reference);
             row.extend_from_slice(&hip);
+            row.push(rendered_at);
             trace.rows.push(row);
         }
         if k == total {
@@ -699,6 +764,7 @@ where
             measured_current: plant.state.measured_current,
             encoder_counts: plant.encoder_counts(),
             force_readings: readings,
+            time: t,
         })?;
         if let Some(outcome) = command.impedance {
             trace.impedance_ticks += 1;
@@ -718,6 +784,7 @@ where
         }
         reference = command.reference;
         hip = command.hip;
+        rendered_at = command.rendered_at;
         let mut external = linalg::transpose_mul_vec(&task.jacobian, &force);
         let substep = dt / substeps as f64;
         for sub in 0..substeps {

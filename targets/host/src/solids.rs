@@ -5,10 +5,12 @@
 
 use hapticgen_codegen::mesh::TriangleMesh;
 use hapticgen_runtime::render::ObjectKind;
-use hapticgen_runtime::shape::{BvhNode, Material, Mesh, Object, Plane, Shape};
+use hapticgen_runtime::shape::{BvhNode, Material, Mesh, Object, Plane, RigidMotion, Shape};
 
 /// The geometry of a solid, in task coordinates: a scene file's (`hapticgen_codegen::scene`).
 pub use hapticgen_codegen::scene::SceneShape as SolidShape;
+
+use hapticgen_codegen::scene::SceneMotion;
 
 /// A solid with its surface's material.
 #[derive(Clone, Debug, PartialEq)]
@@ -25,6 +27,9 @@ pub struct Solid {
     pub static_friction: f64,
     /// Dynamic friction coefficient, at most the static one.
     pub dynamic_friction: f64,
+    /// How it moves, if it does (`shape` is where it is at time 0); the simulator moves it
+    /// before every impedance tick ([`crate::sim::SimSource`]).
+    pub motion: Option<SceneMotion>,
 }
 
 impl From<&hapticgen_codegen::scene::SceneObject> for Solid {
@@ -36,6 +41,7 @@ impl From<&hapticgen_codegen::scene::SceneObject> for Solid {
             damping: object.damping,
             static_friction: object.static_friction,
             dynamic_friction: object.dynamic_friction,
+            motion: object.motion.clone(),
         }
     }
 }
@@ -121,7 +127,10 @@ impl Solid {
                     vertex_normals: leak(&mesh.vertex_normals),
                     nodes: Box::leak(nodes.into_boxed_slice()),
                 }));
-                Shape::MeshAt { mesh: runtime_mesh, offset: array::<M>(offset, "a mesh's offset")? }
+                Shape::MeshAt {
+                    mesh: runtime_mesh,
+                    placement: RigidMotion::translation(array::<M>(offset, "a mesh's offset")?),
+                }
             }
         };
         Ok(Object {
@@ -146,6 +155,15 @@ impl Solid {
             -depth_in_shape
         } else {
             depth_in_shape
+        }
+    }
+
+    /// [`Solid::depth`] of the solid where its motion has taken it at `time`, s (where it is
+    /// at time 0 for a solid that does not move).
+    pub fn depth_at(&self, p: &[f64], time: f64) -> f64 {
+        match &self.motion {
+            Some(motion) => self.depth(&motion.carried_back(time, p)),
+            None => self.depth(p),
         }
     }
 
@@ -327,6 +345,7 @@ mod tests {
             damping: 0.0,
             static_friction: 0.0,
             dynamic_friction: 0.0,
+            motion: None,
         }
     }
 

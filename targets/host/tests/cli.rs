@@ -552,6 +552,48 @@ fn a_turned_box_and_a_polytope_push_along_their_tilted_face() {
     }
 }
 
+/// A moving object: a slab under the Delta's hand tilts about the y axis through its centre at
+/// 0.1 rad/s (`motion: {angular_velocity, pivot}`). Pressed on its top, the rendered force (the
+/// proxy's offset from the HIP) follows the slab's turning normal `Ry(ω t_r) e_z`, `t_r` the
+/// time the proxy was rendered (the trace's `tr`), up to the proxy's 1 µm skin sideways, and
+/// the proxy is never inside the slab where it was then.
+#[test]
+fn a_tilting_slab_turns_the_force_with_its_face() {
+    let (centre, rate) = ([0.0, 0.0, -0.1288], 0.1f64);
+    let scene_text = format!(
+        "objects:\n  - box:\n      centre: {centre:?}\n      half_extents: [0.03, 0.03, 0.01]\n      stiffness: 1500\n      damping: 5\n      motion: {{angular_velocity: [0, {rate}, 0], pivot: {centre:?}}}\n"
+    );
+    let (stdout, header, rows) = delta_wall_on_scene("tilting-slab", &scene_text, "2.5");
+    assert!(
+        stdout.contains("| wall | the proxy never inside a solid |") && !stdout.contains("FAIL"),
+        "{stdout}"
+    );
+    let column = |name: &str| header.iter().position(|h| h == name).unwrap_or_else(|| panic!("{name}"));
+    let (t, proxy, hip, rendered_at) = (column("t"), column("xp0"), column("xh0"), column("tr"));
+    let pressed: Vec<(f64, [f64; 3])> = rows
+        .iter()
+        .filter(|row| (1.0..2.5).contains(&row[t]))
+        .map(|row| (row[rendered_at], std::array::from_fn(|k| row[proxy + k] - row[hip + k])))
+        .collect();
+    assert!(pressed.len() > 100, "{} rows pressed", pressed.len());
+    let mut largest_sideways = 0.0f64;
+    for (time, offset) in pressed {
+        let length = offset.iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!(length > 1e-4, "not pressed in at t = {time}: {offset:?}");
+        let pitch = rate * time;
+        let normal = [pitch.sin(), 0.0, pitch.cos()];
+        let cosine = (0..3).map(|k| offset[k] * normal[k]).sum::<f64>() / length;
+        let angle = cosine.clamp(-1.0, 1.0).acos();
+        largest_sideways = largest_sideways.max(angle * length);
+        // The proxy may end a move up to its skin (1 µm) short of its goal along the face.
+        assert!(
+            angle * length < 1.05e-6,
+            "at t = {time}: force {offset:?} {angle} rad off the face's normal {normal:?}"
+        );
+    }
+    println!("largest sideways offset of the proxy from the HIP's projection: {largest_sideways:.2e} m");
+}
+
 /// A scene file's free-space effect: a spring of 500 N/m anchored at the Delta's start, and no
 /// object. The wall scenario's hand (200 N/m) pulls 3 cm down and holds: the grip settles
 /// where the two springs balance, `k d = k_h (3 cm − d)`, d = 8.57 mm, and the reference (the

@@ -286,7 +286,7 @@ impl GeneratedRig {
                 tau = literal(self.sense_time_constant),
                 mesh_argument = match (&self.mesh, &self.scene) {
                     (Some(_), _) => ", &mesh::SPHERE",
-                    (None, Some(_)) => ", scene::objects()",
+                    (None, Some(_)) => ", scene::objects(), scene::effect",
                     (None, None) => "",
                 },
             );
@@ -301,7 +301,8 @@ impl GeneratedRig {
             if let Some(scene) = &self.scene {
                 let _ = writeln!(
                     glue,
-                    "\x20   /// The scene file's objects (meshes as `static` arrays, in flash on the target).\n\
+                    "\x20   /// The scene file's objects (meshes as `static` arrays, in flash on the target) and its\n\
+                     \x20   /// free-space effect.\n\
                      \x20   #[allow(clippy::all, missing_docs)]\n\
                      \x20   pub mod scene {{\n{scene}\x20   }}"
                 );

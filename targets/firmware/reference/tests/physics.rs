@@ -2,6 +2,7 @@
 //! numbers come from the scenario's own constants, not from earlier runs). Every image whose
 //! line names the scenario is checked.
 
+use hapticgen_codegen::scene::SceneEffect;
 use hapticgen_fw_reference::{find, host_run, int, list, variants};
 use hapticgen_fw_sim::scenarios::{
     hold_pose, joint_spring, scene_contact, sphere_cavity, wall_contact, PAPER_RENDERING,
@@ -29,6 +30,10 @@ fn at(trace: &[(i64, Vec<i64>, Vec<i64>)], k: i64) -> &[i64] {
 
 fn offset(a: &[i64], b: &[i64]) -> Vec<f64> {
     a.iter().zip(b).map(|(x, y)| (x - y) as f64 * 1e-6).collect()
+}
+
+fn offset_m(a: &[f64], b: &[f64]) -> Vec<f64> {
+    a.iter().zip(b).map(|(x, y)| x - y).collect()
 }
 
 fn norm(v: &[f64]) -> f64 {
@@ -135,19 +140,41 @@ fn scene_contact_rests_force_over_stiffness_inside_the_scene() {
         let [_, stiffness, _] = variants::rendering(name).unwrap_or(PAPER_RENDERING);
         let t = trace(name);
         // The push lasts to the end: over the last 0.3 s the point rests F/K deep in the
-        // object it was pushed onto, and nowhere deeper.
-        let late: Vec<f64> = t
+        // object it was pushed onto, and nowhere deeper; or, with a spring effect holding it
+        // in free space, F/k below the spring's anchor, outside every object.
+        let late: Vec<Vec<f64>> = t
             .iter()
             .filter(|(k, _, _)| *k >= 9000)
-            .map(|(_, _, x)| {
-                let x: Vec<f64> = x.iter().map(|v| *v as f64 * 1e-6).collect();
-                scene.objects.iter().filter_map(|object| object.depth(&x)).fold(f64::NEG_INFINITY, f64::max)
-            })
+            .map(|(_, _, x)| x.iter().map(|v| *v as f64 * 1e-6).collect())
             .collect();
         assert!(!late.is_empty());
-        let expected = scene_contact::FORCE / stiffness;
-        for depth in late {
-            assert!((depth - expected).abs() < 0.1 * expected, "{name}: {depth} m deep, F/K = {expected}");
+        let deepest = |x: &[f64]| {
+            scene.objects.iter().filter_map(|object| object.depth(x)).fold(f64::NEG_INFINITY, f64::max)
+        };
+        match &scene.effect {
+            None => {
+                let expected = scene_contact::FORCE / stiffness;
+                for x in late {
+                    let depth = deepest(&x);
+                    assert!(
+                        (depth - expected).abs() < 0.1 * expected,
+                        "{name}: {depth} m deep, F/K = {expected}"
+                    );
+                }
+            }
+            Some(SceneEffect::Spring { anchor, stiffness }) => {
+                let sag = scene_contact::FORCE / stiffness;
+                let mut expected = anchor.clone();
+                *expected.last_mut().unwrap() -= sag;
+                for x in late {
+                    assert!(
+                        norm(&offset_m(&x, &expected)) < 0.1 * sag,
+                        "{name}: at {x:?}, F/k below the anchor {expected:?}"
+                    );
+                    assert!(deepest(&x) < 0.0, "{name}: at {x:?}, inside an object");
+                }
+            }
+            Some(other) => panic!("{name}: no closed form here for the effect {other:?}"),
         }
     }
 }

@@ -377,7 +377,7 @@ pub mod mesh_contact {
     use super::*;
     use hapticgen_runtime::proxy::GodObject;
     use hapticgen_runtime::render::ObjectKind;
-    use hapticgen_runtime::shape::{Material, Mesh, Object, Shape};
+    use hapticgen_runtime::shape::{Material, Mesh, Object, RigidMotion, Shape};
 
     /// Operator force, N, along `(2, 1, 2)/3`.
     pub const FORCE: f64 = 1.0;
@@ -407,7 +407,7 @@ pub mod mesh_contact {
         let start = rig.position(&setup.start);
         let mut scene = GodObject::new(wall_stiffness, wall_damping, s(PROXY_RADIUS), s(SKIN));
         scene.add(Object {
-            shape: Shape::MeshAt { mesh, offset: start },
+            shape: Shape::MeshAt { mesh, placement: RigidMotion::translation(start) },
             kind: ObjectKind::Cavity,
             material: Material::frictionless(wall_stiffness, wall_damping),
         })?;
@@ -419,17 +419,19 @@ pub mod mesh_contact {
 
 /// A scene file's objects touched through the god-object proxy (any `N` and `M`; the
 /// `variants.txt` line names the file, docs/scenes.md): the runtime's
-/// [`GodObject`](hapticgen_runtime::proxy::GodObject) with the file's objects, which the
-/// image's glue emits (`hapticgen_codegen::scene::emit`; meshes as `static` arrays, in flash),
-/// in the task frame as written (place them about the start's task point). The
-/// Jacobian-transpose law with the rendering's wall `K_d`, `B_d`; the operator pushes with
+/// [`GodObject`](hapticgen_runtime::proxy::GodObject) with the file's objects and free-space
+/// effect, which the image's glue emits (`hapticgen_codegen::scene::emit`; meshes as `static`
+/// arrays, in flash), in the task frame as written (place them about the start's task point).
+/// The Jacobian-transpose law with the rendering's wall `K_d`, `B_d`; the operator pushes with
 /// [`FORCE`](scene_contact::FORCE) along the last task axis's negative direction (down, for a
 /// spatial device) from 0.1 s to the end, 1.5 s, so that the proxy stops on what is below the
-/// start and the HIP rests `F/K_d` beyond it. (The push lasts to the end, unlike the other
+/// start and the HIP rests `F/K_d` beyond it (or, held in free space by a spring effect of
+/// stiffness `k`, rests `F/k` below the spring's anchor). (The push lasts to the end, unlike the other
 /// contact scenarios': let go above a solid, the device would drift in free space, where
 /// nothing holds it and an `f32` and an `f64` run drift apart.)
 pub mod scene_contact {
     use super::*;
+    use hapticgen_runtime::effects::Effect;
     use hapticgen_runtime::proxy::GodObject;
     use hapticgen_runtime::shape::Object;
 
@@ -449,8 +451,9 @@ pub mod scene_contact {
     /// The scenario type for a rig `R`.
     pub type Run<R, const N: usize, const M: usize> = Scenario<R, Source<R, N, M>, N, M>;
 
-    /// Builds the run on `objects`; `None` if the rig's rates are unusable, the task has no
-    /// coordinate or the scene has more than [`CAPACITY`] objects.
+    /// Builds the run on `objects` with the free-space effect `effect(impedance period)`;
+    /// `None` if the rig's rates are unusable, the task has no coordinate or the scene has more
+    /// than [`CAPACITY`] objects.
     pub fn new<R: FusedImpedance<N, M> + Clone, const N: usize, const M: usize, const K: usize>(
         name: &'static str,
         rig: R,
@@ -458,12 +461,14 @@ pub mod scene_contact {
         sense_time_constant: R::Scalar,
         profile: bool,
         objects: [Object<'static, R::Scalar, M>; K],
+        effect: fn(R::Scalar) -> Effect<R::Scalar, M>,
     ) -> Option<Run<R, N, M>> {
         let [_, wall_stiffness, wall_damping] = rendering(setup);
         let mut scene = GodObject::new(wall_stiffness, wall_damping, s(PROXY_RADIUS), s(SKIN));
         for object in objects {
             scene.add(object)?;
         }
+        scene.effect = effect(s(1.0 / f64::from(R::IMPEDANCE_LOOP_HZ)));
         let mut force = [R::Scalar::ZERO; M];
         *force.last_mut()? = s(-FORCE);
         // The proxy has no grid: the two runs differ by rounding and the skin.
