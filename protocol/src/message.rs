@@ -12,12 +12,13 @@
 
 use serde::{Deserialize, Serialize};
 
-/// The protocol version both sides must speak (exchanged in the handshake). Version 3 sends
+/// The protocol version both sides must speak (exchanged in the handshake). Version 4 adds
+/// [`HostMessage::SetEffect`] (a free-space effect for the device's scene). Version 3 sends
 /// the state frame's channels in a code without zero bytes ([`CHANNEL_CODES`]; version 2 sent
 /// them as `i16`, and the encoder counts modulo 2¹⁶); version 2 added [`HostMessage::PilSetup`]
 /// and made [`DeviceMessage::Actuators`] an [`ActuatorFrame`] (processor in the loop);
 /// version 1 had neither.
-pub const PROTOCOL_VERSION: u16 = 3;
+pub const PROTOCOL_VERSION: u16 = 4;
 
 /// The values a state frame's channel can take: its two bytes on the wire are each from 1 to
 /// 255, the base-255 digits (low first) of the value plus [`CHANNEL_LIMIT`], each plus one.
@@ -152,6 +153,41 @@ pub enum SceneObject {
     },
 }
 
+/// What the operator feels away from every object of the device's scene (the runtime's
+/// `effects::Effect`; vectors in the task frame).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum LinkEffect {
+    /// No effect.
+    None,
+    /// A spring pulling towards `anchor`.
+    Spring {
+        /// The point it pulls towards, m.
+        anchor: [f32; MAX_TASK],
+        /// Stiffness, N/m.
+        stiffness: f32,
+    },
+    /// A viscous field.
+    Viscous {
+        /// Damping, N·s/m.
+        damping: f32,
+    },
+    /// A constant force, N.
+    Force {
+        /// The force.
+        force: [f32; MAX_TASK],
+    },
+    /// `amplitude · sin(2π frequency t)` along the unit `direction` (the device advances it
+    /// by its impedance tick's period).
+    Vibration {
+        /// Unit direction.
+        direction: [f32; MAX_TASK],
+        /// Amplitude, N.
+        amplitude: f32,
+        /// Frequency, Hz.
+        frequency: f32,
+    },
+}
+
 /// Processor-in-the-loop sensor frame: what the device's peripherals would read this tick.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SensorFrame {
@@ -283,6 +319,9 @@ pub enum HostMessage {
     Sensors(SensorFrame),
     /// Processor-in-the-loop: the controller's configuration for the run.
     PilSetup(PilSetup),
+    /// The free-space effect of the device's scene (rendered while the point touches none of
+    /// the scene's objects).
+    SetEffect(LinkEffect),
 }
 
 /// The kind of a [`HostMessage`]: the first byte of its serialisation (postcard writes an
@@ -295,7 +334,7 @@ pub enum HostMessage {
 /// The fields of each kind, as [`crate::Received::payload`] decodes them: `Hello`: the version
 /// (`u16`); `Heartbeat`: the sequence (`u16`); `Enable`, `Disable`, `ResetFault`: nothing
 /// (`()`); `SetImpedance`: [`ImpedanceSettings`]; `SetObject`: `(u8, SceneObject)`;
-/// `Sensors`: [`SensorFrame`]; `PilSetup`: [`PilSetup`] (checked for every message by
+/// `Sensors`: [`SensorFrame`]; `PilSetup`: [`PilSetup`]; `SetEffect`: [`LinkEffect`] (checked for every message by
 /// `host_kinds_decode_as_host_messages` in `tests/frames.rs`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum HostKind {
@@ -317,6 +356,8 @@ pub enum HostKind {
     Sensors,
     /// [`HostMessage::PilSetup`].
     PilSetup,
+    /// [`HostMessage::SetEffect`].
+    SetEffect,
 }
 
 impl HostKind {
@@ -332,6 +373,7 @@ impl HostKind {
             6 => Self::SetObject,
             7 => Self::Sensors,
             8 => Self::PilSetup,
+            9 => Self::SetEffect,
             _ => return None,
         })
     }

@@ -5,8 +5,8 @@
 use hapticgen_protocol::message::Channels;
 use hapticgen_protocol::{
     encode, ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, FrameDecoder, HostKind,
-    HostMessage, ImpedanceSettings, LinkCounters, PilLaw, PilSetup, SceneObject, SensorFrame, StateFrame,
-    StateSample, MAX_FRAME_BYTES,
+    HostMessage, ImpedanceSettings, LinkCounters, LinkEffect, PilLaw, PilSetup, SceneObject, SensorFrame,
+    StateFrame, StateSample, MAX_FRAME_BYTES,
 };
 use proptest::prelude::*;
 
@@ -76,6 +76,19 @@ fn host_message() -> impl Strategy<Value = HostMessage> {
                 HostMessage::Sensors(SensorFrame { tick, encoder_counts, motor_current, force_readings })
             }),
         pil_setup().prop_map(HostMessage::PilSetup),
+        link_effect().prop_map(HostMessage::SetEffect),
+    ]
+}
+
+fn link_effect() -> impl Strategy<Value = LinkEffect> {
+    prop_oneof![
+        Just(LinkEffect::None),
+        (task_vector(), finite()).prop_map(|(anchor, stiffness)| LinkEffect::Spring { anchor, stiffness }),
+        finite().prop_map(|damping| LinkEffect::Viscous { damping }),
+        task_vector().prop_map(|force| LinkEffect::Force { force }),
+        (task_vector(), finite(), finite()).prop_map(|(direction, amplitude, frequency)| {
+            LinkEffect::Vibration { direction, amplitude, frequency }
+        }),
     ]
 }
 
@@ -251,6 +264,7 @@ fn by_kind(frame: &[u8]) -> Option<HostMessage> {
         }
         HostKind::Sensors => HostMessage::Sensors(received.payload()?),
         HostKind::PilSetup => HostMessage::PilSetup(received.payload()?),
+        HostKind::SetEffect => HostMessage::SetEffect(received.payload()?),
     })
 }
 

@@ -76,11 +76,16 @@ const BISECTIONS: usize = 48;
 /// The most faces, over every mesh of the scene, kept as the candidates that can limit the
 /// proxy's sweeps (see `GodObject::gather_candidates`); a mesh with more faces near the HIP is
 /// searched through its BVH at every step instead.
-pub const CANDIDATE_FACES: usize = 32;
+pub const CANDIDATE_FACES: usize = 16;
 
 /// The radius the candidates are gathered within, over the update's reach: the slack lets
 /// later updates reuse them while the HIP stays within it.
 const GATHER_GROWTH: f64 = 1.25;
+
+/// After the faces within the slack did not fit, the slack is tried again only once the reach
+/// is below this share of the reach it failed at (each failed try costs a walk that stops at
+/// the first face too many).
+const SLACK_RETRY: f64 = 0.75;
 
 /// The faces of the scene's meshes that can limit the proxy's sweeps: every face of a mesh
 /// with a range that lies within `radius` of `center`, kept from update to update while the
@@ -98,6 +103,8 @@ struct CandidateCache<S, const K: usize, const M: usize> {
     radius: S,
     /// `true` while the gathering holds for later updates (every mesh fitted, nothing moved).
     reusable: bool,
+    /// The reach at which the faces within the slack last did not fit (infinite: never).
+    slack_failed_at: S,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -169,6 +176,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 center: [S::ZERO; M],
                 radius: S::ZERO,
                 reusable: false,
+                slack_failed_at: S::from_f64(f64::INFINITY),
             },
         }
     }
@@ -180,6 +188,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             *slot = Some(object);
         }
         self.candidates.reusable = false;
+        self.candidates.slack_failed_at = S::from_f64(f64::INFINITY);
         Some(index)
     }
 
@@ -298,16 +307,28 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         if cache.reusable && norm(&sub(hip, &cache.center)) + reach <= cache.radius {
             return;
         }
-        // With slack for later updates; if the faces do not fit, the reach alone.
-        for radius in [reach * S::from_f64(GATHER_GROWTH), reach] {
-            if self.gather_within(hip, radius) {
-                self.candidates.center = *hip;
-                self.candidates.radius = radius;
-                self.candidates.reusable = true;
-                return;
-            }
+        // With slack for later updates (unless that failed at about this reach); if the faces
+        // do not fit, the reach alone.
+        let slack = reach < self.candidates.slack_failed_at * S::from_f64(SLACK_RETRY);
+        if slack && self.gather_within(hip, reach * S::from_f64(GATHER_GROWTH)) {
+            self.keep_candidates(hip, reach * S::from_f64(GATHER_GROWTH));
+            return;
+        }
+        if slack {
+            self.candidates.slack_failed_at = reach;
+        }
+        if self.gather_within(hip, reach) {
+            self.keep_candidates(hip, reach);
+            return;
         }
         self.candidates.reusable = false;
+    }
+
+    /// Marks the candidates just gathered, within `radius` of `center`, as reusable.
+    fn keep_candidates(&mut self, center: &[S; M], radius: S) {
+        self.candidates.center = *center;
+        self.candidates.radius = radius;
+        self.candidates.reusable = true;
     }
 
     /// Puts every mesh's faces within `radius` of `hip` in the candidates; `false` when some

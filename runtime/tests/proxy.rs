@@ -1363,9 +1363,9 @@ fn the_entry_into_a_grown_triangle_is_where_the_distance_reaches_the_margin() {
 /// off: every sweep step then searches the whole mesh), also while the mesh turns.
 #[test]
 fn candidate_faces_leave_the_proxy_where_a_search_of_every_face_puts_it() {
-    // Twelve faces, and 864 (8.3 mm squares, so that the candidates are a few of them; with a
+    // Twelve faces, and 384 (12.5 mm squares, so that the candidates are a few of them; with a
     // BVH, so that the search at every step is quick enough).
-    let fine = leaked_with_bvh(leaked_subdivided_cube_mesh(0.05, 12));
+    let fine = leaked_with_bvh(leaked_subdivided_cube_mesh(0.05, 8));
     for (cube, ticks) in [(leaked_cube_mesh(0.05), 20_000), (fine, 6_000)] {
         candidates_against_every_face(cube, ticks);
     }

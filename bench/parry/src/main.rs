@@ -55,10 +55,55 @@ fn best_ns(rounds: &mut [f64], round: usize, calls: usize, f: impl FnOnce() -> f
     rounds[round] = ns;
 }
 
-/// The mesh of size `index` (0, 1, 2: about 1k, 10k and 100k triangles) as hapticgen builds it.
-fn sphere(index: usize) -> TriangleMesh {
-    let [(rings, segments), ..] = &SIZES[index..] else { panic!("size index {index} out of 0..3") };
-    TriangleMesh::uv_sphere(RADIUS, *rings, *segments).expect("a valid sphere").with_bvh(4)
+/// The mesh of size `index` (0, 1, 2: about 1k, 10k and 100k triangles) as hapticgen builds it,
+/// with its BVH in the runtime's node type.
+struct Sphere {
+    built: TriangleMesh,
+    nodes: Vec<BvhNode<f64, 3>>,
+}
+
+impl Sphere {
+    fn new(index: usize) -> Self {
+        let [(rings, segments), ..] = &SIZES[index..] else { panic!("size index {index} out of 0..3") };
+        let built = TriangleMesh::uv_sphere(RADIUS, *rings, *segments).expect("a valid sphere").with_bvh(4);
+        let nodes = built
+            .nodes
+            .iter()
+            .map(|n| BvhNode { min: n.min, max: n.max, first: n.first, count: n.count })
+            .collect();
+        Self { built, nodes }
+    }
+
+    /// The runtime's mesh over these arrays.
+    fn mesh(&self) -> Mesh<'_, f64, 3> {
+        Mesh {
+            vertices: &self.built.vertices,
+            faces: &self.built.faces,
+            face_normals: &self.built.face_normals,
+            vertex_normals: &self.built.vertex_normals,
+            nodes: &self.nodes,
+        }
+    }
+
+    /// The same vertices and faces handed to parry3d.
+    fn parry(&self) -> TriMesh {
+        let vertices: Vec<Vector> =
+            self.built.vertices.iter().map(|v| Vector::new(v[0], v[1], v[2])).collect();
+        TriMesh::new(vertices, self.built.faces.clone()).expect("a valid mesh for parry3d")
+    }
+}
+
+/// A god object with `mesh` as its one solid (proxy radius 1 mm, skin 1 nm).
+fn scene_of<'a>(mesh: &'a Mesh<'a, f64, 3>) -> GodObject<'a, f64, 1, 3> {
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, 1e-3, 1e-9);
+    scene
+        .add(Object {
+            shape: Shape::Mesh(mesh),
+            kind: ObjectKind::Solid,
+            material: Material::frictionless(1500.0, 5.0),
+        })
+        .expect("one slot");
+    scene
 }
 
 /// UV spheres' rings and segments: 960, 9,800 and 99,224 triangles.
@@ -68,29 +113,9 @@ const SIZES: [(usize, usize); 3] = [(16, 32), (50, 100), (158, 316)];
 /// `SIZE` (0, 1, 2), for exact instruction counts under callgrind (`bench/render-vs-parry.sh
 /// --instructions`: the difference between `N` and 0 operations, over `N`).
 fn count(operation: &str, size: usize, n: usize) {
-    let built = sphere(size);
-    let nodes: Vec<BvhNode<f64, 3>> = built
-        .nodes
-        .iter()
-        .map(|n| BvhNode { min: n.min, max: n.max, first: n.first, count: n.count })
-        .collect();
-    let mesh = Mesh {
-        vertices: &built.vertices,
-        faces: &built.faces,
-        face_normals: &built.face_normals,
-        vertex_normals: &built.vertex_normals,
-        nodes: &nodes,
-    };
-    let vertices: Vec<Vector> = built.vertices.iter().map(|v| Vector::new(v[0], v[1], v[2])).collect();
-    let parry = TriMesh::new(vertices, built.faces.clone()).expect("a valid mesh for parry3d");
-    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, 1e-3, 1e-9);
-    scene
-        .add(Object {
-            shape: Shape::Mesh(&mesh),
-            kind: ObjectKind::Solid,
-            material: Material::frictionless(1500.0, 5.0),
-        })
-        .expect("one slot");
+    let sphere = Sphere::new(size);
+    let (mesh, parry) = (sphere.mesh(), sphere.parry());
+    let mut scene = scene_of(&mesh);
     scene.reset([0.0, 0.0, RADIUS + 0.01]);
     // Into contact first, so that every counted update slides on the surface.
     for k in 0..100 {
@@ -121,21 +146,8 @@ fn main() {
     println!("| triangles | proxy update (ns) | closest point, hapticgen BVH (ns) | point projection, parry3d (ns) | parry3d / proxy update | parry3d / closest point |");
     println!("| --- | --- | --- | --- | --- | --- |");
     for size in 0..SIZES.len() {
-        let built = sphere(size);
-        let nodes: Vec<BvhNode<f64, 3>> = built
-            .nodes
-            .iter()
-            .map(|n| BvhNode { min: n.min, max: n.max, first: n.first, count: n.count })
-            .collect();
-        let mesh = Mesh {
-            vertices: &built.vertices,
-            faces: &built.faces,
-            face_normals: &built.face_normals,
-            vertex_normals: &built.vertex_normals,
-            nodes: &nodes,
-        };
-        let vertices: Vec<Vector> = built.vertices.iter().map(|v| Vector::new(v[0], v[1], v[2])).collect();
-        let parry = TriMesh::new(vertices, built.faces.clone()).expect("a valid mesh for parry3d");
+        let sphere = Sphere::new(size);
+        let (mesh, parry) = (sphere.mesh(), sphere.parry());
         let identity = Pose::IDENTITY;
         let project = |p: &[f64; 3]| {
             let projection = parry.project_point(&identity, Vector::new(p[0], p[1], p[2]), false);
@@ -152,18 +164,11 @@ fn main() {
             assert!(
                 (d_ours - d_theirs).abs() <= 1e-12,
                 "{} triangles, point {p:?}: hapticgen {ours:?} at {d_ours}, parry3d {theirs:?} at {d_theirs}",
-                built.faces.len()
+                mesh.faces.len()
             );
         }
 
-        let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, 1e-3, 1e-9);
-        scene
-            .add(Object {
-                shape: Shape::Mesh(&mesh),
-                kind: ObjectKind::Solid,
-                material: Material::frictionless(1500.0, 5.0),
-            })
-            .expect("one slot");
+        let mut scene = scene_of(&mesh);
         let (updates, queries) = (20_000, 5_000);
         let (mut update, mut closest, mut projection) = ([0.0; 5], [0.0; 5], [0.0; 5]);
         for round in 0..5 {
@@ -180,7 +185,7 @@ fn main() {
         let (update, closest, projection) = (best(update), best(closest), best(projection));
         println!(
             "| {} | {update:.0} | {closest:.0} | {projection:.0} | {:.2} | {:.2} |",
-            built.faces.len(),
+            mesh.faces.len(),
             projection / update,
             projection / closest
         );

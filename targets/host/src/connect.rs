@@ -29,7 +29,7 @@ use std::time::{Duration, Instant};
 
 use hapticgen_protocol::{
     encode, DeviceInfo, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, LinkCounters,
-    SceneObject, StateFrame, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION, SCENE_SLOTS,
+    LinkEffect, SceneObject, StateFrame, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION, SCENE_SLOTS,
 };
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
@@ -103,17 +103,59 @@ impl std::str::FromStr for Port {
     }
 }
 
+/// A scene as the link carries it: the objects for the device's slots and the free-space
+/// effect.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeviceScene {
+    /// The objects, in the file's order (`SetObject`).
+    pub objects: Vec<SceneObject>,
+    /// The effect (`SetEffect`; [`LinkEffect::None`] when the file names none).
+    pub effect: LinkEffect,
+}
+
 /// Reads a scene file ([`crate::scene`]) for a device: up to [`SCENE_SLOTS`] spheres, boxes
-/// and half-spaces without friction (what the link's `SetObject` carries), vectors of 1 to 3
-/// coordinates (the missing ones zero). Every error names the file, line and column.
-pub fn load_scene(path: &Path) -> Result<Vec<SceneObject>, String> {
-    device_objects(&crate::scene::load(path)?)
+/// and half-spaces without friction (what the link's `SetObject` carries), and its effect,
+/// vectors of 1 to 3 coordinates (the missing ones zero). Every error names the file, line and
+/// column.
+pub fn load_scene(path: &Path) -> Result<DeviceScene, String> {
+    device_scene(&crate::scene::load(path)?)
 }
 
 /// [`load_scene`] of `text`, named `name` in the errors (meshes read relative to the current
 /// directory).
-pub fn parse_scene(name: &str, text: &str) -> Result<Vec<SceneObject>, String> {
-    device_objects(&crate::scene::parse(name, text, Path::new("."))?)
+pub fn parse_scene(name: &str, text: &str) -> Result<DeviceScene, String> {
+    device_scene(&crate::scene::parse(name, text, Path::new("."))?)
+}
+
+fn device_scene(scene: &crate::scene::Scene) -> Result<DeviceScene, String> {
+    Ok(DeviceScene { objects: device_objects(scene)?, effect: device_effect(scene.effect.as_ref()) })
+}
+
+/// A scene file's effect as the link carries it (vectors padded with zeros to [`MAX_TASK`]).
+fn device_effect(effect: Option<&crate::scene::SceneEffect>) -> LinkEffect {
+    use crate::scene::SceneEffect;
+    match effect {
+        None => LinkEffect::None,
+        Some(SceneEffect::Spring { anchor, stiffness }) => {
+            LinkEffect::Spring { anchor: padded(anchor), stiffness: *stiffness as f32 }
+        }
+        Some(SceneEffect::Viscous { damping }) => LinkEffect::Viscous { damping: *damping as f32 },
+        Some(SceneEffect::Force { force }) => LinkEffect::Force { force: padded(force) },
+        Some(SceneEffect::Vibration { direction, amplitude, frequency }) => LinkEffect::Vibration {
+            direction: padded(direction),
+            amplitude: *amplitude as f32,
+            frequency: *frequency as f32,
+        },
+    }
+}
+
+/// A task vector in `f32`, padded with zeros to [`MAX_TASK`] (a scene's vectors have 1 to 3).
+fn padded(values: &[f64]) -> [f32; MAX_TASK] {
+    let mut out = [0.0; MAX_TASK];
+    for (slot, value) in out.iter_mut().zip(values) {
+        *slot = *value as f32;
+    }
+    out
 }
 
 /// A scene's objects as the link carries them.
@@ -126,13 +168,6 @@ fn device_objects(scene: &crate::scene::Scene) -> Result<Vec<SceneObject>, Strin
             scene.objects.len()
         ));
     }
-    let padded = |values: &[f64]| -> [f32; MAX_TASK] {
-        let mut out = [0.0; MAX_TASK];
-        for (slot, value) in out.iter_mut().zip(values) {
-            *slot = *value as f32;
-        }
-        out
-    };
     let mut objects = Vec::with_capacity(scene.objects.len());
     for object in &scene.objects {
         if object.static_friction != 0.0 || object.dynamic_friction != 0.0 {
@@ -853,11 +888,26 @@ mod tests {
     }
 
     #[test]
+    fn a_scene_s_effect_goes_to_the_device_padded_to_three_axes() {
+        let text = "objects: []\neffect: {vibration: {direction: [0, 2], amplitude: 0.5, frequency: 80}}\n";
+        assert_eq!(
+            parse_scene("s.yaml", text).unwrap().effect,
+            LinkEffect::Vibration { direction: [0.0, 1.0, 0.0], amplitude: 0.5, frequency: 80.0 }
+        );
+        let spring = "objects: []\neffect: {spring: {anchor: [0.01, 0.2], stiffness: 300}}\n";
+        assert_eq!(
+            parse_scene("s.yaml", spring).unwrap().effect,
+            LinkEffect::Spring { anchor: [0.01, 0.2, 0.0], stiffness: 300.0 }
+        );
+        assert_eq!(parse_scene("s.yaml", "objects: []\n").unwrap().effect, LinkEffect::None);
+    }
+
+    #[test]
     fn scene_files_give_objects_and_located_errors() {
         let text =
             "objects:\n  - sphere: {centre: [0.01, 0.2], radius: 0.02, stiffness: 1500, damping: 5}\n  \
                     - half_space: {point: [0, 0, 0], normal: [0, 0, 2], stiffness: 1000, damping: 2}\n";
-        let objects = parse_scene("s.yaml", text).unwrap();
+        let objects = parse_scene("s.yaml", text).unwrap().objects;
         assert_eq!(objects.len(), 2);
         assert!(
             matches!(objects[0], SceneObject::Sphere { centre: [0.01, 0.2, 0.0], radius, cavity: false, .. } if radius == 0.02)
@@ -885,7 +935,7 @@ mod tests {
         let error = parse_scene("s.yaml", turned).unwrap_err();
         assert!(error.starts_with("error: s.yaml:2:") && error.contains("axis-aligned boxes"), "{error}");
         let level = "objects:\n  - box: {centre: [0, 0], half_extents: [1, 1], stiffness: 1, damping: 0}\n";
-        assert!(matches!(parse_scene("s.yaml", level).unwrap()[0], SceneObject::Box { .. }));
+        assert!(matches!(parse_scene("s.yaml", level).unwrap().objects[0], SceneObject::Box { .. }));
     }
 
     #[test]

@@ -417,12 +417,13 @@ fn connect(args: ConnectArgs) -> Result<(), String> {
     if let Some(settings) = impedance {
         session.send(&HostMessage::SetImpedance(settings))?;
     }
-    if let Some(objects) = &scene {
+    if let Some(scene) = &scene {
         for slot in 0..SCENE_SLOTS {
-            let object = objects.get(slot).copied().unwrap_or(SceneObject::Empty);
+            let object = scene.objects.get(slot).copied().unwrap_or(SceneObject::Empty);
             session.send(&HostMessage::SetObject { slot: slot as u8, object })?;
         }
-        println!("scene: {} objects loaded", objects.len());
+        session.send(&HostMessage::SetEffect(scene.effect))?;
+        println!("scene: {} objects loaded, effect {:?}", scene.objects.len(), scene.effect);
     }
     session.heartbeats(true);
     std::thread::sleep(link::HEARTBEAT_PERIOD * 3);

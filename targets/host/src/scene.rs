@@ -2,7 +2,7 @@
 //! reader that the firmware's build scripts use too, and turned here into the simulator's
 //! [`Solid`]s.
 
-pub use hapticgen_codegen::scene::{load, parse, Scene, SceneObject, SceneShape};
+pub use hapticgen_codegen::scene::{load, parse, Scene, SceneEffect, SceneObject, SceneShape};
 
 use crate::solids::Solid;
 

@@ -7,11 +7,14 @@
 //! time.
 //!
 //! The controller follows a [`LinkSource`]: at start a spring to the start pose; on a 2-D task,
-//! the planar scene of the objects the host sent. A change of settings or objects replaces the
+//! the planar scene of the objects the host sent, with its free-space effect. A change of
+//! settings, objects or effect replaces the
 //! reference (the renderer starts afresh at the device point) and keeps the estimator and the
 //! filters running; with every slot empty again, the spring to the start pose is back.
 
-use hapticgen_protocol::{ChannelScales, SceneObject, StateFrame, StateSample, MAX_FRAME_BYTES, MAX_TASK};
+use hapticgen_protocol::{
+    ChannelScales, LinkEffect, SceneObject, StateFrame, StateSample, MAX_FRAME_BYTES, MAX_TASK,
+};
 use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::fused::FusedImpedance;
@@ -30,6 +33,7 @@ use crate::setup::Setup;
 pub struct DeviceMode<const M: usize> {
     impedance: ImpedanceParameters<f32, MAX_TASK>,
     objects: [SceneObject; SCENE_OBJECTS],
+    effect: LinkEffect,
     home: [f32; M],
     grid: f32,
     refused_changes: u32,
@@ -46,6 +50,7 @@ impl<const M: usize> DeviceMode<M> {
                 mass: [1.0; MAX_TASK],
             },
             objects: [SceneObject::Empty; SCENE_OBJECTS],
+            effect: LinkEffect::None,
             home,
             grid,
             refused_changes: 0,
@@ -61,11 +66,13 @@ impl<const M: usize> DeviceMode<M> {
         }
     }
 
-    /// The reference the settings and objects ask for; `None` if unusable (a scene on a task
-    /// that is not 2-D, more objects than the planar scene holds).
+    /// The reference the settings, objects and effect ask for (a scene when there is an object
+    /// or an effect; the effect itself is added by [`LinkSource::with_effect`]); `None` if
+    /// unusable (a scene on a task that is not 2-D, more objects than the planar scene holds).
     pub fn source(&self) -> Option<LinkSource<M>> {
         let has_objects = self.objects.iter().any(|object| *object != SceneObject::Empty);
-        LinkSource::new(self.home, &self.impedance, &self.objects, has_objects.then_some(self.grid))
+        let scene = has_objects || self.effect != LinkEffect::None;
+        LinkSource::new(self.home, &self.impedance, &self.objects, scene.then_some(self.grid))
     }
 
     /// Changes the host asked for that could not be applied (a slot out of range, a scene the
@@ -96,6 +103,7 @@ impl<const M: usize> DeviceMode<M> {
                     return None;
                 }
             },
+            LinkEvent::Effect(effect) => self.effect = effect,
             // Enable, disable, heartbeats and resets are the link's own; sensor frames and
             // PIL setups are for the PIL image.
             LinkEvent::Sensors | LinkEvent::PilSetup | LinkEvent::Disabled => return None,
@@ -103,7 +111,8 @@ impl<const M: usize> DeviceMode<M> {
         // The controller keeps its estimator and filters (the device has not stopped); the
         // settings and the reference are replaced.
         control.haptic.controller.parameters = self.parameters();
-        match self.source() {
+        let impedance_period = 1.0 / R::IMPEDANCE_LOOP_HZ as f32;
+        match self.source().and_then(|source| source.with_effect(&self.effect, impedance_period)) {
             Some(source) => control.haptic.source = source,
             None => self.refused_changes = self.refused_changes.saturating_add(1),
         }

@@ -22,7 +22,7 @@
 
 use hapticgen_protocol::{
     encode, DeviceInfo, DeviceMessage, EncodeError, FrameDecoder, HostKind, ImpedanceSettings, LinkCounters,
-    PilSetup, SceneObject, SensorFrame, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION,
+    LinkEffect, PilSetup, SceneObject, SensorFrame, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION,
 };
 use hapticgen_runtime::control::ImpedanceParameters;
 use hapticgen_runtime::Real;
@@ -74,6 +74,9 @@ pub enum LinkEvent<S> {
     PilSetup,
     /// The host disabled the bridges (honoured before and after the handshake).
     Disabled,
+    /// The scene's new free-space effect (checked: finite, stiffness, damping, amplitude and
+    /// frequency ≥ 0, a vibration's direction not zero).
+    Effect(LinkEffect),
 }
 
 /// Counts of what the link refused, besides the frame decoder's [`LinkCounters`].
@@ -211,6 +214,15 @@ impl DeviceLink {
                 self.pil_setup = Some(setup);
                 Some(LinkEvent::PilSetup)
             }
+            HostKind::SetEffect => {
+                let effect: LinkEffect = frame.payload()?;
+                self.after_handshake()?;
+                if !usable_effect(&effect) {
+                    bump(&mut self.refused.bad_settings);
+                    return None;
+                }
+                Some(LinkEvent::Effect(effect))
+            }
         }
     }
 
@@ -281,6 +293,25 @@ fn impedance_is_valid(settings: &ImpedanceSettings) -> bool {
     gains().chain(&settings.mass).all(|v| v.is_finite())
         && gains().all(|v| *v >= 0.0)
         && settings.mass.iter().all(|v| *v > 0.0)
+}
+
+/// `true` for an effect the device can render: every value finite, stiffness, damping,
+/// amplitude and frequency not negative, a vibration's direction not zero.
+fn usable_effect(effect: &LinkEffect) -> bool {
+    let finite = |values: &[f32]| values.iter().all(|v| v.is_finite());
+    let not_negative = |value: f32| value.is_finite() && value >= 0.0;
+    match *effect {
+        LinkEffect::None => true,
+        LinkEffect::Spring { anchor, stiffness } => finite(&anchor) && not_negative(stiffness),
+        LinkEffect::Viscous { damping } => not_negative(damping),
+        LinkEffect::Force { force } => finite(&force),
+        LinkEffect::Vibration { direction, amplitude, frequency } => {
+            finite(&direction)
+                && direction.iter().any(|v| *v != 0.0)
+                && not_negative(amplitude)
+                && not_negative(frequency)
+        }
+    }
 }
 
 /// Per-axis settings in the runtime's scalar type.

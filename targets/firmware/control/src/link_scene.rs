@@ -4,10 +4,14 @@
 //! board's PIL and device images and by the STM32F4 board's device image, so that the host's
 //! `SetObject` means the same on every board.
 
-use hapticgen_protocol::{rig_name_hash, ChannelScales, DeviceInfo, SceneObject, MAX_TASK, PROTOCOL_VERSION};
+use hapticgen_protocol::{
+    rig_name_hash, ChannelScales, DeviceInfo, LinkEffect, SceneObject, MAX_TASK, PROTOCOL_VERSION,
+};
 use hapticgen_runtime::control::{ImpedanceParameters, TaskReference};
+use hapticgen_runtime::effects::{Effect, EffectState};
 use hapticgen_runtime::render::{ObjectKind, Scene, Shape, VirtualObject};
 use hapticgen_runtime::tick::ReferenceSource;
+use hapticgen_runtime::Real;
 
 /// Scene objects a link image holds (the slots `SetObject` may name).
 pub const SCENE_OBJECTS: usize = hapticgen_protocol::SCENE_SLOTS;
@@ -35,6 +39,9 @@ pub struct LinkSource<const M: usize> {
     pub reference: Reference<M>,
     /// The last reference position.
     pub last: [f32; M],
+    /// What a scene renders while the point touches none of its objects.
+    effect: Effect<f32, M>,
+    effect_state: EffectState<f32>,
 }
 
 impl<const M: usize> LinkSource<M> {
@@ -62,7 +69,41 @@ impl<const M: usize> LinkSource<M> {
                 Reference::Scene(scene)
             }
         };
-        Some(Self { reference, last: position })
+        Some(Self { reference, last: position, effect: Effect::None, effect_state: EffectState::default() })
+    }
+
+    /// The source with the scene's free-space `effect` (a vibration advanced every
+    /// `impedance_period` seconds); a fixed reference renders none. `None` for a vector the
+    /// task cannot hold (a non-zero coordinate beyond its `M`).
+    pub fn with_effect(mut self, effect: &LinkEffect, impedance_period: f32) -> Option<Self> {
+        let vector = |values: &[f32; MAX_TASK]| -> Option<[f32; M]> {
+            if values.iter().skip(M).any(|v| *v != 0.0) {
+                return None;
+            }
+            Some(first(values))
+        };
+        self.effect = match *effect {
+            LinkEffect::None => Effect::None,
+            LinkEffect::Spring { anchor, stiffness } => {
+                Effect::Spring { anchor: vector(&anchor)?, stiffness }
+            }
+            LinkEffect::Viscous { damping } => Effect::Viscous { damping },
+            LinkEffect::Force { force } => Effect::Force { force: vector(&force)? },
+            LinkEffect::Vibration { direction, amplitude, frequency } => {
+                let direction = vector(&direction)?;
+                let length = Real::sqrt(direction.iter().map(|v| v * v).sum::<f32>());
+                if !(length > 0.0 && length.is_finite()) {
+                    return None;
+                }
+                Effect::Vibration {
+                    direction: direction.map(|v| v / length),
+                    amplitude,
+                    frequency,
+                    period: impedance_period,
+                }
+            }
+        };
+        Some(self)
     }
 }
 
@@ -77,21 +118,26 @@ impl<const M: usize> ReferenceSource<f32, M> for LinkSource<M> {
             Reference::Scene(scene) => {
                 // The scene is planar: the first two task coordinates (`LinkSource::new` only
                 // makes a scene for a 2-D task).
-                let mut planar = ImpedanceParameters {
-                    stiffness: first(&parameters.stiffness),
-                    damping: first(&parameters.damping),
-                    mass: first(&parameters.mass),
-                };
-                let out = scene.update_reference(&first(task_position), &mut planar);
-                for k in 0..M.min(2) {
-                    parameters.stiffness[k] = planar.stiffness[k];
-                    parameters.damping[k] = planar.damping[k];
+                let out = scene.render(&first(task_position));
+                let (mut position, mut stiffness, mut damping) =
+                    (first(&out.proxy), out.stiffness, out.damping);
+                if out.valid && out.contact.is_none() && self.effect != Effect::None {
+                    // Free space: the effect, on the free space's gains (the same on both axes).
+                    let (reference, k, b) = self.effect_state.apply(
+                        &self.effect,
+                        task_position,
+                        out.stiffness[0],
+                        out.damping[0],
+                    );
+                    (position, stiffness, damping) = (reference, [k; 2], [b; 2]);
                 }
-                TaskReference {
-                    position: first(&out.position),
-                    velocity: first(&out.velocity),
-                    acceleration: first(&out.acceleration),
+                for (target, value) in parameters.stiffness.iter_mut().zip(stiffness) {
+                    *target = value;
                 }
+                for (target, value) in parameters.damping.iter_mut().zip(damping) {
+                    *target = value;
+                }
+                TaskReference::at_rest(position)
             }
         };
         self.last = reference.position;

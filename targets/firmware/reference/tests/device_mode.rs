@@ -11,11 +11,12 @@ use hapticgen_fw_control::{Controller, CycleCounter};
 use hapticgen_fw_reference::variants::horizontal_f32 as image;
 use hapticgen_fw_sim::plant::SimBoard;
 use hapticgen_protocol::{
-    encode, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, SceneObject, StateFrame,
+    encode, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, LinkEffect, SceneObject, StateFrame,
     MAX_FRAME_BYTES, PROTOCOL_VERSION,
 };
-use hapticgen_runtime::control::ImpedanceLaw;
+use hapticgen_runtime::control::{ImpedanceLaw, ImpedanceParameters};
 use hapticgen_runtime::estimation::ForceSensorCalibration;
+use hapticgen_runtime::tick::ReferenceSource;
 
 type Control = Controller<image::Rig, LinkSource<2>, 2, 2>;
 
@@ -152,6 +153,41 @@ fn settings_and_objects_reach_the_controller_after_the_handshake_only() {
     assert_eq!(device.mode.refused_changes(), 0);
     device.feed(&HostMessage::SetObject { slot: 4, object: box_at(0.0) });
     assert_eq!(device.mode.refused_changes(), 1);
+    assert!(matches!(device.control.haptic.source.reference, Reference::Fixed(_)));
+}
+
+/// `SetEffect` gives the device's scene its free-space effect: away from the scene's box, a
+/// spring's anchor and stiffness are the reference and `K_d`; touching the box, the box's
+/// proxy and stiffness; an effect the device cannot render (a negative stiffness) is refused
+/// by the link and changes nothing.
+#[test]
+fn a_scene_s_effect_reaches_the_reference_away_from_its_objects() {
+    let mut device = Device::new();
+    device.feed(&HostMessage::Hello { version: PROTOCOL_VERSION });
+    device.feed(&HostMessage::SetObject { slot: 0, object: box_at(-0.033) });
+    let anchor = [0.01, 0.16, 0.0];
+    device.feed(&HostMessage::SetEffect(LinkEffect::Spring { anchor, stiffness: 300.0 }));
+    let mut parameters = ImpedanceParameters { stiffness: [0.0; 2], damping: [0.0; 2], mass: [1.0; 2] };
+    // Far from the box (its right face is at x = −0.013): the spring.
+    let free = device.control.haptic.source.update_reference(&[0.05, 0.15], &mut parameters);
+    assert_eq!(free.position, [0.01, 0.16]);
+    assert_eq!((parameters.stiffness, parameters.damping), ([300.0; 2], [5.0; 2]));
+    // In the box, 3 mm inside its right face: the box's proxy and stiffness, no spring.
+    let touching = device.control.haptic.source.update_reference(&[-0.016, 0.15], &mut parameters);
+    assert_eq!(parameters.stiffness, [900.0; 2]);
+    assert!((touching.position[0] - (-0.013)).abs() < 1e-6, "{:?}", touching.position);
+    // A negative stiffness is refused by the link: the spring stays.
+    let refused = device.link.refused().bad_settings;
+    device.feed(&HostMessage::SetEffect(LinkEffect::Spring { anchor, stiffness: -1.0 }));
+    assert_eq!(device.link.refused().bad_settings, refused + 1);
+    device.control.haptic.source.update_reference(&[0.05, 0.15], &mut parameters);
+    assert_eq!(parameters.stiffness, [300.0; 2]);
+    // With the box gone the effect still acts (a scene of no object); with the effect gone
+    // too, the spring to the start pose is back.
+    device.feed(&HostMessage::SetObject { slot: 0, object: SceneObject::Empty });
+    let alone = device.control.haptic.source.update_reference(&[0.05, 0.15], &mut parameters);
+    assert_eq!((alone.position, parameters.stiffness), ([0.01, 0.16], [300.0; 2]));
+    device.feed(&HostMessage::SetEffect(LinkEffect::None));
     assert!(matches!(device.control.haptic.source.reference, Reference::Fixed(_)));
 }
 
