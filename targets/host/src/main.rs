@@ -1143,9 +1143,11 @@ fn compare_traces(
     reference: &hapticgen_host::sim::Trace,
     until: Option<f64>,
 ) -> Comparison {
-    // Every column but time and the HIP (`xh*`), which the firmware does not report.
-    let compared: Vec<usize> =
-        (1..pil.columns.len()).filter(|&i| !pil.columns[i].starts_with("xh")).collect();
+    // Every column but time, the HIP (`xh*`) and the time the proxy was rendered (`tr`), which
+    // the firmware does not report.
+    let compared: Vec<usize> = (1..pil.columns.len())
+        .filter(|&i| !pil.columns[i].starts_with("xh") && pil.columns[i] != "tr")
+        .collect();
     let columns: Vec<String> = compared.iter().map(|&i| pil.columns[i].clone()).collect();
     let mut largest: Vec<(String, (f64, f64))> = columns.iter().map(|c| (c.clone(), (0.0, 0.0))).collect();
     let mut rows = Vec::new();

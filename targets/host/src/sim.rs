@@ -356,7 +356,7 @@ impl<const M: usize> SimSource<M> {
             motions: Vec::new(),
             posed_at: 0.0,
             time: 0.0,
-            rendered_at: f64::NAN,
+            rendered_at: 0.0,
             refused_motion_at: None,
             last: reference,
             last_hip: hip,
@@ -717,7 +717,8 @@ where
         trace.columns.extend((0..count).map(|k| format!("{prefix}{k}")));
     }
     trace.columns.push("tr".into());
-    let mut rendered_at = f64::NAN;
+    // The start's reference stands for one rendered at time 0.
+    let mut rendered_at = 0.0;
     let mut torque = [0.0; N];
     let wall = Instant::now();
     let mut bar: Option<indicatif::ProgressBar> = None;

@@ -34,6 +34,7 @@ fn check_csv(path: &Path, joints: usize, task: usize) -> Vec<csv::StringRecord> 
     {
         expected.extend((0..count).map(|k| format!("{prefix}{k}")));
     }
+    expected.push("tr".to_string());
     assert_eq!(header, expected);
     let rows: Vec<csv::StringRecord> = reader.records().map(|r| r.expect("a well-formed row")).collect();
     for row in &rows {
