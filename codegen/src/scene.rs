@@ -587,6 +587,17 @@ fn checked_vector(values: &[f64]) -> Result<Vec<f64>, String> {
     Ok(values.to_vec())
 }
 
+/// The unit vector along 1 to [`MAX_COORDINATES`] finite coordinates that are not all (nearly)
+/// zero, or what is wrong with them.
+fn checked_direction(values: &[f64]) -> Result<Vec<f64>, String> {
+    let vector = checked_vector(values)?;
+    let length = vector.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if length.is_nan() || length < 1e-9 {
+        return Err(format!("must not be zero, got {values:?}"));
+    }
+    Ok(vector.iter().map(|v| v / length).collect())
+}
+
 /// A finite value not below zero, or what is wrong with it.
 fn checked_non_negative(value: f64) -> Result<f64, String> {
     if value.is_finite() && value >= 0.0 {
@@ -612,13 +623,10 @@ fn effect(entry: &EffectEntry, error: &dyn Fn(&str, String) -> String) -> Result
         }
         EffectEntry::Force { force } => SceneEffect::Force { force: vector("force.force", force)? },
         EffectEntry::Vibration { direction, amplitude, frequency } => {
-            let direction = vector("vibration.direction", direction)?;
-            let length = direction.iter().map(|v| v * v).sum::<f64>().sqrt();
-            if length.is_nan() || length < 1e-9 {
-                return Err(error("vibration.direction", format!("must not be zero, got {direction:?}")));
-            }
+            let direction =
+                checked_direction(direction).map_err(|message| error("vibration.direction", message))?;
             SceneEffect::Vibration {
-                direction: direction.iter().map(|v| v / length).collect(),
+                direction,
                 amplitude: non_negative("vibration.amplitude", *amplitude)?,
                 frequency: non_negative("vibration.frequency", *frequency)?,
             }
@@ -715,18 +723,8 @@ pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> 
                 (SceneShape::Box { center, axes, half_extents: half }, false)
             }
             ObjectEntry::HalfSpace { point, normal, .. } => {
-                let n = vector("normal", normal)?;
-                let length = n.iter().map(|v| v * v).sum::<f64>().sqrt();
-                if length.is_nan() || length < 1e-9 {
-                    return Err(error("normal", format!("must not be zero, got {normal:?}")));
-                }
-                (
-                    SceneShape::HalfSpace {
-                        point: vector("point", point)?,
-                        normal: n.iter().map(|v| v / length).collect(),
-                    },
-                    false,
-                )
+                let normal = checked_direction(normal).map_err(|message| error("normal", message))?;
+                (SceneShape::HalfSpace { point: vector("point", point)?, normal }, false)
             }
             ObjectEntry::Capsule { a, b, radius, .. } | ObjectEntry::Cylinder { a, b, radius, .. } => {
                 let (a, b, radius) = (vector("a", a)?, vector("b", b)?, positive("radius", *radius)?);
@@ -752,22 +750,14 @@ pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> 
                         path.extend([Segment::Index(k), Segment::Key(key.into())]);
                         format!("error: {}: {message}", located(&path))
                     };
-                    let finite = |key: &str, values: &[f64]| {
-                        checked_vector(values).map_err(|message| plane_error(key, message))
-                    };
-                    let (normal, point) = (finite("normal", &plane.normal)?, finite("point", &plane.point)?);
-                    let length = normal.iter().map(|v| v * v).sum::<f64>().sqrt();
-                    if length.is_nan() || length < 1e-9 {
-                        return Err(plane_error(
-                            "normal",
-                            format!("must not be zero, got {:?}", plane.normal),
-                        ));
-                    }
+                    let normal =
+                        checked_direction(&plane.normal).map_err(|message| plane_error("normal", message))?;
+                    let point =
+                        checked_vector(&plane.point).map_err(|message| plane_error("point", message))?;
                     if point.len() != normal.len() {
                         let message = format!("has {} coordinates, its point {}", normal.len(), point.len());
                         return Err(plane_error("normal", message));
                     }
-                    let normal: Vec<f64> = normal.iter().map(|v| v / length).collect();
                     bounding.push(ScenePlane { offset: dot(&normal, &point), normal });
                 }
                 (SceneShape::Polytope { planes: bounding }, false)

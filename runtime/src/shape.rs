@@ -740,10 +740,7 @@ impl<'a, S: Real, const M: usize> Shape<'a, S, M> {
 }
 
 /// `p` in the own frame of a shape placed by `placement` (`p` itself for none).
-pub(crate) fn into_frame<S: Real, const M: usize>(
-    placement: &Option<RigidMotion<S, M>>,
-    p: &[S; M],
-) -> [S; M] {
+pub(crate) fn into_frame<S: Real, const M: usize>(placement: &Placement<S, M>, p: &[S; M]) -> [S; M] {
     placement.as_ref().map_or(*p, |motion| motion.unapply(p))
 }
 

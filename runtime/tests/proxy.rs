@@ -1210,6 +1210,33 @@ fn a_turning_object_carries_the_proxy_resting_on_it() {
     }
 }
 
+/// In 2-D too: a proxy resting on a square turning about its centre goes round with it, and a
+/// reflection (a 2-D rotation matrix with determinant −1) is refused.
+#[test]
+fn a_turning_square_carries_the_proxy_in_the_plane() {
+    let square = Shape::aligned_box([0.0, 0.0], [0.02, 0.02]);
+    let mut scene: GodObject<f64, 1, 2> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene
+        .add(Object { shape: square, kind: ObjectKind::Solid, material: Material::frictionless(1500.0, 5.0) })
+        .unwrap();
+    scene.reset([0.01, 0.05]);
+    let pressed = scene.render(&[0.01, 0.019]);
+    assert_eq!(pressed.contact, Some(0));
+    let start = pressed.proxy;
+    let (sin, cos) = 0.02f64.sin_cos();
+    let turn = RigidMotion { rotation: [[cos, -sin], [sin, cos]], translation: [0.0; 2] };
+    for _ in 0..50 {
+        assert!(scene.move_object(0, &turn));
+    }
+    let (sin, cos) = 1.0f64.sin_cos();
+    let expected = [cos * start[0] - sin * start[1], sin * start[0] + cos * start[1]];
+    let proxy = scene.proxy().unwrap();
+    assert!((proxy[0] - expected[0]).abs() < 1e-12 && (proxy[1] - expected[1]).abs() < 1e-12, "{proxy:?}");
+    let mirror = RigidMotion { rotation: [[1.0, 0.0], [0.0, -1.0]], translation: [0.0; 2] };
+    assert!(!scene.move_object(0, &mirror));
+    assert_eq!(scene.proxy(), Some(proxy));
+}
+
 /// A fast stroke into a turned cube stops where it stops on the same cube built turned: random
 /// turns of a cube mesh and a cube polytope (their sweeps run in their own frames) against the
 /// box with the same axes (rounded by the proxy's radius like the mesh's triangles) and the
