@@ -1237,6 +1237,53 @@ fn a_turning_square_carries_the_proxy_in_the_plane() {
     assert_eq!(scene.proxy(), Some(proxy));
 }
 
+/// A grazing stroke (the HIP far along a surface and a hair below it: `|d · n|` under the
+/// grazing limit) may take the proxy into the outer half of the skin, no deeper: on a floor, a
+/// box's top and a cube mesh's top the proxy ends at least `r + ε/2` above the surface.
+/// (A held-out cargo-mutants survivor: the half skin `ε · 0.5` written `ε + 0.5` let such a
+/// stroke end half a metre deep, at the HIP.)
+#[test]
+fn a_grazing_stroke_stays_out_of_the_skin_s_inner_half() {
+    let cube = leaked_cube_mesh(0.2);
+    let below = RigidMotion::translation([0.0, 0.0, -0.2]);
+    let tops = [
+        Shape::half_space([0.0; 3], [0.0, 0.0, 1.0]).unwrap(),
+        Shape::aligned_box([0.0, 0.0, -0.2], [0.2; 3]),
+        Shape::MeshAt { mesh: &cube, placement: below },
+    ];
+    for top in tops {
+        let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+        scene.add(solid(top)).unwrap();
+        scene.reset([-0.05, 0.0, R + SKIN]);
+        // 10 cm along x and 50 µm down: d · n = −5·10⁻⁴.
+        let out = scene.render(&[0.05, 0.0, R + SKIN - 5e-5]);
+        assert!(out.proxy[2] >= R + 0.5 * SKIN - 1e-15, "{top:?}: the proxy at {:?}", out.proxy);
+    }
+}
+
+/// Of two faces a sweep meets, the nearer stops it: a stroke down through two stacked plates
+/// of one mesh (the lower plate's faces listed first) stops on the upper plate. (A held-out
+/// survivor: keeping the first face found instead of the nearest, `step < b` → `step > b`.)
+#[test]
+fn a_stroke_through_stacked_plates_stops_at_the_upper_one() {
+    let plate = |z: f64| -> [V; 4] { [[-0.1, -0.1, z], [0.1, -0.1, z], [0.1, 0.1, z], [-0.1, 0.1, z]] };
+    let vertices: Vec<V> = plate(-0.02).into_iter().chain(plate(0.0)).collect();
+    let faces = vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]];
+    let mesh = hapticgen_runtime::shape::Mesh {
+        vertices: Vec::leak(vertices),
+        faces: Vec::leak(faces),
+        face_normals: Vec::leak(vec![[0.0, 0.0, 1.0]; 4]),
+        vertex_normals: &[],
+        nodes: &[],
+    };
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene.add(solid(Shape::Mesh(&mesh))).unwrap();
+    scene.reset([0.01, 0.02, 0.05]);
+    let out = scene.render(&[0.01, 0.02, -0.05]);
+    assert_eq!(out.contact, Some(0));
+    assert!((out.proxy[2] - R).abs() < 2.0 * SKIN, "the proxy at {:?}, not on the upper plate", out.proxy);
+}
+
 /// A fast stroke into a turned cube stops where it stops on the same cube built turned: random
 /// turns of a cube mesh and a cube polytope (their sweeps run in their own frames) against the
 /// box with the same axes (rounded by the proxy's radius like the mesh's triangles) and the
