@@ -740,9 +740,11 @@ fn moving_an_object_leaves_a_proxy_it_does_not_touch() {
     scaling.rotation[0][0] = 1.01;
     let mut reflection = lift(0.001);
     reflection.rotation[2][2] = -1.0;
+    let point_reflection =
+        RigidMotion { rotation: [[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]], ..lift(0.0) };
     let mut not_a_number = lift(0.001);
     not_a_number.translation[1] = f64::NAN;
-    for motion in [scaling, reflection, not_a_number] {
+    for motion in [scaling, reflection, point_reflection, not_a_number] {
         assert!(!scene.move_object(0, &motion), "{motion:?}");
         assert_eq!(scene.proxy(), Some(resting.proxy));
     }
@@ -1447,10 +1449,14 @@ fn candidate_faces_leave_the_proxy_where_a_search_of_every_face_puts_it() {
 
 fn candidates_against_every_face(cube: hapticgen_runtime::shape::Mesh<'static, f64, 3>, ticks: usize) {
     let cube = Box::leak(Box::new(cube));
-    let mut with_candidates: GodObject<f64, 2, 3> = GodObject::new(0.0, 0.0, R, SKIN);
-    let mut every_face: GodObject<f64, 2, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    let mut with_candidates: GodObject<f64, 3, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    let mut every_face: GodObject<f64, 3, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    // Two meshes, the second the same cube moved to overlap the first's corner: their
+    // candidates share one pool.
+    let corner = RigidMotion::translation([0.06, 0.06, 0.06]);
     for scene in [&mut with_candidates, &mut every_face] {
         scene.add(solid(Shape::Mesh(cube))).unwrap();
+        scene.add(solid(Shape::Mesh(cube).moved(&corner))).unwrap();
         scene.reset([0.0, 0.0, 0.2]);
     }
     every_face
