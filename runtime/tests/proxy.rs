@@ -1237,6 +1237,10 @@ fn a_turning_square_carries_the_proxy_in_the_plane() {
     let mirror = RigidMotion { rotation: [[1.0, 0.0], [0.0, -1.0]], translation: [0.0; 2] };
     assert!(!scene.move_object(0, &mirror));
     assert_eq!(scene.proxy(), Some(proxy));
+    // A half turn is a rotation (determinant +1), whatever its diagonal's sign.
+    let half_turn = RigidMotion { rotation: [[-1.0, 0.0], [0.0, -1.0]], translation: [0.0; 2] };
+    assert!(scene.move_object(0, &half_turn));
+    assert_eq!(scene.proxy(), Some([-proxy[0], -proxy[1]]));
 }
 
 /// A grazing stroke (the HIP far along a surface and a hair below it: `|d · n|` under the
