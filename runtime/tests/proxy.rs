@@ -1212,6 +1212,28 @@ fn a_turning_object_carries_the_proxy_resting_on_it() {
     }
 }
 
+/// `RigidMotion::is_rigid` against rotations built here (Rodrigues) and their reflections (one
+/// row negated): every rotation about random axes, half turns about each axis included, is
+/// rigid; every reflection is not; nor a rotation scaled by 1 %.
+#[test]
+fn rotations_are_rigid_and_reflections_are_not() {
+    let mut rng = SmallRng::seed_from_u64(33);
+    let mut rotations: Vec<[V; 3]> = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+        .map(|axis| rotation_about(axis, std::f64::consts::PI))
+        .to_vec();
+    rotations.extend((0..200).map(|_| rotation_about(random_point(&mut rng, 1.0), rng.gen_range(-3.2..3.2))));
+    for rotation in rotations {
+        let motion = |rotation: [V; 3]| RigidMotion { rotation, translation: [0.01, -0.02, 0.03] };
+        assert!(motion(rotation).is_rigid(1e-9), "{rotation:?}");
+        for row in 0..3 {
+            let mut reflected = rotation;
+            reflected[row] = scale(reflected[row], -1.0);
+            assert!(!motion(reflected).is_rigid(1e-9), "{reflected:?}");
+        }
+        assert!(!motion(rotation.map(|r| scale(r, 1.01))).is_rigid(1e-9));
+    }
+}
+
 /// In 2-D too: a proxy resting on a square turning about its centre goes round with it, and a
 /// reflection (a 2-D rotation matrix with determinant −1) is refused.
 #[test]
@@ -1245,17 +1267,20 @@ fn a_turning_square_carries_the_proxy_in_the_plane() {
 
 /// A grazing stroke (the HIP far along a surface and a hair below it: `|d · n|` under the
 /// grazing limit) may take the proxy into the outer half of the skin, no deeper: on a floor, a
-/// box's top and a cube mesh's top the proxy ends at least `r + ε/2` above the surface.
+/// box's top, a cube mesh's top and a cube polytope's top the proxy ends at least `r + ε/2`
+/// above the surface.
 /// (A held-out cargo-mutants survivor: the half skin `ε · 0.5` written `ε + 0.5` let such a
 /// stroke end half a metre deep, at the HIP.)
 #[test]
 fn a_grazing_stroke_stays_out_of_the_skin_s_inner_half() {
     let cube = leaked_cube_mesh(0.2);
+    let planes = cube_planes(0.2);
     let below = RigidMotion::translation([0.0, 0.0, -0.2]);
     let tops = [
         Shape::half_space([0.0; 3], [0.0, 0.0, 1.0]).unwrap(),
         Shape::aligned_box([0.0, 0.0, -0.2], [0.2; 3]),
         Shape::MeshAt { mesh: &cube, placement: below },
+        Shape::PolytopeAt { planes: &planes, placement: below },
     ];
     for top in tops {
         let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
