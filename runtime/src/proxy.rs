@@ -58,7 +58,7 @@ use crate::effects::{Effect, EffectState};
 use crate::render::ObjectKind;
 use crate::shape::{
     add_scaled, direction_into_frame, direction_out_of_frame, dot, exceeds, finite, into_frame, norm,
-    segment_box_entry, sub, triangle_entry, unit, Object, Plane, RigidMotion, Shape,
+    segment_box_entry, sub, triangle_entry, unit, Mesh, Object, Plane, RigidMotion, Shape,
 };
 use crate::tick::ReferenceSource;
 use crate::Real;
@@ -74,37 +74,54 @@ pub const ADVANCE_STEPS: usize = 32;
 const BISECTIONS: usize = 48;
 
 /// The most faces, over every mesh of the scene, kept as the candidates that can limit the
-/// proxy's sweeps (see `GodObject::gather_candidates`); a mesh with more faces near the HIP is
-/// searched through its BVH at every step instead.
-pub const CANDIDATE_FACES: usize = 16;
+/// proxy's sweeps (see `GodObject::gather_candidates`), shared equally among the meshes.
+pub const CANDIDATE_FACES: usize = 8;
 
-/// The radius the candidates are gathered within, over the update's reach: the slack lets
-/// later updates reuse them while the HIP stays within it.
-const GATHER_GROWTH: f64 = 1.25;
+/// The most faces one gathering examines per mesh (whole BVH leaves; see
+/// [`Mesh::nearest_faces`]): from a point about as far from many faces as from the nearest,
+/// such as the centre of a spherical cavity, the ball the candidates exhaust is then bounded
+/// by the boxes left unopened instead of by a walk through the whole mesh.
+const GATHER_BUDGET: usize = 16 * CANDIDATE_FACES;
 
-/// After the faces within the slack did not fit, the slack is tried again only once the reach
-/// is below this share of the reach it failed at (each failed try costs a walk that stops at
-/// the first face too many).
-const SLACK_RETRY: f64 = 0.75;
+/// The candidates are gathered within this many times the distance from the proxy to the HIP
+/// (and the margin `r + ε`) of the proxy: far enough for this update's sweeps and the next
+/// few, near enough that a walk from inside a cavity does not open every box.
+const GATHER_REACH: f64 = 4.0;
 
-/// The faces of the scene's meshes that can limit the proxy's sweeps: every face of a mesh
-/// with a range that lies within `radius` of `center`, kept from update to update while the
-/// HIP's reach stays inside that ball and no object is added or moved.
+/// The candidates are gathered again once the proxy has moved this share of the way from the
+/// centre they were gathered about to the edge of the ball they certify: the rest is left for
+/// the sweeps of the update.
+const REGATHER_SHARE: f64 = 0.5;
+
+/// The faces of the scene's meshes nearest the proxy, which can limit its sweeps near where
+/// they were gathered (see `GodObject::gather_candidates`).
 #[derive(Clone, Copy, Debug)]
 struct CandidateCache<S, const K: usize, const M: usize> {
-    /// Face indices of every mesh, one range per object.
+    /// Face indices of every mesh, one range per object, each in ascending order of distance
+    /// from its mesh's centre.
     faces: [u32; CANDIDATE_FACES],
-    /// Per object, its faces' range in `faces` (start, count); `None` for an object that is not
-    /// a mesh or whose faces did not fit (its BVH is then searched at every step).
-    ranges: [Option<(u16, u16)>; K],
-    /// The centre of the ball the faces were gathered in, task frame.
+    /// Each face's distance from its mesh's centre.
+    distances: [S; CANDIDATE_FACES],
+    /// Per object, its faces and the ball they exhaust; `None` for an object that is not a mesh.
+    balls: [Option<CandidateBall<S, M>>; K],
+    /// The proxy they were gathered about, task frame; `None` before the first gathering and
+    /// after an object is added.
+    gathered_at: Option<[S; M]>,
+}
+
+/// One mesh's candidates: every face of the mesh nearer than `radius` to `center` is in the
+/// pool's range `start..start + count`.
+#[derive(Clone, Copy, Debug)]
+struct CandidateBall<S, const M: usize> {
+    start: u16,
+    count: u16,
+    /// The centre, in the task frame (moved with the mesh by `GodObject::move_object`, so the
+    /// candidates stay true when it moves).
     center: [S; M],
-    /// Its radius.
+    /// The radius (infinite when every face of the mesh is in the range).
     radius: S,
-    /// `true` while the gathering holds for later updates (every mesh fitted, nothing moved).
-    reusable: bool,
-    /// The reach at which the faces within the slack last did not fit (infinite: never).
-    slack_failed_at: S,
+    /// The distance from the centre to the nearest candidate, `radius` with none.
+    nearest: S,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -152,6 +169,8 @@ pub struct GodObject<'a, S, const K: usize, const M: usize> {
     sticking: bool,
     /// The candidate faces of the meshes.
     candidates: CandidateCache<S, K, M>,
+    /// `false` after [`GodObject::search_every_step`].
+    keeps_candidates: bool,
 }
 
 impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
@@ -172,12 +191,11 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             sticking: false,
             candidates: CandidateCache {
                 faces: [0; CANDIDATE_FACES],
-                ranges: [None; K],
-                center: [S::ZERO; M],
-                radius: S::ZERO,
-                reusable: false,
-                slack_failed_at: S::from_f64(f64::INFINITY),
+                distances: [S::ZERO; CANDIDATE_FACES],
+                balls: [None; K],
+                gathered_at: None,
             },
+            keeps_candidates: true,
         }
     }
 
@@ -187,9 +205,16 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         if let Some(slot) = self.objects.get_mut(index) {
             *slot = Some(object);
         }
-        self.candidates.reusable = false;
-        self.candidates.slack_failed_at = S::from_f64(f64::INFINITY);
+        self.candidates.gathered_at = None;
         Some(index)
+    }
+
+    /// Keeps no candidate faces: every sweep step searches each mesh's BVH (slower; the
+    /// reference the candidates are checked against, and a baseline for benches).
+    pub fn search_every_step(&mut self) {
+        self.keeps_candidates = false;
+        self.candidates.balls = [None; K];
+        self.candidates.gathered_at = None;
     }
 
     /// The proxy, `None` before the first update.
@@ -224,7 +249,10 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             None => return false,
         };
         object.shape = object.shape.moved(motion);
-        self.candidates.reusable = false;
+        // The candidates stay true, about their centre moved with the mesh.
+        if let Some(ball) = self.candidates.balls.get_mut(index).and_then(|b| b.as_mut()) {
+            ball.center = motion.apply(&ball.center);
+        }
         if self.contact == Some(index) {
             if let Some(p) = self.proxy.as_mut() {
                 *p = motion.apply(p);
@@ -278,80 +306,64 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         ProxyOutput { proxy, stiffness, damping, contact, sticking, valid: true }
     }
 
-    /// The faces of each mesh that this update's sweeps can meet, found with one BVH walk per
-    /// mesh instead of one per sweep step, and kept for later updates. Every point the proxy
-    /// moves through in an update is within `ρ = |x − p₀|` of the HIP `x` (each goal is the
-    /// point nearest `x` on constraints the proxy satisfies, a friction slide ends between the
-    /// frictionless proxy and `p₀`, and the ball is convex), so only faces within the reach
-    /// `ρ + r + ε` of `x` can stop a sweep. They are gathered within [`GATHER_GROWTH`] times the
-    /// reach, so that while `|x − c| + reach` stays within that radius of the gathering's
-    /// centre `c` (the triangle inequality) and no object is added or moved, the same faces
-    /// serve. Not used with a curved cavity in the scene (its projected goal is not bound to
-    /// that ball); a mesh with more faces than fit in [`CANDIDATE_FACES`] is searched per step.
+    /// The faces of each mesh nearest the proxy `p₀`, found with one BVH walk per mesh
+    /// ([`Mesh::nearest_faces`]) and kept from update to update, so that a sweep step near
+    /// `p₀` checks a few faces instead of searching the BVH. With `c` the centre they were
+    /// gathered about and `R` the radius they exhaust (every face nearer than `R` to `c` is
+    /// among them), a step from `y` whose segment stays within `R − r − ε` of `c` cannot come
+    /// within `r + ε` of any other face (the triangle inequality), so the candidates decide
+    /// it; a step that would leave that ball searches the BVH (see `GodObject::safe_step`).
+    /// Gathered again about `p₀` once `p₀` has gone [`REGATHER_SHARE`] of the way from `c` to
+    /// the ball's edge, and after an object is added.
     fn gather_candidates(&mut self, previous: &[S; M], hip: &[S; M]) {
-        let curved_cavity = self.objects.iter().flatten().any(|o| {
-            o.kind == ObjectKind::Cavity
-                && matches!(
-                    o.shape,
-                    Shape::Sphere { .. } | Shape::Box { .. } | Shape::Capsule { .. } | Shape::Cylinder { .. }
-                )
-        });
-        if curved_cavity {
-            self.candidates.ranges = [None; K];
-            self.candidates.reusable = false;
+        if !self.keeps_candidates {
             return;
         }
-        // The skin once more: rounding in the sweeps' arithmetic.
-        let reach = norm(&sub(hip, previous)) + self.radius + self.skin + self.skin;
+        let margin = self.radius + self.skin;
         let cache = &self.candidates;
-        if cache.reusable && norm(&sub(hip, &cache.center)) + reach <= cache.radius {
+        let keep = cache.gathered_at.map_or(false, |at| {
+            at == *previous
+                || cache.balls.iter().flatten().all(|ball| {
+                    let from_center = norm(&sub(previous, &ball.center));
+                    !exceeds(from_center, (ball.radius - margin) * S::from_f64(REGATHER_SHARE))
+                })
+        });
+        if keep {
             return;
         }
-        // With slack for later updates (unless that failed at about this reach); if the faces
-        // do not fit, the reach alone.
-        let slack = reach < self.candidates.slack_failed_at * S::from_f64(SLACK_RETRY);
-        if slack && self.gather_within(hip, reach * S::from_f64(GATHER_GROWTH)) {
-            self.keep_candidates(hip, reach * S::from_f64(GATHER_GROWTH));
-            return;
-        }
-        if slack {
-            self.candidates.slack_failed_at = reach;
-        }
-        if self.gather_within(hip, reach) {
-            self.keep_candidates(hip, reach);
-            return;
-        }
-        self.candidates.reusable = false;
-    }
-
-    /// Marks the candidates just gathered, within `radius` of `center`, as reusable.
-    fn keep_candidates(&mut self, center: &[S; M], radius: S) {
-        self.candidates.center = *center;
-        self.candidates.radius = radius;
-        self.candidates.reusable = true;
-    }
-
-    /// Puts every mesh's faces within `radius` of `hip` in the candidates; `false` when some
-    /// mesh's did not fit (that mesh gets no range).
-    fn gather_within(&mut self, hip: &[S; M], radius: S) -> bool {
+        // This update's sweeps stay within `ρ = |x − p₀|` of the HIP `x` (each goal is the point
+        // nearest `x` on constraints the proxy satisfies, a friction slide ends between the
+        // frictionless proxy and `p₀`), so within `2ρ` of `p₀`: twice that, for later updates.
+        let reach = margin + self.skin + S::from_f64(GATHER_REACH) * norm(&sub(hip, previous));
+        let meshes = self.objects.iter().flatten().filter(|o| o.shape.placed_mesh().is_some()).count();
+        let share = CANDIDATE_FACES / meshes.max(1);
         let mut used = 0usize;
-        let mut all_fit = true;
         let cache = &mut self.candidates;
-        for (slot, range) in self.objects.iter().zip(cache.ranges.iter_mut()) {
-            *range = None;
+        for (slot, ball) in self.objects.iter().zip(cache.balls.iter_mut()) {
+            *ball = None;
             if let Some((mesh, placement)) = slot.as_ref().and_then(|o| o.shape.placed_mesh()) {
-                let free = cache.faces.get_mut(used..).unwrap_or(&mut []);
-                match mesh.faces_near(&into_frame(&placement, hip), radius, free) {
-                    // `used + count` ≤ CANDIDATE_FACES, far below `u16::MAX`.
-                    Some(count) => {
-                        *range = Some((used as u16, count as u16));
-                        used += count;
-                    }
-                    None => all_fit = false,
+                let mut nearest = [(S::ZERO, 0u32); CANDIDATE_FACES];
+                let found = nearest.get_mut(..share).unwrap_or(&mut []);
+                let (count, radius) =
+                    mesh.nearest_faces(&into_frame(&placement, previous), reach, found, GATHER_BUDGET);
+                let pool = cache.faces.iter_mut().zip(cache.distances.iter_mut()).skip(used);
+                for ((face, distance), &(d, f)) in pool.zip(nearest.iter().take(count)) {
+                    *face = f;
+                    *distance = d;
                 }
+                // `used + count` ≤ CANDIDATE_FACES, far below `u16::MAX`.
+                let nearest = if count > 0 { nearest.first().map_or(radius, |&(d, _)| d) } else { radius };
+                *ball = Some(CandidateBall {
+                    start: used as u16,
+                    count: count as u16,
+                    center: *previous,
+                    radius,
+                    nearest,
+                });
+                used += count;
             }
         }
-        all_fit
+        cache.gathered_at = Some(*previous);
     }
 
     fn invalid(&mut self, proxy: [S; M]) -> ProxyOutput<S, M> {
@@ -529,17 +541,35 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         let solid = object.kind == ObjectKind::Solid;
         match object.shape {
             Shape::Mesh(_) | Shape::MeshAt { .. } => {
+                // The candidates (see `gather_candidates`): a step that stays nearer their
+                // centre than the nearest of them (or the ball's edge) less the margin meets
+                // none of the mesh's faces.
+                let ball = self.candidates.balls.get(index).copied().flatten();
+                let mut ball_offset = S::ZERO;
+                if let Some(ball) = &ball {
+                    let from_center = sub(y, &ball.center);
+                    ball_offset = norm(&from_center);
+                    if ball_offset + limit + margin + self.skin < ball.nearest {
+                        return None;
+                    }
+                }
+                let task_y = y;
+                let task_d = d;
                 let (mesh, placement) = object.shape.placed_mesh()?;
                 // The sweep in the mesh's frame; the normal found back in the task frame.
                 let y = &into_frame(&placement, y);
                 let d = &direction_into_frame(&placement, d);
-                // Nearest first along the segment: a box the segment enters beyond the best
-                // step so far cannot limit it.
-                let mut best: Option<(S, [S; M])> = None;
                 let infinity = S::from_f64(f64::INFINITY);
-                let mut consider = |face: usize| {
+                // The best so far: its step, its face, and the offset from that face at `y`.
+                let consider = |best: &mut Option<(S, usize, [S; M])>, face: usize| {
+                    // After a face met at once, only a face before it in the mesh can win.
+                    if let Some((b, f, _)) = *best {
+                        if b <= S::ZERO && face > f {
+                            return b;
+                        }
+                    }
                     if let Some([a, b, c]) = mesh.triangle(face) {
-                        let bound = best.map_or(limit, |(b, _)| b);
+                        let bound = best.map_or(limit, |(b, _, _)| b);
                         if M == 3
                             && beyond_the_face_plane(mesh.face_normals.get(face), y, d, &a, bound, margin)
                         {
@@ -547,7 +577,8 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                         }
                         let (q, _) = crate::shape::closest_on_triangle(y, &a, &b, &c);
                         let offset = sub(y, &q);
-                        let gap = norm(&offset) - margin;
+                        let distance = norm(&offset);
+                        let gap = distance - margin;
                         // The supporting plane's step is a lower bound of the entry: a face
                         // it puts at or beyond the best so far cannot limit the sweep, and
                         // a face within the margin limits it now (or never, receding). Only
@@ -560,7 +591,13 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                         // direction, projected onto the face's plane, comes out a few ulps
                         // towards the face as often as away, and without the allowance it
                         // could not slide.
-                        let step = match unit(&offset) {
+                        // The unit offset (`unit`, without a second square root).
+                        let n = if distance > S::ZERO && distance.is_finite() {
+                            Some(offset.map(|x| x / distance))
+                        } else {
+                            None
+                        };
+                        let step = match n {
                             Some(n) if gap > S::ZERO => {
                                 if convex_step(gap, dot(d, &n), bound, S::ZERO) >= bound {
                                     None
@@ -568,53 +605,62 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                                     triangle_entry(y, d, bound, margin, [&a, &b, &c])
                                 }
                             }
+                            // Against the sweep's whole length, not the best so far: a face
+                            // met at the same step as the best is then found whichever
+                            // comes first.
                             Some(n) => {
-                                let step = convex_step(gap, dot(d, &n), bound, half_skin);
-                                (step < bound).then_some(step)
+                                let step = convex_step(gap, dot(d, &n), limit, half_skin);
+                                (step < limit).then_some(step)
                             }
                             None => Some(S::ZERO),
                         };
+                        // Of faces met at the same step, the first in the mesh: the answer does
+                        // not depend on the order they are visited in.
                         if let Some(step) = step {
-                            // The normal where the proxy enters (at `y` for step 0).
-                            let entered = if step > S::ZERO {
-                                let z = add_scaled(y, step, d);
-                                sub(&z, &crate::shape::closest_on_triangle(&z, &a, &b, &c).0)
-                            } else {
-                                offset
-                            };
-                            let normal = match unit(&entered) {
-                                Some(n) => Some(n),
-                                None => match mesh.face_normals.get(face) {
-                                    Some(n) if dot(n, d) <= S::ZERO => Some(*n),
-                                    Some(n) => Some(add_scaled(&[S::ZERO; M], -S::ONE, n)),
-                                    None => None,
-                                },
-                            };
-                            if let Some(normal) = normal {
-                                if best.map_or(step < limit, |(b, _)| step < b) {
-                                    best = Some((step, normal));
-                                }
+                            if best.map_or(step < limit, |(b, f, _)| step < b || (step == b && face < f)) {
+                                *best = Some((step, face, offset));
                             }
                         }
                     }
-                    best.map_or(limit, |(b, _)| b)
+                    best.map_or(limit, |(b, _, _)| b)
                 };
-                match self.candidates.ranges.get(index).copied().flatten() {
-                    // This update's candidates (see `gather_candidates`).
-                    Some((start, count)) => {
-                        for &face in
-                            self.candidates.faces.iter().skip(usize::from(start)).take(usize::from(count))
-                        {
-                            consider(face as usize);
+                // This update's candidates decide the step while it stays in their ball (see
+                // `gather_candidates`), nearest first: a face at `D` from the centre is at
+                // least `D − |y − c| − s` from the point `s` along, so once that stays above
+                // the margin up to beyond the best step so far, it and every farther face are out.
+                let mut best: Option<(S, usize, [S; M])> = None;
+                let mut decided = false;
+                if let Some(ball) = ball {
+                    // (In the task frame, where the centre is kept.)
+                    let from_center = sub(task_y, &ball.center);
+                    if let Some(exit) = ball_exit(&from_center, task_d, ball.radius - margin - self.skin) {
+                        let offset = ball_offset;
+                        let (start, count) = (usize::from(ball.start), usize::from(ball.count));
+                        let range = self.candidates.faces.iter().zip(self.candidates.distances.iter());
+                        for (&face, &distance) in range.skip(start).take(count) {
+                            let bound = best.map_or(limit, |(b, _, _)| b);
+                            if distance - offset - margin - self.skin > bound {
+                                break;
+                            }
+                            consider(&mut best, face as usize);
                         }
+                        decided = best.map_or(limit, |(b, _, _)| b) <= exit;
                     }
-                    None => mesh.nearest_first(
+                }
+                // Else the BVH, nearest first along the segment: a box the segment enters
+                // beyond the best step so far cannot limit it.
+                if !decided {
+                    best = None;
+                    let search = |face: usize| consider(&mut best, face);
+                    mesh.nearest_first(
                         limit,
                         |min, max| segment_box_entry(y, d, limit, min, max, margin).unwrap_or(infinity),
-                        &mut consider,
-                    ),
+                        search,
+                    );
                 }
-                best.map(|(step, normal)| (step, direction_out_of_frame(&placement, &normal)))
+                let (step, face, offset) = best?;
+                let normal = entered_normal(mesh, face, y, d, step, &offset);
+                Some((step, direction_out_of_frame(&placement, &normal)))
             }
             Shape::HalfSpace { point, normal } => {
                 let n = if solid { normal } else { negate(&normal) };
@@ -669,6 +715,47 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             }
         }
     }
+}
+
+/// The free-side normal where a sweep from `y` along the unit `d` meets face `face` after
+/// `step` (`offset`: from the face's closest point to `y`): from the face's closest point to
+/// the proxy there; on the face itself, the face's normal turned against the sweep; else `−d`.
+fn entered_normal<S: Real, const M: usize>(
+    mesh: &Mesh<'_, S, M>,
+    face: usize,
+    y: &[S; M],
+    d: &[S; M],
+    step: S,
+    offset: &[S; M],
+) -> [S; M] {
+    let entered = match mesh.triangle(face) {
+        Some([a, b, c]) if step > S::ZERO => {
+            let z = add_scaled(y, step, d);
+            sub(&z, &crate::shape::closest_on_triangle(&z, &a, &b, &c).0)
+        }
+        _ => *offset,
+    };
+    unit(&entered).unwrap_or_else(|| match mesh.face_normals.get(face) {
+        Some(n) if finite(n) && dot(n, d) <= S::ZERO => *n,
+        Some(n) if finite(n) => negate(n),
+        _ => negate(d),
+    })
+}
+
+/// How far the ray `c + f + s d` (`d` a unit vector, `f` its start relative to the centre
+/// `c`) stays within the ball of radius `radius` about `c`: the larger root of
+/// `|f + s d|² = radius²`; infinite for an infinite radius, `None` when the start is outside.
+fn ball_exit<S: Real, const M: usize>(f: &[S; M], d: &[S; M], radius: S) -> Option<S> {
+    let infinity = S::from_f64(f64::INFINITY);
+    if radius == infinity {
+        return Some(infinity);
+    }
+    let outside = dot(f, f) - radius * radius;
+    if !(radius >= S::ZERO && outside <= S::ZERO) {
+        return None;
+    }
+    let along = dot(f, d);
+    Some(-along + (along * along - outside).sqrt())
 }
 
 /// `true` when a sweep from `y` along the unit `d` cannot come within `margin` of a triangle

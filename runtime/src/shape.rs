@@ -367,8 +367,10 @@ pub fn triangle_entry<S: Real, const M: usize>(
         let from_a = sub(y, a);
         if let Some(t) = entry(&normal_part(&from_a), &normal_part(d)) {
             let (alpha, beta) = in_plane(&add_scaled(&from_a, t, d));
+            // Entered over the face itself: the first entry (the grown triangle is convex and
+            // before `t` the point is farther than `margin` from the face's plane).
             if alpha >= S::ZERO && beta >= S::ZERO && alpha + beta <= S::ONE {
-                keep(t);
+                return Some(t);
             }
         }
     }
@@ -472,43 +474,63 @@ impl<'a, S: Real, const M: usize> Mesh<'a, S, M> {
         ])
     }
 
-    /// The faces within `radius` of `p` (`radius` ≥ 0), written to the start of `out`: their
-    /// number, or `None` when more than `out` holds (the caller then searches the whole mesh).
-    /// One walk of the BVH, pruned by the distance to each box.
-    pub fn faces_near(&self, p: &[S; M], radius: S, out: &mut [u32]) -> Option<usize> {
-        let squared_radius = radius * radius;
+    /// The faces nearest `p` within `reach`, as many as `out` holds, written to its start as
+    /// (distance, face) in ascending order of distance: their number, and the radius of a
+    /// ball about `p` they exhaust: every face closer to `p` than it is among them (the nearer
+    /// of the nearest face left out and the nearest box not opened; infinite when every face
+    /// fits). One walk of the BVH ([`Mesh::nearest_first`]) pruned by `reach` and by the
+    /// nearest face left out so far (until `out` is full nothing is left out, and a box nearer
+    /// than the nearest face left out may hold a nearer one), that stops once it has examined
+    /// `budget` faces (and the rest of that leaf). The reach and the budget bound the walk
+    /// where many faces are about as near as the nearest (from the centre of a spherical
+    /// cavity the walk would open every box); the radius can be larger than the reach.
+    pub fn nearest_faces(&self, p: &[S; M], reach: S, out: &mut [(S, u32)], budget: usize) -> (usize, S) {
+        let infinity = S::from_f64(f64::INFINITY);
         let mut count = 0usize;
-        let mut overflow = false;
-        self.nearest_first(
-            squared_radius,
+        let mut examined = 0usize;
+        // Squared, as the walk's bound; the distances in `out` are squared until the end.
+        let reach_squared = reach * reach;
+        let mut left_out = infinity;
+        let unopened = self.nearest_first(
+            reach_squared,
             |min, max| box_distance_squared(p, min, max),
             |face| {
                 if let Some([a, b, c]) = self.triangle(face) {
                     let (q, _) = closest_on_triangle(p, &a, &b, &c);
                     let offset = sub(p, &q);
-                    if dot(&offset, &offset) <= squared_radius {
-                        match out.get_mut(count) {
-                            Some(slot) => {
-                                *slot = face as u32;
-                                count += 1;
-                            }
-                            None => overflow = true,
+                    let squared = dot(&offset, &offset);
+                    // Where it goes in the ascending list (after equals: the first found stay).
+                    let at = out.iter().take(count).position(|&(d, _)| squared < d).unwrap_or(count);
+                    if at < out.len() && squared <= reach_squared {
+                        let full = count == out.len();
+                        if !full {
+                            count += 1;
                         }
+                        // In at `at`, the rest one down; what falls off the end of a full list
+                        // is left out.
+                        let mut carried = (squared, face as u32);
+                        for slot in out.iter_mut().take(count).skip(at) {
+                            core::mem::swap(slot, &mut carried);
+                        }
+                        if full {
+                            left_out = left_out.min(carried.0);
+                        }
+                    } else {
+                        left_out = left_out.min(squared);
                     }
                 }
-                // Once `out` is full the answer is `None`: a negative best prunes every box left.
-                if overflow {
-                    -S::ONE
+                examined += 1;
+                if examined >= budget {
+                    -infinity
                 } else {
-                    squared_radius
+                    left_out.min(reach_squared)
                 }
             },
         );
-        if overflow {
-            None
-        } else {
-            Some(count)
+        for entry in out.iter_mut().take(count) {
+            entry.0 = entry.0.sqrt();
         }
+        (count, left_out.min(unopened).sqrt())
     }
 
     /// Visits the faces nearest first, for a search that keeps a best value and stops where no
@@ -517,18 +539,21 @@ impl<'a, S: Real, const M: usize> Mesh<'a, S, M> {
     /// returns the best value so far; a node whose lower bound exceeds the best is skipped,
     /// also when it is popped (the best may have improved since it was pushed), and of two
     /// children the one with the smaller lower bound is visited first. Without a BVH every
-    /// face is visited.
+    /// face is visited. Returns the smallest lower bound of the boxes it did not open
+    /// (infinite when it opened every one): a `visit` that returns `−∞` ends the walk, and
+    /// this bounds every face it did not visit.
     pub fn nearest_first(
         &self,
         initial_best: S,
         mut lower_bound: impl FnMut(&[S; M], &[S; M]) -> S,
         mut visit: impl FnMut(usize) -> S,
-    ) {
+    ) -> S {
+        let mut unopened = S::from_f64(f64::INFINITY);
         if self.nodes.is_empty() {
             for face in 0..self.faces.len() {
                 let _ = visit(face);
             }
-            return;
+            return unopened;
         }
         let mut best = initial_best;
         // Each entry: a node and the lower bound of its box.
@@ -549,6 +574,7 @@ impl<'a, S: Real, const M: usize> Mesh<'a, S, M> {
                 None => continue,
             };
             if bound > best {
+                unopened = unopened.min(bound);
                 continue;
             }
             if node.count > 0 {
@@ -572,9 +598,12 @@ impl<'a, S: Real, const M: usize> Mesh<'a, S, M> {
                         *slot = (children[k], bounds[k]);
                         depth += 1;
                     }
+                } else {
+                    unopened = unopened.min(bounds[k]);
                 }
             }
         }
+        unopened
     }
 
     /// The face point closest to `p`, or `None` for an empty mesh ([`Mesh::nearest_first`]

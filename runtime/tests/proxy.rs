@@ -1461,11 +1461,10 @@ fn the_entry_into_a_grown_triangle_is_where_the_distance_reaches_the_margin() {
     assert!(entered > 500 && missed > 500, "{entered} entries, {missed} misses: the cases do not cover both");
 }
 
-/// An update's candidate faces (the faces within reach of the HIP, gathered once and kept
-/// while the HIP's reach stays in the ball they were gathered in) change nothing: the same fast
-/// random motion against a mesh gives the same proxy (to rounding), tick by tick, as
-/// with the candidates switched off (a far, never-touched curved cavity in the scene turns them
-/// off: every sweep step then searches the whole mesh), also while the mesh turns.
+/// The candidate faces (the faces nearest the proxy, gathered once and kept while the proxy
+/// stays near where they were gathered) change nothing: the same fast random motion against a
+/// mesh gives the same proxy (to rounding), tick by tick, as with every sweep step searching
+/// the whole mesh (`GodObject::search_every_step`), also while the mesh turns.
 #[test]
 fn candidate_faces_leave_the_proxy_where_a_search_of_every_face_puts_it() {
     // Twelve faces, and 384 (12.5 mm squares, so that the candidates are a few of them; with a
@@ -1488,18 +1487,12 @@ fn candidates_against_every_face(cube: hapticgen_runtime::shape::Mesh<'static, f
         scene.add(solid(Shape::Mesh(cube).moved(&corner))).unwrap();
         scene.reset([0.0, 0.0, 0.2]);
     }
-    every_face
-        .add(Object {
-            shape: Shape::Sphere { center: [0.0; 3], radius: 100.0 },
-            kind: ObjectKind::Cavity,
-            material: Material::frictionless(1500.0, 5.0),
-        })
-        .unwrap();
+    every_face.search_every_step();
     let mut rng = SmallRng::seed_from_u64(13);
     let mut hip = [0.0, 0.0, 0.2];
     let mut contacts = 0;
     // The second half with the cube turning about its centre (0.02 rad a tick about a fixed
-    // axis): the candidates are kept between updates only while nothing moves.
+    // axis): the candidates, in the mesh's frame, stay true while it moves.
     let turn = RigidMotion { rotation: rotation_about([1.0, 2.0, 3.0], 0.02), translation: [0.0; 3] };
     for tick in 0..ticks {
         if tick >= ticks / 2 {
@@ -1524,30 +1517,60 @@ fn candidates_against_every_face(cube: hapticgen_runtime::shape::Mesh<'static, f
     assert!(contacts > ticks / 10, "only {contacts} ticks in contact");
 }
 
-/// `Mesh::faces_near` against a scan of every face, and its overflow.
+/// `Mesh::nearest_faces` against a scan of every face: the nearest faces in ascending order,
+/// and a radius that no face left out is nearer than, with the nearest left out at it.
 #[test]
-fn faces_near_finds_every_face_within_the_radius() {
-    let cube = leaked_cube_mesh(0.05);
+fn nearest_faces_are_the_nearest_and_exhaust_their_ball() {
+    let fine = leaked_with_bvh(leaked_subdivided_cube_mesh(0.05, 4));
     let mut rng = SmallRng::seed_from_u64(14);
-    for _ in 0..2000 {
-        let p = random_point(&mut rng, 0.1);
-        let radius = rng.gen_range(0.0..0.08);
-        let mut found = [0u32; 12];
-        let count = cube.faces_near(&p, radius, &mut found).unwrap();
-        let mut got: Vec<u32> = found[..count].to_vec();
-        got.sort_unstable();
-        let expected: Vec<u32> = (0..12u32)
-            .filter(|&f| {
-                let [i, j, k] = cube.faces[f as usize];
-                let (a, b, c) =
-                    (cube.vertices[i as usize], cube.vertices[j as usize], cube.vertices[k as usize]);
-                norm(sub(p, closest_on_triangle(&p, &a, &b, &c).0)) <= radius
-            })
-            .collect();
-        assert_eq!(got, expected, "at {p:?}, radius {radius}");
-        if expected.len() > 1 {
-            let mut small = [0u32; 1];
-            assert_eq!(cube.faces_near(&p, radius, &mut small), None);
+    for (mesh, points) in [(leaked_cube_mesh(0.05), 2000), (fine, 500)] {
+        let distance_to = |p: &[f64; 3], f: usize| {
+            let [i, j, k] = mesh.faces[f];
+            let (a, b, c) = (mesh.vertices[i as usize], mesh.vertices[j as usize], mesh.vertices[k as usize]);
+            norm(sub(*p, closest_on_triangle(p, &a, &b, &c).0))
+        };
+        for _ in 0..points {
+            let p = random_point(&mut rng, 0.1);
+            let room = rng.gen_range(0..=20usize);
+            let mut found = vec![(0.0, 0u32); room];
+            let (count, radius) = mesh.nearest_faces(&p, f64::INFINITY, &mut found, usize::MAX);
+            let mut every: Vec<(f64, u32)> =
+                (0..mesh.faces.len()).map(|f| (distance_to(&p, f), f as u32)).collect();
+            every.sort_by(|a, b| a.0.total_cmp(&b.0));
+            assert_eq!(count, room.min(every.len()), "at {p:?}");
+            for (k, &(d, f)) in found[..count].iter().enumerate() {
+                assert_eq!(d, distance_to(&p, f as usize), "at {p:?}: face {f}'s distance");
+                // Ties may come in another order: the k-th distance is the scan's.
+                assert!(
+                    (d - every[k].0).abs() <= 1e-15,
+                    "at {p:?}: {k}-th nearest at {d}, scan {:?}",
+                    every[k]
+                );
+            }
+            let left_out = every.iter().filter(|(_, f)| !found[..count].iter().any(|(_, g)| g == f));
+            match left_out.map(|(d, _)| *d).reduce(f64::min) {
+                Some(nearest_left_out) => assert_eq!(radius, nearest_left_out, "at {p:?}"),
+                None => assert_eq!(radius, f64::INFINITY, "at {p:?}"),
+            }
+            // With a budget of faces to examine: the same list where it got that far, and a
+            // radius that no face left out is nearer than.
+            let budget = rng.gen_range(1..=24usize);
+            let reach = rng.gen_range(0.0..0.1);
+            let mut budgeted = vec![(0.0, 0u32); room];
+            let (count, radius) = mesh.nearest_faces(&p, reach, &mut budgeted, budget);
+            for &(d, f) in &budgeted[..count] {
+                assert_eq!(d, distance_to(&p, f as usize), "at {p:?}, budget {budget}: face {f}'s distance");
+            }
+            for (d, f) in &every {
+                if !budgeted[..count].iter().any(|(_, g)| g == f) {
+                    assert!(
+                        *d >= radius,
+                        "at {p:?}, budget {budget}: face {f} left out at {d}, radius {radius}"
+                    );
+                } else {
+                    assert!(*d <= reach, "at {p:?}: face {f} at {d}, beyond the reach {reach}");
+                }
+            }
         }
     }
 }
