@@ -340,6 +340,26 @@ impl SceneMotion {
         self.pivot.iter().zip(&self.velocity).map(|(c, v)| c + v * time).collect()
     }
 
+    /// Where the point `x` of the object (as it is at time 0) is at `time`: `P(t) x =
+    /// R(ω t) (x − c) + c + v t`.
+    pub fn carried(&self, time: f64, x: &[f64]) -> Vec<f64> {
+        let offset = difference(x, &self.pivot);
+        let turned = self.turned(time, &offset);
+        turned.iter().zip(self.pivot_at(time)).map(|(o, c)| o + c).collect()
+    }
+
+    /// A direction of the object (as it is at time 0), such as a face's normal, at `time`:
+    /// `R(ω t) n`.
+    pub fn turned(&self, time: f64, n: &[f64]) -> Vec<f64> {
+        let rotation = self.rotation_at(time, n.len());
+        rotation.iter().map(|row| row.iter().zip(n).map(|(r, v)| r * v).sum()).collect()
+    }
+
+    /// Whether the object turns (a non-zero angular velocity).
+    pub fn turns(&self) -> bool {
+        self.angular_velocity.iter().any(|w| *w != 0.0)
+    }
+
     /// The point of the object (as it is at time 0) that is at `p` at `time`: `P(t)⁻¹ p =
     /// R(ω t)ᵀ (p − c − v t) + c`. Depths and inside tests of the moving object at `time` are the
     /// unmoved object's at this point (a rigid motion keeps distances).

@@ -103,14 +103,68 @@ impl std::str::FromStr for Port {
     }
 }
 
-/// A scene as the link carries it: the objects for the device's slots and the free-space
-/// effect.
+/// A scene as the link carries it: the objects for the device's slots, the free-space effect,
+/// and the objects that move.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DeviceScene {
-    /// The objects, in the file's order (`SetObject`).
+    /// The objects, in the file's order (`SetObject`), where they are at time 0.
     pub objects: Vec<SceneObject>,
     /// The effect (`SetEffect`; [`LinkEffect::None`] when the file names none).
     pub effect: LinkEffect,
+    /// The objects with a `motion`: the device's slots hold still objects, so the host sends
+    /// each one's slot again as it moves ([`DeviceScene::moved_objects`]).
+    pub moving: Vec<MovingObject>,
+}
+
+/// An object of a device scene that moves: its slot, the object as the file writes it, and how
+/// it moves.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MovingObject {
+    /// The device's slot.
+    pub slot: u8,
+    /// The object at time 0.
+    pub object: crate::scene::SceneObject,
+    /// Its motion.
+    pub motion: crate::scene::SceneMotion,
+}
+
+impl DeviceScene {
+    /// The moving objects where they are `time` seconds after the scene was loaded, as the
+    /// link's `SetObject` carries them: a sphere's centre and a box's centre carried along, a
+    /// half-space's point carried and its normal turned.
+    pub fn moved_objects(&self, time: f64) -> Vec<(u8, SceneObject)> {
+        self.moving
+            .iter()
+            .map(|moving| {
+                let mut object = moving.object.clone();
+                object.shape = moved_shape(&object.shape, &moving.motion, time);
+                // Checked when the scene was loaded: what moves is a sphere, a box or a
+                // half-space, which `link_object` takes.
+                (moving.slot, link_object(&object).unwrap_or(SceneObject::Empty))
+            })
+            .collect()
+    }
+}
+
+/// `shape` moved by `motion` at `time` (spheres, boxes without a turn, half-spaces: what a
+/// device's slot holds; any other shape as it is).
+fn moved_shape(
+    shape: &crate::solids::SolidShape,
+    motion: &crate::scene::SceneMotion,
+    time: f64,
+) -> crate::solids::SolidShape {
+    let mut moved = shape.clone();
+    match &mut moved {
+        SolidShape::Sphere { center, .. } | SolidShape::Box { center, .. } => {
+            *center = motion.carried(time, center);
+        }
+        SolidShape::HalfSpace { point, normal } => {
+            *point = motion.carried(time, point);
+            *normal = motion.turned(time, normal);
+        }
+        _ => {}
+    }
+    moved
 }
 
 /// Reads a scene file ([`crate::scene`]) for a device: up to [`SCENE_SLOTS`] spheres, boxes
@@ -128,7 +182,21 @@ pub fn parse_scene(name: &str, text: &str) -> Result<DeviceScene, String> {
 }
 
 fn device_scene(scene: &crate::scene::Scene) -> Result<DeviceScene, String> {
-    Ok(DeviceScene { objects: device_objects(scene)?, effect: device_effect(scene.effect.as_ref()) })
+    let objects = device_objects(scene)?;
+    let mut moving = Vec::new();
+    for (slot, object) in scene.objects.iter().enumerate() {
+        let Some(motion) = &object.motion else { continue };
+        if matches!(object.shape, SolidShape::Box { .. }) && motion.turns() {
+            return Err(format!(
+                "error: {}: a device's scene slots hold axis-aligned boxes; a turning box (`motion.angular_velocity`) \
+                 is rendered by `hapticgen simulate --scene`",
+                object.location
+            ));
+        }
+        // `device_objects` holds at most SCENE_SLOTS objects, far below `u8::MAX`.
+        moving.push(MovingObject { slot: slot as u8, object: object.clone(), motion: motion.clone() });
+    }
+    Ok(DeviceScene { objects, effect: device_effect(scene.effect.as_ref()), moving })
 }
 
 /// A scene file's effect as the link carries it (vectors padded with zeros to [`MAX_TASK`]).
@@ -168,57 +236,48 @@ fn device_objects(scene: &crate::scene::Scene) -> Result<Vec<SceneObject>, Strin
             scene.objects.len()
         ));
     }
-    let mut objects = Vec::with_capacity(scene.objects.len());
-    for object in &scene.objects {
-        if object.static_friction != 0.0 || object.dynamic_friction != 0.0 {
-            return Err(format!(
-                "error: {}: the link carries no friction (a device's scene slots are frictionless); remove `friction`",
-                object.location
-            ));
-        }
-        if object.motion.is_some() {
-            return Err(format!(
-                "error: {}: a device's scene slots hold still objects; a moving one (`motion`) is rendered by \
-                 `hapticgen simulate --scene`",
-                object.location
-            ));
-        }
-        let (stiffness, damping) = (object.stiffness as f32, object.damping as f32);
-        objects.push(match &object.shape {
-            SolidShape::Sphere { center, radius } => SceneObject::Sphere {
-                centre: padded(center),
-                radius: *radius as f32,
-                cavity: object.cavity,
-                stiffness,
-                damping,
-            },
-            SolidShape::Box { center, half_extents, .. } if object.shape.is_axis_aligned() => {
-                SceneObject::Box { centre: padded(center), half_extents: padded(half_extents), stiffness, damping }
-            }
-            SolidShape::Box { .. } => {
-                return Err(format!(
-                    "error: {}: a device's scene slots hold axis-aligned boxes; a turned box (`rotation`) is rendered \
-                     by `hapticgen simulate --scene` and by firmware images built with the scene",
-                    object.location
-                ))
-            }
-            SolidShape::HalfSpace { point, normal } => {
-                SceneObject::HalfSpace { point: padded(point), normal: padded(normal), stiffness, damping }
-            }
-            SolidShape::Capsule { .. }
-            | SolidShape::Cylinder { .. }
-            | SolidShape::Polytope { .. }
-            | SolidShape::Mesh { .. } => {
-                return Err(format!(
-                    "error: {}: a device's scene slots hold spheres, boxes and half-spaces; capsules, cylinders, \
-                     polytopes and meshes are rendered by `hapticgen simulate --scene` and by firmware images built \
-                     with the scene",
-                    object.location
-                ))
-            }
-        });
+    scene.objects.iter().map(link_object).collect()
+}
+
+/// One scene object as the link carries it (where it is at time 0).
+fn link_object(object: &crate::scene::SceneObject) -> Result<SceneObject, String> {
+    if object.static_friction != 0.0 || object.dynamic_friction != 0.0 {
+        return Err(format!(
+            "error: {}: the link carries no friction (a device's scene slots are frictionless); remove `friction`",
+            object.location
+        ));
     }
-    Ok(objects)
+    let (stiffness, damping) = (object.stiffness as f32, object.damping as f32);
+    Ok(match &object.shape {
+        SolidShape::Sphere { center, radius } => SceneObject::Sphere {
+            centre: padded(center),
+            radius: *radius as f32,
+            cavity: object.cavity,
+            stiffness,
+            damping,
+        },
+        SolidShape::Box { center, half_extents, .. } if object.shape.is_axis_aligned() => {
+            SceneObject::Box { centre: padded(center), half_extents: padded(half_extents), stiffness, damping }
+        }
+        SolidShape::Box { .. } => {
+            return Err(format!(
+                "error: {}: a device's scene slots hold axis-aligned boxes; a turned box (`rotation`) is rendered \
+                 by `hapticgen simulate --scene` and by firmware images built with the scene",
+                object.location
+            ))
+        }
+        SolidShape::HalfSpace { point, normal } => {
+            SceneObject::HalfSpace { point: padded(point), normal: padded(normal), stiffness, damping }
+        }
+        SolidShape::Capsule { .. } | SolidShape::Cylinder { .. } | SolidShape::Polytope { .. } | SolidShape::Mesh { .. } => {
+            return Err(format!(
+                "error: {}: a device's scene slots hold spheres, boxes and half-spaces; capsules, cylinders, \
+                 polytopes and meshes are rendered by `hapticgen simulate --scene` and by firmware images built \
+                 with the scene",
+                object.location
+            ))
+        }
+    })
 }
 
 /// A state frame as the host received it.
@@ -936,6 +995,43 @@ mod tests {
         assert!(error.starts_with("error: s.yaml:2:") && error.contains("axis-aligned boxes"), "{error}");
         let level = "objects:\n  - box: {centre: [0, 0], half_extents: [1, 1], stiffness: 1, damping: 0}\n";
         assert!(matches!(parse_scene("s.yaml", level).unwrap().objects[0], SceneObject::Box { .. }));
+    }
+
+    /// A scene's moving objects are sent where they are at the time asked: a sphere carried
+    /// along its velocity, a half-space's point carried and its normal turned about the pivot,
+    /// a lifted box; a turning box is refused where it is written (the device's boxes are
+    /// axis-aligned), a still object is not among them.
+    #[test]
+    fn a_scene_s_moving_objects_are_sent_where_they_are() {
+        let text = "objects:\n\
+                    \x20 - sphere: {centre: [0.01, 0.2], radius: 0.02, stiffness: 1500, damping: 5,\n\
+                    \x20           motion: {velocity: [0.1, 0]}}\n\
+                    \x20 - half_space: {point: [0, 0.1], normal: [0, 1], stiffness: 1000, damping: 2,\n\
+                    \x20               motion: {angular_velocity: [2], pivot: [0, 0]}}\n\
+                    \x20 - box: {centre: [0, 0], half_extents: [0.01, 0.01], stiffness: 1, damping: 0}\n\
+                    \x20 - box: {centre: [0, 0], half_extents: [0.01, 0.01], stiffness: 1, damping: 0,\n\
+                    \x20         motion: {velocity: [0, -0.05]}}\n";
+        let scene = parse_scene("s.yaml", text).unwrap();
+        assert_eq!(scene.moving.iter().map(|m| m.slot).collect::<Vec<_>>(), vec![0, 1, 3]);
+        // At time 0 where the file puts them.
+        assert_eq!(
+            scene.moved_objects(0.0).into_iter().map(|(_, o)| o).collect::<Vec<_>>(),
+            vec![scene.objects[0], scene.objects[1], scene.objects[3]]
+        );
+        let close = |a: [f32; 3], b: [f32; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
+        let quarter = std::f64::consts::FRAC_PI_4; // 2 rad/s: a quarter turn
+        let moved = scene.moved_objects(quarter);
+        let SceneObject::Sphere { centre, .. } = moved[0].1 else { panic!("{:?}", moved[0]) };
+        assert!(close(centre, [0.01 + 0.1 * quarter as f32, 0.2, 0.0]), "{centre:?}");
+        let SceneObject::HalfSpace { point, normal, .. } = moved[1].1 else { panic!("{:?}", moved[1]) };
+        assert!(close(point, [-0.1, 0.0, 0.0]) && close(normal, [-1.0, 0.0, 0.0]), "{point:?} {normal:?}");
+        let SceneObject::Box { centre, .. } = moved[2].1 else { panic!("{:?}", moved[2]) };
+        assert!(close(centre, [0.0, -0.05 * quarter as f32, 0.0]), "{centre:?}");
+        let turning =
+            "objects:\n  - box: {centre: [0, 0], half_extents: [1, 1], stiffness: 1, damping: 0,\n      \
+                       motion: {angular_velocity: [1], pivot: [0, 0]}}\n";
+        let error = parse_scene("s.yaml", turning).unwrap_err();
+        assert!(error.starts_with("error: s.yaml:2:") && error.contains("a turning box"), "{error}");
     }
 
     #[test]

@@ -375,9 +375,14 @@ struct ConnectArgs {
     #[arg(long)]
     impedance: Option<String>,
     /// A scene file to load into the device (YAML `objects:` of `sphere`, `box`, `half_space`;
-    /// docs/link.md); the device's other slots are emptied.
+    /// docs/link.md); the device's other slots are emptied. Its moving objects are sent again
+    /// every `--motion-period`.
     #[arg(long)]
     scene: Option<PathBuf>,
+    /// How often a moving object of the scene is sent again where it is by then, ms (each
+    /// update is one `SetObject` frame of about 40 bytes per moving object).
+    #[arg(long, default_value_t = 10.0)]
+    motion_period: f64,
     /// Enable the bridges (heartbeats are sent from the start, every 2 ms).
     #[arg(long)]
     enable: bool,
@@ -406,6 +411,10 @@ fn connect(args: ConnectArgs) -> Result<(), String> {
     if !(args.duration.is_finite() && args.duration >= 0.0) {
         return Err(format!("error: --duration must be a finite, non-negative time, got {}", args.duration));
     }
+    if !(args.motion_period.is_finite() && args.motion_period >= 1.0) {
+        return Err(format!("error: --motion-period must be at least 1 ms, got {}", args.motion_period));
+    }
+    let motion_period = std::time::Duration::from_secs_f64(args.motion_period * 1e-3);
     let impedance = args.impedance.as_deref().map(link::parse_impedance).transpose()?;
     let scene = args.scene.as_deref().map(link::load_scene).transpose()?;
     let mut session = Session::open(&args.port)?;
@@ -424,6 +433,9 @@ fn connect(args: ConnectArgs) -> Result<(), String> {
         }
         session.send(&HostMessage::SetEffect(scene.effect))?;
         println!("scene: {} objects loaded, effect {:?}", scene.objects.len(), scene.effect);
+        if !scene.moving.is_empty() {
+            println!("scene: {} moving, sent again every {} ms", scene.moving.len(), args.motion_period);
+        }
     }
     session.heartbeats(true);
     std::thread::sleep(link::HEARTBEAT_PERIOD * 3);
@@ -453,12 +465,38 @@ fn connect(args: ConnectArgs) -> Result<(), String> {
     };
     let start = std::time::Instant::now();
     let deadline = start + std::time::Duration::from_secs_f64(args.duration);
+    // The moving objects' time 0 (they were sent where they are then, and wait there through
+    // the safety checks).
+    let moving = scene.as_ref().filter(|scene| !scene.moving.is_empty());
+    let mut next_motion = start + motion_period;
     let (mut frames, mut missing) = (0u64, 0u64);
     let mut first_tick = None;
     let mut last: Option<hapticgen_protocol::StateFrame> = None;
     let mut shown = start;
     while let Some(left) = deadline.checked_duration_since(std::time::Instant::now()) {
-        let Some(event) = session.next(left)? else { break };
+        let now = std::time::Instant::now();
+        if let Some(scene) = moving {
+            if now >= next_motion {
+                let time = now.duration_since(start).as_secs_f64();
+                for (slot, object) in scene.moved_objects(time) {
+                    session.send(&HostMessage::SetObject { slot, object })?;
+                }
+                // The next update on the period's grid (updates the link could not send in
+                // time are skipped, not queued).
+                while next_motion <= now {
+                    next_motion += motion_period;
+                }
+            }
+        }
+        let wait = match moving {
+            Some(_) => left.min(next_motion.saturating_duration_since(now)),
+            None => left,
+        };
+        let event = match session.next(wait)? {
+            Some(event) => event,
+            None if moving.is_some() => continue,
+            None => break,
+        };
         let Event::State(received) = event else { continue };
         let frame = received.frame;
         if let Some(previous) = &last {

@@ -2,7 +2,7 @@
 //! reader that the firmware's build scripts use too, and turned here into the simulator's
 //! [`Solid`]s.
 
-pub use hapticgen_codegen::scene::{load, parse, Scene, SceneEffect, SceneObject, SceneShape};
+pub use hapticgen_codegen::scene::{load, parse, Scene, SceneEffect, SceneMotion, SceneObject, SceneShape};
 
 use crate::solids::Solid;
 
@@ -94,6 +94,15 @@ mod tests {
         // (1, −1, 0) is the origin.
         let back = spin.carried_back(std::f64::consts::FRAC_PI_4, &[1.0, -1.0, 0.0]);
         assert!(back.iter().all(|v| v.abs() < 1e-15), "{back:?}");
+        // And carried, the origin is at (1, −1, 0); its x axis points along +y.
+        let there = spin.carried(std::f64::consts::FRAC_PI_4, &[0.0; 3]);
+        assert!(there.iter().zip([1.0, -1.0, 0.0]).all(|(a, b)| (a - b).abs() < 1e-15), "{there:?}");
+        let axis = spin.turned(std::f64::consts::FRAC_PI_4, &[1.0, 0.0, 0.0]);
+        assert!(axis.iter().zip([0.0, 1.0, 0.0]).all(|(a, b)| (a - b).abs() < 1e-15), "{axis:?}");
+        assert!(spin.turns() && !lift.turns());
+        // Carried along a lift of 1 cm/s for 2 s, a point rises 2 cm.
+        let lifted = lift.carried(2.0, &[0.1, 0.2, 0.3]);
+        assert!(lifted.iter().zip([0.1, 0.2, 0.32]).all(|(a, b)| (a - b).abs() < 1e-15), "{lifted:?}");
         assert!(solids(&scene, 3).is_ok());
         let planar = "objects:\n  - sphere: {centre: [0, 0], radius: 1, stiffness: 1, damping: 0,\n      motion: {angular_velocity: [1, 0, 0], pivot: [0, 0]}}\n";
         let error = solids(&parsed(planar).unwrap(), 2).unwrap_err();
