@@ -545,16 +545,12 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 // centre than the nearest of them (or the ball's edge) less the margin meets
                 // none of the mesh's faces.
                 let ball = self.candidates.balls.get(index).copied().flatten();
-                let mut ball_offset = S::ZERO;
-                if let Some(ball) = &ball {
-                    let from_center = sub(y, &ball.center);
-                    ball_offset = norm(&from_center);
-                    if ball_offset + limit + margin + self.skin < ball.nearest {
-                        return None;
-                    }
+                // `|y − c|`, task frame (where the centre is kept).
+                let ball_offset = ball.map_or(S::ZERO, |ball| norm(&sub(y, &ball.center)));
+                if ball.map_or(false, |ball| ball_offset + limit + margin + self.skin < ball.nearest) {
+                    return None;
                 }
-                let task_y = y;
-                let task_d = d;
+                let (task_y, task_d) = (y, d);
                 let (mesh, placement) = object.shape.placed_mesh()?;
                 // The sweep in the mesh's frame; the normal found back in the task frame.
                 let y = &into_frame(&placement, y);
