@@ -978,3 +978,52 @@ impl<'a, S: Real, const K: usize, const M: usize> ReferenceSource<S, M> for GodO
         TaskReference::at_rest(reference)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::rngs::SmallRng;
+    use rand::{Rng, SeedableRng};
+
+    /// `ball_exit` by hand (a ray from the centre, from a point on the edge going in and going
+    /// out, a start outside, a negative radius, an infinite ball) and against bisection on
+    /// `|f + s d| ≤ radius` for random starts inside balls and random directions (held-out
+    /// cargo-mutants survivors: the function replaced by `None`, the discriminant's sign, the
+    /// inside test inverted, the root's terms combined wrongly; the candidate faces' test against
+    /// a BVH search did not see them, because its steps rarely reach the ball's edge).
+    #[test]
+    fn ball_exit_is_where_a_ray_leaves_the_ball() {
+        let close = |a: Option<f64>, b: f64| a.map_or(false, |a| (a - b).abs() < 1e-12);
+        assert!(close(ball_exit(&[0.0; 3], &[1.0, 0.0, 0.0], 2.0), 2.0));
+        assert!(close(ball_exit(&[0.0, 0.0, -2.0], &[0.0, 0.0, 1.0], 2.0), 4.0));
+        assert!(close(ball_exit(&[0.0, 0.0, 2.0], &[0.0, 0.0, 1.0], 2.0), 0.0));
+        assert!(close(ball_exit(&[0.5, 0.0], &[0.0, 1.0], 1.0), 0.75f64.sqrt()));
+        assert_eq!(ball_exit(&[3.0, 0.0, 0.0], &[-1.0, 0.0, 0.0], 2.0), None);
+        assert_eq!(ball_exit(&[0.0; 3], &[1.0, 0.0, 0.0], -1.0), None);
+        assert_eq!(ball_exit(&[5.0, 0.0, 0.0], &[1.0, 0.0, 0.0], f64::INFINITY), Some(f64::INFINITY));
+        let mut rng = SmallRng::seed_from_u64(17);
+        for case in 0..2000 {
+            let radius = rng.gen_range(0.01..2.0);
+            let direction = loop {
+                let v: [f64; 3] = [rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)];
+                if let Some(u) = unit(&v) {
+                    break u;
+                }
+            };
+            let start: [f64; 3] = [rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)];
+            let start = start.map(|x| x * radius * 0.57); // inside: |start| ≤ 0.99 radius
+            let inside = |s: f64| norm(&add_scaled(&start, s, &direction)) <= radius;
+            let (mut low, mut high) = (0.0, 2.0 * radius);
+            for _ in 0..200 {
+                let middle = 0.5 * (low + high);
+                if inside(middle) {
+                    low = middle;
+                } else {
+                    high = middle;
+                }
+            }
+            let exit = ball_exit(&start, &direction, radius);
+            assert!(close(exit, low), "case {case}: {exit:?}, bisection {low}");
+        }
+    }
+}
