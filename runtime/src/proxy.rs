@@ -1005,12 +1005,14 @@ mod tests {
         for case in 0..2000 {
             let radius = rng.gen_range(0.01..2.0);
             let direction = loop {
-                let v: [f64; 3] = [rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)];
+                let v: [f64; 3] =
+                    [rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)];
                 if let Some(u) = unit(&v) {
                     break u;
                 }
             };
-            let start: [f64; 3] = [rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)];
+            let start: [f64; 3] =
+                [rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)];
             let start = start.map(|x| x * radius * 0.57); // inside: |start| ≤ 0.99 radius
             let inside = |s: f64| norm(&add_scaled(&start, s, &direction)) <= radius;
             let (mut low, mut high) = (0.0, 2.0 * radius);

@@ -1517,6 +1517,72 @@ fn candidates_against_every_face(cube: hapticgen_runtime::shape::Mesh<'static, f
     assert!(contacts > ticks / 10, "only {contacts} ticks in contact");
 }
 
+/// A sweep that leaves the candidates' ball is searched beyond it: the proxy rests 1 mm above a
+/// floor of 800 small triangles (its 8 candidates are all floor faces, their ball a few
+/// millimetres across), and the HIP jumps 10 cm along the floor, through a wall of two large
+/// triangles 5 cm away that is not among the candidates: the proxy stops at the wall, as it
+/// does with every step searching the BVH (seen failing with the ball's radius `R − r − ε`
+/// made `(R − r)/ε`, so that the candidates decided every step: the proxy went through the
+/// wall to the HIP).
+#[test]
+fn a_sweep_leaving_the_candidates_ball_meets_the_faces_beyond_it() {
+    // The floor: a 20 × 20 grid of 5 mm squares at z = 0, x and y in [−0.05, 0.05].
+    let mut vertices: Vec<[f64; 3]> = Vec::new();
+    let mut faces: Vec<[u32; 3]> = Vec::new();
+    let cells = 20u32;
+    for j in 0..=cells {
+        for i in 0..=cells {
+            vertices.push([-0.05 + 0.005 * f64::from(i), -0.05 + 0.005 * f64::from(j), 0.0]);
+        }
+    }
+    let at = |i: u32, j: u32| j * (cells + 1) + i;
+    for j in 0..cells {
+        for i in 0..cells {
+            faces.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            faces.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    // The wall: the plane x = 0.03, y in [−0.05, 0.05], z in [−0.01, 0.05], facing −x.
+    let first = vertices.len() as u32;
+    vertices.extend([[0.03, -0.05, -0.01], [0.03, 0.05, -0.01], [0.03, 0.05, 0.05], [0.03, -0.05, 0.05]]);
+    faces.push([first, first + 2, first + 1]);
+    faces.push([first, first + 3, first + 2]);
+    let face_normals: Vec<[f64; 3]> = faces
+        .iter()
+        .map(|&[a, b, c]| {
+            let (a, b, c) = (vertices[a as usize], vertices[b as usize], vertices[c as usize]);
+            let n = cross(sub(b, a), sub(c, a));
+            let length = norm(n);
+            n.map(|x| x / length)
+        })
+        .collect();
+    let mesh: &'static _ = Box::leak(Box::new(hapticgen_runtime::shape::Mesh {
+        vertices: Vec::leak(vertices),
+        faces: Vec::leak(faces),
+        face_normals: Vec::leak(face_normals),
+        vertex_normals: &[],
+        nodes: &[],
+    }));
+    for search in [false, true] {
+        let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+        scene.add(solid(Shape::Mesh(mesh))).unwrap();
+        if search {
+            scene.search_every_step();
+        }
+        // Resting 1 mm deep, then the jump along the floor through the wall.
+        scene.reset([0.0, 0.0, 0.01]);
+        scene.render(&[0.0, 0.0, 0.0]);
+        let resting = scene.proxy().unwrap();
+        assert!((resting[2] - R).abs() < 1e-6, "search {search}: resting at {resting:?}");
+        let out = scene.render(&[0.1, 0.0, -0.001]);
+        assert!(
+            out.proxy[0] <= 0.03 - R + 1e-6 && out.proxy[0] > 0.02,
+            "search {search}: the proxy at {:?}, beyond the wall at x = 0.03",
+            out.proxy
+        );
+    }
+}
+
 /// `Mesh::nearest_faces` against a scan of every face: the nearest faces in ascending order,
 /// and a radius that no face left out is nearer than, with the nearest left out at it.
 #[test]
