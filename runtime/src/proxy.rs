@@ -545,13 +545,12 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 // centre than the nearest of them (or the ball's edge) less the margin meets
                 // none of the mesh's faces.
                 let ball = self.candidates.balls.get(index).copied().flatten();
-                // `y − c` and `|y − c|`, task frame (where the centre is kept).
-                let from_center = ball.map_or([S::ZERO; M], |ball| sub(y, &ball.center));
-                let ball_offset = norm(&from_center);
+                // `|y − c|`, task frame (where the centre is kept).
+                let ball_offset = ball.map_or(S::ZERO, |ball| norm(&sub(y, &ball.center)));
                 if ball.map_or(false, |ball| ball_offset + limit + margin + self.skin < ball.nearest) {
                     return None;
                 }
-                let task_d = d;
+                let (task_y, task_d) = (y, d);
                 let (mesh, placement) = object.shape.placed_mesh()?;
                 // The sweep in the mesh's frame; the normal found back in the task frame.
                 let y = &into_frame(&placement, y);
@@ -628,6 +627,8 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 let mut best: Option<(S, usize, [S; M])> = None;
                 let mut decided = false;
                 if let Some(ball) = ball {
+                    // (In the task frame, where the centre is kept.)
+                    let from_center = sub(task_y, &ball.center);
                     if let Some(exit) = ball_exit(&from_center, task_d, ball.radius - margin - self.skin) {
                         let offset = ball_offset;
                         let (start, count) = (usize::from(ball.start), usize::from(ball.count));
