@@ -62,6 +62,11 @@ use crate::shape::{
 };
 use crate::tick::ReferenceSource;
 use crate::Real;
+/// TEMP probe
+pub static PROBE: [core::sync::atomic::AtomicU32; 8] = [const { core::sync::atomic::AtomicU32::new(0) }; 8];
+fn bump(i: usize) {
+    PROBE[i].fetch_add(1, core::sync::atomic::Ordering::Relaxed);
+}
 
 /// The most constraints (tangent planes and curved cavities) one round of sweeps collects; three
 /// meet at a corner in 3-D.
@@ -124,10 +129,32 @@ struct CandidateBall<S, const M: usize> {
     nearest: S,
 }
 
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 enum Constraint<S, const M: usize> {
-    Plane { normal: [S; M], point: [S; M] },
-    Inside { object: usize },
+    /// `flat`: the object and its flat piece (a mesh's face; 0 for a half-space) whose own
+    /// plane, a margin off it, this is (see `GodObject::flat_plane_point`); `None` for a
+    /// tangent plane through the proxy.
+    Plane {
+        normal: [S; M],
+        point: [S; M],
+        flat: Option<(usize, u32)>,
+    },
+    Inside {
+        object: usize,
+    },
+}
+
+/// The constraints of a round of sweeps (see `GodObject::constrained_proxy`) and the object
+/// in contact.
+#[derive(Clone, Copy, Debug)]
+struct ActiveSet<S, const M: usize> {
+    constraints: [Option<Constraint<S, M>>; MAX_CONSTRAINTS],
+    count: usize,
+    contact: Option<usize>,
+}
+
+impl<S: Real, const M: usize> ActiveSet<S, M> {
+    const EMPTY: Self = Self { constraints: [None; MAX_CONSTRAINTS], count: 0, contact: None };
 }
 
 /// What the renderer asks of the impedance law this tick.
@@ -145,6 +172,10 @@ pub struct ProxyOutput<S, const M: usize> {
     pub sticking: bool,
     /// `false` when the HIP was NaN or infinite: the last proxy is kept and the gains are zero.
     pub valid: bool,
+    /// The straight sweeps this update made (at most [`PASSES`], and one more for a friction
+    /// slide): the renderer's work, for profiling. A proxy at rest against the surfaces it
+    /// rested on at the last update makes none.
+    pub sweeps: u8,
 }
 
 /// A god-object renderer of up to `K` objects in an `M`-dimensional task space.
@@ -171,6 +202,9 @@ pub struct GodObject<'a, S, const K: usize, const M: usize> {
     candidates: CandidateCache<S, K, M>,
     /// `false` after [`GodObject::search_every_step`].
     keeps_candidates: bool,
+    /// The constraints the last update ended on, where the next one starts (see
+    /// `GodObject::render`).
+    held: ActiveSet<S, M>,
 }
 
 impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
@@ -196,6 +230,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 gathered_at: None,
             },
             keeps_candidates: true,
+            held: ActiveSet::EMPTY,
         }
     }
 
@@ -206,6 +241,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             *slot = Some(object);
         }
         self.candidates.gathered_at = None;
+        self.held = ActiveSet::EMPTY;
         Some(index)
     }
 
@@ -227,6 +263,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         self.proxy = Some(position);
         self.contact = None;
         self.sticking = false;
+        self.held = ActiveSet::EMPTY;
     }
 
     /// The proxy's radius.
@@ -249,6 +286,8 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             None => return false,
         };
         object.shape = object.shape.moved(motion);
+        // The planes held from the last update are where the object was.
+        self.held = ActiveSet::EMPTY;
         // The candidates stay true, about their centre moved with the mesh.
         if let Some(ball) = self.candidates.balls.get_mut(index).and_then(|b| b.as_mut()) {
             ball.center = motion.apply(&ball.center);
@@ -270,7 +309,9 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             None => return self.invalid([S::ZERO; M]),
         };
         self.gather_candidates(&previous, hip);
-        let (frictionless, contact) = self.constrained_proxy(&previous, hip);
+        let mut active = self.held;
+        let (frictionless, mut sweeps) = self.constrained_proxy(&previous, hip, &mut active);
+        let contact = active.contact;
         let mut proxy = frictionless;
         let mut sticking = false;
         if let (Some(index), Some(_)) = (contact, self.contact) {
@@ -290,7 +331,8 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                     let length = norm(&travel);
                     proxy = previous;
                     if let Some(direction) = unit(&travel) {
-                        let (s, _) = self.sweep(&previous, &direction, length);
+                        let (s, _) = self.sweep(&previous, &direction, length, &mut [None; K]);
+                        sweeps += 1;
                         proxy = add_scaled(&previous, s, &direction);
                     }
                 }
@@ -299,11 +341,21 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         self.proxy = Some(proxy);
         self.contact = contact;
         self.sticking = sticking;
+        // The next update starts on the constraints this one ended on, as long as the proxy is
+        // where they hold it (a friction step leaves it elsewhere): a proxy resting against
+        // faces or in a corner finds its goal at once instead of meeting each surface again.
+        if proxy != frictionless {
+            // Friction left the proxy off the frictionless one: of the planes it ended on, those
+            // of flat pieces hold wherever it touches them.
+            let (constraints, count) = self.still_touched(&active.constraints, &proxy);
+            active = ActiveSet { constraints, count, contact: active.contact };
+        }
+        self.held = active;
         let (stiffness, damping) = match contact.and_then(|i| self.objects.get(i).copied().flatten()) {
             Some(object) => (object.material.stiffness, object.material.damping),
             None => (self.free_space_stiffness, self.free_space_damping),
         };
-        ProxyOutput { proxy, stiffness, damping, contact, sticking, valid: true }
+        ProxyOutput { proxy, stiffness, damping, contact, sticking, valid: true, sweeps }
     }
 
     /// The faces of each mesh nearest the proxy `p₀`, found with one BVH walk per mesh
@@ -331,6 +383,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         if keep {
             return;
         }
+        bump(5);
         // This update's sweeps stay within `ρ = |x − p₀|` of the HIP `x` (each goal is the point
         // nearest `x` on constraints the proxy satisfies, a friction slide ends between the
         // frictionless proxy and `p₀`), so within `2ρ` of `p₀`: twice that, for later updates.
@@ -369,6 +422,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
     fn invalid(&mut self, proxy: [S; M]) -> ProxyOutput<S, M> {
         self.contact = None;
         self.sticking = false;
+        self.held = ActiveSet::EMPTY;
         ProxyOutput {
             proxy,
             stiffness: S::ZERO,
@@ -376,47 +430,62 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             contact: None,
             sticking: false,
             valid: false,
+            sweeps: 0,
         }
     }
 
-    /// The frictionless proxy reached from `start` towards `hip`, and the object in contact.
-    fn constrained_proxy(&self, start: &[S; M], hip: &[S; M]) -> ([S; M], Option<usize>) {
+    /// The frictionless proxy reached from `start` towards `hip` in a round that begins with the
+    /// constraints `active` holds (the last update's); `active` ends with the constraints of the
+    /// last round and the object in contact. Also the number of sweeps made.
+    fn constrained_proxy(&self, start: &[S; M], hip: &[S; M], active: &mut ActiveSet<S, M>) -> ([S; M], u8) {
         let mut p = *start;
-        let mut constraints: [Option<Constraint<S, M>>; MAX_CONSTRAINTS] = [None; MAX_CONSTRAINTS];
-        let mut count = 0;
-        let mut contact = None;
+        let mut sweeps = 0u8;
+        let ActiveSet { constraints, count, contact } = active;
+        // Per object, the face of a mesh that limited its last step (see `GodObject::safe_step`).
+        let mut faces_met = [None; K];
         for _ in 0..PASSES {
-            let goal = self.goal(&p, hip, &constraints);
+            bump(0);
+            let goal = self.goal(&p, hip, constraints);
             let travel = sub(&goal, &p);
             let length = norm(&travel);
             let direction = match unit(&travel) {
                 Some(direction) if length > self.skin => direction,
                 _ => {
-                    if count == 0 {
+                    if *count == 0 {
                         p = goal; // At the HIP (or within the skin of it).
-                        contact = None;
+                        *contact = None;
                     }
                     break;
                 }
             };
-            let (s, hit) = self.sweep(&p, &direction, length);
+            let before = p;
+            let (s, hit) = self.sweep(&p, &direction, length, &mut faces_met);
+            sweeps += 1;
             p = if hit.is_none() { goal } else { add_scaled(&p, s, &direction) };
             match hit {
-                None if count == 0 => {
-                    contact = None; // Reached the HIP: free space.
+                None if *count == 0 => {
+                    *contact = None; // Reached the HIP: free space.
                     break;
                 }
                 None => {
-                    // Reached the constrained goal: a new round towards the HIP. The last
-                    // round's contact stands until this one ends in free space or in a
-                    // contact of its own: the pass limit can end it before its first sweep,
-                    // with the proxy still held off the HIP.
-                    constraints = [None; MAX_CONSTRAINTS];
-                    count = 0;
+                    // Reached the constrained goal: a new round towards the HIP, on the planes
+                    // of flat pieces (mesh faces, half-spaces) the proxy still touches (their
+                    // planes are no local model, and a goal on them that the sweep reached is
+                    // where the proxy stays while it touches them). With all of them kept, the
+                    // next goal would be this one: the proxy is there. The last round's contact
+                    // stands until this one ends in free space or in a contact of its own: the
+                    // pass limit can end it before its first sweep, with the proxy still held
+                    // off the HIP.
+                    let (kept, kept_count) = self.still_touched(constraints, &p);
+                    if kept_count > 0 && kept_count == *count {
+                        break;
+                    }
+                    *constraints = kept;
+                    *count = kept_count;
                 }
                 Some((index, normal)) => {
-                    if count == 0 {
-                        contact = Some(index); // The first contact of the round.
+                    if *count == 0 {
+                        *contact = Some(index); // The first contact of the round.
                     }
                     let curved_cavity = self.objects.get(index).copied().flatten().map_or(false, |o| {
                         o.kind == ObjectKind::Cavity
@@ -428,10 +497,16 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                                     | Shape::Cylinder { .. }
                             )
                     });
+                    let face = faces_met.get(index).copied().flatten();
                     let new = if curved_cavity {
                         Constraint::Inside { object: index }
                     } else {
-                        Constraint::Plane { normal, point: p }
+                        match self.flat_plane_point(index, face, &normal) {
+                            Some(point) => {
+                                Constraint::Plane { normal, point, flat: Some((index, face.unwrap_or(0))) }
+                            }
+                            None => Constraint::Plane { normal, point: p, flat: None },
+                        }
                     };
                     // The same plane or cavity again replaces the old one.
                     let same = constraints.iter().position(|c| match (c, &new) {
@@ -442,16 +517,20 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                         _ => false,
                     });
                     match same {
+                        // Stopped where it started by the constraint it already had: the next
+                        // pass would repeat this one exactly (same proxy, same constraints, same
+                        // goal), and so would every later one, so the passes left change nothing.
+                        Some(i) if constraints.get(i) == Some(&Some(new)) && p == before => break,
                         Some(i) => {
                             if let Some(slot) = constraints.get_mut(i) {
                                 *slot = Some(new);
                             }
                         }
-                        None if count < MAX_CONSTRAINTS => {
-                            if let Some(slot) = constraints.get_mut(count) {
+                        None if *count < MAX_CONSTRAINTS => {
+                            if let Some(slot) = constraints.get_mut(*count) {
                                 *slot = Some(new);
                             }
-                            count += 1;
+                            *count += 1;
                         }
                         None => break, // More surfaces than a corner: stay.
                     }
@@ -460,7 +539,72 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         }
         // A round ended by the pass limit while constrained, or before its first sweep, is
         // still in contact.
-        (p, contact)
+        (p, sweeps)
+    }
+
+    /// For a contact on a flat piece of object `index`, inside face `face` of a mesh (where the
+    /// contact's `normal` is the face's own, see `entered_normal`) or on a half-space, a point of
+    /// the plane a margin `r + ε` off it on the free side: the constraint's plane is then the
+    /// same at every contact with the piece, where a plane through the proxy would stand
+    /// anywhere within the skin of it (and rounds of sweeps between two faces' planes could then
+    /// creep along them, a skin at a time). `None` on a mesh's edge or vertex (another normal)
+    /// and for other shapes.
+    fn flat_plane_point(&self, index: usize, face: Option<u32>, normal: &[S; M]) -> Option<[S; M]> {
+        let margin = self.radius + self.skin;
+        let shape = self.objects.get(index).copied().flatten()?.shape;
+        if let Shape::HalfSpace { point, normal: outward } = shape {
+            let parallel = *normal == outward || *normal == negate(&outward);
+            return parallel.then(|| add_scaled(&point, margin, normal));
+        }
+        let face = face?;
+        let (mesh, placement) = shape.placed_mesh()?;
+        let face_normal = direction_out_of_frame(&placement, mesh.face_normals.get(face as usize)?);
+        if *normal != face_normal && *normal != negate(&face_normal) {
+            return None;
+        }
+        let [a, _, _] = mesh.triangle(face as usize)?;
+        let a = placement.as_ref().map_or(a, |motion| motion.apply(&a));
+        Some(add_scaled(&a, margin, normal))
+    }
+
+    /// Of `constraints`, those on flat pieces (see `GodObject::flat_plane_point`) that `p` still
+    /// touches, with their number: within a skin of the plane, and for a mesh's face within the
+    /// margin and two skins of the face itself (past its edge the plane is no longer the
+    /// surface).
+    fn still_touched(
+        &self,
+        constraints: &[Option<Constraint<S, M>>; MAX_CONSTRAINTS],
+        p: &[S; M],
+    ) -> ([Option<Constraint<S, M>>; MAX_CONSTRAINTS], usize) {
+        let mut kept = [None; MAX_CONSTRAINTS];
+        let mut count = 0;
+        for constraint in constraints.iter().flatten() {
+            let (normal, point, index, face) = match constraint {
+                Constraint::Plane { normal, point, flat: Some((index, face)) } => {
+                    (normal, point, *index, *face)
+                }
+                _ => continue,
+            };
+            if exceeds(dot(normal, &sub(p, point)).abs(), self.skin) {
+                continue;
+            }
+            let shape = self.objects.get(index).copied().flatten().map(|o| o.shape);
+            let on_the_face = match shape.as_ref().and_then(|shape| shape.placed_mesh()) {
+                Some((mesh, placement)) => mesh.triangle(face as usize).map_or(false, |[a, b, c]| {
+                    let y = into_frame(&placement, p);
+                    let (closest, _) = crate::shape::closest_on_triangle(&y, &a, &b, &c);
+                    !exceeds(norm(&sub(&y, &closest)), self.radius + self.skin * S::from_f64(2.0))
+                }),
+                None => true,
+            };
+            if on_the_face {
+                if let Some(slot) = kept.get_mut(count) {
+                    *slot = Some(*constraint);
+                    count += 1;
+                }
+            }
+        }
+        (kept, count)
     }
 
     /// The point closest to `hip` on the constraints (see the module docs), `p` when none of
@@ -474,7 +618,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         let mut planes: [([S; M], [S; M]); MAX_CONSTRAINTS] = [([S::ZERO; M], [S::ZERO; M]); MAX_CONSTRAINTS];
         let mut k = 0;
         for c in constraints.iter().flatten() {
-            if let Constraint::Plane { normal, point } = c {
+            if let Constraint::Plane { normal, point, .. } = c {
                 if let Some(slot) = planes.get_mut(k) {
                     *slot = (*normal, *point);
                     k += 1;
@@ -495,17 +639,28 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
 
     /// Conservative advancement from `p` along the unit `direction` for up to `length`: the
     /// distance travelled and, if stopped short, the object hit with its free-side normal.
-    fn sweep(&self, p: &[S; M], direction: &[S; M], length: S) -> (S, Option<(usize, [S; M])>) {
+    ///
+    /// `faces_met` holds, per object, the mesh face that limited its last step, which its next
+    /// step checks first (see `GodObject::safe_step`); kept from sweep to sweep of an update.
+    fn sweep(
+        &self,
+        p: &[S; M],
+        direction: &[S; M],
+        length: S,
+        faces_met: &mut [Option<u32>; K],
+    ) -> (S, Option<(usize, [S; M])>) {
         let mut s = S::ZERO;
         let mut last = None;
         for _ in 0..ADVANCE_STEPS {
+            bump(1);
             let y = add_scaled(p, s, direction);
             let remaining = length - s;
             let mut step = remaining;
             let mut hit = None;
-            for (index, slot) in self.objects.iter().enumerate() {
+            for ((index, slot), face_met) in self.objects.iter().enumerate().zip(faces_met.iter_mut()) {
                 if let Some(object) = slot {
-                    if let Some((safe, normal)) = self.safe_step(index, object, &y, direction, step) {
+                    if let Some((safe, normal)) = self.safe_step(index, object, &y, direction, step, face_met)
+                    {
                         if safe < step {
                             step = safe;
                             hit = Some((index, normal));
@@ -527,7 +682,10 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
 
     /// How far the proxy can certainly move from `y` along `d` (up to `limit`) without
     /// coming within `r + ε` of `object`, with the free-side normal there; `None` when the
-    /// object does not limit it (or is degenerate).
+    /// object does not limit it (or is degenerate). For a mesh, `face_met` is a face to check
+    /// first (the one that limited the last step, likely to limit this one: its step then rules
+    /// most of the others out by their planes alone; the answer does not depend on the order),
+    /// and becomes the face that limits this step.
     fn safe_step(
         &self,
         index: usize,
@@ -535,6 +693,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         y: &[S; M],
         d: &[S; M],
         limit: S,
+        face_met: &mut Option<u32>,
     ) -> Option<(S, [S; M])> {
         let margin = self.radius + self.skin;
         let half_skin = self.skin * S::from_f64(0.5);
@@ -564,6 +723,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                             return b;
                         }
                     }
+                    bump(2);
                     if let Some([a, b, c]) = mesh.triangle(face) {
                         let bound = best.map_or(limit, |(b, _, _)| b);
                         if M == 3
@@ -598,7 +758,10 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                                 if convex_step(gap, dot(d, &n), bound, S::ZERO) >= bound {
                                     None
                                 } else {
-                                    triangle_entry(y, d, bound, margin, [&a, &b, &c])
+                                    {
+                                        bump(4);
+                                        triangle_entry(y, d, bound, margin, [&a, &b, &c])
+                                    }
                                 }
                             }
                             // Against the sweep's whole length, not the best so far: a face
@@ -633,12 +796,17 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                         let offset = ball_offset;
                         let (start, count) = (usize::from(ball.start), usize::from(ball.count));
                         let range = self.candidates.faces.iter().zip(self.candidates.distances.iter());
+                        if let Some(face) = *face_met {
+                            consider(&mut best, face as usize);
+                        }
                         for (&face, &distance) in range.skip(start).take(count) {
                             let bound = best.map_or(limit, |(b, _, _)| b);
                             if distance - offset - margin - self.skin > bound {
                                 break;
                             }
-                            consider(&mut best, face as usize);
+                            if Some(face) != *face_met {
+                                consider(&mut best, face as usize);
+                            }
                         }
                         decided = best.map_or(limit, |(b, _, _)| b) <= exit;
                     }
@@ -646,6 +814,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 // Else the BVH, nearest first along the segment: a box the segment enters
                 // beyond the best step so far cannot limit it.
                 if !decided {
+                    bump(3);
                     best = None;
                     let search = |face: usize| consider(&mut best, face);
                     mesh.nearest_first(
@@ -655,6 +824,8 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                     );
                 }
                 let (step, face, offset) = best?;
+                // (`face` < the mesh's face count, which `u32` indexes.)
+                *face_met = Some(face as u32);
                 let normal = entered_normal(mesh, face, y, d, step, &offset);
                 Some((step, direction_out_of_frame(&placement, &normal)))
             }
@@ -714,8 +885,12 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
 }
 
 /// The free-side normal where a sweep from `y` along the unit `d` meets face `face` after
-/// `step` (`offset`: from the face's closest point to `y`): from the face's closest point to
-/// the proxy there; on the face itself, the face's normal turned against the sweep; else `−d`.
+/// `step` (`offset`: from the face's closest point to `y`): where the closest point lies inside
+/// the face, the face's own normal on the proxy's side (exact: a face is flat, so the same face
+/// gives the same plane at every contact, which the offset's direction, a difference of nearly
+/// equal coordinates when the proxy rests within the skin, would not); on an edge or a vertex,
+/// from the closest point to the proxy; with the proxy on the face itself, the face's normal
+/// turned against the sweep; else `−d`.
 fn entered_normal<S: Real, const M: usize>(
     mesh: &Mesh<'_, S, M>,
     face: usize,
@@ -724,17 +899,24 @@ fn entered_normal<S: Real, const M: usize>(
     step: S,
     offset: &[S; M],
 ) -> [S; M] {
-    let entered = match mesh.triangle(face) {
-        Some([a, b, c]) if step > S::ZERO => {
+    let face_normal = mesh.face_normals.get(face).filter(|n| finite(n));
+    let (entered, inside_the_face) = match mesh.triangle(face) {
+        Some([a, b, c]) => {
             let z = add_scaled(y, step, d);
-            sub(&z, &crate::shape::closest_on_triangle(&z, &a, &b, &c).0)
+            let (closest, barycentric) = crate::shape::closest_on_triangle(&z, &a, &b, &c);
+            (sub(&z, &closest), barycentric.iter().all(|&w| w > S::ZERO))
         }
-        _ => *offset,
+        None => (*offset, false),
     };
-    unit(&entered).unwrap_or_else(|| match mesh.face_normals.get(face) {
-        Some(n) if finite(n) && dot(n, d) <= S::ZERO => *n,
-        Some(n) if finite(n) => negate(n),
-        _ => negate(d),
+    match face_normal {
+        Some(n) if inside_the_face && dot(n, &entered) > S::ZERO => return *n,
+        Some(n) if inside_the_face && dot(n, &entered) < S::ZERO => return negate(n),
+        _ => {}
+    }
+    unit(&entered).unwrap_or_else(|| match face_normal {
+        Some(n) if dot(n, d) <= S::ZERO => *n,
+        Some(n) => negate(n),
+        None => negate(d),
     })
 }
 

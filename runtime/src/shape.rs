@@ -321,18 +321,36 @@ pub fn triangle_entry<S: Real, const M: usize>(
     [a, b, c]: [&[S; M]; 3],
 ) -> Option<S> {
     let squared_margin = margin * margin;
-    // The smallest root in [0, limit] of |u + t v|² = margin², `u` the offset at t = 0.
+    // The smallest root in [0, limit] of |u + t v|² = margin², `u` the offset at t = 0. The
+    // constant term `|u|² − margin²` and the discriminant `(u · v)² − |v|² (|u|² − margin²)` are
+    // formed so that they keep the margin where it is far below `|u|`: as written, in `f32`
+    // a margin of 1 µm vanishes against an offset of 5 cm (10⁻¹² against 2.5·10⁻³ is below the
+    // rounding of `|u|²`), and the entry came out on the surface itself instead of a margin
+    // before it. So: `(|u| − margin)(|u| + margin)`, and with Lagrange's identity
+    // `|u|²|v|² − (u · v)² = Σ_{i<j} (u_i v_j − u_j v_i)²` the discriminant is
+    // `|v|² margin² − Σ_{i<j} (u_i v_j − u_j v_i)²`, no difference of nearly equal terms.
     let entry = |u: &[S; M], v: &[S; M]| -> Option<S> {
-        let quadratic = dot(v, v);
-        let half_linear = dot(u, v);
-        let constant = dot(u, u) - squared_margin;
-        if constant <= S::ZERO {
+        let distance = norm(u);
+        if distance <= margin {
             return Some(S::ZERO);
         }
+        let quadratic = dot(v, v);
+        let half_linear = dot(u, v);
         if half_linear >= S::ZERO || quadratic <= S::ZERO {
             return None; // Not approaching.
         }
-        let discriminant = half_linear * half_linear - quadratic * constant;
+        let constant = (distance - margin) * (distance + margin);
+        let mut wedge_squared = S::ZERO;
+        for i in 0..M {
+            for j in i + 1..M {
+                if let (Some(&ui), Some(&uj), Some(&vi), Some(&vj)) = (u.get(i), u.get(j), v.get(i), v.get(j))
+                {
+                    let area = ui * vj - uj * vi;
+                    wedge_squared += area * area;
+                }
+            }
+        }
+        let discriminant = quadratic * squared_margin - wedge_squared;
         if discriminant < S::ZERO {
             return None;
         }
@@ -478,12 +496,13 @@ impl<'a, S: Real, const M: usize> Mesh<'a, S, M> {
     /// (distance, face) in ascending order of distance: their number, and the radius of a
     /// ball about `p` they exhaust: every face closer to `p` than it is among them (the nearer
     /// of the nearest face left out and the nearest box not opened; infinite when every face
-    /// fits). One walk of the BVH ([`Mesh::nearest_first`]) pruned by `reach` and by the
-    /// nearest face left out so far (until `out` is full nothing is left out, and a box nearer
-    /// than the nearest face left out may hold a nearer one), that stops once it has examined
-    /// `budget` faces (and the rest of that leaf). The reach and the budget bound the walk
-    /// where many faces are about as near as the nearest (from the centre of a spherical
-    /// cavity the walk would open every box); the radius can be larger than the reach.
+    /// fits; with `out` filled, no less than the farthest face in it unless the budget ended
+    /// the walk). One walk of the BVH ([`Mesh::nearest_first`]) pruned by `reach` and, once
+    /// `out` is full, by its farthest face (a box beyond it holds no face for the list; before,
+    /// by the nearest face left out), that stops once it has examined `budget` faces (and the
+    /// rest of that leaf). The reach and the budget bound the walk where many faces are about
+    /// as near as the nearest (from the centre of a spherical cavity the walk would open every
+    /// box); the radius can be larger than the reach.
     pub fn nearest_faces(&self, p: &[S; M], reach: S, out: &mut [(S, u32)], budget: usize) -> (usize, S) {
         let infinity = S::from_f64(f64::INFINITY);
         let mut count = 0usize;
@@ -499,31 +518,46 @@ impl<'a, S: Real, const M: usize> Mesh<'a, S, M> {
                     let (q, _) = closest_on_triangle(p, &a, &b, &c);
                     let offset = sub(p, &q);
                     let squared = dot(&offset, &offset);
-                    // Where it goes in the ascending list (after equals: the first found stay).
-                    let at = out.iter().take(count).position(|&(d, _)| squared < d).unwrap_or(count);
-                    if at < out.len() && squared <= reach_squared {
-                        let full = count == out.len();
-                        if !full {
+                    // In the ascending list after its equals (the first found stay), unless it
+                    // is beyond the reach or, with the list full, no nearer than its last.
+                    let full = count == out.len();
+                    let last = out.get(count.wrapping_sub(1)).map(|&(d, _)| d);
+                    let within_reach = squared <= reach_squared; // (false for NaN)
+                    if !within_reach || (full && last.map_or(true, |d| squared >= d)) {
+                        left_out = left_out.min(squared);
+                    } else {
+                        let mut slot = count;
+                        if full {
+                            // The last falls off the end: left out.
+                            slot = count.saturating_sub(1);
+                            left_out = last.map_or(left_out, |d| left_out.min(d));
+                        } else {
                             count += 1;
                         }
-                        // In at `at`, the rest one down; what falls off the end of a full list
-                        // is left out.
-                        let mut carried = (squared, face as u32);
-                        for slot in out.iter_mut().take(count).skip(at) {
-                            core::mem::swap(slot, &mut carried);
+                        while slot > 0 {
+                            match out.get(slot - 1) {
+                                Some(&farther) if farther.0 > squared => {
+                                    if let Some(entry) = out.get_mut(slot) {
+                                        *entry = farther;
+                                    }
+                                    slot -= 1;
+                                }
+                                _ => break,
+                            }
                         }
-                        if full {
-                            left_out = left_out.min(carried.0);
+                        if let Some(entry) = out.get_mut(slot) {
+                            *entry = (squared, face as u32);
                         }
-                    } else {
-                        left_out = left_out.min(squared);
                     }
                 }
                 examined += 1;
+                crate::proxy::PROBE[6].fetch_add(1, core::sync::atomic::Ordering::Relaxed);
                 if examined >= budget {
                     -infinity
                 } else {
-                    left_out.min(reach_squared)
+                    // With the list full, a box farther than its last face holds none for it.
+                    let last = if count == out.len() { out.get(count.wrapping_sub(1)) } else { None };
+                    last.map_or(left_out, |&(d, _)| d).min(reach_squared)
                 }
             },
         );

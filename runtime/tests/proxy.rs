@@ -1613,9 +1613,21 @@ fn nearest_faces_are_the_nearest_and_exhaust_their_ball() {
                     every[k]
                 );
             }
+            // The radius: no face left out nearer, and no less than the farthest face kept (the
+            // walk stops at boxes beyond it, so it may be less than the nearest left out).
             let left_out = every.iter().filter(|(_, f)| !found[..count].iter().any(|(_, g)| g == f));
             match left_out.map(|(d, _)| *d).reduce(f64::min) {
-                Some(nearest_left_out) => assert_eq!(radius, nearest_left_out, "at {p:?}"),
+                Some(nearest_left_out) => {
+                    assert!(
+                        radius <= nearest_left_out,
+                        "at {p:?}: radius {radius}, a face left out at {nearest_left_out}"
+                    );
+                    let farthest_kept = found[..count].last().map_or(0.0, |&(d, _)| d);
+                    assert!(
+                        radius >= farthest_kept,
+                        "at {p:?}: radius {radius} within the faces kept ({farthest_kept})"
+                    );
+                }
                 None => assert_eq!(radius, f64::INFINITY, "at {p:?}"),
             }
             // With a budget of faces to examine: the same list where it got that far, and a
@@ -2113,5 +2125,133 @@ fn on_a_tilted_polytope_face_the_proxy_slides_to_the_hip_s_projection() {
         for k in 0..3 {
             assert!((offset[k] - (depth + skin) * top[k]).abs() < 1e-12, "at {hip:?}: offset {offset:?}");
         }
+    }
+}
+
+/// A proxy at rest starts the next update on the planes it rested on (the last update's
+/// constraints): pressed into a corner of a mesh room, an update with the HIP anywhere beyond the
+/// corner finds its goal at once and makes no sweep, where a proxy that forgot them (after
+/// `reset`) meets the three walls again, one sweep each; and the planes held do not keep a proxy
+/// from leaving the corner.
+#[test]
+fn at_rest_in_a_corner_an_update_starts_on_the_planes_it_rested_on() {
+    let mesh = Box::leak(Box::new(leaked_cube_mesh(0.05)));
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene
+        .add(Object {
+            shape: Shape::Mesh(mesh),
+            kind: ObjectKind::Cavity,
+            material: Material::frictionless(1500.0, 5.0),
+        })
+        .unwrap();
+    scene.reset([0.0; 3]);
+    let corner = [0.05 - R, 0.05 - R, -0.05 + R];
+    let settled = settle_one(&mut scene, [0.07, 0.08, -0.09]);
+    assert!(close(settled, corner, 1e-7), "{settled:?}");
+    for hip in [[0.07, 0.08, -0.09], [0.06, 0.09, -0.07], [0.051, 0.051, -0.051]] {
+        let out = scene.render(&hip);
+        assert_eq!((out.sweeps, out.contact), (0, Some(0)), "HIP at {hip:?}");
+        assert_eq!(out.proxy, settled, "HIP at {hip:?}");
+    }
+    let mut forgetful = scene;
+    forgetful.reset(settled);
+    let out = forgetful.render(&[0.07, 0.08, -0.09]);
+    assert!(out.sweeps >= 3, "{} sweeps", out.sweeps);
+    assert!(close(out.proxy, corner, 1e-7), "{:?}", out.proxy);
+    // Along the floor's edge with the +x wall, then back into the room.
+    let out = settle_one(&mut scene, [0.07, 0.0, -0.09]);
+    assert!(close(out, [0.05 - R, 0.0, -0.05 + R], 1e-7), "{out:?}");
+    let out = scene.render(&[0.01, 0.02, 0.03]);
+    assert_eq!((out.proxy, out.contact), ([0.01, 0.02, 0.03], None));
+}
+
+/// In `f32`, a point proxy with a 1 µm skin swept 5 cm onto a face 0.3 m from the origin stops
+/// a skin before it (the exact entry keeps the margin, which the squared distances lost) and
+/// rests on the face's own plane, although the direction from the face to the proxy is a
+/// difference of nearly equal coordinates there (an `f32` step is 3·10⁻⁸ m, 3 % of the skin):
+/// the next updates, with the HIP where it was, find the proxy's goal at once instead of sliding
+/// along a plane tilted by the rounding.
+#[test]
+fn in_f32_a_proxy_resting_on_a_face_rests_on_the_face_s_own_plane() {
+    let (vertices, faces, normals) = cube_mesh(0.05);
+    let center = [0.3f32, -0.25, 0.2];
+    let vertices: Vec<[f32; 3]> =
+        vertices.iter().map(|v| [0, 1, 2].map(|k| v[k] as f32 + center[k])).collect();
+    let normals: Vec<[f32; 3]> = normals.iter().map(|n| n.map(|x| x as f32)).collect();
+    let mesh = Box::leak(Box::new(hapticgen_runtime::shape::Mesh {
+        vertices: Vec::leak(vertices),
+        faces: Vec::leak(faces),
+        face_normals: Vec::leak(normals),
+        vertex_normals: &[],
+        nodes: &[],
+    }));
+    let mut scene: GodObject<f32, 1, 3> = GodObject::new(0.0, 0.0, 0.0, 1e-6);
+    scene
+        .add(Object {
+            shape: Shape::Mesh(mesh),
+            kind: ObjectKind::Cavity,
+            material: Material::frictionless(1500.0, 5.0),
+        })
+        .unwrap();
+    scene.reset(center);
+    // 0.7 mm beyond the +x wall, at points over the inside of its two triangles.
+    for (y, z) in [(0.013f32, -0.021f32), (-0.017, 0.008), (0.031, 0.029)] {
+        let hip = [center[0] + 0.0507, center[1] + y, center[2] + z];
+        let mut out = scene.render(&hip);
+        for _ in 0..5 {
+            out = scene.render(&hip);
+        }
+        // A skin before the wall (it was on the wall, where the side it is on is lost in the
+        // rounding), over the HIP.
+        let wall = 0.05f32 + center[0];
+        assert!(out.proxy[0] <= wall - 0.9e-6 && out.proxy[0] >= wall - 2.1e-6, "{:?}", out.proxy);
+        assert!(
+            (out.proxy[1] - hip[1]).abs() < 1e-6 && (out.proxy[2] - hip[2]).abs() < 1e-6,
+            "{:?}",
+            out.proxy
+        );
+        for _ in 0..5 {
+            let out = scene.render(&hip);
+            assert_eq!((out.sweeps, out.contact), (0, Some(0)), "HIP at {hip:?}, proxy {:?}", out.proxy);
+        }
+    }
+}
+
+/// The planes an update keeps from round to round and from the last update are those of flat
+/// pieces the proxy still touches; a mesh's face is touched only over the face itself, not its
+/// plane's extension. On a solid cube mesh, a proxy pressed onto the top and then led past the
+/// top's edge, to a HIP below the top's plane but outside the cube, is not held on the top's
+/// plane beyond the edge: it reaches the HIP, in free space.
+#[test]
+fn a_plane_is_kept_only_while_its_face_is_touched_so_the_proxy_rounds_a_convex_edge() {
+    let mesh = Box::leak(Box::new(leaked_cube_mesh(0.05)));
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene.add(solid(Shape::Mesh(mesh))).unwrap();
+    scene.reset([0.0, 0.0, 0.08]);
+    let on_top = settle_one(&mut scene, [0.01, 0.02, 0.045]);
+    assert!(close(on_top, [0.01, 0.02, 0.05 + R], 1e-7), "{on_top:?}");
+    // Towards the +x edge, the HIP still under the top: held on the top's plane.
+    let out = scene.render(&[0.049, 0.02, 0.03]);
+    assert!(close(out.proxy, [0.049, 0.02, 0.05 + R], 1e-7), "{:?}", out.proxy);
+    // Past the edge, 2 cm below the top's plane and 1 cm out from the side: free space.
+    let out = scene.render(&[0.06, 0.02, 0.03]);
+    assert_eq!((out.proxy, out.contact), ([0.06, 0.02, 0.03], None), "held over the edge");
+}
+
+/// Friction keeps the proxy off the frictionless one; the planes of flat pieces it still
+/// touches are held all the same: stuck on a rough floor, an update makes one sweep (along the
+/// floor's plane, to the frictionless proxy that decides between sticking and sliding) instead of
+/// meeting the floor again first.
+#[test]
+fn stuck_on_a_rough_floor_an_update_starts_on_the_floor_s_plane() {
+    let mut scene = rough_floor();
+    let depth = 0.004;
+    scene.render(&[0.0, 0.0, -depth]);
+    let stuck = scene.render(&[0.3 * 0.6 * depth, 0.0, -depth]);
+    assert!(stuck.sticking);
+    for k in 0..5 {
+        let out = scene.render(&[0.3 * 0.6 * depth, 0.001 * depth * k as f64, -depth]);
+        assert!(out.sticking);
+        assert_eq!((out.proxy, out.sweeps), (stuck.proxy, 1), "update {k}");
     }
 }
