@@ -35,6 +35,12 @@
 //!    fast the HIP moves: history is the proxy's position itself.
 //! 3. A sweep that reaches its goal while constrained starts a new round towards `x` itself
 //!    (the tangent planes of curved surfaces are only a local model), until no sweep is left.
+//!    The round keeps the planes of flat pieces the proxy still touches (a mesh face met inside
+//!    the face, whose constraint is the face's own plane `r + ε` off it, and a half-space): they
+//!    are no local model. A round that keeps them all ends there, its goal being the proxy.
+//! 4. The next update starts on the constraints this one ended on (after a friction step, on
+//!    the flat pieces' planes the proxy touches), so a proxy at rest against surfaces finds its
+//!    goal without a sweep.
 //!
 //! With no contact in the last round the proxy has reached the HIP: free space, the force is
 //! zero and the free-space `K_d`, `B_d` apply.
