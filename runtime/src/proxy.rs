@@ -68,11 +68,6 @@ use crate::shape::{
 };
 use crate::tick::ReferenceSource;
 use crate::Real;
-/// TEMP probe
-pub static PROBE: [core::sync::atomic::AtomicU32; 8] = [const { core::sync::atomic::AtomicU32::new(0) }; 8];
-fn bump(i: usize) {
-    PROBE[i].fetch_add(1, core::sync::atomic::Ordering::Relaxed);
-}
 
 /// The most constraints (tangent planes and curved cavities) one round of sweeps collects; three
 /// meet at a corner in 3-D.
@@ -389,7 +384,6 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         if keep {
             return;
         }
-        bump(5);
         // This update's sweeps stay within `ρ = |x − p₀|` of the HIP `x` (each goal is the point
         // nearest `x` on constraints the proxy satisfies, a friction slide ends between the
         // frictionless proxy and `p₀`), so within `2ρ` of `p₀`: twice that, for later updates.
@@ -450,7 +444,6 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         // Per object, the face of a mesh that limited its last step (see `GodObject::safe_step`).
         let mut faces_met = [None; K];
         for _ in 0..PASSES {
-            bump(0);
             let goal = self.goal(&p, hip, constraints);
             let travel = sub(&goal, &p);
             let length = norm(&travel);
@@ -658,7 +651,6 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         let mut s = S::ZERO;
         let mut last = None;
         for _ in 0..ADVANCE_STEPS {
-            bump(1);
             let y = add_scaled(p, s, direction);
             let remaining = length - s;
             let mut step = remaining;
@@ -729,7 +721,6 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                             return b;
                         }
                     }
-                    bump(2);
                     if let Some([a, b, c]) = mesh.triangle(face) {
                         let bound = best.map_or(limit, |(b, _, _)| b);
                         if M == 3
@@ -764,10 +755,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                                 if convex_step(gap, dot(d, &n), bound, S::ZERO) >= bound {
                                     None
                                 } else {
-                                    {
-                                        bump(4);
-                                        triangle_entry(y, d, bound, margin, [&a, &b, &c])
-                                    }
+                                    triangle_entry(y, d, bound, margin, [&a, &b, &c])
                                 }
                             }
                             // Against the sweep's whole length, not the best so far: a face
@@ -820,7 +808,6 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 // Else the BVH, nearest first along the segment: a box the segment enters
                 // beyond the best step so far cannot limit it.
                 if !decided {
-                    bump(3);
                     best = None;
                     let search = |face: usize| consider(&mut best, face);
                     mesh.nearest_first(

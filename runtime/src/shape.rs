@@ -551,7 +551,6 @@ impl<'a, S: Real, const M: usize> Mesh<'a, S, M> {
                     }
                 }
                 examined += 1;
-                crate::proxy::PROBE[6].fetch_add(1, core::sync::atomic::Ordering::Relaxed);
                 if examined >= budget {
                     -infinity
                 } else {
