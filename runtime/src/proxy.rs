@@ -510,7 +510,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                     // The same plane or cavity again replaces the old one.
                     let same = constraints.iter().position(|c| match (c, &new) {
                         (Some(Constraint::Plane { normal: a, .. }), Constraint::Plane { normal: b, .. }) => {
-                            dot(a, b) > S::ONE - S::from_f64(1e-9)
+                            dot(a, b) > S::ONE - same_plane_tolerance::<S>()
                         }
                         (Some(Constraint::Inside { object: a }), Constraint::Inside { object: b }) => a == b,
                         _ => false,
@@ -543,13 +543,15 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
 
     /// For a contact on a flat piece of object `index`, inside face `face` of a mesh (where the
     /// contact's `normal` is the face's own, see `entered_normal`) or on a half-space, a point of
-    /// the plane a margin `r + ε` off it on the free side: the constraint's plane is then the
-    /// same at every contact with the piece, where a plane through the proxy would stand
-    /// anywhere within the skin of it (and rounds of sweeps between two faces' planes could then
-    /// creep along them, a skin at a time). `None` on a mesh's edge or vertex (another normal)
-    /// and for other shapes.
+    /// the plane `r + 1.125 ε` off it on the free side: the constraint's plane is then the same
+    /// at every contact with the piece, where a plane through the proxy would stand anywhere
+    /// within the skin of it (and rounds of sweeps between two faces' planes could then creep
+    /// along them, a skin at a time). An eighth of a skin beyond the margin `r + ε`: a goal on
+    /// the margin itself left the proxy a few 10⁻⁸ m inside it by rounding (`f32`), where the
+    /// rounded edge of the coplanar face next to the one it rests on stopped its slide at once.
+    /// `None` on a mesh's edge or vertex (another normal) and for other shapes.
     fn flat_plane_point(&self, index: usize, face: Option<u32>, normal: &[S; M]) -> Option<[S; M]> {
-        let margin = self.radius + self.skin;
+        let margin = self.radius + self.skin * S::from_f64(1.125);
         let shape = self.objects.get(index).copied().flatten()?.shape;
         if let Shape::HalfSpace { point, normal: outward } = shape {
             let parallel = *normal == outward || *normal == negate(&outward);
@@ -761,6 +763,12 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                             // Against the sweep's whole length, not the best so far: a face
                             // met at the same step as the best is then found whichever
                             // comes first.
+                            // Within the margin, a face stops the proxy half a skin inside
+                            // it whatever the angle (not only grazing): a proxy left a few
+                            // 10⁻⁸ m inside the margin by rounding (`f32`) and sliding over a
+                            // flat part of the mesh approaches, at a shallow angle, the rounded
+                            // edge of the coplanar face next to the one it rests on, and would
+                            // otherwise be stopped there at once.
                             Some(n) => {
                                 let step = convex_step(gap, dot(d, &n), limit, half_skin);
                                 (step < limit).then_some(step)
@@ -1016,6 +1024,18 @@ fn negate<S: Real, const M: usize>(v: &[S; M]) -> [S; M] {
         *x = -*x;
     }
     out
+}
+
+/// How close to 1 the dot product of two unit normals is for one plane: 10⁻⁹, or in a scalar
+/// too coarse for it (`f32`, where `1 − 10⁻⁹` rounds to 1, and two equal normals' computed dot
+/// product can fall an ulp short of 1, so the same plane met again took a new slot) 10⁻⁶.
+fn same_plane_tolerance<S: Real>() -> S {
+    let fine = S::from_f64(1e-9);
+    if S::ONE - fine < S::ONE {
+        fine
+    } else {
+        S::from_f64(1e-6)
+    }
 }
 
 /// `|d · n|` at most this is a grazing sweep (within 0.06° of the surface's tangent plane).

@@ -496,6 +496,8 @@ fn friction_sticks_inside_the_static_cone_and_trails_on_the_dynamic_cone() {
     let hip = [0.02, 0.0, -depth];
     let out = scene.render(&hip);
     assert!(!out.sticking);
+    // One sweep along the floor's held plane to the frictionless proxy, one back to the cone.
+    assert_eq!(out.sweeps, 2);
     let lag = hip[0] - out.proxy[0];
     assert!((lag - 0.4 * (depth + R)).abs() < 1e-9, "lag {lag}");
     assert!((out.proxy[2] - R).abs() < 1e-8);
@@ -814,6 +816,14 @@ fn on_a_solid_polytope_and_a_mesh_the_proxy_rests_on_the_face_pushed() {
         assert_eq!(out.contact, None, "{shape:?}");
         assert!(close(out.proxy, hip, 1e-12), "{shape:?}: {:?}", out.proxy);
     }
+}
+
+fn settle_f32(scene: &mut GodObject<'_, f32, 1, 3>, hip: [f32; 3]) -> [f32; 3] {
+    let mut proxy = [0.0; 3];
+    for _ in 0..20 {
+        proxy = scene.render(&hip).proxy;
+    }
+    proxy
 }
 
 fn settle_one(scene: &mut GodObject<'_, f64, 1, 3>, hip: V) -> V {
@@ -2080,6 +2090,9 @@ fn on_flat_faces_and_a_capsule_the_frictionless_proxy_slides_to_the_hips_project
                         let axis_point = [0.0, y, -0.01];
                         (add(axis_point, scale(unit(sub([x, y, -0.001], axis_point)), 0.01 + 1e-6)), 1e-6)
                     }
+                    // A mesh's face, held as its own plane an eighth of a skin beyond the margin
+                    // (`GodObject::flat_plane_point`).
+                    Shape::MeshAt { .. } => ([x, y, 1.125e-6], 1e-9),
                     _ => ([x, y, 1e-6], 1e-9),
                 };
                 assert!(
@@ -2170,14 +2183,18 @@ fn at_rest_in_a_corner_an_update_starts_on_the_planes_it_rested_on() {
 /// rests on the face's own plane, although the direction from the face to the proxy is a
 /// difference of nearly equal coordinates there (an `f32` step is 3·10⁻⁸ m, 3 % of the skin):
 /// the next updates, with the HIP where it was, find the proxy's goal at once instead of sliding
-/// along a plane tilted by the rounding.
+/// along a plane tilted by the rounding. The cube is turned (no face along an axis, where the
+/// rounding would spare the direction) and touched from inside (a cavity: the proxy on the side
+/// the face's normal points away from) and from outside (a solid).
 #[test]
 fn in_f32_a_proxy_resting_on_a_face_rests_on_the_face_s_own_plane() {
     let (vertices, faces, normals) = cube_mesh(0.05);
-    let center = [0.3f32, -0.25, 0.2];
-    let vertices: Vec<[f32; 3]> =
-        vertices.iter().map(|v| [0, 1, 2].map(|k| v[k] as f32 + center[k])).collect();
-    let normals: Vec<[f32; 3]> = normals.iter().map(|n| n.map(|x| x as f32)).collect();
+    let turn = rotation(0.3, -0.2, 0.5);
+    let turned = |v: V| [0, 1, 2].map(|k| dot(turn[k], v));
+    let center = [0.3, -0.25, 0.2];
+    let to_f32 = |v: V| v.map(|x| x as f32);
+    let vertices: Vec<[f32; 3]> = vertices.iter().map(|&v| to_f32(add(turned(v), center))).collect();
+    let normals: Vec<[f32; 3]> = normals.iter().map(|&n| to_f32(turned(n))).collect();
     let mesh = Box::leak(Box::new(hapticgen_runtime::shape::Mesh {
         vertices: Vec::leak(vertices),
         faces: Vec::leak(faces),
@@ -2185,34 +2202,53 @@ fn in_f32_a_proxy_resting_on_a_face_rests_on_the_face_s_own_plane() {
         vertex_normals: &[],
         nodes: &[],
     }));
-    let mut scene: GodObject<f32, 1, 3> = GodObject::new(0.0, 0.0, 0.0, 1e-6);
-    scene
-        .add(Object {
-            shape: Shape::Mesh(mesh),
-            kind: ObjectKind::Cavity,
-            material: Material::frictionless(1500.0, 5.0),
-        })
-        .unwrap();
-    scene.reset(center);
-    // 0.7 mm beyond the +x wall, at points over the inside of its two triangles.
-    for (y, z) in [(0.013f32, -0.021f32), (-0.017, 0.008), (0.031, 0.029)] {
-        let hip = [center[0] + 0.0507, center[1] + y, center[2] + z];
-        let mut out = scene.render(&hip);
-        for _ in 0..5 {
-            out = scene.render(&hip);
+    // The +x face's outward normal, and a point of the cube's frame in the task frame.
+    let normal = turned([1.0, 0.0, 0.0]);
+    let at = |x: f64, y: f64, z: f64| to_f32(add(turned([x, y, z]), center));
+    for (kind, start, depth) in [(ObjectKind::Cavity, 0.0, 0.0007), (ObjectKind::Solid, 0.08, -0.0007)] {
+        let mut scene: GodObject<f32, 1, 3> = GodObject::new(0.0, 0.0, 0.0, 1e-6);
+        scene
+            .add(Object { shape: Shape::Mesh(mesh), kind, material: Material::frictionless(1500.0, 5.0) })
+            .unwrap();
+        scene.reset(at(start, 0.0, 0.0));
+        // 0.7 mm beyond the +x wall, at points over the inside of its two triangles.
+        for (y, z) in [(0.013, -0.021), (-0.017, 0.008), (0.031, 0.029)] {
+            let hip = at(0.05 + depth, y, z);
+            let mut out = scene.render(&hip);
+            for _ in 0..5 {
+                out = scene.render(&hip);
+            }
+            // A skin before the wall (it was on the wall, where the side it is on is lost in the
+            // rounding), over the HIP.
+            let proxy = out.proxy.map(f64::from);
+            let beyond_the_wall = dot(normal, sub(proxy, center)) - 0.05;
+            let off_the_wall = if kind == ObjectKind::Cavity { -beyond_the_wall } else { beyond_the_wall };
+            assert!((0.9e-6..=2.1e-6).contains(&off_the_wall), "{kind:?}: {off_the_wall} off the wall");
+            let along = sub(
+                sub(proxy, hip.map(f64::from)),
+                scale(normal, dot(normal, sub(proxy, hip.map(f64::from)))),
+            );
+            assert!(norm(along) < 1e-6, "{kind:?}: {} m from over the HIP", norm(along));
+            for _ in 0..5 {
+                let out = scene.render(&hip);
+                assert_eq!(
+                    (out.sweeps, out.contact),
+                    (0, Some(0)),
+                    "{kind:?}: HIP at {hip:?}, proxy {:?}",
+                    out.proxy
+                );
+            }
         }
-        // A skin before the wall (it was on the wall, where the side it is on is lost in the
-        // rounding), over the HIP.
-        let wall = 0.05f32 + center[0];
-        assert!(out.proxy[0] <= wall - 0.9e-6 && out.proxy[0] >= wall - 2.1e-6, "{:?}", out.proxy);
-        assert!(
-            (out.proxy[1] - hip[1]).abs() < 1e-6 && (out.proxy[2] - hip[2]).abs() < 1e-6,
-            "{:?}",
-            out.proxy
-        );
-        for _ in 0..5 {
-            let out = scene.render(&hip);
-            assert_eq!((out.sweeps, out.contact), (0, Some(0)), "HIP at {hip:?}, proxy {:?}", out.proxy);
+        if kind == ObjectKind::Cavity {
+            // Into the corner of the +x, +y and +z walls: three planes, a skin (or up to half a
+            // skin less) off each.
+            let settled = settle_f32(&mut scene, at(0.0507, 0.0507, 0.0507));
+            let inside = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+                .map(|axis| 0.05 - dot(turned(axis), sub(settled.map(f64::from), center)));
+            assert!(
+                inside.iter().all(|d| (0.4e-6..=2.1e-6).contains(d)),
+                "off the corner's walls by {inside:?}"
+            );
         }
     }
 }
