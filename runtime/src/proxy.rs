@@ -35,9 +35,10 @@
 //!    fast the HIP moves: history is the proxy's position itself.
 //! 3. A sweep that reaches its goal while constrained starts a new round towards `x` itself
 //!    (the tangent planes of curved surfaces are only a local model), until no sweep is left.
-//!    The round keeps the planes of flat pieces the proxy still touches (a mesh face met inside
-//!    the face, whose constraint is the face's own plane `r + ε` off it, and a half-space): they
-//!    are no local model. A round that keeps them all ends there, its goal being the proxy.
+//!    The round keeps the planes of flat pieces the proxy still touches (a mesh face met
+//!    inside the face, whose constraint is the face's own plane `r + 1.125 ε` off it, and a
+//!    half-space): they are no local model. A round that keeps them all ends there, its goal
+//!    being the proxy.
 //! 4. The next update starts on the constraints this one ended on (after a friction step, on
 //!    the flat pieces' planes the proxy touches), so a proxy at rest against surfaces finds its
 //!    goal without a sweep.
@@ -133,8 +134,8 @@ struct CandidateBall<S, const M: usize> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Constraint<S, const M: usize> {
     /// `flat`: the object and its flat piece (a mesh's face; 0 for a half-space) whose own
-    /// plane, a margin off it, this is (see `GodObject::flat_plane_point`); `None` for a
-    /// tangent plane through the proxy.
+    /// plane, just beyond the margin off it, this is (see `GodObject::flat_plane_point`);
+    /// `None` for a tangent plane through the proxy.
     Plane {
         normal: [S; M],
         point: [S; M],
