@@ -393,26 +393,34 @@ pub fn triangle_entry<S: Real, const M: usize>(
         }
     }
     // The edges' capsules: the offset from the edge's line, entered where the point projects
-    // onto the segment.
+    // onto the segment, else through the ball of the vertex it projects beyond. A ball is
+    // tried only for the edge starting at its vertex, when that edge's (infinite) cylinder is
+    // entered before the start: the ball lies inside the cylinder of each edge through it, so
+    // the point can enter the ball only after the cylinder, and while inside the cylinder it
+    // passes the segment's part (the capsule, entered first) before any point projecting
+    // beyond the other end; so where a ball is the first entry of all, the cylinder of the
+    // edge starting there was entered before its start.
     for (start, end) in [(a, b), (b, c), (c, a)] {
         let edge = sub(end, start);
         let length_squared = dot(&edge, &edge);
+        let from_start = sub(y, start);
         if length_squared <= S::ZERO {
+            // A degenerate edge: its capsule is the ball.
+            if let Some(t) = entry(&from_start, d) {
+                keep(t);
+            }
             continue;
         }
         let across = |w: &[S; M]| add_scaled(w, -dot(w, &edge) / length_squared, &edge);
-        let from_start = sub(y, start);
         if let Some(t) = entry(&across(&from_start), &across(d)) {
             let along = dot(&add_scaled(&from_start, t, d), &edge) / length_squared;
-            if along >= S::ZERO && along <= S::ONE {
+            if along < S::ZERO {
+                if let Some(t) = entry(&from_start, d) {
+                    keep(t);
+                }
+            } else if along <= S::ONE {
                 keep(t);
             }
-        }
-    }
-    // The vertices' balls.
-    for vertex in [a, b, c] {
-        if let Some(t) = entry(&sub(y, vertex), d) {
-            keep(t);
         }
     }
     first
