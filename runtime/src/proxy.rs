@@ -148,6 +148,19 @@ enum Constraint<S, const M: usize> {
 
 /// The constraints of a round of sweeps (see `GodObject::constrained_proxy`) and the object
 /// in contact.
+/// How far one object lets a sweep step go (see `GodObject::safe_step`).
+#[derive(Clone, Copy, Debug)]
+struct StepLimit<S, const M: usize> {
+    /// How far the proxy can certainly move.
+    step: S,
+    /// The object's free-side normal where the step ends.
+    normal: [S; M],
+    /// `step` is where the proxy reaches the object's margin, head on: the exact entry (a mesh
+    /// face's, a half-space's), not a lower bound of it, at more than the grazing angle. A sweep
+    /// stopped by it ends there; another step would only find the proxy on the margin.
+    reaches: bool,
+}
+
 #[derive(Clone, Copy, Debug)]
 struct ActiveSet<S, const M: usize> {
     constraints: [Option<Constraint<S, M>>; MAX_CONSTRAINTS],
@@ -658,13 +671,14 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             let remaining = length - s;
             let mut step = remaining;
             let mut hit = None;
+            let mut reaches = false;
             for ((index, slot), face_met) in self.objects.iter().enumerate().zip(faces_met.iter_mut()) {
                 if let Some(object) = slot {
-                    if let Some((safe, normal)) = self.safe_step(index, object, &y, direction, step, face_met)
-                    {
-                        if safe < step {
-                            step = safe;
-                            hit = Some((index, normal));
+                    if let Some(limit) = self.safe_step(index, object, &y, direction, step, face_met) {
+                        if limit.step < step {
+                            step = limit.step;
+                            hit = Some((index, limit.normal));
+                            reaches = limit.reaches;
                         }
                     }
                 }
@@ -672,6 +686,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             match hit {
                 None => return (length, None),
                 Some(_) if step <= self.skin => return (s, hit),
+                Some(_) if reaches => return (s + step, hit),
                 Some(_) => {
                     s += step;
                     last = hit;
@@ -682,8 +697,9 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
     }
 
     /// How far the proxy can certainly move from `y` along `d` (up to `limit`) without
-    /// coming within `r + ε` of `object`, with the free-side normal there; `None` when the
-    /// object does not limit it (or is degenerate). For a mesh, `face_met` is a face to check
+    /// coming within `r + ε` of `object`, with the free-side normal there and whether the step
+    /// reaches the margin exactly (see `StepLimit`); `None` when the object does not limit it
+    /// (or is degenerate). For a mesh, `face_met` is a face to check
     /// first (the one that limited the last step, likely to limit this one: its step then rules
     /// most of the others out by their planes alone; the answer does not depend on the order),
     /// and becomes the face that limits this step.
@@ -695,7 +711,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         d: &[S; M],
         limit: S,
         face_met: &mut Option<u32>,
-    ) -> Option<(S, [S; M])> {
+    ) -> Option<StepLimit<S, M>> {
         let margin = self.radius + self.skin;
         let half_skin = self.skin * S::from_f64(0.5);
         let solid = object.kind == ObjectKind::Solid;
@@ -716,16 +732,17 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 let y = &into_frame(&placement, y);
                 let d = &direction_into_frame(&placement, d);
                 let infinity = S::from_f64(f64::INFINITY);
-                // The best so far: its step, its face, and the offset from that face at `y`.
-                let consider = |best: &mut Option<(S, usize, [S; M])>, face: usize| {
+                // The best so far: its step, its face, the offset from that face at `y`, and
+                // whether the step is the face's exact entry.
+                let consider = |best: &mut Option<(S, usize, [S; M], bool)>, face: usize| {
                     // After a face met at once, only a face before it in the mesh can win.
-                    if let Some((b, f, _)) = *best {
+                    if let Some((b, f, _, _)) = *best {
                         if b <= S::ZERO && face > f {
                             return b;
                         }
                     }
                     if let Some([a, b, c]) = mesh.triangle(face) {
-                        let bound = best.map_or(limit, |(b, _, _)| b);
+                        let bound = best.map_or(limit, |(b, _, _, _)| b);
                         if M == 3
                             && beyond_the_face_plane(mesh.face_normals.get(face), y, d, &a, bound, margin)
                         {
@@ -758,7 +775,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                                 if convex_step(gap, dot(d, &n), bound, S::ZERO) >= bound {
                                     None
                                 } else {
-                                    triangle_entry(y, d, bound, margin, [&a, &b, &c])
+                                    triangle_entry(y, d, bound, margin, [&a, &b, &c]).map(|t| (t, true))
                                 }
                             }
                             // Against the sweep's whole length, not the best so far: a face
@@ -772,25 +789,25 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                             // otherwise be stopped there at once.
                             Some(n) => {
                                 let step = convex_step(gap, dot(d, &n), limit, half_skin);
-                                (step < limit).then_some(step)
+                                (step < limit).then_some((step, false))
                             }
-                            None => Some(S::ZERO),
+                            None => Some((S::ZERO, false)),
                         };
                         // Of faces met at the same step, the first in the mesh: the answer does
                         // not depend on the order they are visited in.
-                        if let Some(step) = step {
-                            if best.map_or(step < limit, |(b, f, _)| step < b || (step == b && face < f)) {
-                                *best = Some((step, face, offset));
+                        if let Some((step, entry)) = step {
+                            if best.map_or(step < limit, |(b, f, _, _)| step < b || (step == b && face < f)) {
+                                *best = Some((step, face, offset, entry));
                             }
                         }
                     }
-                    best.map_or(limit, |(b, _, _)| b)
+                    best.map_or(limit, |(b, _, _, _)| b)
                 };
                 // This update's candidates decide the step while it stays in their ball (see
                 // `gather_candidates`), nearest first: a face at `D` from the centre is at
                 // least `D − |y − c| − s` from the point `s` along, so once that stays above
                 // the margin up to beyond the best step so far, it and every farther face are out.
-                let mut best: Option<(S, usize, [S; M])> = None;
+                let mut best: Option<(S, usize, [S; M], bool)> = None;
                 let mut decided = false;
                 if let Some(ball) = ball {
                     // (In the task frame, where the centre is kept.)
@@ -803,7 +820,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                             consider(&mut best, face as usize);
                         }
                         for (&face, &distance) in range.skip(start).take(count) {
-                            let bound = best.map_or(limit, |(b, _, _)| b);
+                            let bound = best.map_or(limit, |(b, _, _, _)| b);
                             if distance - offset - margin - self.skin > bound {
                                 break;
                             }
@@ -811,7 +828,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                                 consider(&mut best, face as usize);
                             }
                         }
-                        decided = best.map_or(limit, |(b, _, _)| b) <= exit;
+                        decided = best.map_or(limit, |(b, _, _, _)| b) <= exit;
                     }
                 }
                 // Else the BVH, nearest first along the segment: a box the segment enters
@@ -825,16 +842,20 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                         search,
                     );
                 }
-                let (step, face, offset) = best?;
+                let (step, face, offset, entry) = best?;
                 // (`face` < the mesh's face count, which `u32` indexes.)
                 *face_met = Some(face as u32);
                 let normal = entered_normal(mesh, face, y, d, step, &offset);
-                Some((step, direction_out_of_frame(&placement, &normal)))
+                let reaches = entry && dot(d, &normal) < -S::from_f64(GRAZING);
+                Some(StepLimit { step, normal: direction_out_of_frame(&placement, &normal), reaches })
             }
             Shape::HalfSpace { point, normal } => {
                 let n = if solid { normal } else { negate(&normal) };
                 let gap = dot(&n, &sub(y, &point)) - margin;
-                Some((convex_step(gap, dot(d, &n), limit, half_skin), n))
+                let rate = dot(d, &n);
+                // A plane's step is its exact entry, unless grazing or already within the margin.
+                let reaches = gap > S::ZERO && rate < -S::from_f64(GRAZING);
+                Some(StepLimit { step: convex_step(gap, rate, limit, half_skin), normal: n, reaches })
             }
             Shape::Polytope { .. } | Shape::PolytopeAt { .. } => {
                 let (planes, placement) = object.shape.placed_polytope()?;
@@ -845,7 +866,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 } else {
                     polytope_cavity_step(planes, &y, &d, limit, margin, half_skin)?
                 };
-                Some((step, direction_out_of_frame(&placement, &normal)))
+                Some(StepLimit { step, normal: direction_out_of_frame(&placement, &normal), reaches: false })
             }
             _ if solid => {
                 let closest = object.shape.closest(y)?;
@@ -855,17 +876,18 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 } else {
                     (norm(&offset), unit(&offset).unwrap_or(closest.normal))
                 };
-                Some((convex_step(distance - margin, dot(d, &normal), limit, half_skin), normal))
+                let step = convex_step(distance - margin, dot(d, &normal), limit, half_skin);
+                Some(StepLimit { step, normal, reaches: false })
             }
             _ => {
                 // A curved cavity: the exit from its (convex) inner parallel body.
                 let inside = |z: &[S; M]| object.shape.signed_distance(z).map_or(false, |sd| sd <= -margin);
                 let normal = negate(&object.shape.closest(y)?.normal);
                 if inside(&add_scaled(y, limit, d)) {
-                    return Some((limit, normal));
+                    return Some(StepLimit { step: limit, normal, reaches: false });
                 }
                 if !inside(y) {
-                    return Some((S::ZERO, normal));
+                    return Some(StepLimit { step: S::ZERO, normal, reaches: false });
                 }
                 let (mut low, mut high) = (S::ZERO, limit);
                 for _ in 0..BISECTIONS {
@@ -880,7 +902,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                     }
                 }
                 let normal = negate(&object.shape.closest(&add_scaled(y, low, d))?.normal);
-                Some((low, normal))
+                Some(StepLimit { step: low, normal, reaches: false })
             }
         }
     }

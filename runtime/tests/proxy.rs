@@ -652,6 +652,12 @@ fn on_a_sphere_one_update_nearly_reaches_the_closest_point() {
     let first_contact = norm(sub(add(c, scale(unit(start), 0.05 + R)), expected));
     let error = norm(sub(proxy, expected));
     assert!(error < 0.01 * first_contact, "{proxy:?}: {error} from {expected:?}");
+    // And on the sphere: each round's sweep ends where the proxy reaches the margin `R + ε`,
+    // not where a step to a tangent plane (a lower bound of the entry) stops; only the last
+    // round's move along its tangent plane can leave it off the sphere, by that move's sagitta
+    // (about 10⁻⁸ m here; a sweep ended at the first tangent-plane step left it 1.3 µm off).
+    let gap = norm(proxy) - 0.05 - R;
+    assert!((-SKIN..1e-7).contains(&gap), "{proxy:?}: {gap:e} off the sphere's margin");
 }
 
 #[test]
