@@ -62,7 +62,15 @@ pub struct GeneratedRig {
     /// The scene file's objects as Rust source (`hapticgen_codegen::scene::emit`), for
     /// `scene_contact`.
     scene: Option<String>,
+    /// The frame whose orientation the image reads from the gimbal, for `stylus_cavity`.
+    stylus_frame: Option<String>,
 }
+
+/// The frame a `stylus_cavity` image reads from its gimbal.
+pub const STYLUS_FRAME: &str = "stylus";
+
+/// The measured joints a `stylus_cavity` image reads (`hapticgen_fw_sim::scenario::GIMBAL_JOINTS`).
+pub const GIMBAL_JOINTS: usize = 3;
 
 /// Generates the rig of `v` in `scalar` into `rig_file`; its glue modules come from
 /// [`GeneratedRig::glue`], any number of them (a crate's `OUT_DIR` must then hold the rig as
@@ -164,6 +172,21 @@ pub fn generate_rig(
             Some(hapticgen_codegen::scene::emit(&scene, m, scalar)?)
         }
     };
+    let stylus_frame = if v.scenario == "stylus_cavity" {
+        if loaded.measured.len() != GIMBAL_JOINTS || !loaded.frames.iter().any(|f| f.name == STYLUS_FRAME) {
+            return Err(format!(
+                "image `{}`: the scenario `stylus_cavity` reads a gimbal of {GIMBAL_JOINTS} measured joints into the \
+                 frame `{STYLUS_FRAME}`; `{}` has {} measured joints and frames {:?}",
+                v.name,
+                v.model,
+                loaded.measured.len(),
+                loaded.frames.iter().map(|f| f.name.as_str()).collect::<Vec<_>>()
+            ));
+        }
+        Some(STYLUS_FRAME.to_string())
+    } else {
+        None
+    };
     Ok(GeneratedRig {
         name: v.name.clone(),
         description: format!(
@@ -185,6 +208,7 @@ pub fn generate_rig(
         sense_time_constant: tau,
         mesh,
         scene,
+        stylus_frame,
     })
 }
 
@@ -263,6 +287,33 @@ impl GeneratedRig {
             start = self.start.join(", "),
             rendering = self.rendering,
         );
+        let _ = match &self.stylus_frame {
+            Some(frame) => writeln!(
+                glue,
+                "\x20   /// The orientation of the frame `{frame}` from the actuated joints' and the gimbal's angles.\n\
+                 \x20   pub fn stylus_orientation(q: &[{s}; JOINTS], measured: &[{s}; {k}]) -> [[{s}; 3]; 3] {{\n\
+                 \x20       Rig::NOMINAL.{frame}_orientation(q, measured)\n\
+                 \x20   }}\n\
+                 \x20   /// The image reads its gimbal each impedance tick: a control-path probe's read, on a\n\
+                 \x20   /// reader, actuated joints and counters the optimiser cannot see\n\
+                 \x20   /// (`hapticgen_fw_control::probe`; linked, never run).\n\
+                 \x20   pub fn probe_stylus_read() {{\n\
+                 \x20       use ::hapticgen_fw_control::probe::{{opaque, OpaqueBoard, OpaqueClock}};\n\
+                 \x20       type Reader = ::hapticgen_fw_control::stylus::Stylus<{s}, JOINTS, {k}>;\n\
+                 \x20       // SAFETY: a probe is never run.\n\
+                 \x20       if let (Some(stylus), Some(q)) = unsafe {{ (opaque::<Reader>(), opaque::<[{s}; JOINTS]>()) }} {{\n\
+                 \x20           let _ = stylus.read(&mut OpaqueBoard, q, stylus_orientation, &OpaqueClock);\n\
+                 \x20       }}\n\
+                 \x20   }}",
+                s = self.scalar,
+                k = GIMBAL_JOINTS,
+            ),
+            None => writeln!(
+                glue,
+                "\x20   /// The image reads no gimbal: a control-path probe has no stylus read.\n\
+                 \x20   pub fn probe_stylus_read() {{}}",
+            ),
+        };
         if kind == Glue::Simulation {
             let _ = writeln!(
                 glue,
@@ -284,10 +335,11 @@ impl GeneratedRig {
                 scenario = self.scenario,
                 s = self.scalar,
                 tau = literal(self.sense_time_constant),
-                mesh_argument = match (&self.mesh, &self.scene) {
-                    (Some(_), _) => ", &mesh::SPHERE",
-                    (None, Some(_)) => ", scene::objects(), scene::effect",
-                    (None, None) => "",
+                mesh_argument = match (&self.mesh, &self.scene, &self.stylus_frame) {
+                    (Some(_), _, _) => ", &mesh::SPHERE",
+                    (None, Some(_), _) => ", scene::objects(), scene::effect",
+                    (None, None, Some(_)) => ", Rig::MEASURED_JOINTS, stylus_orientation",
+                    (None, None, None) => "",
                 },
             );
             if let Some(mesh) = &self.mesh {

@@ -12,6 +12,13 @@ pub trait Encoders<const N: usize> {
     fn counts(&mut self) -> [i32; N];
 }
 
+/// The encoders of measured passive joints (a stylus's gimbal: encoders, no motors), one
+/// counter per joint, zero at the joint's reference pose (see `hapticgen_runtime::measured`).
+pub trait MeasuredEncoders<const K: usize> {
+    /// The counters now.
+    fn measured_counts(&mut self) -> [i32; K];
+}
+
 /// Motor-current sense: the ADC behind the anti-aliasing filter, converted to amperes.
 pub trait CurrentSense<S, const N: usize> {
     /// The measured (filtered) motor currents, A.

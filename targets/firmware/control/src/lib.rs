@@ -14,6 +14,9 @@
 //!   heartbeat watchdog that disables the bridges ([`link::Gated`]), commands, counters.
 //! * [`link_scene`]: what a linked image's controller follows: a fixed reference or the
 //!   planar scene the host sends ([`link_scene::LinkSource`]), and the image's `DeviceInfo`.
+//! * [`stylus`]: [`stylus::Stylus`], the stylus's orientation from its gimbal's encoders
+//!   (measured passive joints) and the rig's generated frame function, read each impedance
+//!   tick.
 //! * [`setup`]: [`Setup`], what an image takes from its model file (each joint's current-loop
 //!   gains, the start pose, the rendering parameters), as the build script computes it.
 //! * [`probe`]: the parts of a control-path probe, a binary linked (never run) to show that no
@@ -32,7 +35,10 @@ pub mod link_scene;
 pub mod probe;
 pub mod report;
 pub mod setup;
+pub mod stylus;
 
 pub use app::{Controller, CostStats, Profile};
-pub use board::{Board, CurrentSense, CycleCounter, Encoders, ForceSense, TickTimer, VoltageOutput};
+pub use board::{
+    Board, CurrentSense, CycleCounter, Encoders, ForceSense, MeasuredEncoders, TickTimer, VoltageOutput,
+};
 pub use setup::Setup;

@@ -17,7 +17,7 @@
 
 use core::ptr::{addr_of, addr_of_mut, read_volatile, write_volatile};
 
-use crate::board::{CurrentSense, CycleCounter, Encoders, ForceSense, VoltageOutput};
+use crate::board::{CurrentSense, CycleCounter, Encoders, ForceSense, MeasuredEncoders, VoltageOutput};
 
 /// The largest joint and task dimension an [`OpaqueBoard`] serves.
 pub const MAX_AXES: usize = 8;
@@ -60,6 +60,12 @@ fn read<T: Copy, const N: usize>(source: *const [T; MAX_AXES], zero: T) -> [T; N
 
 impl<const N: usize> Encoders<N> for OpaqueBoard {
     fn counts(&mut self) -> [i32; N] {
+        read(addr_of!(COUNTS), 0)
+    }
+}
+
+impl<const K: usize> MeasuredEncoders<K> for OpaqueBoard {
+    fn measured_counts(&mut self) -> [i32; K] {
         read(addr_of!(COUNTS), 0)
     }
 }

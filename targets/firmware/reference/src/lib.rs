@@ -100,6 +100,81 @@ pub fn list(line: &str, key: &str) -> Result<Vec<i64>, String> {
         .collect()
 }
 
+/// The stylus's check, for a run whose reference has a `STYLUS` line (a gimbal read each
+/// impedance tick): the same reads, refusals and glitches on the target and both host runs,
+/// every glitch refused and at least one, the target's largest orientation error within its
+/// bound, and the impedance tick's largest cost plus the read's within the impedance limit
+/// (`impedance_max`, `impedance_limit`). `Ok(None)` without a stylus, `Ok(Some(row))` with
+/// one; `Err((message, is_limit))`.
+fn check_stylus(
+    target: &str,
+    host32: &str,
+    reference: &str,
+    cost: Option<(u64, u64, u64)>,
+    impedance_max: u64,
+    impedance_limit: u64,
+) -> Result<Option<String>, (String, bool)> {
+    let reference_line = match find(reference, "STYLUS") {
+        Ok(line) => line,
+        Err(_) => return Ok(None),
+    };
+    let lines = (find(target, "STYLUS"), find(host32, "STYLUS"));
+    let (target_line, host32_line) = match lines {
+        (Ok(a), Ok(b)) => (a, b),
+        _ => {
+            return Err((
+                "the reference reads a stylus, the target or the f32 host run does not".into(),
+                false,
+            ))
+        }
+    };
+    let read = |line: &str, key: &str| int(line, key).map_err(|e| (e, false));
+    for key in ["reads", "refused", "glitches"] {
+        let values = (read(target_line, key)?, read(host32_line, key)?, read(reference_line, key)?);
+        if values.0 != values.1 || values.1 != values.2 {
+            return Err((format!("stylus `{key}` differs: target, host f32, host f64 {values:?}"), false));
+        }
+    }
+    let (reads, refused, glitches) =
+        (read(target_line, "reads")?, read(target_line, "refused")?, read(target_line, "glitches")?);
+    if reads == 0 || glitches == 0 || refused != glitches {
+        return Err((
+            format!("stylus: {reads} reads, {refused} refused for {glitches} glitches injected"),
+            false,
+        ));
+    }
+    let (error, bound) = (read(target_line, "max_error")?, read(target_line, "bound")?);
+    if error > bound {
+        return Err((
+            format!("stylus: orientation {error} µrad from the gimbal's true one > bound {bound} µrad"),
+            false,
+        ));
+    }
+    // Floored counters: each read angle lags its true angle by less than a count (rounding:
+    // a thousandth of a count either side).
+    let lag = (read(target_line, "lag_min")?, read(target_line, "lag_max")?);
+    if lag.0 < -1 || lag.1 > 1000 {
+        return Err((
+            format!("stylus: a joint's read angle lags its true angle by {} to {} thousandths of a count, not [0, 1000)", lag.0, lag.1),
+            false,
+        ));
+    }
+    let (min, max, mean) = cost.ok_or_else(|| ("no COST stylus line".to_string(), false))?;
+    if impedance_max + max > impedance_limit {
+        return Err((
+            format!(
+                "impedance tick with the stylus read: {impedance_max} + {max} instructions > limit {impedance_limit}"
+            ),
+            true,
+        ));
+    }
+    Ok(Some(format!(
+        "stylus: {reads} reads, {refused} refused ({glitches} glitches injected), largest orientation error {error} µrad (bound {bound}), angles {}..{} thousandths of a count behind, read {min} / {mean} / {max} instructions",
+        lag.0,
+        lag.1
+    )))
+}
+
 fn instructions(ticks: i64) -> u64 {
     (ticks as f64 / TICKS_PER_INSTRUCTION).round() as u64
 }
@@ -227,6 +302,18 @@ pub fn check(name: &str, qemu_output: &str, elf_path: &str, limits_warn: bool) -
             cur.1, budget.current
         ));
     }
+    let stylus = check_stylus(&target, &host32, &reference, cost("stylus").ok(), imp.1, budget.impedance);
+    let stylus_row = match stylus {
+        Ok(row) => row,
+        Err((message, limit)) => {
+            if limit {
+                limit_errors.push(format!("{name}: {message}"));
+            } else {
+                fail(message);
+            }
+            None
+        }
+    };
     let mut profile = String::new();
     for line in target.lines().filter(|l| l.starts_with("PROFILE ")) {
         let step = line.split_whitespace().nth(1).unwrap_or("?");
@@ -266,6 +353,9 @@ pub fn check(name: &str, qemu_output: &str, elf_path: &str, limits_warn: bool) -
         worst[2].0
     );
     println!("  profile (instructions, min..max):{profile}");
+    if let Some(row) = stylus_row {
+        println!("  {row}");
+    }
     for e in limit_errors {
         if limits_warn {
             eprintln!("WARN (limit, not enforced) {e}");

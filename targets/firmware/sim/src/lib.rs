@@ -9,9 +9,10 @@
 // The plant integrates joint by joint; index loops mirror the equations.
 #![allow(clippy::needless_range_loop)]
 
+pub mod gimbal;
 pub mod plant;
 pub mod scenario;
 pub mod scenarios;
 
 pub use plant::SimBoard;
-pub use scenario::{Load, Scenario};
+pub use scenario::{Load, Scenario, StylusRun};

@@ -6,19 +6,97 @@
 //!
 //! * `S k=<period> q=<µrad,…> x=<task, µm or µrad,…> i=<mA,…>` every `sample_every` periods;
 //! * `SUMMARY …` with the final state, the first fault and the checksum;
+//! * `STYLUS reads=… refused=… glitches=… max_error=… bound=… lag_min=… lag_max=…` (µrad;
+//!   thousandths of a count) for a run with a stylus read from its gimbal ([`StylusRun`]);
 //! * `COST …` and `PROFILE …` with counter ticks (zero on the host).
 //!
 //! The checksum is FNV-1a over the IEEE bits (widened to `f64`) of `q`, `q̇`, `i` and the
-//! voltages after every period, so an `f32` run on the host and on the target agree only if
-//! every operation rounded identically.
+//! voltages after every period, and of the stylus's orientation after every read (or a marker
+//! for a refused one), so an `f32` run on the host and on the target agree only if every
+//! operation rounded identically.
 
 use hapticgen_fw_control::app::{Controller, PROFILE_NAMES};
 use hapticgen_fw_control::board::CycleCounter;
 use hapticgen_fw_control::report::{Line, Sink};
+use hapticgen_fw_control::stylus::{OrientationFn, Stylus};
 use hapticgen_runtime::tick::ReferenceSource;
 use hapticgen_runtime::{Real, RigModel};
 
+use crate::gimbal::SimGimbal;
 use crate::plant::SimBoard;
+
+/// The measured joints of a stylus's gimbal: roll, pitch and spin.
+pub const GIMBAL_JOINTS: usize = 3;
+
+/// A stylus whose orientation the firmware reads from its gimbal each impedance tick
+/// ([`Stylus`]), turned by the operator ([`SimGimbal`]), with the largest angle between the
+/// orientation read and the gimbal's true one (both at the firmware's estimate of the actuated
+/// joints, so that only the gimbal's reading is measured).
+#[derive(Clone, Copy, Debug)]
+pub struct StylusRun<S, const N: usize> {
+    /// The simulated gimbal.
+    pub gimbal: SimGimbal<S, GIMBAL_JOINTS>,
+    /// The firmware's reader.
+    pub stylus: Stylus<S, N, GIMBAL_JOINTS>,
+    /// The stylus frame's orientation (the rig's generated `<frame>_orientation`).
+    pub orientation_of: OrientationFn<S, N, GIMBAL_JOINTS>,
+    /// The largest angle between a read orientation and the true one, rad.
+    pub max_error: S,
+    /// The smallest and the largest lag of a joint's read angle behind its true angle, in
+    /// thousandths of a count: within `[0, 1000)` for counters that floor the angle (up to
+    /// rounding), where a count too many or too few, a wrong scale or sign leaves it.
+    pub count_lag: (i64, i64),
+}
+
+impl<S: Real, const N: usize> StylusRun<S, N> {
+    /// The largest error the encoders' quantisation allows, rad: one count of each joint (the
+    /// counters floor the angle), the joints' turns adding up at most (the angle between two
+    /// rotations is a metric invariant under composition), and 10 µrad for rounding (`f32`:
+    /// about 10⁻⁷ in each entry).
+    pub fn error_bound(&self) -> S {
+        let mut bound = S::from_f64(10e-6);
+        for joint in self.stylus.joints() {
+            let unit = if joint.revolute { 2.0 * core::f64::consts::PI } else { 1.0 };
+            bound += S::from_f64(unit / f64::from(joint.counts_per_turn.max(1)));
+        }
+        bound
+    }
+
+    /// One read at the firmware's estimate `q` of the actuated joints: the error against the
+    /// gimbal's true orientation, and the orientation (or a refusal) folded into `hash`.
+    fn read<C: CycleCounter>(&mut self, q: &[S; N], clock: &C, mut hash: u32) -> u32 {
+        let true_angles = self.gimbal.angles();
+        let truth = (self.orientation_of)(q, &true_angles);
+        let read = self.stylus.read(&mut self.gimbal, q, self.orientation_of, clock);
+        if let Some(angles) = self.stylus.angles {
+            for ((angle, true_angle), joint) in
+                angles.iter().zip(true_angles.iter()).zip(self.stylus.joints())
+            {
+                let unit = if joint.revolute { 2.0 * core::f64::consts::PI } else { 1.0 };
+                let lag = (true_angle.to_f64() - angle.to_f64()) * f64::from(joint.counts_per_turn) / unit;
+                let millicounts = libm::round(lag * 1000.0) as i64;
+                self.count_lag = (self.count_lag.0.min(millicounts), self.count_lag.1.max(millicounts));
+            }
+        }
+        match read {
+            Some(read) => {
+                // The angle between the rotations from the Frobenius norm of their difference,
+                // `|R_a − R_b|_F = 2√2 sin(θ/2)`, well conditioned at small angles.
+                let mut squared = S::ZERO;
+                for (row, true_row) in read.iter().zip(truth.iter()) {
+                    for (x, y) in row.iter().zip(true_row.iter()) {
+                        hash = fnv(hash, x.to_f64().to_bits());
+                        squared += (*x - *y) * (*x - *y);
+                    }
+                }
+                let half_chord = (squared.sqrt() / S::from_f64(2.0 * core::f64::consts::SQRT_2)).min(S::ONE);
+                self.max_error = self.max_error.max(S::from_f64(2.0 * libm::asin(half_chord.to_f64())));
+            }
+            None => hash = fnv(hash, u64::MAX),
+        }
+        hash
+    }
+}
 
 /// An operator force, task space, held from period `start` (inclusive) to `end` (exclusive).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,6 +132,8 @@ where
     /// How far an `f32` run's motor currents may stray from the `f64` reference (A): see
     /// [`current_tolerance`].
     pub current_tolerance: R::Scalar,
+    /// A stylus read from its gimbal each impedance tick, for a rig with one.
+    pub stylus: Option<StylusRun<R::Scalar, N>>,
     done: u32,
     checksum: u32,
 }
@@ -165,6 +245,7 @@ where
             sample_every,
             task_tolerance: R::Scalar::ZERO,
             current_tolerance: R::Scalar::from_f64(CURRENT_TOLERANCE_MILLIAMP as f64 / 1000.0),
+            stylus: None,
             done: 0,
             checksum: FNV_OFFSET,
         }
@@ -186,12 +267,19 @@ where
         if self.finished() {
             return;
         }
-        let _ = self.controller.on_current_tick(&mut self.board, clock);
+        let outcome = self.controller.on_current_tick(&mut self.board, clock);
+        let mut hash = self.checksum;
+        if let (Some(_), Some(stylus)) = (outcome.impedance, self.stylus.as_mut()) {
+            let q = self.controller.haptic.estimator().state().position;
+            hash = stylus.read(&q, clock, hash);
+        }
         let k = self.done;
         let force =
             if k >= self.load.start && k < self.load.end { self.load.force } else { [R::Scalar::ZERO; M] };
         self.board.advance(&force);
-        let mut hash = self.checksum;
+        if let Some(stylus) = self.stylus.as_mut() {
+            stylus.gimbal.advance();
+        }
         for j in 0..N {
             hash = fnv(hash, self.board.q[j].to_f64().to_bits());
             hash = fnv(hash, self.board.qd[j].to_f64().to_bits());
@@ -256,7 +344,24 @@ where
         line.emit(out);
         line.str("TOL").kv("x", micro(self.task_tolerance)).kv("i", micro(self.current_tolerance) / 1000);
         line.emit(out);
-        for (label, stats) in [("current", &c.current_cost), ("impedance", &c.impedance_cost)] {
+        let stylus_cost = self.stylus.as_ref().map(|run| {
+            line.str("STYLUS")
+                .kv("reads", i64::from(run.stylus.reads))
+                .kv("refused", i64::from(run.stylus.refused))
+                .kv("glitches", i64::from(run.gimbal.glitches()))
+                .kv("max_error", micro(run.max_error))
+                .kv("bound", micro(run.error_bound()))
+                .kv("lag_min", run.count_lag.0)
+                .kv("lag_max", run.count_lag.1);
+            line.emit(out);
+            run.stylus.cost
+        });
+        let costs = [
+            ("current", Some(c.current_cost)),
+            ("impedance", Some(c.impedance_cost)),
+            ("stylus", stylus_cost),
+        ];
+        for (label, stats) in costs.iter().filter_map(|(label, stats)| stats.as_ref().map(|s| (*label, s))) {
             line.str("COST ").str(label);
             line.kv("n", i64::from(stats.count))
                 .kv("min", i64::from(if stats.count == 0 { 0 } else { stats.min }))

@@ -324,6 +324,55 @@ pub mod sphere_cavity {
     }
 }
 
+/// `sphere_cavity` with a stylus on a gimbal of three measured joints (the PHANToM Premium-like
+/// arm): each impedance tick the firmware reads the gimbal's encoders into the stylus's
+/// orientation ([`Stylus`](hapticgen_fw_control::stylus::Stylus), with the rig's generated
+/// `MEASURED_JOINTS` and `<frame>_orientation`), while the operator turns the stylus, each
+/// joint along a sine over 80 % of its range ([`SimGimbal`](crate::gimbal::SimGimbal)); at the
+/// reads [`GLITCH_READS`] one counter reads far out of range, which must be refused. The run
+/// reports the reads, the refusals and the largest angle between a read orientation and the
+/// true one (`STYLUS`), and the read's cost (`COST stylus`).
+pub mod stylus_cavity {
+    use super::*;
+    use crate::gimbal::SimGimbal;
+    use crate::scenario::{StylusRun, GIMBAL_JOINTS};
+    use hapticgen_fw_control::stylus::{OrientationFn, Stylus};
+    use hapticgen_runtime::measured::MeasuredJoint;
+
+    /// The reads (0-based) at which a counter glitches: roll, pitch, then spin (1,500 reads in
+    /// the run).
+    pub const GLITCH_READS: [u32; 3] = [300, 700, 1100];
+
+    /// The reference source: `sphere_cavity`'s.
+    pub type Source<R, const N: usize, const M: usize> = sphere_cavity::Source<R, N, M>;
+
+    /// The scenario type for a rig `R` (`M = 3`).
+    pub type Run<R, const N: usize, const M: usize> = sphere_cavity::Run<R, N, M>;
+
+    /// Builds the run with the gimbal's `joints` and the stylus frame's `orientation_of`;
+    /// `None` if the rig's rates are unusable.
+    pub fn new<R: FusedImpedance<N, 3> + Clone, const N: usize>(
+        name: &'static str,
+        rig: R,
+        setup: &Setup<R::Scalar, N>,
+        sense_time_constant: R::Scalar,
+        profile: bool,
+        joints: [MeasuredJoint<R::Scalar>; GIMBAL_JOINTS],
+        orientation_of: OrientationFn<R::Scalar, N, GIMBAL_JOINTS>,
+    ) -> Option<Run<R, N, 3>> {
+        let mut run = sphere_cavity::new(name, rig, setup, sense_time_constant, profile)?;
+        let period = R::Scalar::ONE / R::Scalar::from_f64(f64::from(R::CURRENT_LOOP_HZ));
+        run.stylus = Some(StylusRun {
+            gimbal: SimGimbal::new(joints, period, &GLITCH_READS),
+            stylus: Stylus::new(joints),
+            orientation_of,
+            max_error: R::Scalar::ZERO,
+            count_lag: (i64::MAX, i64::MIN),
+        });
+        Some(run)
+    }
+}
+
 /// The run of the contact scenarios (`wall_contact`, `sphere_cavity`, `mesh_contact`): the
 /// Jacobian-transpose law with `rendering = [K_d, B_d, extra]` on the reference `source`, the
 /// operator pushing with `force` from 0.1 s to 1.0 s, 1.5 s in all; the trace tolerance is the
