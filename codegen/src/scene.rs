@@ -867,8 +867,9 @@ pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> 
 /// Rust source (formatted) of a scene for a `task_dim`-dimensional rig in `scalar`: a module
 /// body with `pub const OBJECTS: usize`, the meshes as `static` arrays (`MESH_0`, …, in flash
 /// on a target; [`crate::mesh::emit`]), `pub fn objects() -> [Object<'static, S, M>; OBJECTS]`,
-/// the runtime's objects, and `pub fn effect(impedance_period: S) -> Effect<S, M>`, the free-space
-/// effect (`Effect::None` when the file names none).
+/// the runtime's objects, `pub fn motions() -> [Option<ObjectMotion<S, M>>; OBJECTS]`, how each
+/// moves, and `pub fn effect(impedance_period: S) -> Effect<S, M>`, the free-space effect
+/// (`Effect::None` when the file names none).
 pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, String> {
     scene.check_task_dim(task_dim)?;
     let ty = match scalar {
@@ -888,14 +889,27 @@ pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, St
     let mut mesh_count = 0;
     let mut polytopes: Vec<TokenStream> = Vec::new();
     let mut objects: Vec<TokenStream> = Vec::new();
+    let mut motions: Vec<TokenStream> = Vec::new();
+    // A motion's vectors padded with zeros: `velocity` and `pivot` to the task's dimension,
+    // `angular_velocity` to three (the runtime's `ObjectMotion`; a 2-D turn is its first).
+    let padded = |values: &[f64], length: usize| {
+        let values: Vec<f64> = (0..length).map(|k| values.get(k).copied().unwrap_or(0.0)).collect();
+        vector(&values)
+    };
     for object in &scene.objects {
-        if object.motion.is_some() {
-            return Err(format!(
-                "error: {}: a firmware image does not move scene objects yet (the simulator does): \
-                 remove its `motion` from the image's scene file",
-                object.location
-            ));
-        }
+        motions.push(match &object.motion {
+            None => quote!(None),
+            Some(motion) => {
+                let velocity = padded(&motion.velocity, task_dim);
+                let angular_velocity = padded(&motion.angular_velocity, 3);
+                let pivot = padded(&motion.pivot, task_dim);
+                quote!(Some(::hapticgen_runtime::motion::ObjectMotion {
+                    velocity: #velocity,
+                    angular_velocity: #angular_velocity,
+                    pivot: #pivot,
+                }))
+            }
+        });
         let geometry = match &object.shape {
             SceneShape::HalfSpace { point, normal } => {
                 // The normal was normalised when the file was read.
@@ -1003,6 +1017,10 @@ pub fn emit(scene: &Scene, task_dim: usize, scalar: Scalar) -> Result<String, St
         /// The scene's objects, as the runtime renders them.
         pub fn objects() -> [::hapticgen_runtime::shape::Object<'static, #ty, #m>; OBJECTS] {
             [#(#objects),*]
+        }
+        /// Each object's motion (`None`: it stays), as the runtime moves it before each update.
+        pub fn motions() -> [Option<::hapticgen_runtime::motion::ObjectMotion<#ty, #m>>; OBJECTS] {
+            [#(#motions),*]
         }
         /// The scene's free-space effect, for an impedance loop ticking every
         /// `impedance_period` seconds.

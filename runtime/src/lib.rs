@@ -18,6 +18,7 @@ pub mod fused;
 pub mod linalg;
 pub mod loops;
 pub mod measured;
+pub mod motion;
 pub mod proxy;
 pub mod real;
 pub mod render;

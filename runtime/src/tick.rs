@@ -180,30 +180,37 @@ impl<S: Real, const N: usize, const M: usize> HapticLoopSettings<S, N, M> {
 }
 
 /// All run-time state of one rig's controller.
+///
+/// Laid out in the order written (`repr(C)`), the current loop's state first and the reference
+/// source last: the source (a renderer with its objects, hundreds of bytes) would otherwise sit
+/// between the start of the state and the fields the 7.5 kHz current-loop tick reads, beyond
+/// the reach of a Cortex-M4F's `vldr` offset (1,020 bytes), and every such load takes an extra
+/// address computation (22 instructions a tick on the Delta's scene images).
+#[repr(C)]
 pub struct HapticLoop<R, Source, const N: usize, const M: usize>
 where
     R: RigModel<N, M>,
 {
-    rig: R,
-    /// Reference source (renderer or fixed reference).
-    pub source: Source,
-    /// The impedance controller in use (its law may be switched at run time).
-    pub controller: ImpedanceController<R::Scalar, M>,
-    estimator: JointStateEstimator<R::Scalar, N>,
-    force_calibration: ForceSensorCalibration<R::Scalar, M>,
-    safety: SafetyMonitor<R::Scalar, N>,
-    current_loops: CurrentLoopBank<R::Scalar, N>,
     scheduler: Scheduler,
-    current_setpoints: [R::Scalar; N],
-    /// Back-EMF feedforward of each current loop, `k_t N ȧ` (volts), from the last tick.
-    back_emf_volts: [R::Scalar; N],
-    /// `k_t N` of each drive (V·s/rad at its output; at the joint for an uncoupled rig).
-    back_emf_constants: [R::Scalar; N],
     /// Current ticks since an impedance tick became due without running
     /// ([`NO_IMPEDANCE_PENDING`]: none pending).
     pending_impedance: u32,
     /// Current ticks a due impedance tick may wait before `MissedTicks` is latched.
     impedance_grace: u32,
+    safety: SafetyMonitor<R::Scalar, N>,
+    current_loops: CurrentLoopBank<R::Scalar, N>,
+    current_setpoints: [R::Scalar; N],
+    /// Back-EMF feedforward of each current loop, `k_t N ȧ` (volts), from the last tick.
+    back_emf_volts: [R::Scalar; N],
+    /// `k_t N` of each drive (V·s/rad at its output; at the joint for an uncoupled rig).
+    back_emf_constants: [R::Scalar; N],
+    /// The impedance controller in use (its law may be switched at run time).
+    pub controller: ImpedanceController<R::Scalar, M>,
+    estimator: JointStateEstimator<R::Scalar, N>,
+    force_calibration: ForceSensorCalibration<R::Scalar, M>,
+    rig: R,
+    /// Reference source (renderer or fixed reference).
+    pub source: Source,
 }
 
 impl<R, Source, const N: usize, const M: usize> HapticLoop<R, Source, N, M>

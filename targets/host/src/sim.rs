@@ -30,10 +30,10 @@ use hapticgen_runtime::current_loop::CurrentLoopGains;
 use hapticgen_runtime::effects::Effect;
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::linalg;
+use hapticgen_runtime::motion::ObjectMotion;
 use hapticgen_runtime::proxy::GodObject;
 use hapticgen_runtime::render::{Scene, VirtualObject};
 use hapticgen_runtime::schedule::Scheduler;
-use hapticgen_runtime::shape::RigidMotion;
 use hapticgen_runtime::tick::{HapticLoop, HapticLoopSettings, ImpedanceInputs, ReferenceSource};
 use hapticgen_runtime::{Coupling, DriveTrain, RigModel};
 use rand::rngs::SmallRng;
@@ -323,7 +323,7 @@ pub struct SimSource<const M: usize> {
     scene: Option<Box<Scene<f64, SCENE_OBJECTS, SCENE_VERTICES>>>,
     god_object: Option<Box<GodObject<'static, f64, MAX_SOLIDS, M>>>,
     /// The god object's moving solids: slot and motion.
-    motions: Vec<(usize, SceneMotion)>,
+    motions: Vec<(usize, ObjectMotion<f64, M>)>,
     /// When the moving solids were last put where their motions take them, s.
     posed_at: f64,
     /// The simulated time of the current period, s (set by the controller before each tick).
@@ -364,8 +364,9 @@ impl<const M: usize> SimSource<M> {
     }
 
     /// Moves every moving solid from where it was at `posed_at` to where its motion has taken
-    /// it at `time`: by `P(t₁) P(t₀)⁻¹ y = R(ω (t₁ − t₀)) (y − c − v t₀) + c + v t₁`, the turn
-    /// about the pivot where it was, then the pivot's travel.
+    /// it at `time` (`ObjectMotion::between`: the runtime's, which a device moving its objects
+    /// itself runs too; the simulator's checks take the solids where they are through the
+    /// scene file's `SceneMotion`, written apart).
     fn pose_moving_solids(&mut self) {
         let (from, to) = (self.posed_at, self.time);
         if self.motions.is_empty() || to == from {
@@ -373,19 +374,23 @@ impl<const M: usize> SimSource<M> {
         }
         let Some(god_object) = self.god_object.as_mut() else { return };
         for (slot, motion) in &self.motions {
-            let turn = motion.rotation_at(to - from, M);
-            let rotation: [[f64; M]; M] = std::array::from_fn(|i| std::array::from_fn(|k| turn[i][k]));
-            let (pivot_before, pivot_after) = (motion.pivot_at(from), motion.pivot_at(to));
-            let pivot_before: [f64; M] = std::array::from_fn(|k| pivot_before[k]);
-            let turned_pivot = linalg::mat_vec(&rotation, &pivot_before);
-            let translation: [f64; M] = std::array::from_fn(|k| pivot_after[k] - turned_pivot[k]);
-            if !god_object.move_object(*slot, &RigidMotion { rotation, translation })
-                && self.refused_motion_at.is_none()
-            {
+            if !god_object.move_object(*slot, &motion.between(from, to)) && self.refused_motion_at.is_none() {
                 self.refused_motion_at = Some(to);
             }
         }
         self.posed_at = to;
+    }
+}
+
+/// A scene file's motion as the runtime moves an object by it (coordinates beyond the file's
+/// are zero; the file's vectors were checked against the task's dimension when it was read).
+fn object_motion<const M: usize>(motion: &SceneMotion) -> ObjectMotion<f64, M> {
+    let take =
+        |values: &[f64]| -> [f64; M] { std::array::from_fn(|k| values.get(k).copied().unwrap_or(0.0)) };
+    ObjectMotion {
+        velocity: take(&motion.velocity),
+        angular_velocity: std::array::from_fn(|k| motion.angular_velocity.get(k).copied().unwrap_or(0.0)),
+        pivot: take(&motion.pivot),
     }
 }
 
@@ -651,7 +656,7 @@ where
                     format!("error: a scene holds at most {MAX_SOLIDS} solids, this one has {}", solids.len())
                 })?;
                 if let Some(motion) = &solid.motion {
-                    motions.push((slot, motion.clone()));
+                    motions.push((slot, object_motion::<M>(motion)));
                 }
             }
             let mut source = SimSource::new(None, None, Some(god_object), start.position, start.position);

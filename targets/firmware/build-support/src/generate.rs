@@ -337,7 +337,7 @@ impl GeneratedRig {
                 tau = literal(self.sense_time_constant),
                 mesh_argument = match (&self.mesh, &self.scene, &self.stylus_frame) {
                     (Some(_), _, _) => ", &mesh::SPHERE",
-                    (None, Some(_), _) => ", scene::objects(), scene::effect",
+                    (None, Some(_), _) => ", scene::objects(), scene::effect, scene::motions()",
                     (None, None, Some(_)) => ", Rig::MEASURED_JOINTS, stylus_orientation",
                     (None, None, None) => "",
                 },

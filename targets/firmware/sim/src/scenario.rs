@@ -15,7 +15,7 @@
 //! for a refused one), so an `f32` run on the host and on the target agree only if every
 //! operation rounded identically.
 
-use hapticgen_fw_control::app::{Controller, PROFILE_NAMES};
+use hapticgen_fw_control::app::{Controller, CostStats, PROFILE_NAMES};
 use hapticgen_fw_control::board::CycleCounter;
 use hapticgen_fw_control::report::{Line, Sink};
 use hapticgen_fw_control::stylus::{OrientationFn, Stylus};
@@ -61,10 +61,37 @@ impl<S: Real, const N: usize> StylusRun<S, N> {
         }
         bound
     }
+}
 
-    /// One read at the firmware's estimate `q` of the actuated joints: the error against the
-    /// gimbal's true orientation, and the orientation (or a refusal) folded into `hash`.
-    fn read<C: CycleCounter>(&mut self, q: &[S; N], clock: &C, mut hash: u32) -> u32 {
+/// What a run does besides the control cycle and the plant: nothing (`()`), or read a stylus
+/// ([`StylusRun`]). A type of the run, not an `Option` in it, so that an image without a stylus
+/// carries none of its code (eight kilobytes of flash on the PHANToM-like image).
+pub trait RunExtra<S, const N: usize> {
+    /// After an impedance tick, at the firmware's estimate `q` of the actuated joints: `hash`
+    /// with what it read folded in.
+    fn after_impedance_tick<C: CycleCounter>(&mut self, q: &[S; N], clock: &C, hash: u32) -> u32;
+    /// One current-loop period on.
+    fn advance(&mut self);
+    /// Writes its report lines; its cost, if it has one to report (`COST <label>`).
+    fn report<W: Sink>(&self, out: &mut W) -> Option<(&'static str, CostStats)>;
+}
+
+impl<S, const N: usize> RunExtra<S, N> for () {
+    fn after_impedance_tick<C: CycleCounter>(&mut self, _: &[S; N], _: &C, hash: u32) -> u32 {
+        hash
+    }
+
+    fn advance(&mut self) {}
+
+    fn report<W: Sink>(&self, _: &mut W) -> Option<(&'static str, CostStats)> {
+        None
+    }
+}
+
+impl<S: Real, const N: usize> RunExtra<S, N> for StylusRun<S, N> {
+    /// One read: the error against the gimbal's true orientation, and the orientation (or a
+    /// refusal) folded into `hash`.
+    fn after_impedance_tick<C: CycleCounter>(&mut self, q: &[S; N], clock: &C, mut hash: u32) -> u32 {
         let true_angles = self.gimbal.angles();
         let truth = (self.orientation_of)(q, &true_angles);
         let read = self.stylus.read(&mut self.gimbal, q, self.orientation_of, clock);
@@ -96,6 +123,24 @@ impl<S: Real, const N: usize> StylusRun<S, N> {
         }
         hash
     }
+
+    fn advance(&mut self) {
+        self.gimbal.advance();
+    }
+
+    fn report<W: Sink>(&self, out: &mut W) -> Option<(&'static str, CostStats)> {
+        let mut line = Line::new();
+        line.str("STYLUS")
+            .kv("reads", i64::from(self.stylus.reads))
+            .kv("refused", i64::from(self.stylus.refused))
+            .kv("glitches", i64::from(self.gimbal.glitches()))
+            .kv("max_error", micro(self.max_error))
+            .kv("bound", micro(self.error_bound()))
+            .kv("lag_min", self.count_lag.0)
+            .kv("lag_max", self.count_lag.1);
+        line.emit(out);
+        Some(("stylus", self.stylus.cost))
+    }
 }
 
 /// An operator force, task space, held from period `start` (inclusive) to `end` (exclusive).
@@ -109,8 +154,8 @@ pub struct Load<S, const M: usize> {
     pub force: [S; M],
 }
 
-/// A closed-loop run of one rig.
-pub struct Scenario<R, Src, const N: usize, const M: usize>
+/// A closed-loop run of one rig, with what it does besides (`X`, see [`RunExtra`]).
+pub struct Scenario<R, Src, const N: usize, const M: usize, X = ()>
 where
     R: RigModel<N, M>,
 {
@@ -132,8 +177,9 @@ where
     /// How far an `f32` run's motor currents may stray from the `f64` reference (A): see
     /// [`current_tolerance`].
     pub current_tolerance: R::Scalar,
-    /// A stylus read from its gimbal each impedance tick, for a rig with one.
-    pub stylus: Option<StylusRun<R::Scalar, N>>,
+    /// What the run does besides: a stylus read from its gimbal each impedance tick, for a
+    /// rig with one.
+    pub extra: X,
     done: u32,
     checksum: u32,
 }
@@ -227,7 +273,7 @@ where
     R: hapticgen_runtime::fused::FusedImpedance<N, M> + Clone,
     Src: ReferenceSource<R::Scalar, M> + Clone,
 {
-    /// Assembles a run.
+    /// Assembles a run (with nothing besides; see [`Scenario::with`]).
     pub fn new(
         name: &'static str,
         controller: Controller<R, Src, N, M>,
@@ -245,12 +291,36 @@ where
             sample_every,
             task_tolerance: R::Scalar::ZERO,
             current_tolerance: R::Scalar::from_f64(CURRENT_TOLERANCE_MILLIAMP as f64 / 1000.0),
-            stylus: None,
+            extra: (),
             done: 0,
             checksum: FNV_OFFSET,
         }
     }
 
+    /// The run, doing `extra` besides.
+    pub fn with<X: RunExtra<R::Scalar, N>>(self, extra: X) -> Scenario<R, Src, N, M, X> {
+        Scenario {
+            name: self.name,
+            controller: self.controller,
+            board: self.board,
+            load: self.load,
+            periods: self.periods,
+            sample_every: self.sample_every,
+            task_tolerance: self.task_tolerance,
+            current_tolerance: self.current_tolerance,
+            extra,
+            done: self.done,
+            checksum: self.checksum,
+        }
+    }
+}
+
+impl<R, Src, const N: usize, const M: usize, X> Scenario<R, Src, N, M, X>
+where
+    R: hapticgen_runtime::fused::FusedImpedance<N, M> + Clone,
+    Src: ReferenceSource<R::Scalar, M> + Clone,
+    X: RunExtra<R::Scalar, N>,
+{
     /// `true` once every period has run.
     pub fn finished(&self) -> bool {
         self.done >= self.periods
@@ -269,17 +339,15 @@ where
         }
         let outcome = self.controller.on_current_tick(&mut self.board, clock);
         let mut hash = self.checksum;
-        if let (Some(_), Some(stylus)) = (outcome.impedance, self.stylus.as_mut()) {
+        if outcome.impedance.is_some() {
             let q = self.controller.haptic.estimator().state().position;
-            hash = stylus.read(&q, clock, hash);
+            hash = self.extra.after_impedance_tick(&q, clock, hash);
         }
         let k = self.done;
         let force =
             if k >= self.load.start && k < self.load.end { self.load.force } else { [R::Scalar::ZERO; M] };
         self.board.advance(&force);
-        if let Some(stylus) = self.stylus.as_mut() {
-            stylus.gimbal.advance();
-        }
+        self.extra.advance();
         for j in 0..N {
             hash = fnv(hash, self.board.q[j].to_f64().to_bits());
             hash = fnv(hash, self.board.qd[j].to_f64().to_bits());
@@ -344,24 +412,9 @@ where
         line.emit(out);
         line.str("TOL").kv("x", micro(self.task_tolerance)).kv("i", micro(self.current_tolerance) / 1000);
         line.emit(out);
-        let stylus_cost = self.stylus.as_ref().map(|run| {
-            line.str("STYLUS")
-                .kv("reads", i64::from(run.stylus.reads))
-                .kv("refused", i64::from(run.stylus.refused))
-                .kv("glitches", i64::from(run.gimbal.glitches()))
-                .kv("max_error", micro(run.max_error))
-                .kv("bound", micro(run.error_bound()))
-                .kv("lag_min", run.count_lag.0)
-                .kv("lag_max", run.count_lag.1);
-            line.emit(out);
-            run.stylus.cost
-        });
-        let costs = [
-            ("current", Some(c.current_cost)),
-            ("impedance", Some(c.impedance_cost)),
-            ("stylus", stylus_cost),
-        ];
-        for (label, stats) in costs.iter().filter_map(|(label, stats)| stats.as_ref().map(|s| (*label, s))) {
+        let extra_cost = self.extra.report(out);
+        let costs = [Some(("current", c.current_cost)), Some(("impedance", c.impedance_cost)), extra_cost];
+        for (label, stats) in costs.iter().flatten() {
             line.str("COST ").str(label);
             line.kv("n", i64::from(stats.count))
                 .kv("min", i64::from(if stats.count == 0 { 0 } else { stats.min }))

@@ -347,7 +347,8 @@ pub mod stylus_cavity {
     pub type Source<R, const N: usize, const M: usize> = sphere_cavity::Source<R, N, M>;
 
     /// The scenario type for a rig `R` (`M = 3`).
-    pub type Run<R, const N: usize, const M: usize> = sphere_cavity::Run<R, N, M>;
+    pub type Run<R, const N: usize, const M: usize> =
+        Scenario<R, Source<R, N, M>, N, M, StylusRun<<R as RigModel<N, M>>::Scalar, N>>;
 
     /// Builds the run with the gimbal's `joints` and the stylus frame's `orientation_of`;
     /// `None` if the rig's rates are unusable.
@@ -360,9 +361,9 @@ pub mod stylus_cavity {
         joints: [MeasuredJoint<R::Scalar>; GIMBAL_JOINTS],
         orientation_of: OrientationFn<R::Scalar, N, GIMBAL_JOINTS>,
     ) -> Option<Run<R, N, 3>> {
-        let mut run = sphere_cavity::new(name, rig, setup, sense_time_constant, profile)?;
+        let run = sphere_cavity::new(name, rig, setup, sense_time_constant, profile)?;
         let period = R::Scalar::ONE / R::Scalar::from_f64(f64::from(R::CURRENT_LOOP_HZ));
-        run.stylus = Some(StylusRun {
+        let run = run.with(StylusRun {
             gimbal: SimGimbal::new(joints, period, &GLITCH_READS),
             stylus: Stylus::new(joints),
             orientation_of,
@@ -481,6 +482,7 @@ pub mod mesh_contact {
 pub mod scene_contact {
     use super::*;
     use hapticgen_runtime::effects::Effect;
+    use hapticgen_runtime::motion::{MovingObjects, ObjectMotion};
     use hapticgen_runtime::proxy::GodObject;
     use hapticgen_runtime::shape::Object;
 
@@ -493,16 +495,19 @@ pub mod scene_contact {
     /// The proxy's contact tolerance, m (1 µm suits metres in `f32` and `f64` alike).
     pub const SKIN: f64 = 1e-6;
 
-    /// The reference source: the god-object renderer with the scene's objects.
+    /// The reference source: the god-object renderer with the scene's objects, moving those
+    /// with a motion before each update.
     pub type Source<R, const N: usize, const M: usize> =
-        GodObject<'static, <R as RigModel<N, M>>::Scalar, CAPACITY, M>;
+        MovingObjects<'static, <R as RigModel<N, M>>::Scalar, CAPACITY, M>;
 
     /// The scenario type for a rig `R`.
     pub type Run<R, const N: usize, const M: usize> = Scenario<R, Source<R, N, M>, N, M>;
 
-    /// Builds the run on `objects` with the free-space effect `effect(impedance period)`;
-    /// `None` if the rig's rates are unusable, the task has no coordinate or the scene has more
-    /// than [`CAPACITY`] objects.
+    /// Builds the run on `objects`, each moving by its entry of `motions`, with the free-space
+    /// effect `effect(impedance period)`; `None` if the rig's rates are unusable, the task has no
+    /// coordinate or the scene has more than [`CAPACITY`] objects.
+    // The glue's uniform arguments (name, rig, setup, sense lag, profile), then the scene's three.
+    #[allow(clippy::too_many_arguments)]
     pub fn new<R: FusedImpedance<N, M> + Clone, const N: usize, const M: usize, const K: usize>(
         name: &'static str,
         rig: R,
@@ -511,13 +516,18 @@ pub mod scene_contact {
         profile: bool,
         objects: [Object<'static, R::Scalar, M>; K],
         effect: fn(R::Scalar) -> Effect<R::Scalar, M>,
+        motions: [Option<ObjectMotion<R::Scalar, M>>; K],
     ) -> Option<Run<R, N, M>> {
         let [_, wall_stiffness, wall_damping] = rendering(setup);
-        let mut scene = GodObject::new(wall_stiffness, wall_damping, s(PROXY_RADIUS), s(SKIN));
-        for object in objects {
-            scene.add(object)?;
+        let mut god_object = GodObject::new(wall_stiffness, wall_damping, s(PROXY_RADIUS), s(SKIN));
+        let mut slot_motions = [None; CAPACITY];
+        for (object, motion) in objects.into_iter().zip(motions) {
+            let slot = god_object.add(object)?;
+            *slot_motions.get_mut(slot)? = motion;
         }
-        scene.effect = effect(s(1.0 / f64::from(R::IMPEDANCE_LOOP_HZ)));
+        let period = s(1.0 / f64::from(R::IMPEDANCE_LOOP_HZ));
+        god_object.effect = effect(period);
+        let scene = MovingObjects::new(god_object, slot_motions, period);
         let mut force = [R::Scalar::ZERO; M];
         *force.last_mut()? = s(-FORCE);
         // The proxy has no grid: the two runs differ by rounding and the skin.
