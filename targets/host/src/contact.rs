@@ -405,6 +405,9 @@ fn degrees_between(a: &[f64], b: &[f64]) -> f64 {
 /// Proxy offsets under this, m, count as no contact (the skin, encoder steps).
 const CONTACT: f64 = 2e-4;
 
+/// What a bound on the samples in contact measured when there were none (the row fails).
+const NO_SAMPLE: &str = "no sample in contact";
+
 /// The scenario's checks on `trace`, named after `experiment`.
 pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Check> {
     let mut checks = Vec::new();
@@ -498,15 +501,20 @@ pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Chec
                 format!("{} of {}", ratios.len(), window.len()),
                 ratios.len() == window.len(),
             );
+            // A bound on the samples in contact holds of none: with none, the row fails.
             if dynamic_friction == 0.0 {
                 check(
                     "frictionless: the proxy over the HIP while sliding (tangential force offset)",
                     format!("≤ the proxy's skin, {:.1} µm", 1e6 * PROXY_SKIN),
-                    format!(
-                        "largest {:.3} µm (tangential over normal force: mean {mean:.2e}, largest {largest:.2e})",
-                        1e6 * tangential
-                    ),
-                    tangential <= PROXY_SKIN,
+                    if ratios.is_empty() {
+                        NO_SAMPLE.into()
+                    } else {
+                        format!(
+                            "largest {:.3} µm (tangential over normal force: mean {mean:.2e}, largest {largest:.2e})",
+                            1e6 * tangential
+                        )
+                    },
+                    !ratios.is_empty() && tangential <= PROXY_SKIN,
                 );
             } else {
                 check(
@@ -518,8 +526,8 @@ pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Chec
                 check(
                     "friction: never outside the static cone",
                     format!("≤ μ_s = {static_friction}"),
-                    format!("largest {largest:.4}"),
-                    largest <= static_friction * (1.0 + 1e-9) + 1e-6,
+                    if ratios.is_empty() { NO_SAMPLE.into() } else { format!("largest {largest:.4}") },
+                    !ratios.is_empty() && largest <= static_friction * (1.0 + 1e-9) + 1e-6,
                 );
             }
         }
@@ -531,17 +539,18 @@ pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Chec
                 in_contact as f64 >= 0.95 * window.len() as f64,
             );
             if setup.contact == Contact::Sphere {
-                let worst = window
+                let angles: Vec<f64> = window
                     .iter()
                     .zip(&offsets)
                     .filter(|(_, o)| norm(o) > CONTACT)
                     .filter_map(|(s, o)| setup.solids[0].normal(&s.proxy).map(|n| degrees_between(o, &n)))
-                    .fold(0.0, f64::max);
+                    .collect();
+                let worst = angles.iter().copied().fold(0.0, f64::max);
                 check(
                     "the force along the ball's normal at the proxy",
                     "within 0.5°".into(),
-                    format!("largest {worst:.3}°"),
-                    worst <= 0.5,
+                    if angles.is_empty() { NO_SAMPLE.into() } else { format!("largest {worst:.3}°") },
+                    !angles.is_empty() && worst <= 0.5,
                 );
             }
         }
@@ -578,8 +587,8 @@ pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Chec
             check(
                 &format!("{what}: the force up"),
                 "within 0.5°".into(),
-                format!("largest {worst:.3}°"),
-                worst <= 0.5,
+                if pressed.is_empty() { NO_SAMPLE.into() } else { format!("largest {worst:.3}°") },
+                !pressed.is_empty() && worst <= 0.5,
             );
         }
     }
