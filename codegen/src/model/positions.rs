@@ -3,7 +3,7 @@
 //! serde tells us *which* value is wrong (its key path); this index tells us *where* it is.
 //! It is built from the event stream of `yaml-rust2`, which carries a marker per event.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use yaml_rust2::parser::{Event, MarkedEventReceiver, Parser};
 use yaml_rust2::scanner::Marker;
