@@ -10,12 +10,15 @@
 //!
 //! `--stage` defaults to `generator` (load, mechanics, emission, formatting: milliseconds per
 //! input); `loader` stops after the model is loaded and checked (tens of microseconds), and
-//! runs inputs in batches of [`LOADER_BATCH`]. `--seconds` defaults to
+//! runs inputs in batches of [`LOADER_BATCH`]. `--workers` (default 2) worker threads each
+//! run their own batches while the main thread draws the next. `--seconds` defaults to
 //! `$HAPTICGEN_FUZZ_SECONDS`, else 60. The process supervises a child that does the fuzzing:
-//! the child writes each batch to `DIR/current.batch` before running it, so when a stack
-//! overflow aborts the child, the supervisor replays the batch's inputs one by one in fresh
-//! processes and reports the one that aborts (copied to `DIR/crash-stack-overflow.yaml`). Panics and invariant violations are saved as
-//! `DIR/finding-*.yaml`, a hang as `DIR/hang.yaml`, the slowest input as `DIR/slowest.yaml`.
+//! before a batch runs, the child writes it and the batches the other workers are running to
+//! `DIR/current.batch`, so when a stack overflow aborts the child, the supervisor replays
+//! those inputs one by one in fresh processes and reports the one that aborts (copied to
+//! `DIR/crash-stack-overflow.yaml`). Panics and invariant violations are saved as
+//! `DIR/finding-*.yaml`, the batches running at a hang as `DIR/hang.batch`, the slowest input
+//! as `DIR/slowest.yaml`.
 //! `DIR` defaults to `fuzz/` in the target directory this executable was built in (`target/`
 //! or wherever `CARGO_TARGET_DIR` puts it). Exit code 0 when inputs ran, some of them through
 //! to generated code and some to a diagnostic, and none broke the invariant; 1 otherwise (a
