@@ -110,7 +110,7 @@ pub fn check(input: &Input) -> Result<Outcome, String> {
                 "diagnostic one line past the end of a file without a final line break: {d}"
             ));
         }
-        if !position_within(&input.text, d.line, d.column) {
+        if !position_within_lines(&lines, d.line, d.column) {
             return Err(format!("diagnostic outside the file ({} lines): {d}", lines.len()));
         }
     }
@@ -149,10 +149,15 @@ pub fn yaml_lines(text: &str) -> Vec<&str> {
 /// column at most one past the line's last character (counted in bytes or characters,
 /// whichever is larger: parsers differ).
 pub fn position_within(text: &str, line: usize, column: usize) -> bool {
+    position_within_lines(&yaml_lines(text), line, column)
+}
+
+/// [`position_within`] for a text already split by [`yaml_lines`].
+pub fn position_within_lines(lines: &[&str], line: usize, column: usize) -> bool {
     if line == 0 || column == 0 {
         return false;
     }
-    match yaml_lines(text).get(line - 1) {
+    match lines.get(line - 1) {
         Some(content) => column <= content.len().max(content.chars().count()) + 1,
         None => false,
     }
@@ -314,6 +319,67 @@ pub fn load_corpus(dirs: &[PathBuf]) -> Vec<(PathBuf, Vec<u8>)> {
     files
 }
 
+/// One seed in this many also enters the mutator's pool as written, comments, blank lines and
+/// descriptions included, so that the scanner's comment handling stays fuzzed; every seed
+/// enters it compacted ([`compact_seed`]).
+pub const SEEDS_KEPT_AS_WRITTEN: usize = 8;
+
+/// The mutator's seed pool: every seed of `corpus` compacted ([`compact_seed`]) and one in
+/// [`SEEDS_KEPT_AS_WRITTEN`] also as written. The loader's time per input grows with the
+/// input's size, and comments and descriptions (a third of the seeds' bytes) exercise
+/// nothing past the YAML scanner.
+pub fn seed_pool(corpus: &[(PathBuf, Vec<u8>)]) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut pool = Vec::with_capacity(corpus.len() + corpus.len() / SEEDS_KEPT_AS_WRITTEN + 1);
+    for (i, (path, bytes)) in corpus.iter().enumerate() {
+        let compact = compact_seed(bytes);
+        if i % SEEDS_KEPT_AS_WRITTEN == 0 && compact != *bytes {
+            pool.push((path.clone(), bytes.clone()));
+        }
+        pool.push((path.clone(), compact));
+    }
+    pool
+}
+
+/// A seed without what only the YAML scanner reads: blank lines, comment lines, trailing
+/// comments (on lines without quotes, where ` #` cannot be inside a string), and
+/// `description:` entries on a line of their own with a sibling on the line before or after
+/// (not the first entry of a sequence item, whose removal would join the item to the
+/// previous one, nor a mapping's only entry, nor one continued on the next lines). Line by line on the bytes: no YAML parser (a seed that is not YAML stays a seed).
+pub fn compact_seed(seed: &[u8]) -> Vec<u8> {
+    let indent = |line: &[u8]| line.iter().take_while(|&&b| b == b' ').count();
+    let blank_or_comment = |line: &[u8]| {
+        let rest = &line[indent(line)..];
+        rest.iter().all(|b| b.is_ascii_whitespace()) || rest.first() == Some(&b'#')
+    };
+    let lines: Vec<&[u8]> = seed.split(|&b| b == b'\n').filter(|line| !blank_or_comment(line)).collect();
+    let mut out = Vec::with_capacity(seed.len());
+    for (i, line) in lines.iter().enumerate() {
+        let depth = indent(line);
+        let next = lines.get(i + 1).map(|next| indent(next));
+        let previous = i.checked_sub(1).map(|p| indent(lines[p]));
+        if line[depth..].starts_with(b"description:")
+            && next.is_none_or(|n| n <= depth)
+            && (next == Some(depth) || previous == Some(depth))
+        {
+            continue;
+        }
+        let mut line: &[u8] = line;
+        if !line.iter().any(|&b| b == b'"' || b == b'\'') {
+            if let Some(hash) = line.windows(2).position(|w| (w[0] == b' ' || w[0] == b'\t') && w[1] == b'#')
+            {
+                line = line[..hash].trim_ascii_end();
+            }
+        }
+        out.extend_from_slice(line);
+        out.push(b'\n');
+    }
+    // A seed without a final line break stays without one.
+    if !seed.ends_with(b"\n") {
+        out.pop();
+    }
+    out
+}
+
 /// The corpus directories of a workspace: the committed seeds and the repository's models.
 pub fn corpus_dirs(workspace: &Path) -> Vec<PathBuf> {
     [
@@ -357,6 +423,43 @@ pub fn quiet_worker_panics() {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Compacting a seed removes only what no stage looks at: every seed that parses parses
+    /// to the same document, descriptions aside, and the pool is smaller than the corpus.
+    #[test]
+    fn compacted_seeds_are_the_same_documents() {
+        fn without_descriptions(value: &mut serde_yaml::Value) {
+            match value {
+                serde_yaml::Value::Mapping(map) => {
+                    map.remove("description");
+                    map.values_mut().for_each(without_descriptions);
+                }
+                serde_yaml::Value::Sequence(items) => items.iter_mut().for_each(without_descriptions),
+                _ => {}
+            }
+        }
+        let parse = |bytes: &[u8]| {
+            let mut value: serde_yaml::Value = serde_yaml::from_slice(bytes).ok()?;
+            without_descriptions(&mut value);
+            Some(value)
+        };
+        let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let corpus = load_corpus(&corpus_dirs(&workspace));
+        let (mut compared, mut before, mut after) = (0, 0, 0);
+        for (path, seed) in &corpus {
+            let compact = compact_seed(seed);
+            before += seed.len();
+            after += compact.len();
+            if let Some(original) = parse(seed) {
+                assert_eq!(parse(&compact).as_ref(), Some(&original), "{}", path.display());
+                compared += 1;
+            }
+        }
+        assert!(compared * 2 > corpus.len(), "only {compared} of {} seeds parse", corpus.len());
+        assert!(after * 10 < before * 7, "compacted seeds are {after} bytes of {before}");
+        let pool = seed_pool(&corpus);
+        assert!(pool.len() > corpus.len() && pool.len() < corpus.len() * 5 / 4, "{} seeds", pool.len());
+    }
 
     #[test]
     fn positions_are_checked_against_the_text() {

@@ -200,7 +200,7 @@ mod tests {
     #[test]
     fn mutated_inputs_stay_near_the_seeds_size() {
         let workspace = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        let corpus = crate::load_corpus(&crate::corpus_dirs(&workspace));
+        let corpus = crate::seed_pool(&crate::load_corpus(&crate::corpus_dirs(&workspace)));
         assert!(corpus.len() >= 10, "the seed corpus is missing ({} files)", corpus.len());
         let seed_mean = corpus.iter().map(|(_, s)| s.len()).sum::<usize>() as f64 / corpus.len() as f64;
         let mut rng = SmallRng::seed_from_u64(7);
