@@ -191,6 +191,10 @@ pub struct ProxyOutput<S, const M: usize> {
     /// slide): the renderer's work, for profiling. A proxy at rest against the surfaces it
     /// rested on at the last update makes none.
     pub sweeps: u8,
+    /// The steps of conservative advancement those sweeps took (each asks every object how far
+    /// the proxy may go: the work within a sweep). A sweep stopped by an exact head-on entry
+    /// (a mesh face's, a half-space's) takes one; one that reaches its goal unhindered, one.
+    pub steps: u16,
 }
 
 /// A god-object renderer of up to `K` objects in an `M`-dimensional task space.
@@ -325,7 +329,8 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         };
         self.gather_candidates(&previous, hip);
         let mut active = self.held;
-        let (frictionless, mut sweeps) = self.constrained_proxy(&previous, hip, &mut active);
+        let mut steps = 0u16;
+        let (frictionless, mut sweeps) = self.constrained_proxy(&previous, hip, &mut active, &mut steps);
         let contact = active.contact;
         let mut proxy = frictionless;
         let mut sticking = false;
@@ -346,7 +351,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                     let length = norm(&travel);
                     proxy = previous;
                     if let Some(direction) = unit(&travel) {
-                        let (s, _) = self.sweep(&previous, &direction, length, &mut [None; K]);
+                        let (s, _) = self.sweep(&previous, &direction, length, &mut [None; K], &mut steps);
                         sweeps += 1;
                         proxy = add_scaled(&previous, s, &direction);
                     }
@@ -370,7 +375,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             Some(object) => (object.material.stiffness, object.material.damping),
             None => (self.free_space_stiffness, self.free_space_damping),
         };
-        ProxyOutput { proxy, stiffness, damping, contact, sticking, valid: true, sweeps }
+        ProxyOutput { proxy, stiffness, damping, contact, sticking, valid: true, sweeps, steps }
     }
 
     /// The faces of each mesh nearest the proxy `p₀`, found with one BVH walk per mesh
@@ -445,13 +450,21 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
             sticking: false,
             valid: false,
             sweeps: 0,
+            steps: 0,
         }
     }
 
     /// The frictionless proxy reached from `start` towards `hip` in a round that begins with the
     /// constraints `active` holds (the last update's); `active` ends with the constraints of the
-    /// last round and the object in contact. Also the number of sweeps made.
-    fn constrained_proxy(&self, start: &[S; M], hip: &[S; M], active: &mut ActiveSet<S, M>) -> ([S; M], u8) {
+    /// last round and the object in contact. Also the number of sweeps made; `steps` counts
+    /// their steps.
+    fn constrained_proxy(
+        &self,
+        start: &[S; M],
+        hip: &[S; M],
+        active: &mut ActiveSet<S, M>,
+        steps: &mut u16,
+    ) -> ([S; M], u8) {
         let mut p = *start;
         let mut sweeps = 0u8;
         let ActiveSet { constraints, count, contact } = active;
@@ -472,7 +485,7 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
                 }
             };
             let before = p;
-            let (s, hit) = self.sweep(&p, &direction, length, &mut faces_met);
+            let (s, hit) = self.sweep(&p, &direction, length, &mut faces_met, steps);
             sweeps += 1;
             p = if hit.is_none() { goal } else { add_scaled(&p, s, &direction) };
             match hit {
@@ -657,16 +670,19 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
     ///
     /// `faces_met` holds, per object, the mesh face that limited its last step, which its next
     /// step checks first (see `GodObject::safe_step`); kept from sweep to sweep of an update.
+    /// `steps` counts the steps taken.
     fn sweep(
         &self,
         p: &[S; M],
         direction: &[S; M],
         length: S,
         faces_met: &mut [Option<u32>; K],
+        steps: &mut u16,
     ) -> (S, Option<(usize, [S; M])>) {
         let mut s = S::ZERO;
         let mut last = None;
         for _ in 0..ADVANCE_STEPS {
+            *steps = steps.saturating_add(1);
             let y = add_scaled(p, s, direction);
             let remaining = length - s;
             let mut step = remaining;

@@ -2297,3 +2297,48 @@ fn stuck_on_a_rough_floor_an_update_starts_on_the_floor_s_plane() {
         assert_eq!((out.proxy, out.sweeps), (stuck.proxy, 1), "update {k}");
     }
 }
+
+/// A stroke that meets a mesh face or a half-space head on ends its sweep where it reaches the
+/// margin, in one step of conservative advancement: the entry into the grown triangle (or the
+/// plane's) is exact, and a second step would only find the proxy on the margin (seen failing
+/// with sweeps ended only by a step under the skin: two steps). A stroke that meets a sphere
+/// takes more, its tangent plane's step being a lower bound of the entry.
+#[test]
+fn a_head_on_stroke_into_a_face_ends_its_sweep_in_one_step() {
+    let mesh = leaked_with_bvh(leaked_subdivided_cube_mesh(0.05, 4));
+    let floor = Shape::HalfSpace { point: [0.0, 0.0, 0.05], normal: [0.0, 0.0, 1.0] };
+    let ball = Shape::Sphere { center: [0.0, 0.0, 0.0], radius: 0.05 };
+    for (name, shape, one_step) in
+        [("mesh", Shape::Mesh(&mesh), true), ("half-space", floor, true), ("sphere", ball, false)]
+    {
+        let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+        scene.add(solid(shape)).unwrap();
+        // Down onto the top, 9° from the vertical, away from the mesh's edges, to a HIP inside
+        // all three.
+        scene.reset([0.012, 0.007, 0.09]);
+        let out = scene.render(&[0.02, 0.007, 0.04]);
+        assert_eq!(out.contact, Some(0), "{name}");
+        if one_step {
+            // The first sweep reaches the surface, each later round slides on it: a step each.
+            assert_eq!(out.steps, u16::from(out.sweeps), "{name}: a step a sweep, {out:?}");
+        } else {
+            assert!(out.steps > u16::from(out.sweeps), "{name}: {out:?}");
+        }
+    }
+}
+
+/// A proxy resting within the margin of a mesh face, pushed straight into it, stays on it: the
+/// face it touches stops the sweep at once (seen failing with faces within the margin left out
+/// of the step: the proxy went through the cube to its bottom face).
+#[test]
+fn a_proxy_within_the_margin_of_a_face_pushed_into_it_stays_on_it() {
+    let mesh = leaked_with_bvh(leaked_subdivided_cube_mesh(0.05, 4));
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene.add(solid(Shape::Mesh(&mesh))).unwrap();
+    // Over the interior of a top triangle, half a skin inside the margin.
+    let resting = [0.012, 0.007, 0.05 + R - 0.5 * SKIN];
+    scene.reset(resting);
+    let out = scene.render(&[0.012, 0.007, 0.0]);
+    assert_eq!(out.contact, Some(0));
+    assert!(out.proxy[2] > 0.05 + R - SKIN, "the proxy went to {:?}", out.proxy);
+}
