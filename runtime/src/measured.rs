@@ -26,6 +26,16 @@ pub struct MeasuredJoint<S> {
 }
 
 impl<S: Real> MeasuredJoint<S> {
+    /// The angle (rad) or travel (m) one count stands for: `2π / counts_per_turn` for a
+    /// revolute joint, `1 / counts_per_turn` for a prismatic one (`None` without counts).
+    pub fn count_size(&self) -> Option<S> {
+        if self.counts_per_turn == 0 {
+            return None;
+        }
+        let unit = if self.revolute { S::from_f64(core::f64::consts::TAU) } else { S::ONE };
+        Some(unit / S::from_i64(i64::from(self.counts_per_turn)))
+    }
+
     /// The joint's angle (or travel) from its counter, or `None` when it lies beyond the
     /// joint's limits (or the joint has no counts per turn).
     pub fn angle(&self, counts: i32) -> Option<S> {
@@ -72,6 +82,9 @@ mod tests {
         assert_eq!(ROLL.angle(1695), None);
         assert_eq!(ROLL.angle(i32::MIN), None);
         let slide = MeasuredJoint { counts_per_turn: 1000, revolute: false, lower: -0.1, upper: 0.1 };
+        assert_eq!(ROLL.count_size(), Some(core::f64::consts::TAU / 4096.0));
+        assert_eq!(slide.count_size(), Some(0.001));
+        assert_eq!(MeasuredJoint { counts_per_turn: 0, ..ROLL }.count_size(), None);
         assert_eq!(slide.angle(50), Some(0.05));
         assert_eq!(MeasuredJoint { counts_per_turn: 0, ..ROLL }.angle(0), None);
         let joints = [ROLL, slide];

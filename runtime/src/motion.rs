@@ -20,6 +20,15 @@ use crate::shape::RigidMotion;
 use crate::tick::ReferenceSource;
 use crate::Real;
 
+/// Writes the `K × K` turn `turn` into `rotation` (`M = K`; a no-op for any other size).
+fn place<S: Copy, const M: usize, const K: usize>(rotation: &mut [[S; M]; M], turn: &[[S; K]; K]) {
+    for (row, turn_row) in rotation.iter_mut().zip(turn.iter()) {
+        for (entry, value) in row.iter_mut().zip(turn_row.iter()) {
+            *entry = *value;
+        }
+    }
+}
+
 /// How an object moves (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ObjectMotion<S, const M: usize> {
@@ -41,12 +50,7 @@ impl<S: Real, const M: usize> ObjectMotion<S, M> {
         let [wx, wy, wz] = self.angular_velocity;
         if M == 2 {
             let (sin, cos) = (wx * time).sin_cos();
-            let turn = [[cos, -sin], [sin, cos]];
-            for (row, turn_row) in rotation.iter_mut().zip(turn.iter()) {
-                for (entry, value) in row.iter_mut().zip(turn_row.iter()) {
-                    *entry = *value;
-                }
-            }
+            place(&mut rotation, &[[cos, -sin], [sin, cos]]);
         } else if M == 3 {
             let rate = (wx * wx + wy * wy + wz * wz).sqrt();
             if rate > S::ZERO {
@@ -70,11 +74,7 @@ impl<S: Real, const M: usize> ObjectMotion<S, M> {
                         cos + z * z * one_minus_cos,
                     ],
                 ];
-                for (row, turn_row) in rotation.iter_mut().zip(turn.iter()) {
-                    for (entry, value) in row.iter_mut().zip(turn_row.iter()) {
-                        *entry = *value;
-                    }
-                }
+                place(&mut rotation, &turn);
             }
         }
         rotation

@@ -56,8 +56,7 @@ impl<S: Real, const N: usize> StylusRun<S, N> {
     pub fn error_bound(&self) -> S {
         let mut bound = S::from_f64(10e-6);
         for joint in self.stylus.joints() {
-            let unit = if joint.revolute { 2.0 * core::f64::consts::PI } else { 1.0 };
-            bound += S::from_f64(unit / f64::from(joint.counts_per_turn.max(1)));
+            bound += joint.count_size().unwrap_or(S::ZERO);
         }
         bound
     }
@@ -99,8 +98,8 @@ impl<S: Real, const N: usize> RunExtra<S, N> for StylusRun<S, N> {
             for ((angle, true_angle), joint) in
                 angles.iter().zip(true_angles.iter()).zip(self.stylus.joints())
             {
-                let unit = if joint.revolute { 2.0 * core::f64::consts::PI } else { 1.0 };
-                let lag = (true_angle.to_f64() - angle.to_f64()) * f64::from(joint.counts_per_turn) / unit;
+                let count = joint.count_size().map_or(f64::INFINITY, |size| size.to_f64());
+                let lag = (true_angle.to_f64() - angle.to_f64()) / count;
                 let millicounts = libm::round(lag * 1000.0) as i64;
                 self.count_lag = (self.count_lag.0.min(millicounts), self.count_lag.1.max(millicounts));
             }
