@@ -2342,3 +2342,58 @@ fn a_proxy_within_the_margin_of_a_face_pushed_into_it_stays_on_it() {
     assert_eq!(out.contact, Some(0));
     assert!(out.proxy[2] > 0.05 + R - SKIN, "the proxy went to {:?}", out.proxy);
 }
+
+/// A proxy pressed into a shallow valley slides across its floor line in one update to where
+/// it would on the far slope alone. The valley's two halves rise by 2·10⁻⁵ rad away from the
+/// line, so their normals are one plane's by the god object's tolerance (their dot product
+/// `cos 4·10⁻⁵ > 1 − 10⁻⁹`): the far face met on the way replaces the near one's constraint
+/// and the round goes on. Stopping the round at any repeat of a plane (a held-out survivor:
+/// the guard of that early exit made `true`) left the proxy a centimetre short.
+#[test]
+fn a_pressed_proxy_slides_across_a_shallow_valley_to_the_far_slope() {
+    let tilt: f64 = 2e-5;
+    let rise = 0.1 * tilt.tan();
+    let vertices: Vec<V> = vec![
+        [-0.1, -0.1, rise],
+        [0.0, -0.1, 0.0],
+        [0.0, 0.1, 0.0],
+        [-0.1, 0.1, rise],
+        [0.1, -0.1, rise],
+        [0.1, 0.1, rise],
+    ];
+    let faces = vec![[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]];
+    let near_normal = [tilt.sin(), 0.0, tilt.cos()];
+    let far_normal = [-tilt.sin(), 0.0, tilt.cos()];
+    let valley = hapticgen_runtime::shape::Mesh {
+        vertices: Vec::leak(vertices),
+        faces: Vec::leak(faces),
+        face_normals: Vec::leak(vec![near_normal, near_normal, far_normal, far_normal]),
+        vertex_normals: &[],
+        nodes: &[],
+    };
+    // The far slope alone: the half-space under the far face's plane.
+    let far_slope = Shape::half_space([0.0; 3], far_normal).unwrap();
+    let start = [-0.05, 0.0, 0.05 * tilt.tan() + R + SKIN];
+    let hip = [0.04, 0.01, -0.003];
+    let render = |shape: Shape<'_, f64, 3>| {
+        let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+        scene.add(solid(shape)).unwrap();
+        scene.reset(start);
+        scene.render(&hip)
+    };
+    let in_valley = render(Shape::Mesh(&valley));
+    let on_slope = render(far_slope);
+    assert_eq!(in_valley.contact, Some(0));
+    // The slope's proxy is the HIP pushed out along the normal (an independent check of it).
+    let depth = -(hip[0] * far_normal[0] + hip[2] * far_normal[2]);
+    for axis in 0..3 {
+        let expected = hip[axis] + (depth + R) * far_normal[axis];
+        assert!((on_slope.proxy[axis] - expected).abs() < 1e-8, "on the slope {:?}", on_slope.proxy);
+        assert!(
+            (in_valley.proxy[axis] - on_slope.proxy[axis]).abs() < 1e-6,
+            "in the valley {:?}, on the slope {:?}",
+            in_valley.proxy,
+            on_slope.proxy
+        );
+    }
+}
