@@ -2397,3 +2397,41 @@ fn a_pressed_proxy_slides_across_a_shallow_valley_to_the_far_slope() {
         );
     }
 }
+
+/// A stroke from below and beyond a plate's edge to a HIP within the proxy's radius of that
+/// edge comes to rest where the proxy touches the edge, on the line from the edge to the HIP:
+/// the free point closest to the HIP, written out. The edge's normal there is the direction from the
+/// edge, not the face's normal turned (a held-out survivor: a face's own normal, turned, taken
+/// on the edge too, `inside_the_face && …` → `||`, slid the proxy under the plate).
+#[test]
+fn a_stroke_from_under_a_plate_s_edge_rests_on_the_edge_toward_the_hip() {
+    let corners: Vec<V> = vec![[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]];
+    let plate = hapticgen_runtime::shape::Mesh {
+        vertices: Vec::leak(corners),
+        faces: Vec::leak(vec![[0, 1, 2], [0, 2, 3]]),
+        face_normals: Vec::leak(vec![[0.0, 0.0, 1.0]; 2]),
+        vertex_normals: &[],
+        nodes: &[],
+    };
+    // 0.5 mm from the edge x = 0.1 (the radius is 1 mm), below and beyond it.
+    let hip = [0.1003, 0.002, -0.0004];
+    let (away_x, away_z) = (0.0003 / 0.0005, -0.0004 / 0.0005);
+    let expected = [0.1 + R * away_x, 0.002, R * away_z];
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene.add(solid(Shape::Mesh(&plate))).unwrap();
+    scene.reset([0.105, 0.002, -0.01]);
+    // The first update slides on the edge's tangent plane where it was met (5 µm off the
+    // answer); the next ones, from nearer, settle on it.
+    for _ in 0..4 {
+        scene.render(&hip);
+    }
+    let out = scene.render(&hip);
+    assert_eq!(out.contact, Some(0));
+    for axis in 0..3 {
+        assert!(
+            (out.proxy[axis] - expected[axis]).abs() < 1e-8,
+            "the proxy at {:?}, not {expected:?}",
+            out.proxy
+        );
+    }
+}
