@@ -2435,3 +2435,40 @@ fn a_stroke_from_under_a_plate_s_edge_rests_on_the_edge_toward_the_hip() {
         );
     }
 }
+
+/// A proxy pressed into a mesh's face and sliding along it keeps the face's plane from update
+/// to update, as it keeps a half-space's: each update is one sweep along the plane to the
+/// HIP's foot on it. (A held-out survivor: a face kept only within `r − 2ε` of the proxy,
+/// `r + 2ε` → `r − 2ε`, never kept it: every update then met the face again, two sweeps for
+/// the same proxy.)
+#[test]
+fn a_proxy_sliding_on_a_mesh_face_keeps_its_plane_one_sweep_an_update() {
+    let corners: Vec<V> = vec![[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]];
+    let plate = hapticgen_runtime::shape::Mesh {
+        vertices: Vec::leak(corners),
+        faces: Vec::leak(vec![[0, 1, 2], [0, 2, 3]]),
+        face_normals: Vec::leak(vec![[0.0, 0.0, 1.0]; 2]),
+        vertex_normals: &[],
+        nodes: &[],
+    };
+    let floor = Shape::half_space([0.0; 3], [0.0, 0.0, 1.0]).unwrap();
+    for shape in [Shape::Mesh(&plate), floor] {
+        let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+        scene.add(solid(shape)).unwrap();
+        scene.reset([-0.05, 0.01, 0.01]);
+        scene.render(&[-0.05, 0.01, -0.002]);
+        for k in 1..=50 {
+            let hip = [-0.05 + 0.001 * k as f64, 0.01 + 0.0005 * k as f64, -0.002];
+            let out = scene.render(&hip);
+            assert_eq!((out.sweeps, out.contact), (1, Some(0)), "{shape:?}, update {k}: {out:?}");
+            assert!(
+                close(out.proxy, [hip[0], hip[1], out.proxy[2]], 1e-12),
+                "{shape:?}, update {k}: {out:?}"
+            );
+            assert!(
+                out.proxy[2] >= R + 0.5 * SKIN && out.proxy[2] <= R + 2.0 * SKIN,
+                "{shape:?}, update {k}: {out:?}"
+            );
+        }
+    }
+}
