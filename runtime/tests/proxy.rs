@@ -2472,3 +2472,33 @@ fn a_proxy_sliding_on_a_mesh_face_keeps_its_plane_one_sweep_an_update() {
         }
     }
 }
+
+/// A stroke along a plate's plane, from beside the plate to over it, within the proxy's radius
+/// of that plane, meets the plate's edge: the proxy rounds it and ends on the plate's face
+/// over the HIP, never nearer the plate than its radius. (A held-out survivor: the plane test
+/// that skips a face before its triangle, its first check negated, `!exceeds(h, margin)` →
+/// `exceeds`, skipped any face whose plane the proxy was already near and moved along, and the
+/// proxy went straight through the plate's edge.)
+#[test]
+fn a_stroke_along_a_plate_s_plane_meets_its_edge() {
+    // A wall in the plane x = 0, facing +x, for y from 0 to 0.1.
+    let corners: Vec<V> = vec![[0.0, 0.0, -0.1], [0.0, 0.1, -0.1], [0.0, 0.1, 0.1], [0.0, 0.0, 0.1]];
+    let wall = hapticgen_runtime::shape::Mesh {
+        vertices: Vec::leak(corners),
+        faces: Vec::leak(vec![[0, 1, 2], [0, 2, 3]]),
+        face_normals: Vec::leak(vec![[1.0, 0.0, 0.0]; 2]),
+        vertex_normals: &[],
+        nodes: &[],
+    };
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene.add(solid(Shape::Mesh(&wall))).unwrap();
+    // 0.5 mm off the wall's plane, 1 cm beside its edge y = 0, moving along +y.
+    scene.reset([0.0005, -0.01, 0.0]);
+    let hip = [0.0005, 0.05, 0.0];
+    let mut out = scene.render(&hip);
+    assert_eq!(out.contact, Some(0), "{out:?}");
+    for _ in 0..4 {
+        out = scene.render(&hip);
+    }
+    assert!(close(out.proxy, [R, hip[1], hip[2]], 2.0 * SKIN), "the proxy at {:?}", out.proxy);
+}
