@@ -1316,13 +1316,7 @@ fn a_stroke_through_stacked_plates_stops_at_the_upper_one() {
     let plate = |z: f64| -> [V; 4] { [[-0.1, -0.1, z], [0.1, -0.1, z], [0.1, 0.1, z], [-0.1, 0.1, z]] };
     let vertices: Vec<V> = plate(-0.02).into_iter().chain(plate(0.0)).collect();
     let faces = vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]];
-    let mesh = hapticgen_runtime::shape::Mesh {
-        vertices: Vec::leak(vertices),
-        faces: Vec::leak(faces),
-        face_normals: Vec::leak(vec![[0.0, 0.0, 1.0]; 4]),
-        vertex_normals: &[],
-        nodes: &[],
-    };
+    let mesh = leaked_mesh(vertices, faces, vec![[0.0, 0.0, 1.0]; 4]);
     let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
     scene.add(solid(Shape::Mesh(&mesh))).unwrap();
     scene.reset([0.01, 0.02, 0.05]);
@@ -1672,6 +1666,15 @@ fn nearest_faces_are_the_nearest_and_exhaust_their_ball() {
 /// [`cube_mesh`] as a runtime mesh without a BVH, its arrays leaked (a test's lifetime).
 fn leaked_cube_mesh(h: f64) -> hapticgen_runtime::shape::Mesh<'static, f64, 3> {
     let (vertices, faces, face_normals) = cube_mesh(h);
+    leaked_mesh(vertices, faces, face_normals)
+}
+
+/// A mesh without a BVH (every face tried) that lives as long as the test.
+fn leaked_mesh(
+    vertices: Vec<V>,
+    faces: Vec<[u32; 3]>,
+    face_normals: Vec<V>,
+) -> hapticgen_runtime::shape::Mesh<'static, f64, 3> {
     hapticgen_runtime::shape::Mesh {
         vertices: Vec::leak(vertices),
         faces: Vec::leak(faces),
@@ -1679,6 +1682,12 @@ fn leaked_cube_mesh(h: f64) -> hapticgen_runtime::shape::Mesh<'static, f64, 3> {
         vertex_normals: &[],
         nodes: &[],
     }
+}
+
+/// A square plate of two triangles at height 0, facing +z, from −0.1 to 0.1 in x and y.
+fn leaked_plate_mesh() -> hapticgen_runtime::shape::Mesh<'static, f64, 3> {
+    let corners = vec![[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]];
+    leaked_mesh(corners, vec![[0, 1, 2], [0, 2, 3]], vec![[0.0, 0.0, 1.0]; 2])
 }
 
 /// The offset effects need a positive free-space stiffness (module docs of `effects`): with
@@ -2364,13 +2373,7 @@ fn a_pressed_proxy_slides_across_a_shallow_valley_to_the_far_slope() {
     let faces = vec![[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]];
     let near_normal = [tilt.sin(), 0.0, tilt.cos()];
     let far_normal = [-tilt.sin(), 0.0, tilt.cos()];
-    let valley = hapticgen_runtime::shape::Mesh {
-        vertices: Vec::leak(vertices),
-        faces: Vec::leak(faces),
-        face_normals: Vec::leak(vec![near_normal, near_normal, far_normal, far_normal]),
-        vertex_normals: &[],
-        nodes: &[],
-    };
+    let valley = leaked_mesh(vertices, faces, vec![near_normal, near_normal, far_normal, far_normal]);
     // The far slope alone: the half-space under the far face's plane.
     let far_slope = Shape::half_space([0.0; 3], far_normal).unwrap();
     let start = [-0.05, 0.0, 0.05 * tilt.tan() + R + SKIN];
@@ -2405,14 +2408,7 @@ fn a_pressed_proxy_slides_across_a_shallow_valley_to_the_far_slope() {
 /// on the edge too, `inside_the_face && …` → `||`, slid the proxy under the plate).
 #[test]
 fn a_stroke_from_under_a_plate_s_edge_rests_on_the_edge_toward_the_hip() {
-    let corners: Vec<V> = vec![[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]];
-    let plate = hapticgen_runtime::shape::Mesh {
-        vertices: Vec::leak(corners),
-        faces: Vec::leak(vec![[0, 1, 2], [0, 2, 3]]),
-        face_normals: Vec::leak(vec![[0.0, 0.0, 1.0]; 2]),
-        vertex_normals: &[],
-        nodes: &[],
-    };
+    let plate = leaked_plate_mesh();
     // 0.5 mm from the edge x = 0.1 (the radius is 1 mm), below and beyond it.
     let hip = [0.1003, 0.002, -0.0004];
     let (away_x, away_z) = (0.0003 / 0.0005, -0.0004 / 0.0005);
@@ -2443,14 +2439,7 @@ fn a_stroke_from_under_a_plate_s_edge_rests_on_the_edge_toward_the_hip() {
 /// the same proxy.)
 #[test]
 fn a_proxy_sliding_on_a_mesh_face_keeps_its_plane_one_sweep_an_update() {
-    let corners: Vec<V> = vec![[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]];
-    let plate = hapticgen_runtime::shape::Mesh {
-        vertices: Vec::leak(corners),
-        faces: Vec::leak(vec![[0, 1, 2], [0, 2, 3]]),
-        face_normals: Vec::leak(vec![[0.0, 0.0, 1.0]; 2]),
-        vertex_normals: &[],
-        nodes: &[],
-    };
+    let plate = leaked_plate_mesh();
     let floor = Shape::half_space([0.0; 3], [0.0, 0.0, 1.0]).unwrap();
     for shape in [Shape::Mesh(&plate), floor] {
         let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
@@ -2482,14 +2471,8 @@ fn a_proxy_sliding_on_a_mesh_face_keeps_its_plane_one_sweep_an_update() {
 #[test]
 fn a_stroke_along_a_plate_s_plane_meets_its_edge() {
     // A wall in the plane x = 0, facing +x, for y from 0 to 0.1.
-    let corners: Vec<V> = vec![[0.0, 0.0, -0.1], [0.0, 0.1, -0.1], [0.0, 0.1, 0.1], [0.0, 0.0, 0.1]];
-    let wall = hapticgen_runtime::shape::Mesh {
-        vertices: Vec::leak(corners),
-        faces: Vec::leak(vec![[0, 1, 2], [0, 2, 3]]),
-        face_normals: Vec::leak(vec![[1.0, 0.0, 0.0]; 2]),
-        vertex_normals: &[],
-        nodes: &[],
-    };
+    let corners = vec![[0.0, 0.0, -0.1], [0.0, 0.1, -0.1], [0.0, 0.1, 0.1], [0.0, 0.0, 0.1]];
+    let wall = leaked_mesh(corners, vec![[0, 1, 2], [0, 2, 3]], vec![[1.0, 0.0, 0.0]; 2]);
     let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
     scene.add(solid(Shape::Mesh(&wall))).unwrap();
     // 0.5 mm off the wall's plane, 1 cm beside its edge y = 0, moving along +y.
