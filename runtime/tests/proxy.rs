@@ -2485,3 +2485,26 @@ fn a_stroke_along_a_plate_s_plane_meets_its_edge() {
     }
     assert!(close(out.proxy, [R, hip[1], hip[2]], 2.0 * SKIN), "the proxy at {:?}", out.proxy);
 }
+
+/// The quarter turns written exactly (entries 0 and ±1, as a scene file's right angles are)
+/// are rotations, in 3-D and in 2-D, and their reflections are not. (Held-out survivors: a
+/// product of the determinant made a quotient, `*` → `/`, keeps the determinant's sign for
+/// every rotation with a non-zero diagonal entry, but gives `0 / 0` where one is zero.)
+#[test]
+fn exact_quarter_turns_are_rigid_and_their_reflections_are_not() {
+    let quarter_turns: [[V; 3]; 3] = [
+        [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]],
+        [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]],
+        [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+    ];
+    for rotation in quarter_turns {
+        assert!(RigidMotion { rotation, translation: [0.0; 3] }.is_rigid(1e-12), "{rotation:?}");
+        let mut reflected = rotation;
+        reflected[2] = scale(reflected[2], -1.0);
+        assert!(!RigidMotion { rotation: reflected, translation: [0.0; 3] }.is_rigid(1e-12), "{reflected:?}");
+    }
+    let planar = RigidMotion { rotation: [[0.0, -1.0], [1.0, 0.0]], translation: [0.0; 2] };
+    assert!(planar.is_rigid(1e-12));
+    let mirrored = RigidMotion { rotation: [[0.0, 1.0], [1.0, 0.0]], translation: [0.0; 2] };
+    assert!(!mirrored.is_rigid(1e-12));
+}
