@@ -2353,36 +2353,69 @@ fn a_proxy_within_the_margin_of_a_face_pushed_into_it_stays_on_it() {
 }
 
 /// A proxy pressed into a shallow valley slides across its floor line in one update to where
-/// it would on the far slope alone. The valley's two halves rise by 2·10⁻⁵ rad away from the
-/// line, so their normals are one plane's by the god object's tolerance (their dot product
-/// `cos 4·10⁻⁵ > 1 − 10⁻⁹`): the far face met on the way replaces the near one's constraint
-/// and the round goes on. Stopping the round at any repeat of a plane (a held-out survivor:
-/// the guard of that early exit made `true`) left the proxy a centimetre short.
+/// it would on the far slope alone, in `f64` and in `f32`. The valley's two halves rise by
+/// 2·10⁻⁵ rad away from the line, so their normals are one plane's by the god object's
+/// tolerance (their dot product `cos 4·10⁻⁵` is over `1 − 10⁻⁹`, and rounds to 1 in `f32`,
+/// over `1 − 10⁻⁶`): the far face met on the way replaces the near one's constraint and the
+/// round goes on. Stopping the round at any repeat of a plane (a held-out survivor: the guard
+/// of that early exit made `true`) left the proxy a centimetre short.
 #[test]
 fn a_pressed_proxy_slides_across_a_shallow_valley_to_the_far_slope() {
+    slide_across_a_shallow_valley::<f64>(SKIN, 1e-8, 1e-6);
+    slide_across_a_shallow_valley::<f32>(1e-6, 2e-6, 2e-5);
+}
+
+/// The valley test in `S` with the skin `skin`: the far slope's proxy within `exact` of the
+/// HIP pushed out along its normal, the valley's within `same` of the slope's.
+fn slide_across_a_shallow_valley<S: hapticgen_runtime::real::Real + std::fmt::Debug>(
+    skin: f64,
+    exact: f64,
+    same: f64,
+) {
     let tilt: f64 = 2e-5;
     let rise = 0.1 * tilt.tan();
-    let vertices: Vec<V> = vec![
+    let vertices: Vec<[S; 3]> = [
         [-0.1, -0.1, rise],
         [0.0, -0.1, 0.0],
         [0.0, 0.1, 0.0],
         [-0.1, 0.1, rise],
         [0.1, -0.1, rise],
         [0.1, 0.1, rise],
-    ];
+    ]
+    .iter()
+    .map(|v| v.map(S::from_f64))
+    .collect();
     let faces = vec![[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]];
-    let near_normal = [tilt.sin(), 0.0, tilt.cos()];
+    let near_normal = [tilt.sin(), 0.0, tilt.cos()].map(S::from_f64);
     let far_normal = [-tilt.sin(), 0.0, tilt.cos()];
-    let valley = leaked_mesh(vertices, faces, vec![near_normal, near_normal, far_normal, far_normal]);
+    let valley = hapticgen_runtime::shape::Mesh {
+        vertices: Vec::leak(vertices),
+        faces: Vec::leak(faces),
+        face_normals: Vec::leak(vec![
+            near_normal,
+            near_normal,
+            far_normal.map(S::from_f64),
+            far_normal.map(S::from_f64),
+        ]),
+        vertex_normals: &[],
+        nodes: &[],
+    };
     // The far slope alone: the half-space under the far face's plane.
-    let far_slope = Shape::half_space([0.0; 3], far_normal).unwrap();
-    let start = [-0.05, 0.0, 0.05 * tilt.tan() + R + SKIN];
+    let far_slope = Shape::half_space([S::from_f64(0.0); 3], far_normal.map(S::from_f64)).unwrap();
+    let start = [-0.05, 0.0, 0.05 * tilt.tan() + R + skin].map(S::from_f64);
     let hip = [0.04, 0.01, -0.003];
-    let render = |shape: Shape<'_, f64, 3>| {
-        let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
-        scene.add(solid(shape)).unwrap();
+    let render = |shape: Shape<'_, S, 3>| {
+        let mut scene: GodObject<S, 1, 3> =
+            GodObject::new(S::from_f64(0.0), S::from_f64(0.0), S::from_f64(R), S::from_f64(skin));
+        scene
+            .add(Object {
+                shape,
+                kind: ObjectKind::Solid,
+                material: Material::frictionless(S::from_f64(1500.0), S::from_f64(5.0)),
+            })
+            .unwrap();
         scene.reset(start);
-        scene.render(&hip)
+        scene.render(&hip.map(S::from_f64))
     };
     let in_valley = render(Shape::Mesh(&valley));
     let on_slope = render(far_slope);
@@ -2391,9 +2424,10 @@ fn a_pressed_proxy_slides_across_a_shallow_valley_to_the_far_slope() {
     let depth = -(hip[0] * far_normal[0] + hip[2] * far_normal[2]);
     for axis in 0..3 {
         let expected = hip[axis] + (depth + R) * far_normal[axis];
-        assert!((on_slope.proxy[axis] - expected).abs() < 1e-8, "on the slope {:?}", on_slope.proxy);
+        let (valley_axis, slope_axis) = (in_valley.proxy[axis].to_f64(), on_slope.proxy[axis].to_f64());
+        assert!((slope_axis - expected).abs() < exact, "on the slope {:?}", on_slope.proxy);
         assert!(
-            (in_valley.proxy[axis] - on_slope.proxy[axis]).abs() < 1e-6,
+            (valley_axis - slope_axis).abs() < same,
             "in the valley {:?}, on the slope {:?}",
             in_valley.proxy,
             on_slope.proxy
