@@ -85,3 +85,16 @@ fn nan_anywhere_refuses_with_zero_torque() {
     let out = zero_mass.torque(&rig, &terms, &qd, &reference, &ok);
     assert_eq!(out.status, ControlStatus::InvalidParameters);
 }
+
+/// An open chain has no loop to close: its loop margin is 1 at every pose (the default of
+/// `RigModel::loop_margin`), above any threshold the safety monitor may hold, and it says so
+/// by `HAS_LOOPS`. (A held-out survivor: the default returning 0, "at a singularity", went
+/// unseen: the tick checks the margin of closed chains only.)
+#[test]
+fn an_open_chain_has_no_loop_and_a_loop_margin_of_one() {
+    let rig = Parallelogram;
+    assert!(!<Parallelogram as RigModel<2, 2>>::HAS_LOOPS);
+    for q in [[0.0, 0.0], [1.2, -0.4], [f64::NAN, 0.3]] {
+        assert_eq!(rig.loop_margin(&q), 1.0, "at {q:?}");
+    }
+}
