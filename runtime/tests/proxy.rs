@@ -2542,3 +2542,27 @@ fn exact_quarter_turns_are_rigid_and_their_reflections_are_not() {
     let mirrored = RigidMotion { rotation: [[0.0, 1.0], [1.0, 0.0]], translation: [0.0; 2] };
     assert!(!mirrored.is_rigid(1e-12));
 }
+
+/// A solid polytope's entry is the latest of its planes' entries, found in one step, whatever
+/// plane the proxy is farthest outside of first: a stroke slanting down onto a cube polytope's
+/// +x face (outside the +z plane by 1 cm at 5.7° from the vertical, the +x plane by 2 mm)
+/// reaches the +x plane, later, in one step and a confirming one. (A held-out survivor: the
+/// polytope's arm of the sweep deleted, the general arm stepped it by the plane of its closest
+/// point, the +z plane's entry first, then the +x plane's: a step more for the same proxy.)
+#[test]
+fn a_slanting_stroke_enters_a_polytope_in_one_step() {
+    let h = 0.02;
+    let planes = cube_planes(h);
+    let start = [h + R + 0.002, 0.0, h + R + 0.01];
+    let direction = unit([-0.1, 0.0, -0.995]);
+    let hip = add(start, scale(direction, 0.05));
+    let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);
+    scene.add(solid(Shape::Polytope { planes: &planes })).unwrap();
+    scene.reset(start);
+    let out = scene.render(&hip);
+    assert_eq!(out.contact, Some(0), "{out:?}");
+    assert!(close(out.proxy, [h + R, 0.0, hip[2]], 2.0 * SKIN), "the proxy at {:?}", out.proxy);
+    // The first sweep: the entry and the step that finds the proxy on the margin; each later
+    // sweep slides on the +x plane in one step.
+    assert_eq!(out.steps, u16::from(out.sweeps) + 1, "{out:?}");
+}
