@@ -2573,11 +2573,11 @@ fn a_slanting_stroke_enters_a_polytope_in_one_step() {
 /// made `||` let the finite point through with the NaN normal.)
 #[test]
 fn a_mesh_face_with_a_nan_normal_gives_no_closest_point() {
-    let corners = vec![[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]];
-    let broken = leaked_mesh(corners, vec![[0, 1, 2], [0, 2, 3]], vec![[f64::NAN, 0.0, 1.0]; 2]);
+    let plate = leaked_plate_mesh();
+    let broken =
+        hapticgen_runtime::shape::Mesh { face_normals: Vec::leak(vec![[f64::NAN, 0.0, 1.0]; 2]), ..plate };
     assert_eq!(Shape::Mesh(&broken).closest(&[0.01, 0.02, 0.03]), None);
     // The same mesh with its normals gives the point under the query.
-    let plate = leaked_plate_mesh();
     let closest = Shape::Mesh(&plate).closest(&[0.01, 0.02, 0.03]).expect("a closest point");
     assert!(close(closest.point, [0.01, 0.02, 0.0], 1e-15) && close(closest.normal, [0.0, 0.0, 1.0], 1e-15));
 }
