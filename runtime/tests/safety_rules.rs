@@ -99,3 +99,24 @@ fn an_open_chain_has_no_loop_and_a_loop_margin_of_one() {
         assert_eq!(rig.loop_margin(&q), 1.0, "at {q:?}");
     }
 }
+
+/// With no determinant threshold at all (`min_abs_jacobian_determinant = 0`), an exactly
+/// singular Jacobian still falls back to Controller 3: its zero pivot decides, where the
+/// inverse would be infinite. (A held-out survivor: `smallest_pivot() > 0` → `>=`.)
+#[test]
+fn an_exactly_singular_pose_falls_back_even_without_a_threshold() {
+    let rig = Parallelogram;
+    let reference = TaskReference::at_rest([0.09, 0.09]);
+    let sensed = TaskSensing { operator_force: [1.0, -1.0], acceleration: [0.5, 0.5] };
+    // q1 = q2: the links aligned, det J = 0.0075·sin 0 = 0 exactly.
+    let (q, qd) = ([0.8, 0.8], [0.3, -0.2]);
+    let terms = rig.terms(&q, &qd);
+    let fallback = controller(ImpedanceLaw::JacobianTranspose).torque(&rig, &terms, &qd, &reference, &sensed);
+    for law in [ImpedanceLaw::ForceFeedback, ImpedanceLaw::AccelerationFeedback, ImpedanceLaw::NaturalInertia]
+    {
+        let mut unguarded = controller(law);
+        unguarded.options.min_abs_jacobian_determinant = 0.0;
+        let out = unguarded.torque(&rig, &terms, &qd, &reference, &sensed);
+        assert_eq!((out.status, out.torque), (ControlStatus::SingularFallback, fallback.torque), "{law:?}");
+    }
+}
