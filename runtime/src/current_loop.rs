@@ -297,6 +297,21 @@ mod tests {
         assert_eq!(out.voltage, 24.0);
     }
 
+    /// The positive side of the same: saturated at +24 V with an error that drives the output
+    /// back down (e < 0), the integral moves, clamped so that `p + z = 24 V` (`p = 50 V`, so
+    /// `z = −26 V`). (A held-out survivor: `e < 0` → `e == 0` froze it.)
+    #[test]
+    fn positive_saturation_integrates_an_error_that_unwinds_it() {
+        let mut pi = CurrentController::new(GAINS, 24.0);
+        let out = pi.step(-101.0, -100.0); // raw = +50 V, e = −1 A
+        assert_eq!(out.voltage, 24.0);
+        assert_eq!(out.status, CurrentLoopStatus::Saturated);
+        assert!((pi.integral() + 26.0).abs() < 1e-12, "{}", pi.integral());
+        // With the measurement back at 0 the output is the integral alone, −26 V: saturated low.
+        let out = pi.step(-1.0, 0.0);
+        assert_eq!(out.voltage, -24.0);
+    }
+
     #[test]
     fn non_finite_input_gives_zero_volts_and_keeps_state() {
         let mut pi = CurrentController::new(GAINS, 24.0);
