@@ -2581,3 +2581,20 @@ fn a_mesh_face_with_a_nan_normal_gives_no_closest_point() {
     let closest = Shape::Mesh(&plate).closest(&[0.01, 0.02, 0.03]).expect("a closest point");
     assert!(close(closest.point, [0.01, 0.02, 0.0], 1e-15) && close(closest.normal, [0.0, 0.0, 1.0], 1e-15));
 }
+
+/// A capsule whose two ends are one point (a scene file may write one) is the ball about it:
+/// the same closest point and normal as the sphere, outside and inside. (Written for the
+/// held-out survivor `|b − a|² > 0` → `>=`, which it does not kill: the segment's parameter
+/// `0 / 0` is NaN, and clamping it to `[0, 1]` by `max` and `min` makes it 0, the guard's own
+/// value: an equivalent mutant.)
+#[test]
+fn a_capsule_of_zero_length_is_a_ball() {
+    let center = [0.01, -0.02, 0.03];
+    let capsule = Shape::Capsule { a: center, b: center, radius: 0.015 };
+    let ball = Shape::Sphere { center, radius: 0.015 };
+    for p in [[0.05, 0.0, 0.0], [0.012, -0.021, 0.028], [-0.2, 0.1, 0.3]] {
+        let (from_capsule, from_ball) = (capsule.closest(&p), ball.closest(&p));
+        assert!(from_ball.is_some(), "{p:?}");
+        assert_eq!(from_capsule, from_ball, "{p:?}");
+    }
+}
