@@ -2598,3 +2598,17 @@ fn a_capsule_of_zero_length_is_a_ball() {
         assert_eq!(from_capsule, from_ball, "{p:?}");
     }
 }
+
+/// Every planar rotation is rigid and its reflection is not, at angles all round the circle.
+/// (A held-out survivor: the 2-D determinant's `m₀₁ m₁₀` made `m₀₁ + m₁₀`, which refuses the
+/// turns with `cos² θ + 2 sin θ < 0`, `sin θ < 1 − √2`: from 204.5° to 335.5°.)
+#[test]
+fn planar_rotations_of_every_angle_are_rigid_and_their_reflections_are_not() {
+    for k in 0..72 {
+        let (sin, cos) = (f64::from(k) * 5.0_f64.to_radians()).sin_cos();
+        let turn = RigidMotion { rotation: [[cos, -sin], [sin, cos]], translation: [0.01, 0.02] };
+        assert!(turn.is_rigid(1e-12), "{} degrees", 5 * k);
+        let mirror = RigidMotion { rotation: [[cos, sin], [sin, -cos]], translation: [0.01, 0.02] };
+        assert!(!mirror.is_rigid(1e-12), "{} degrees, reflected", 5 * k);
+    }
+}
