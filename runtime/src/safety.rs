@@ -276,6 +276,21 @@ mod tests {
         assert_eq!(monitor.fault(), Some(FaultCode::NonFiniteInput));
     }
 
+    /// A drive with no torque constant (zero, negative or NaN in its data) can exert nothing:
+    /// its torque limit is zero, and so is the current commanded, never `0 / 0`. (A held-out
+    /// survivor: `per_amp > 0` → `>=` divided the zero torque by the zero constant.)
+    #[test]
+    fn a_drive_without_a_torque_constant_gets_no_torque_and_no_current() {
+        for constant in [0.0, -0.03, f64::NAN] {
+            let dead = DriveTrain { torque_constant: constant, ..drive(3.0, 20.0) };
+            let mut monitor = SafetyMonitor::new(&[dead, drive(3.0, 20.0)], 1);
+            let command = monitor.limit(&[1.0, 1.0]);
+            assert_eq!((command.torque[0], command.current[0]), (0.0, 0.0), "torque constant {constant}");
+            assert_eq!(command.clamped, [true, false]);
+            assert_eq!(command.fault, None);
+        }
+    }
+
     #[test]
     fn torque_is_clamped_to_torque_and_current_limits_and_reported() {
         // Joint 0: 3 N·m torque limit binds (current limit allows 12·0.8·0.0302·20 = 5.8 N·m).
