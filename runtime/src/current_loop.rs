@@ -367,10 +367,16 @@ mod tests {
         // Each input is finite, but reference + measured + feedforward overflows to +inf: the
         // documented single finiteness test refuses it (zero volts) rather than saturating.
         let mut pi = CurrentController::new(GAINS, 24.0);
-        let out = pi.step_with_feedforward(f64::MAX, 0.0, f64::MAX);
-        assert_eq!(out.status, CurrentLoopStatus::NonFiniteInput);
-        assert_eq!(out.voltage, 0.0);
-        assert_eq!(pi.integral(), 0.0);
+        // Any two of the three (a held-out survivor, the sum's first `+` made `−`, let the
+        // reference and the measurement through when they cancelled).
+        for (reference, measured, feedforward) in
+            [(f64::MAX, 0.0, f64::MAX), (f64::MAX, f64::MAX, 0.0), (0.0, f64::MAX, f64::MAX)]
+        {
+            let out = pi.step_with_feedforward(reference, measured, feedforward);
+            assert_eq!(out.status, CurrentLoopStatus::NonFiniteInput, "{reference} {measured} {feedforward}");
+            assert_eq!(out.voltage, 0.0);
+            assert_eq!(pi.integral(), 0.0);
+        }
     }
 
     #[test]
