@@ -2612,3 +2612,19 @@ fn planar_rotations_of_every_angle_are_rigid_and_their_reflections_are_not() {
         assert!(!mirror.is_rigid(1e-12), "{} degrees, reflected", 5 * k);
     }
 }
+
+/// The projection onto three planes that are not at right angles (a tilted corner): from a
+/// point `p₀ − Σ nᵢ / 100`, behind all three planes through `p₀` and in their normal cone, the
+/// nearest point satisfying the three is the corner `p₀` itself (the KKT conditions, with the
+/// multipliers all 1/100). (A held-out survivor: a product of the 3 × 3 determinant in
+/// Cramer's rule made a quotient, which the right-angled corners of the other tests, with
+/// their zero off-diagonal terms, cannot see.)
+#[test]
+fn a_point_behind_a_tilted_corner_projects_onto_the_corner() {
+    let normals = [unit([1.0, 0.0, 0.0]), unit([1.0, 1.0, 0.0]), unit([1.0, 2.0, 3.0])];
+    let corner = [0.02, -0.01, 0.03];
+    let planes: Vec<(V, V)> = normals.iter().map(|n| (*n, corner)).collect();
+    let behind = sub(corner, scale(add(add(normals[0], normals[1]), normals[2]), 0.01));
+    let projected = project_on_planes(&behind, &planes, 1e-12).expect("a feasible point");
+    assert!(close(projected, corner, 1e-14), "{projected:?}");
+}
