@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Instructions per byte of the YAML parsers the crate registry offers, on the fuzzer's seeds
+# Instructions per byte of the YAML parsers the crate registry offers, on the fuzzer's seed pool
 # (issue 20: why the loader's fuzz rate is bounded; docs/reliability.md). Builds
 # bench/yaml-parsers (its own crate and lockfile, outside the workspace, so that the parsers the
 # project does not use are compiled only here) and counts each parser's instructions with
@@ -17,19 +17,17 @@ TARGET_DIR="${CARGO_TARGET_DIR:-target}"
 case "$TARGET_DIR" in /*) ;; *) TARGET_DIR="$PWD/$TARGET_DIR" ;; esac
 BIN="$TARGET_DIR/release/hapticgen-bench-yaml-parsers"
 ROUNDS=5
-SEEDS=("$ROOT/fuzz/corpus" "$ROOT/models" "$ROOT/codegen/tests/bad-models" "$ROOT/codegen/tests/good-models"
-    "$ROOT/codegen/tests/closed-chains" "$ROOT/tests/ui/models")
 WORK="$(mktemp -d)"
 trap 'rm -rf "$WORK"' EXIT
 # Total instructions of one run; its profile is kept as $WORK/$1.$2.
 count() {
-    valgrind --tool=callgrind --callgrind-out-file="$WORK/$1.$2" "$BIN" "$1" "$2" "${SEEDS[@]}" 2>&1 \
+    valgrind --tool=callgrind --callgrind-out-file="$WORK/$1.$2" "$BIN" "$1" "$2" 2>&1 \
         | sed -n 's/.*Collected : \([0-9]*\).*/\1/p'
 }
-BYTES=$("$BIN" read 0 "${SEEDS[@]}" | sed -n 's/.* files, \([0-9]*\) bytes.*/\1/p')
-FILES=$("$BIN" read 0 "${SEEDS[@]}" | sed -n 's/.*: \([0-9]*\) files.*/\1/p')
+BYTES=$("$BIN" read 0 | sed -n 's/.* seeds, \([0-9]*\) bytes.*/\1/p')
+FILES=$("$BIN" read 0 | sed -n 's/.*: \([0-9]*\) seeds.*/\1/p')
 [ -n "$BYTES" ] && [ "$BYTES" -gt 0 ] || { echo "no seed bytes read" >&2; exit 1; }
-echo "$FILES seed files, compacted: $BYTES bytes ($(( BYTES / FILES )) bytes a file), $ROUNDS passes"
+echo "the fuzzer's seed pool: $FILES seeds, $BYTES bytes ($(( BYTES / FILES )) bytes a seed), $ROUNDS passes"
 echo
 echo "| parser | instructions per byte |"
 echo "| --- | --- |"

@@ -20,7 +20,7 @@ use crate::shape::RigidMotion;
 use crate::tick::ReferenceSource;
 use crate::Real;
 
-/// Writes the `K × K` turn `turn` into `rotation` (`M = K`; a no-op for any other size).
+/// Writes the `K × K` turn `turn` into the top left of `rotation` (called with `K = M`).
 fn place<S: Copy, const M: usize, const K: usize>(rotation: &mut [[S; M]; M], turn: &[[S; K]; K]) {
     for (row, turn_row) in rotation.iter_mut().zip(turn.iter()) {
         for (entry, value) in row.iter_mut().zip(turn_row.iter()) {

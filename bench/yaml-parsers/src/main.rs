@@ -1,9 +1,9 @@
-//! Instructions per byte of each YAML parser on the fuzzer's seeds, compacted as the fuzzer
-//! compacts them (comment and blank lines dropped). Run under callgrind, one parser per run,
-//! by `bench/yaml-parsers.sh`, which divides each run's instructions (less those of the `read`
-//! run, which only reads the files) by the bytes parsed.
+//! Instructions per byte of each YAML parser on the fuzzer's seed pool (`hapticgen_fuzz`'s own:
+//! its corpus directories, each seed compacted, one in eight also as written). Run under
+//! callgrind, one parser per run, by `bench/yaml-parsers.sh`, which divides a run's
+//! instructions, less those of the same parser's run of no passes, by the bytes parsed.
 //!
-//! `hapticgen-bench-yaml-parsers PARSER ROUNDS DIR...`: PARSER is one of
+//! `hapticgen-bench-yaml-parsers PARSER ROUNDS`: PARSER is one of
 //! * `read`: nothing but reading the files (the baseline);
 //! * `serde_yaml-value`: `serde_yaml::from_str::<serde_yaml::Value>`, the loader's parse
 //!   (libyaml's events inside it are read off callgrind's inclusive cost of
@@ -18,7 +18,6 @@
 //! Files a parser refuses count their bytes all the same (each parser reads up to the error).
 
 use std::hint::black_box;
-use std::path::Path;
 
 use serde_yaml::{Mapping, Value};
 use yaml_rust2::parser::{Event, MarkedEventReceiver, Parser};
@@ -29,15 +28,15 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let [parser, rounds, dirs @ ..] = args.as_slice() else {
-        eprintln!("usage: hapticgen-bench-yaml-parsers PARSER ROUNDS DIR...");
+    let [parser, rounds] = args.as_slice() else {
+        eprintln!("usage: hapticgen-bench-yaml-parsers PARSER ROUNDS");
         std::process::exit(2);
     };
     let Ok(rounds) = rounds.parse::<usize>() else {
         eprintln!("ROUNDS must be a whole number, got `{rounds}`");
         std::process::exit(2);
     };
-    let texts = compacted_seeds(dirs);
+    let texts = seed_pool();
     let bytes: usize = texts.iter().map(String::len).sum();
     let parse: fn(&str) = match parser.as_str() {
         "read" => |text| {
@@ -73,33 +72,20 @@ fn main() {
             parse(text);
         }
     }
-    println!("{parser}: {} files, {bytes} bytes, {rounds} rounds", texts.len());
+    println!("{parser}: {} seeds, {bytes} bytes, {rounds} rounds", texts.len());
 }
 
-/// The YAML files of `dirs`, without comment and blank lines.
-fn compacted_seeds(dirs: &[String]) -> Vec<String> {
-    let mut texts = Vec::new();
-    for dir in dirs {
-        let Ok(entries) = std::fs::read_dir(Path::new(dir)) else {
-            eprintln!("cannot read the directory {dir}");
-            std::process::exit(2);
-        };
-        let mut paths: Vec<_> = entries.flatten().map(|e| e.path()).collect();
-        paths.sort();
-        for path in paths {
-            let Ok(text) = std::fs::read_to_string(&path) else { continue };
-            let kept: Vec<&str> = text
-                .lines()
-                .filter(|line| {
-                    let rest = line.trim_start();
-                    !rest.is_empty() && !rest.starts_with('#')
-                })
-                .collect();
-            texts.push(kept.join("\n") + "\n");
-        }
-    }
+/// The fuzzer's seed pool, as text (a seed that is not UTF-8 is left out: no parser here reads
+/// bytes).
+fn seed_pool() -> Vec<String> {
+    let workspace = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let corpus = hapticgen_fuzz::load_corpus(&hapticgen_fuzz::corpus_dirs(&workspace));
+    let texts: Vec<String> = hapticgen_fuzz::seed_pool(&corpus)
+        .into_iter()
+        .filter_map(|(_, bytes)| String::from_utf8(bytes).ok())
+        .collect();
     if texts.is_empty() {
-        eprintln!("no YAML file in {dirs:?}");
+        eprintln!("no seed found under {}", workspace.display());
         std::process::exit(2);
     }
     texts

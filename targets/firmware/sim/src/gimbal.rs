@@ -66,9 +66,7 @@ impl<S: Real, const K: usize> MeasuredEncoders<K> for SimGimbal<S, K> {
         let angles = self.angles();
         let mut counts = [0i32; K];
         for ((count, angle), joint) in counts.iter_mut().zip(angles.iter()).zip(self.joints.iter()) {
-            let per_unit = f64::from(joint.counts_per_turn)
-                / if joint.revolute { 2.0 * core::f64::consts::PI } else { 1.0 };
-            *count = libm::floor(angle.to_f64() * per_unit) as i32;
+            *count = joint.count_size().map_or(0, |size| libm::floor(angle.to_f64() / size.to_f64()) as i32);
         }
         if let Some(index) = self.glitches.iter().position(|&at| at == self.reads) {
             if let Some(count) = counts.get_mut(index % K.max(1)) {
