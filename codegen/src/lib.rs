@@ -17,14 +17,13 @@ pub mod diag;
 pub mod dynamics;
 pub mod emit;
 pub mod eval;
-// Build-time meshes for the renderer (OBJ/STL → static arrays with a BVH).
 mod math;
+// Build-time meshes for the renderer (OBJ/STL → static arrays with a BVH).
 pub mod mesh;
 pub mod model;
 mod plan;
 pub mod rig_macro;
 pub mod scene;
-#[doc(hidden)]
 pub mod sym;
 pub mod urdf;
 mod version;
@@ -34,6 +33,7 @@ use proc_macro2::TokenStream;
 pub use check::{Analyses, CheckedModel};
 pub use diag::{Diagnostic, Diagnostics};
 pub use emit::{EmitOptions, Scalar};
+pub use math::grid;
 pub use model::{Model, Source};
 pub use version::VERSION;
 

@@ -292,3 +292,80 @@ fn every_path_architecture_md_names_exists() {
     assert!(named >= 30, "ARCHITECTURE.md names only {named} paths: the scan is broken");
     assert!(missing.is_empty(), "ARCHITECTURE.md names paths that do not exist: {missing:?}");
 }
+
+/// The workspace's members, from the root `Cargo.toml`'s `members = [...]`.
+fn workspace_members() -> Vec<String> {
+    let manifest = std::fs::read_to_string(repo_root().join("Cargo.toml")).unwrap();
+    let start = manifest.find("members = [").expect("a members list") + "members = [".len();
+    let end = start + manifest[start..].find(']').unwrap();
+    manifest[start..end]
+        .split(',')
+        .map(|m| m.trim().trim_matches('"').to_string())
+        .filter(|m| !m.is_empty())
+        .collect()
+}
+
+/// The CLI's commands as a user types them: the variants of `enum Command` in the host's
+/// `main.rs`, in clap's kebab case (`ImportUrdf` → `import-urdf`).
+fn cli_commands() -> Vec<String> {
+    let main = std::fs::read_to_string(repo_root().join("targets/host/src/main.rs")).unwrap();
+    let start = main.find("enum Command {").expect("the CLI's Command enum");
+    let body = &main[start..start + main[start..].find("\n}").unwrap()];
+    body.lines()
+        .filter_map(|line| {
+            let name = line.strip_prefix("    ")?;
+            let end = name.find(|c: char| !c.is_ascii_alphanumeric())?;
+            let name = &name[..end];
+            name.starts_with(|c: char| c.is_ascii_uppercase()).then(|| {
+                let mut kebab = String::new();
+                for (i, c) in name.chars().enumerate() {
+                    if c.is_ascii_uppercase() && i > 0 {
+                        kebab.push('-');
+                    }
+                    kebab.push(c.to_ascii_lowercase());
+                }
+                kebab
+            })
+        })
+        .collect()
+}
+
+/// The runtime's modules, from `pub mod` lines of its `lib.rs`.
+fn runtime_modules() -> Vec<String> {
+    let lib = std::fs::read_to_string(repo_root().join("runtime/src/lib.rs")).unwrap();
+    lib.lines().filter_map(|l| l.strip_prefix("pub mod ")?.strip_suffix(';').map(str::to_string)).collect()
+}
+
+/// What a map (`text`) leaves out: each crate as `` `path/` ``, each command as `` `name` ``,
+/// each runtime module as `` `runtime/src/name.rs` ``.
+fn omissions(text: &str, crates: &[String], commands: &[String], modules: &[String]) -> Vec<String> {
+    let crates = crates.iter().map(|c| format!("`{c}/`"));
+    let commands = commands.iter().map(|c| format!("`{c}`"));
+    let modules = modules.iter().map(|m| format!("`runtime/src/{m}.rs`"));
+    crates.chain(commands).chain(modules).filter(|needle| !text.contains(needle.as_str())).collect()
+}
+
+#[test]
+fn the_maps_name_every_crate_command_and_runtime_module() {
+    let (crates, commands, modules) = (workspace_members(), cli_commands(), runtime_modules());
+    assert!(crates.len() >= 7 && crates.contains(&"protocol".to_string()), "{crates:?}");
+    assert!(commands.len() >= 15 && commands.contains(&"import-urdf".to_string()), "{commands:?}");
+    assert!(modules.len() >= 18 && modules.contains(&"tick".to_string()), "{modules:?}");
+    let architecture = std::fs::read_to_string(repo_root().join("ARCHITECTURE.md")).unwrap();
+    let missing = omissions(&architecture, &crates, &commands, &modules);
+    assert!(missing.is_empty(), "ARCHITECTURE.md does not name {missing:?}");
+    // The README's layout table names every crate, and its CLI section every command.
+    let readme = std::fs::read_to_string(repo_root().join("README.md")).unwrap();
+    let missing = omissions(&readme, &crates, &commands, &[]);
+    assert!(missing.is_empty(), "README.md does not name {missing:?}");
+}
+
+#[test]
+fn the_map_check_sees_a_planted_omission() {
+    let architecture = std::fs::read_to_string(repo_root().join("ARCHITECTURE.md")).unwrap();
+    let (crates, commands, modules) = (workspace_members(), cli_commands(), runtime_modules());
+    for planted in ["`protocol/`", "`zwidth`", "`runtime/src/tick.rs`"] {
+        let without = architecture.replace(planted, "(left out)");
+        assert_eq!(omissions(&without, &crates, &commands, &modules), vec![planted.to_string()]);
+    }
+}

@@ -96,6 +96,19 @@ const CASES: &[(&str, Option<&str>)] = &[
     ("wrong-type", None),
     ("yaml-syntax", None),
     ("zero-gear-ratio", None),
+    ("unit-wrong-dimension", None),
+    ("expression-unknown-parameter", None),
+    ("expression-unknown-function", None),
+    ("expression-bad-token", None),
+    ("expression-division-by-zero", None),
+    ("expression-not-finite", None),
+    ("expression-tunable-in-function", None),
+    ("expression-tunable-in-fixed-field", None),
+    ("parameter-cycle", None),
+    ("drive-like-unknown", None),
+    ("drive-like-cycle", None),
+    ("inertia-shape-incomplete", None),
+    ("value-not-a-number", None),
 ];
 
 fn manifest_dir() -> &'static Path {
@@ -223,7 +236,7 @@ fn wrong_type_string_for_number() {
             context: "gear_ratio: twelve",
             token: "twelve",
             path: "drives.re40_gp42.gear_ratio",
-            message: "expected a number, got string \"twelve\"",
+            message: "unknown parameter `twelve`",
         },
     );
 }
@@ -1519,4 +1532,196 @@ fn a_singular_transmission_is_refused_at_the_section() {
         },
     );
     assert_eq!(hint(&d.0[0]), "each drive must add a combination of joint angles the others do not make");
+}
+
+// Units and expressions: each error points at the faulty token inside the scalar.
+
+#[test]
+fn unit_of_the_wrong_dimension() {
+    let d = check(
+        "unit-wrong-dimension",
+        None,
+        Expect {
+            context: "mass: 20.358 mm",
+            token: "mm",
+            path: "bodies[0].mass",
+            message: "expected kg, got m",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "a number without a unit is read in SI units");
+}
+
+#[test]
+fn expression_naming_no_parameter() {
+    let d = check(
+        "expression-unknown-parameter",
+        None,
+        Expect {
+            context: "current_limit: 3 N m / (12 * torque_konstant)",
+            token: "torque_konstant",
+            path: "drives.re40_gp42.current_limit",
+            message: "unknown parameter `torque_konstant`",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "defined parameters: grip_mass, stick_length");
+}
+
+#[test]
+fn expression_calling_no_known_function() {
+    let d = check(
+        "expression-unknown-function",
+        None,
+        Expect {
+            context: "backlash: degrees(0.8)",
+            token: "degrees",
+            path: "drives.re40_gp42.backlash",
+            message: "unknown function `degrees`",
+        },
+    );
+    assert!(hint(&d.0[0]).starts_with("functions: sin, cos"), "{}", d.0[0]);
+}
+
+#[test]
+fn expression_with_a_bad_token_in_a_quoted_scalar() {
+    check(
+        "expression-bad-token",
+        None,
+        Expect {
+            context: "efficiency: \"1.0 % 1\"",
+            token: "%",
+            path: "drives.re40_gp42.efficiency",
+            message: "unexpected character `%`",
+        },
+    );
+}
+
+#[test]
+fn expression_dividing_by_zero() {
+    check(
+        "expression-division-by-zero",
+        None,
+        Expect {
+            context: "gear_ratio: 24 / (stick_length - 15 cm)",
+            token: "/",
+            path: "drives.re40_gp42.gear_ratio",
+            message: "division by zero",
+        },
+    );
+}
+
+#[test]
+fn expression_overflowing() {
+    check(
+        "expression-not-finite",
+        None,
+        Expect {
+            context: "supply_voltage: 1e300 V * 1e10",
+            token: "*",
+            path: "drives.re40_gp42.supply_voltage",
+            message: "the result of `*` is not a finite number",
+        },
+    );
+}
+
+#[test]
+fn tunable_parameter_inside_a_function() {
+    check(
+        "expression-tunable-in-function",
+        None,
+        Expect {
+            context: "mass: 0.1 * cos(grip_mass)",
+            token: "grip_mass",
+            path: "bodies[1].mass",
+            message: "the tunable parameter `grip_mass` cannot be used inside `cos`",
+        },
+    );
+}
+
+#[test]
+fn tunable_parameter_in_a_fixed_field() {
+    check(
+        "expression-tunable-in-fixed-field",
+        None,
+        Expect {
+            context: "torque_limit: 60 * grip_mass",
+            token: "grip_mass",
+            path: "drives.re40_gp42.torque_limit",
+            message: "the tunable parameter `grip_mass` cannot be used here: this field is a fixed number",
+        },
+    );
+}
+
+#[test]
+fn parameters_in_a_cycle() {
+    let d = check(
+        "parameter-cycle",
+        None,
+        Expect {
+            context: "{value: grip_diameter / 2}",
+            token: "grip_diameter",
+            path: "parameters.grip_radius.value",
+            message: "the parameters depend on each other in a cycle: grip_diameter → grip_mass → grip_radius → grip_diameter",
+        },
+    );
+    assert_eq!(d.0.len(), 1, "{d}");
+}
+
+#[test]
+fn drive_like_an_unknown_drive() {
+    let d = check(
+        "drive-like-unknown",
+        None,
+        Expect {
+            context: "like: re40_gp24",
+            token: "re40_gp24",
+            path: "drives.fast.like",
+            message: "unknown drive `re40_gp24`",
+        },
+    );
+    assert_eq!(hint(&d.0[0]), "defined drives: re40_gp42, fast");
+}
+
+#[test]
+fn drives_like_each_other_in_a_cycle() {
+    check(
+        "drive-like-cycle",
+        None,
+        Expect {
+            context: "like: fast",
+            token: "fast",
+            path: "drives.slow.like",
+            message: "the drives are `like` each other in a cycle: fast → slow → fast",
+        },
+    );
+}
+
+#[test]
+fn incomplete_inertia_shape_names_the_forms() {
+    let d = check(
+        "inertia-shape-incomplete",
+        None,
+        Expect {
+            context: "inertia: {rod: {length: 0.15}}",
+            token: "{rod",
+            path: "bodies[0].inertia",
+            message: "not a valid inertia",
+        },
+    );
+    assert!(hint(&d.0[0]).contains("`{rod: {length, axis}}`"), "{}", d.0[0]);
+    assert!(!d.0[0].message.contains("untagged"));
+}
+
+#[test]
+fn value_of_the_wrong_shape_names_the_forms() {
+    let d = check(
+        "value-not-a-number",
+        None,
+        Expect {
+            context: "mass: [0.05]",
+            token: "[0.05]",
+            path: "bodies[1].mass",
+            message: "expected a number, a number with a unit, a parameter name or an expression",
+        },
+    );
+    assert!(!d.to_string().contains("untagged"));
 }

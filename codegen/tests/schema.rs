@@ -197,6 +197,18 @@ fn validate(root: &Json, schema: &Json, value: &Json, at: &str, errors: &mut Vec
     if let Some(Json::Array(list)) = object.get("anyOf") {
         if passing(list) == 0 {
             errors.push(format!("{at}: {value} matches none of the alternatives"));
+            // And why the closest alternative fails: the first with the fewest violations of
+            // the value itself (then the fewest in all), so that a drive with one wrong key
+            // deep inside is reported at that key.
+            let closest = list
+                .iter()
+                .map(|sub| {
+                    let mut e = Vec::new();
+                    validate(root, sub, value, at, &mut e);
+                    e
+                })
+                .min_by_key(|e| (e.iter().filter(|m| m.starts_with(&format!("{at}: "))).count(), e.len()));
+            errors.extend(closest.into_iter().flatten());
         }
     }
     if let Some(Json::Array(list)) = object.get("oneOf") {
@@ -233,11 +245,14 @@ fn schema_rejects_what_the_loader_rejects_structurally() {
     let cases = [
         ("unknown-key-top", "/colour: not allowed"),
         ("unknown-key-nested", "/drives/re40_gp42/motor/winding: not allowed"),
-        ("wrong-type", "/drives/re40_gp42/gear_ratio: expected number"),
+        ("value-not-a-number", "/bodies/1/mass: [0.05] matches none of the alternatives"),
         // (`drive` is required of actuated joints only, which the loader checks; the schema
         // cannot say "unless passive", so `missing-key` is not a structural case.)
         ("unknown-joint-type", "/joints/0/type: \"rotary\" matches 0 alternatives"),
-        ("negative-counts", "/drives/re40_gp42/encoder/counts_per_turn: -2000 is below the minimum 0"),
+        (
+            "negative-counts",
+            "/drives/re40_gp42/encoder/counts_per_turn: -2000 matches none of the alternatives",
+        ),
         ("empty-value", "/drives/re40_gp42/motor/inductance: expected number, got null"),
     ];
     for (name, expected) in cases {

@@ -1,5 +1,7 @@
 //! Model-level analyses that produce diagnostics at the model file's lines: the current-loop
-//! design of every drive ([`current_loop`]), the elimination of every loop closure
+//! design of every drive ([`current_loop`]), the model's plausibility as a device
+//! ([`plausibility`]: gravity against the drives, masses, lengths and inertias against the bodies'
+//! sizes, a closed chain's assembly branch), the elimination of every loop closure
 //! ([`crate::dynamics::closure::analyse`], reported here at the closure's entry), and the
 //! stability of virtual walls ([`stability`]).
 //!
@@ -7,6 +9,7 @@
 //! stays what the file says, the analyses what hapticgen computed from it.
 
 pub mod current_loop;
+pub mod plausibility;
 pub mod stability;
 
 use crate::diag::Diagnostics;

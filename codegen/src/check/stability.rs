@@ -32,6 +32,7 @@ use crate::diag::Diagnostic;
 use crate::dynamics::mechanics::Mechanics;
 use crate::eval::State;
 use crate::math::eigen::symmetric_eigenvalues;
+use crate::math::grid::box_grid;
 use crate::model::positions::{PositionIndex, Segment};
 use crate::model::Model;
 
@@ -140,18 +141,8 @@ pub fn check_wall(model: &Model, mech: &Mechanics) -> Option<WallCheck> {
     // The least damped pose on a grid of 5 values per joint (at most 5⁴ poses).
     let steps: usize = if model.joints.len() <= 4 { 5 } else { 2 };
     let mut worst = b;
-    let total = steps.checked_pow(model.joints.len() as u32).unwrap_or(0).min(1 << 12);
-    for index in 0..total {
-        let mut rest = index;
-        let q: Vec<f64> = model
-            .joints
-            .iter()
-            .map(|j| {
-                let i = rest % steps;
-                rest /= steps;
-                j.lower + (j.upper - j.lower) * i as f64 / (steps - 1) as f64
-            })
-            .collect();
+    let bounds: Vec<(f64, f64)> = model.joints.iter().map(|j| (j.lower, j.upper)).collect();
+    for q in box_grid(&bounds, steps).take(1 << 12) {
         if let Some(d) = task_damping(model, mech, &q) {
             worst = worst.min(d);
         }

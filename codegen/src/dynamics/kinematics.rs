@@ -222,6 +222,13 @@ pub(crate) fn point_world(model: &Model, frames: &[Frame], index: usize) -> Vec<
     world[..model.dim()].to_vec()
 }
 
+/// The world position of every body's frame origin (2 or 3 entries), polynomials over all
+/// coordinates of the open tree (a closed chain's passive joints included): the joints of a
+/// drawing of the rig.
+pub fn body_origins(model: &Model) -> Vec<Vec<Poly>> {
+    body_frames(model).iter().map(|f| f.origin[..model.dim()].to_vec()).collect()
+}
+
 /// The world positions of every named point, polynomials over all coordinates of the open
 /// tree (a closed chain's passive joints included).
 pub fn point_positions(model: &Model) -> Vec<Vec<Poly>> {

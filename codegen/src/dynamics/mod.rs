@@ -9,13 +9,11 @@
 //! Delta's, [`three_spheres`]) and `reduction` reduces the open tree's mechanics to the
 //! actuated coordinates.
 
-#[doc(hidden)]
 pub mod closure;
 pub mod kinematics;
 mod lagrangian;
 pub mod mechanics;
 mod projection;
-#[doc(hidden)]
 pub mod recursive;
 mod reduction;
 pub mod spatial_loops;

@@ -7,6 +7,8 @@
 //! the file, line, column and key path of the offending value.
 
 pub mod positions;
+mod preprocess;
+pub mod quantity;
 mod resolve;
 pub mod schema;
 mod types;
@@ -62,6 +64,7 @@ impl<'a> Locator<'a> {
         self.index.get_or_init(|| PositionIndex::build(self.text))
     }
 
+    /// The path in the source document of the value at `path` in the merged one.
     fn source_path(&self, path: &[Segment]) -> KeyPath {
         let best = self
             .overrides
@@ -81,6 +84,27 @@ impl<'a> Locator<'a> {
     /// A diagnostic at the value found at `path`.
     pub(crate) fn at(&self, path: &[Segment], message: impl Into<String>) -> Diagnostic {
         self.diagnostic(self.index().value(&self.source_path(path)), path, message.into())
+    }
+
+    /// A diagnostic at the character `offset` of the scalar at `path` (past its opening quote,
+    /// if it is quoted), for an error inside an expression.
+    pub(crate) fn at_offset(
+        &self,
+        path: &[Segment],
+        offset: usize,
+        message: impl Into<String>,
+        hint: Option<String>,
+    ) -> Diagnostic {
+        let (line, column) = self.index().value(&self.source_path(path));
+        let opening = self
+            .text
+            .lines()
+            .nth(line.saturating_sub(1))
+            .and_then(|l| l.chars().nth(column.saturating_sub(1)));
+        let quote = usize::from(matches!(opening, Some('"' | '\'')));
+        let mut d = self.diagnostic((line, column + quote + offset), path, message.into());
+        d.hint = hint;
+        d
     }
 
     /// A diagnostic at the key that introduces `path`.
@@ -294,7 +318,9 @@ fn load_unclamped<T>(
         }
     })?;
     check_literals(&document, &locator)?;
-    let base: ModelFile = typed(&document, &locator)?;
+    let mut prepared = document.clone();
+    preprocess::preprocess(&mut prepared, &mut locator)?;
+    let base: ModelFile = typed(&prepared, &locator)?;
 
     let mut known: Vec<&str> = base.variants.keys().map(String::as_str).collect();
     known.sort_unstable();
@@ -361,7 +387,12 @@ fn load_unclamped<T>(
             remove_path(&mut merged, dotted).map_err(|rule| locator.at(&source_path, rule))?;
         }
     }
-    let file: ModelFile = if chosen.is_some() { typed(&merged, &locator)? } else { base };
+    let file: ModelFile = if chosen.is_some() {
+        preprocess::preprocess(&mut merged, &mut locator)?;
+        typed(&merged, &locator)?
+    } else {
+        base
+    };
     let model = resolve::resolve(file, &locator, chosen, variants)?;
     then(model, &locator)
 }
@@ -450,18 +481,35 @@ fn typed<T: DeserializeOwned>(value: &serde_yaml::Value, locator: &Locator<'_>) 
 
 /// Rephrases serde's messages for model authors.
 fn explain_serde_error(raw: &str) -> (String, Option<String>) {
+    // serde's untagged enums say only that nothing matched: name the forms instead.
     if raw.contains("untagged enum Inertia") {
         return (
             "not a valid inertia".into(),
             Some(
                 "write a number (planar I_zz about the centre of mass, kg·m²), \
-                 `{slender_rod: LENGTH}` or a tensor `{ixx, iyy, izz, ixy, ixz, iyz}`"
+                 `{slender_rod: LENGTH}` (planar), a tensor `{ixx, iyy, izz, ixy, ixz, iyz}` \
+                 (spatial), or a shape of the body's mass: `{rod: {length, axis}}`, \
+                 `{box: {x, y, z}}`, `{cylinder: {radius, length, axis}}`, `{sphere: {radius}}` \
+                 or `point_mass`"
                     .into(),
             ),
         );
     }
     if raw.contains("untagged enum Value") {
-        return ("expected a number or the name of a parameter".into(), None);
+        return (
+            "expected a number, a number with a unit, a parameter name or an expression".into(),
+            Some("e.g. `0.03`, `30 g`, `grip_mass` or `2 * grip_mass + 5 g`".into()),
+        );
+    }
+    if raw.contains("untagged enum Assembly") {
+        return (
+            "expected an angle or a travel (a number, or a number with a unit), or a list of angles, one per axis".into(),
+            Some("e.g. `0.5`, `30 deg`, `12 mm` or `[2.08 deg, 0]`".into()),
+        );
+    }
+    if let Some(i) = raw.find("untagged enum ") {
+        let name = raw[i + "untagged enum ".len()..].trim();
+        return (format!("not a valid {}", name.to_lowercase()), None);
     }
     if let Some(rest) = raw.strip_prefix("unknown field ") {
         let (field, expected) = match rest.find(", expected") {

@@ -22,6 +22,81 @@ pub enum Value {
     Parameter(String),
 }
 
+/// How the JSON schema describes a numeric field: the loader evaluates units and expressions to
+/// a number before typing the file, so the Rust field is a plain number.
+#[derive(JsonSchema)]
+#[serde(untagged)]
+#[allow(dead_code)]
+enum Quantity {
+    /// A number in the field's SI unit.
+    Number(f64),
+    /// A number with a unit (`30 g`, `120 deg`) or an expression of numbers and parameters
+    /// (`shin_mass * shin_length^2 / 12`), evaluated when the file is loaded.
+    Expression(String),
+}
+
+/// How the JSON schema describes a whole-number field (counts, rates, orders).
+#[derive(JsonSchema)]
+#[serde(untagged)]
+#[allow(dead_code)]
+enum WholeQuantity {
+    /// A whole number.
+    Number(u32),
+    /// A number with a unit (`7.5 kHz`) or an expression (`4 * 500`) whose value is whole.
+    Expression(String),
+}
+
+/// How the JSON schema describes an entry of `drives`: a drive, or one `like` another.
+#[derive(JsonSchema)]
+#[serde(untagged)]
+#[allow(dead_code)]
+enum DriveEntry {
+    /// A drive given in full.
+    Drive(Drive),
+    /// A drive that reuses another.
+    Like(DriveLike),
+}
+
+/// A drive that reuses another: a copy of the drive `like` names, with the keys given here
+/// replacing its own (`motor` and `encoder` merged key by key).
+#[derive(JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[allow(dead_code)]
+struct DriveLike {
+    /// The drive this one copies.
+    like: String,
+    /// Motor constants that differ.
+    #[serde(default)]
+    motor: Option<serde_json::Value>,
+    /// Motor turns per joint turn.
+    #[schemars(with = "Option<Quantity>")]
+    gear_ratio: Option<f64>,
+    /// Gearhead efficiency in (0, 1].
+    #[schemars(with = "Option<Quantity>")]
+    efficiency: Option<f64>,
+    /// Largest joint-side torque, N·m (N for prismatic joints).
+    #[schemars(with = "Option<Quantity>")]
+    torque_limit: Option<f64>,
+    /// Largest motor current, A.
+    #[schemars(with = "Option<Quantity>")]
+    current_limit: Option<f64>,
+    /// Supply voltage, V.
+    #[schemars(with = "Option<Quantity>")]
+    supply_voltage: Option<f64>,
+    /// Encoder settings that differ.
+    #[serde(default)]
+    encoder: Option<serde_json::Value>,
+    /// Gearhead backlash, rad.
+    #[schemars(with = "Option<Quantity>")]
+    backlash: Option<f64>,
+    /// Coulomb friction at the joint, N·m.
+    #[schemars(with = "Option<Quantity>")]
+    coulomb_friction: Option<f64>,
+    /// Static friction at the joint, N·m.
+    #[schemars(with = "Option<Quantity>")]
+    static_friction: Option<f64>,
+}
+
 /// Whether bodies move in a plane (x, y; rotations about z) or in space.
 #[derive(Clone, Copy, Debug, Deserialize, JsonSchema, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
@@ -48,7 +123,9 @@ pub struct ModelFile {
     /// Named values that other fields may reference by name.
     #[serde(default)]
     pub parameters: BTreeMap<String, Parameter>,
-    /// Drive trains (motor, gearhead, encoder, limits), referenced by joints by name.
+    /// Drive trains (motor, gearhead, encoder, limits), referenced by joints by name. An entry
+    /// may reuse another with `like: NAME` and override some of its keys.
+    #[schemars(with = "BTreeMap<String, DriveEntry>")]
     pub drives: BTreeMap<String, Drive>,
     /// The joints, one per generalised coordinate, in the order of `q`.
     pub joints: Vec<Joint>,
@@ -57,6 +134,7 @@ pub struct ModelFile {
     /// output turns per joint coordinate (`a = C q`; `{pitch: 1, roll: 1}`: the sum of the
     /// two angles). A joint not listed has its drive turn it alone.
     #[serde(default)]
+    #[schemars(with = "BTreeMap<String, BTreeMap<String, Quantity>>")]
     pub transmission: BTreeMap<String, BTreeMap<String, f64>>,
     /// The rigid bodies and how each one moves.
     pub bodies: Vec<Body>,
@@ -95,6 +173,7 @@ pub struct ModelFile {
 #[serde(deny_unknown_fields)]
 pub struct Parameter {
     /// The nominal value, SI units.
+    #[schemars(with = "Quantity")]
     pub value: f64,
     /// Keep the parameter symbolic: it becomes a field of the generated rig struct, with
     /// `value` as its default, and can be changed at run time (e.g. a tool mass).
@@ -115,26 +194,34 @@ pub struct Drive {
     /// The electric motor.
     pub motor: Motor,
     /// Motor turns per joint turn (N); the rotor inertia reflects to the joint as N²·J_m.
+    #[schemars(with = "Quantity")]
     pub gear_ratio: f64,
     /// Gearhead efficiency in (0, 1].
     #[serde(default = "one")]
+    #[schemars(with = "Quantity")]
     pub efficiency: f64,
     /// Largest joint-side torque the controllers may command, N·m (N for prismatic joints).
+    #[schemars(with = "Quantity")]
     pub torque_limit: f64,
     /// Largest motor current, A.
+    #[schemars(with = "Quantity")]
     pub current_limit: f64,
     /// Supply voltage, V.
+    #[schemars(with = "Quantity")]
     pub supply_voltage: f64,
     /// Incremental encoder on the motor shaft.
     pub encoder: Encoder,
     /// Gearhead backlash, rad (joint side); used by the simulator only.
     #[serde(default)]
+    #[schemars(with = "Quantity")]
     pub backlash: f64,
     /// Coulomb friction at the joint, N·m; used by the simulator only.
     #[serde(default)]
+    #[schemars(with = "Quantity")]
     pub coulomb_friction: f64,
     /// Static (breakaway) friction at the joint, N·m; used by the simulator only.
     #[serde(default)]
+    #[schemars(with = "Quantity")]
     pub static_friction: f64,
 }
 
@@ -147,12 +234,16 @@ fn one() -> f64 {
 #[serde(deny_unknown_fields)]
 pub struct Motor {
     /// Rotor inertia J_m, kg·m².
+    #[schemars(with = "Quantity")]
     pub rotor_inertia: f64,
     /// Terminal resistance R, Ω.
+    #[schemars(with = "Quantity")]
     pub resistance: f64,
     /// Terminal inductance L, H.
+    #[schemars(with = "Quantity")]
     pub inductance: f64,
     /// Torque constant k_t, N·m/A.
+    #[schemars(with = "Quantity")]
     pub torque_constant: f64,
 }
 
@@ -161,6 +252,7 @@ pub struct Motor {
 #[serde(deny_unknown_fields)]
 pub struct Encoder {
     /// Counts per motor turn after quadrature decoding (4 × lines).
+    #[schemars(with = "WholeQuantity")]
     pub counts_per_turn: u32,
 }
 
@@ -207,9 +299,9 @@ impl JointType {
 #[serde(untagged)]
 pub enum Assembly {
     /// A revolute joint's angle (rad) or a prismatic joint's travel (m).
-    Single(f64),
+    Single(#[schemars(with = "Quantity")] f64),
     /// A universal or spherical joint's angles about its axes, in order (rad).
-    PerAxis(Vec<f64>),
+    PerAxis(#[schemars(with = "Vec<Quantity>")] Vec<f64>),
 }
 
 /// One joint: an actuated generalised coordinate with its drive, or a passive joint of a
@@ -228,12 +320,14 @@ pub struct Joint {
     /// Unit axis in the joint frame; planar models take `[0, 0, 1]` (default) or
     /// `[0, 0, -1]` for revolute joints and a 2-vector for prismatic ones.
     #[serde(default)]
+    #[schemars(with = "Option<Vec<Quantity>>")]
     pub axis: Option<Vec<f64>>,
     /// Universal (two) and spherical (three) joints: the axes of their rotations, unit or not,
     /// in the joint frame with every angle zero. Each axis turns with the rotations before it:
     /// the first is fixed in the parent, the last in the child. A spherical joint's default is
     /// x, y, z.
     #[serde(default)]
+    #[schemars(with = "Option<Vec<Vec<Quantity>>>")]
     pub axes: Option<Vec<Vec<f64>>>,
     /// Universal and spherical joints: the names of their angles, one per axis, as they appear
     /// in the generated code (default `NAME_1`, `NAME_2`, ...).
@@ -284,9 +378,11 @@ pub struct Mimic {
     /// (the kinematics stay polynomials in the leader's sine and cosine), any number for a
     /// prismatic one.
     #[serde(default)]
+    #[schemars(with = "Option<Quantity>")]
     pub multiplier: Option<f64>,
     /// `offset`, rad or m (default 0).
     #[serde(default)]
+    #[schemars(with = "Option<Quantity>")]
     pub offset: Option<f64>,
 }
 
@@ -295,6 +391,7 @@ pub struct Mimic {
 #[serde(deny_unknown_fields)]
 pub struct Measured {
     /// Encoder counts per turn of the joint (after quadrature decoding).
+    #[schemars(with = "WholeQuantity")]
     pub counts_per_turn: u32,
     /// How the bodies the joint moves enter the dynamics.
     pub dynamics: MeasuredDynamics,
@@ -351,6 +448,7 @@ pub struct BodyAxis {
     /// The body's name (`base` for the fixed ground).
     pub body: String,
     /// The direction in the body's frame (3 entries; normalised).
+    #[schemars(with = "Vec<Quantity>")]
     pub axis: Vec<f64>,
 }
 
@@ -370,8 +468,10 @@ pub enum Branch {
 #[serde(deny_unknown_fields)]
 pub struct Limits {
     /// Lower bound, rad or m.
+    #[schemars(with = "Quantity")]
     pub lower: f64,
     /// Upper bound, rad or m.
+    #[schemars(with = "Quantity")]
     pub upper: f64,
 }
 
@@ -416,12 +516,65 @@ pub struct Body {
 #[derive(Clone, Debug, Deserialize, JsonSchema)]
 #[serde(untagged)]
 pub enum Inertia {
+    /// A uniform solid of the body's mass, centred on the centre of mass (before `Scalar`:
+    /// `point_mass` is a shape, not a parameter name).
+    Shape(InertiaShape),
     /// Planar models: the moment of inertia about the z axis, kg·m².
     Scalar(Value),
     /// A uniform slender rod along the body's x axis (planar) of this length: m·L²/12.
     SlenderRod(SlenderRod),
     /// Spatial models: the symmetric tensor, kg·m².
     Tensor(InertiaTensor),
+}
+
+/// A uniform solid whose inertia tensor about its centre of mass follows from the body's mass
+/// and its dimensions (the textbook formulas). In a planar model, its moment about z.
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum InertiaShape {
+    /// A slender rod (no thickness) of `length` along `axis`: m·L²/12 about every axis
+    /// perpendicular to it, zero about it.
+    Rod {
+        /// Length, m.
+        #[schemars(with = "Quantity")]
+        length: f64,
+        /// Direction of the rod in body axes (3 entries, normalised).
+        #[schemars(with = "Vec<Quantity>")]
+        axis: Vec<f64>,
+    },
+    /// A solid box with edges `x`, `y`, `z` along the body axes: I_xx = m·(y² + z²)/12, ...
+    Box {
+        /// Edge along x, m.
+        #[schemars(with = "Quantity")]
+        x: f64,
+        /// Edge along y, m.
+        #[schemars(with = "Quantity")]
+        y: f64,
+        /// Edge along z, m.
+        #[schemars(with = "Quantity")]
+        z: f64,
+    },
+    /// A solid cylinder of `radius` and `length` along `axis`: m·r²/2 about the axis,
+    /// m·(3r² + L²)/12 about every axis perpendicular to it.
+    Cylinder {
+        /// Radius, m.
+        #[schemars(with = "Quantity")]
+        radius: f64,
+        /// Length, m.
+        #[schemars(with = "Quantity")]
+        length: f64,
+        /// Direction of the cylinder's axis in body axes (3 entries, normalised).
+        #[schemars(with = "Vec<Quantity>")]
+        axis: Vec<f64>,
+    },
+    /// A solid sphere: 2·m·r²/5 about every axis.
+    Sphere {
+        /// Radius, m.
+        #[schemars(with = "Quantity")]
+        radius: f64,
+    },
+    /// A point mass at the centre of mass: no inertia about it.
+    PointMass,
 }
 
 /// A uniform slender rod.
@@ -462,6 +615,7 @@ pub struct Origin {
     pub xyz: Option<Vec<Value>>,
     /// Roll, pitch, yaw, rad (spatial); a single angle about z for planar models.
     #[serde(default)]
+    #[schemars(with = "Option<Vec<Quantity>>")]
     pub rpy: Option<Vec<f64>>,
 }
 
@@ -494,12 +648,14 @@ pub struct DenavitHartenberg {
     pub a: Option<Value>,
     /// Link twist `alpha` about x, rad (default 0).
     #[serde(default)]
+    #[schemars(with = "Option<Quantity>")]
     pub alpha: Option<f64>,
     /// Link offset `d` along z, m (default 0).
     #[serde(default)]
     pub d: Option<Value>,
     /// Joint-angle offset `theta` about z, rad (default 0).
     #[serde(default)]
+    #[schemars(with = "Option<Quantity>")]
     pub theta: Option<f64>,
 }
 
@@ -527,6 +683,7 @@ pub struct DirectPlane {
     pub body: String,
     /// Fixed roll, pitch, yaw from that body's frame to the plane's (rad; default none).
     #[serde(default)]
+    #[schemars(with = "Option<Vec<Quantity>>")]
     pub rpy: Option<Vec<f64>>,
 }
 
@@ -570,6 +727,7 @@ pub struct Frame {
     /// Fixed rotation from the body frame, roll–pitch–yaw in rad (URDF convention, fixed
     /// axes x, y, z); default none.
     #[serde(default)]
+    #[schemars(with = "Option<Vec<Quantity>>")]
     pub rpy: Option<Vec<f64>>,
 }
 
@@ -605,17 +763,22 @@ pub struct Sensor {
     #[serde(default)]
     pub description: Option<String>,
     /// Task units per raw sensor unit (e.g. N/V).
+    #[schemars(with = "Quantity")]
     pub scale: f64,
     /// Raw reading at zero force.
     #[serde(default)]
+    #[schemars(with = "Quantity")]
     pub offset: f64,
     /// Largest measurable magnitude, task units.
+    #[schemars(with = "Quantity")]
     pub full_scale: f64,
     /// Standard deviation of the noise, task units (simulation only).
     #[serde(default)]
+    #[schemars(with = "Quantity")]
     pub noise: f64,
     /// Resolution (quantisation step), task units (simulation only).
     #[serde(default)]
+    #[schemars(with = "Quantity")]
     pub resolution: f64,
 }
 
@@ -624,8 +787,10 @@ pub struct Sensor {
 #[serde(deny_unknown_fields)]
 pub struct Rates {
     /// Inner current loop, Hz (7500 in the paper).
+    #[schemars(with = "WholeQuantity")]
     pub current_loop_hz: u32,
     /// Outer impedance loop, Hz.
+    #[schemars(with = "WholeQuantity")]
     pub impedance_loop_hz: u32,
 }
 
@@ -634,13 +799,17 @@ pub struct Rates {
 #[serde(deny_unknown_fields)]
 pub struct CurrentLoopSpec {
     /// Closed-loop bandwidth, Hz (700 in the paper).
+    #[schemars(with = "Quantity")]
     pub bandwidth_hz: f64,
     /// Closed-loop damping ratio (slightly above 1: slightly overdamped).
+    #[schemars(with = "Quantity")]
     pub damping_ratio: f64,
     /// Cut-off of the anti-aliasing (Bessel) filter on the current sense, Hz.
+    #[schemars(with = "Quantity")]
     pub anti_alias_cutoff_hz: f64,
     /// Order of that Bessel filter, 1 to 4 (default 2).
     #[serde(default = "two")]
+    #[schemars(with = "WholeQuantity")]
     pub anti_alias_filter_order: u32,
 }
 
@@ -653,10 +822,13 @@ fn two() -> u32 {
 #[serde(deny_unknown_fields)]
 pub struct Rendering {
     /// Spacing of the free-space anti-drift grid, m (0.3 mm in the paper).
+    #[schemars(with = "Quantity")]
     pub grid_spacing: f64,
     /// Stiffness of virtual walls, N/m.
+    #[schemars(with = "Quantity")]
     pub wall_stiffness: f64,
     /// Damping of virtual walls, N·s/m.
+    #[schemars(with = "Quantity")]
     pub wall_damping: f64,
     /// Accept a wall stiffness beyond the passivity bound (you know what you are doing).
     #[serde(default)]

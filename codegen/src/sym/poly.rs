@@ -195,11 +195,6 @@ impl Poly {
         self.terms.iter().map(|(m, c)| (m, *c))
     }
 
-    /// Number of terms (0 for the zero polynomial, see [`Poly::is_zero`]).
-    pub fn term_count(&self) -> usize {
-        self.terms.len()
-    }
-
     /// `true` for the zero polynomial.
     pub fn is_zero(&self) -> bool {
         self.terms.is_empty()
@@ -279,24 +274,6 @@ impl Poly {
                     None => lowered,
                 };
                 acc.add(term, c * sign * f64::from(*exponent));
-            }
-        }
-        acc.finish()
-    }
-
-    /// Partial derivative with respect to one atom treated as an independent variable
-    /// (used for `q̇_j`).
-    pub fn diff_atom(&self, target: Atom) -> Poly {
-        let mut acc = Accumulator::default();
-        for (monomial, c) in &self.terms {
-            if let Some(index) = monomial.iter().position(|(a, _)| *a == target) {
-                let exponent = monomial[index].1;
-                let mut lowered = monomial.clone();
-                lowered[index].1 -= 1;
-                if lowered[index].1 == 0 {
-                    lowered.remove(index);
-                }
-                acc.add(lowered, c * f64::from(exponent));
             }
         }
         acc.finish()

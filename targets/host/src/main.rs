@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use hapticgen_codegen::check::stability;
+use hapticgen_codegen::check::{plausibility, stability};
 use hapticgen_codegen::{eval, model, Scalar};
 use hapticgen_host::contact::{Contact, ContactSetup};
 use hapticgen_host::paper;
@@ -38,6 +38,30 @@ enum ScalarArg {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Write a commented starting model file for a Delta, a five-bar or a serial arm from a
+    /// few named dimensions, masses and motor data; it passes `check` as written.
+    New {
+        /// The kind of rig.
+        #[command(subcommand)]
+        rig: hapticgen_host::template::NewRig,
+    },
+    /// The device design figures of a model: its workspace and inscribed cube, the force it
+    /// holds in every direction, its apparent inertia and resolution over the cube; writes
+    /// DIR/summary.json and DIR/workspace.csv.
+    Report {
+        /// The model file.
+        model: PathBuf,
+        /// The variant (default: the model's `default_variant`).
+        #[arg(long)]
+        variant: Option<String>,
+        /// Grid points per actuated joint over the box of the joint limits (default: 21, fewer
+        /// for more than three joints, at most 20,000 points in all).
+        #[arg(long)]
+        steps: Option<usize>,
+        /// Output directory.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
     /// Validate a model file (and one variant).
     Check {
         /// The model file.
@@ -558,6 +582,28 @@ fn load(
 
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
+        Command::Report { model, variant, steps, output } => {
+            let m = load(&model, variant.as_deref())?;
+            let steps = steps.unwrap_or_else(|| hapticgen_host::design::default_steps(m.joints.len())).max(2);
+            let summary = hapticgen_host::design::write_report(&m, steps, &output)
+                .map_err(|e| format!("error: {e}"))?;
+            println!(
+                "{}: {}; wrote {}",
+                model.display(),
+                summary.describe(),
+                output.join("summary.json").display()
+            );
+            Ok(())
+        }
+        Command::New { rig } => {
+            let (path, written) =
+                hapticgen_host::template::run_new(&rig).map_err(|e| format!("error: {e}"))?;
+            for warning in &written.warnings {
+                eprintln!("{warning}");
+            }
+            println!("{}: written; it passes `hapticgen check`", path.display());
+            Ok(())
+        }
         Command::Check { model, variant } => {
             let m = load(&model, variant.as_deref())?;
             // Without --variant, every variant is checked, not only the default one.
@@ -566,10 +612,11 @@ fn run(cli: Cli) -> Result<(), String> {
                     load(&model, Some(other))?;
                 }
             }
+            let mech = hapticgen_codegen::derive(&m);
+            let text = std::fs::read_to_string(&model).unwrap_or_default();
             // Virtual walls: passivity (warning) and stability (error) bounds, see
             // `hapticgen_codegen::check::stability`.
-            if let Some(wall) = stability::check_wall(&m, &hapticgen_codegen::derive(&m)) {
-                let text = std::fs::read_to_string(&model).unwrap_or_default();
+            if let Some(wall) = stability::check_wall(&m, &mech) {
                 if let Some((error, d)) = wall.diagnostic(&model.display().to_string(), &text, &m) {
                     if error {
                         return Err(format!("error: {d}"));
@@ -577,6 +624,21 @@ fn run(cli: Cli) -> Result<(), String> {
                     eprintln!("warning: {d}");
                 }
             }
+            // The model as a device: gravity against the drives, masses, lengths and inertias
+            // against the bodies' sizes, a closed chain's branch (`check::plausibility`).
+            let plausible = plausibility::plausibility(&m, &mech, &text);
+            let mut errors = Vec::new();
+            for finding in &plausible.findings {
+                let d = finding.diagnostic(&model.display().to_string(), &text, &m);
+                match finding.severity {
+                    plausibility::Severity::Error => errors.push(format!("error: {d}")),
+                    plausibility::Severity::Warning => eprintln!("warning: {d}"),
+                }
+            }
+            if !errors.is_empty() {
+                return Err(errors.join("\n"));
+            }
+
             // A closed chain also names its eliminated passive joints.
             let passive = match &m.analyses.closures {
                 Some(c) => {
@@ -620,6 +682,9 @@ fn run(cli: Cli) -> Result<(), String> {
                 if massless > 0 { format!(" ({massless} of them massless)") } else { String::new() },
                 m.task_dim()
             );
+            if let Some(assembly) = &plausible.assembly {
+                println!("{}: {}", model.display(), assembly.describe(&m));
+            }
             Ok(())
         }
         Command::Generate { model, variant, scalar, fma, output } => {
@@ -955,7 +1020,32 @@ fn friction(values: Option<&[f64]>) -> Result<(f64, f64), String> {
     }
 }
 
+/// The plausibility findings of `hapticgen check` for a model about to be simulated, as
+/// printed lines: a model the drives cannot hold is simulated all the same (its faults are what
+/// the user may want to see), but the cause is named before the run.
+fn plausibility_lines(model: &std::path::Path, variant: Option<&str>) -> Vec<String> {
+    let (Ok(m), Ok(text)) = (load(model, variant), std::fs::read_to_string(model)) else { return Vec::new() };
+    let found = plausibility::plausibility(&m, &hapticgen_codegen::derive(&m), &text);
+    found
+        .findings
+        .iter()
+        .map(|f| {
+            let d = f.diagnostic(&model.display().to_string(), &text, &m);
+            match f.severity {
+                plausibility::Severity::Error => {
+                    format!("warning: `hapticgen check` refuses this model: {d}")
+                }
+                plausibility::Severity::Warning => format!("warning: {d}"),
+            }
+        })
+        .collect()
+}
+
 fn simulate(args: SimulateArgs) -> Result<(), String> {
+    let plausible = plausibility_lines(&args.model, args.variant.as_deref());
+    for line in &plausible {
+        eprintln!("{line}");
+    }
     let Configured { sim, cfg, scenario, singular_start, contact } = configure(&args)?;
     let largest_det = sim.largest_jacobian_determinant();
     let singularity = |q: &[f64]| largest_det.map(|largest| sim.task_at(q).1.abs() / largest);
@@ -974,6 +1064,9 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     );
     if let Some((t, fault)) = &trace.fault {
         println!("note: the safety monitor latched {fault} at t = {t:.3} s");
+        if !plausible.is_empty() {
+            println!("note: the model's plausibility warnings above may be the cause");
+        }
     }
     if let Some(setup) = &contact {
         // A contact scenario's checks: printed, and written next to the trace.

@@ -6,6 +6,7 @@
 mod check;
 mod cli;
 mod current_gains;
+mod design;
 mod faults;
 mod paper;
 mod zwidth;

@@ -8,7 +8,7 @@ use crate::math::eigen::symmetric_eigenvalues_3x3;
 use crate::math::matrix::{mat3_mul, Numbers};
 use crate::math::rotation::{exact_sin_cos, rotation_rpy, rotation_x, rotation_z, snap};
 use crate::model::positions::Segment;
-use crate::model::schema::{DhConvention, Inertia, JointType, ModelFile, Value};
+use crate::model::schema::{DhConvention, Inertia, InertiaShape, JointType, ModelFile, Value};
 use crate::model::types::{FixedTransform, Motion, ResolvedBody, ResolvedFrame, ResolvedPoint, TaskSpec};
 use crate::sym::poly::Poly;
 use std::collections::HashMap;
@@ -71,6 +71,18 @@ pub(super) fn bodies(
                 let (length, x) = r.value(&rod.slender_rod, &at(&["inertia", "slender_rod"]));
                 r.positive(x, &at(&["inertia", "slender_rod"]));
                 inertia[2][2] = mass.mul(&length).mul(&length).scale(1.0 / 12.0);
+            }
+            (Inertia::Shape(shape), _) => {
+                if let Some(unit) = shape_inertia(r, shape, &at(&["inertia"])) {
+                    for (i, row) in unit.iter().enumerate() {
+                        for (j, c) in row.iter().enumerate() {
+                            // A planar model keeps the moment about z.
+                            if !planar || (i == 2 && j == 2) {
+                                inertia[i][j] = if *c == 0.0 { Poly::zero() } else { mass.scale(*c) };
+                            }
+                        }
+                    }
+                }
             }
             (Inertia::Tensor(t), false) => {
                 let entries: [(&str, Option<&Value>); 6] = [
@@ -516,5 +528,124 @@ pub(super) fn lumped_bodies(
                 "put the point on the body carrying the gimbal; a body a measured joint moves reports its orientation through `frames`",
             );
         }
+    }
+}
+
+/// The inertia tensor about the centre of mass of a uniform solid of unit mass; `None` after
+/// an error, reported at the offending dimension.
+fn shape_inertia(r: &mut Resolver<'_, '_>, shape: &InertiaShape, path: &[Segment]) -> Option<[[f64; 3]; 3]> {
+    match unit_shape_inertia(shape) {
+        Ok(tensor) => Some(tensor),
+        Err((field, message)) => {
+            let mut p = path.to_vec();
+            p.extend(field.iter().map(|s| key(s)));
+            r.error(&p, message);
+            None
+        }
+    }
+}
+
+/// The textbook formulas, per unit mass; an error names the field (below `inertia`) at fault.
+fn unit_shape_inertia(shape: &InertiaShape) -> Result<[[f64; 3]; 3], ([&'static str; 2], String)> {
+    let positive = |x: f64, field: [&'static str; 2]| {
+        if x > 0.0 {
+            Ok(())
+        } else {
+            Err((field, format!("must be positive, got {x}")))
+        }
+    };
+    // I_perp·(1 − a·aᵀ) + I_axial·a·aᵀ about a unit axis a.
+    let axial = |axis: &[f64], field: [&'static str; 2], perpendicular: f64, along: f64| {
+        let norm = axis.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if axis.len() != 3 || norm == 0.0 || !norm.is_finite() {
+            return Err((field, "an axis has 3 entries, not all zero".to_string()));
+        }
+        let a = [axis[0] / norm, axis[1] / norm, axis[2] / norm];
+        let mut m = [[0.0; 3]; 3];
+        for (i, row) in m.iter_mut().enumerate() {
+            for (j, entry) in row.iter_mut().enumerate() {
+                let identity = if i == j { 1.0 } else { 0.0 };
+                *entry = perpendicular * (identity - a[i] * a[j]) + along * a[i] * a[j];
+            }
+        }
+        Ok(m)
+    };
+    let diagonal = |x: f64, y: f64, z: f64| [[x, 0.0, 0.0], [0.0, y, 0.0], [0.0, 0.0, z]];
+    match shape {
+        InertiaShape::Rod { length, axis } => {
+            positive(*length, ["rod", "length"])?;
+            axial(axis, ["rod", "axis"], length * length / 12.0, 0.0)
+        }
+        InertiaShape::Box { x, y, z } => {
+            positive(*x, ["box", "x"])?;
+            positive(*y, ["box", "y"])?;
+            positive(*z, ["box", "z"])?;
+            let (x2, y2, z2) = (x * x, y * y, z * z);
+            Ok(diagonal((y2 + z2) / 12.0, (x2 + z2) / 12.0, (x2 + y2) / 12.0))
+        }
+        InertiaShape::Cylinder { radius, length, axis } => {
+            positive(*radius, ["cylinder", "radius"])?;
+            positive(*length, ["cylinder", "length"])?;
+            let r2 = radius * radius;
+            axial(axis, ["cylinder", "axis"], (3.0 * r2 + length * length) / 12.0, r2 / 2.0)
+        }
+        InertiaShape::Sphere { radius } => {
+            positive(*radius, ["sphere", "radius"])?;
+            let i = 2.0 * radius * radius / 5.0;
+            Ok(diagonal(i, i, i))
+        }
+        InertiaShape::PointMass => Ok([[0.0; 3]; 3]),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::unit_shape_inertia;
+    use crate::model::schema::InertiaShape;
+
+    fn close(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) {
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!((a[i][j] - b[i][j]).abs() <= 1e-15 * (1.0 + b[i][j].abs()), "{a:?} != {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn shapes_follow_the_textbook_formulas() {
+        // Per unit mass: rod m·L²/12 across, 0 along.
+        let rod = unit_shape_inertia(&InertiaShape::Rod { length: 0.3, axis: vec![0.0, 2.0, 0.0] }).unwrap();
+        close(rod, [[0.09 / 12.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.09 / 12.0]]);
+        // A rod along (1, 1, 0)/√2: I = L²/12 (1 − a aᵀ).
+        let l2 = 0.04 / 12.0;
+        let tilted =
+            unit_shape_inertia(&InertiaShape::Rod { length: 0.2, axis: vec![1.0, 1.0, 0.0] }).unwrap();
+        close(tilted, [[l2 / 2.0, -l2 / 2.0, 0.0], [-l2 / 2.0, l2 / 2.0, 0.0], [0.0, 0.0, l2]]);
+        let (x, y, z) = (0.1, 0.2, 0.3);
+        let cuboid = unit_shape_inertia(&InertiaShape::Box { x, y, z }).unwrap();
+        close(
+            cuboid,
+            [
+                [(y * y + z * z) / 12.0, 0.0, 0.0],
+                [0.0, (x * x + z * z) / 12.0, 0.0],
+                [0.0, 0.0, (x * x + y * y) / 12.0],
+            ],
+        );
+        let (r, l) = (0.05, 0.4);
+        let cylinder =
+            unit_shape_inertia(&InertiaShape::Cylinder { radius: r, length: l, axis: vec![0.0, 0.0, 1.0] })
+                .unwrap();
+        let across = (3.0 * r * r + l * l) / 12.0;
+        close(cylinder, [[across, 0.0, 0.0], [0.0, across, 0.0], [0.0, 0.0, r * r / 2.0]]);
+        let along_x =
+            unit_shape_inertia(&InertiaShape::Cylinder { radius: r, length: l, axis: vec![-1.0, 0.0, 0.0] })
+                .unwrap();
+        close(along_x, [[r * r / 2.0, 0.0, 0.0], [0.0, across, 0.0], [0.0, 0.0, across]]);
+        let sphere = unit_shape_inertia(&InertiaShape::Sphere { radius: r }).unwrap();
+        let s = 0.4 * r * r;
+        close(sphere, [[s, 0.0, 0.0], [0.0, s, 0.0], [0.0, 0.0, s]]);
+        close(unit_shape_inertia(&InertiaShape::PointMass).unwrap(), [[0.0; 3]; 3]);
+        assert!(unit_shape_inertia(&InertiaShape::Sphere { radius: 0.0 }).is_err());
+        assert!(unit_shape_inertia(&InertiaShape::Rod { length: 1.0, axis: vec![0.0, 0.0] }).is_err());
     }
 }

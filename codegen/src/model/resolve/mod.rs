@@ -19,6 +19,7 @@ mod task;
 mod transmission;
 
 use super::positions::Segment;
+use super::quantity;
 use super::schema::{ModelFile, Space, Value};
 use super::types::{LoopClosure, Model};
 use super::{Locator, ParameterValues};
@@ -83,6 +84,7 @@ impl Resolver<'_, '_> {
             Value::Number(x) => (Poly::constant(*x), *x),
             Value::Parameter(name) => match self.parameters.get(name) {
                 Some(p) => (p.clone(), self.nominal[name]),
+                None if !is_identifier(name) => self.expression(name, path),
                 None => {
                     let mut known: Vec<&String> = self.nominal.keys().collect();
                     known.sort();
@@ -98,6 +100,30 @@ impl Resolver<'_, '_> {
                     (Poly::zero(), 0.0)
                 }
             },
+        }
+    }
+
+    /// An expression that uses tunable parameters (the loader evaluated all others to numbers
+    /// and checked this one): its polynomial and nominal value.
+    fn expression(&mut self, text: &str, path: &[Segment]) -> (Poly, f64) {
+        let lookup = |name: &str| {
+            let poly = self.parameters.get(name)?;
+            Some(quantity::Operand {
+                value: self.nominal[name],
+                dim: quantity::UNKNOWN,
+                poly: poly.as_constant().is_none().then(|| poly.clone()),
+            })
+        };
+        match quantity::parse(text).and_then(|e| e.eval(&lookup)) {
+            Ok(q) => {
+                let poly = q.poly.unwrap_or_else(|| Poly::constant(q.value));
+                (poly, q.value)
+            }
+            Err(e) => {
+                let d = self.locator.at_offset(&self.sources.original(path), e.offset, e.message, e.hint);
+                self.push(d);
+                (Poly::zero(), 0.0)
+            }
         }
     }
 

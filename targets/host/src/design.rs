@@ -1,0 +1,623 @@
+//! The device design figures of a model, the ones on a haptic device's datasheet and in the
+//! field's design literature (Hayward & Astley 1996; Salcudean & Stocco 2000): where it
+//! reaches, what force it holds in every direction there, how heavy it feels and how finely it
+//! senses, computed from the model's own `p(q)`, `J(q)`, `D(q)`, `g(q)` and drive data.
+//!
+//! - **Workspace**: the task points of a grid over the box of the actuated joints' limits
+//!   (closed chains: where the loops close); the largest inscribed hypercube (cube, square or
+//!   interval, edges along the model's world axes) found by bisection on its edge about a
+//!   centre improved by pattern search, a cube counted inside when every point of a
+//!   `CUBE_PROBES`-per-edge lattice on it is reached by inverse kinematics within the limits.
+//! - **Force capability**: with the torque `τ = Jᵀ F + g` of eq. (3) holding a grip force `F`
+//!   against gravity, mapped to the drives through the transmission (`C⁻ᵀ τ`), each drive `i`
+//!   bounds `F` to the slab `|a_iᵀ F + g_i| ≤ τ_i`; the largest ball about `F = 0` inside every
+//!   slab has the radius `min_i (τ_i − |g_i|) / |a_i|`: the force available in every direction.
+//!   Peak from the drives' torque limits, continuous from their current limits
+//!   (`i_max · k_t · N · η`, at most the torque limit).
+//! - **Apparent inertia**: the eigenvalues of `Λ = (J D⁻¹ Jᵀ)⁻¹`, the mass the operator feels
+//!   at the grip in its heaviest and lightest directions.
+//! - **Resolution**: the largest task-space step one encoder count of one drive makes,
+//!   `max_i |J C⁻¹ e_i| δ_i` with `δ_i = 2π / (counts per turn · N)`.
+
+use std::path::Path;
+
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::rig::CompiledModel;
+use hapticgen_codegen::CheckedModel;
+
+/// Points per edge of the lattice a candidate cube is tested on (corners included).
+pub const CUBE_PROBES: usize = 5;
+
+/// The quantities of the model at one joint state.
+#[derive(Clone, Debug)]
+pub struct Sample {
+    /// The actuated joints' coordinates.
+    pub q: Vec<f64>,
+    /// The task point, m.
+    pub position: Vec<f64>,
+    /// The task Jacobian, `M × N` rows.
+    pub jacobian: Vec<Vec<f64>>,
+    /// The inertia matrix, `N × N`.
+    pub inertia: Vec<Vec<f64>>,
+    /// The gravity torques, `N`.
+    pub gravity: Vec<f64>,
+}
+
+/// The model's design quantities, evaluated through its compiled tapes.
+pub struct Design {
+    compiled: CompiledModel,
+    /// The actuated joints' names.
+    pub names: Vec<String>,
+    /// The actuated joints' limits.
+    pub limits: Vec<(f64, f64)>,
+    /// Each drive's peak torque (its `torque_limit`).
+    pub peak: Vec<f64>,
+    /// Each drive's continuous torque (`i_max k_t N η`, at most the peak).
+    pub continuous: Vec<f64>,
+    /// One encoder count of each drive, rad at the drive's output.
+    pub count_size: Vec<f64>,
+    /// `C⁻¹` of a transmission, else the identity.
+    pub joint_from_drive: Vec<Vec<f64>>,
+}
+
+/// Why the design figures could not be computed.
+#[derive(Debug, thiserror::Error)]
+pub enum DesignError {
+    /// No pose of the joint box gives finite kinematics (the loops never close).
+    #[error(
+        "the model's loops close at none of the {0} poses of the box of the joint limits ({1}): no workspace \
+         (check the closures and the joints' limits)"
+    )]
+    NoWorkspace(usize, String),
+    /// The workspace holds no cube: a rig whose task has fewer dimensions than it moves in.
+    #[error("no {0} fits in the workspace around its centre {1:?}")]
+    NoCube(&'static str, Vec<f64>),
+    /// A file could not be written.
+    #[error("cannot write {0}: {1}")]
+    Write(String, std::io::Error),
+}
+
+impl Design {
+    /// The design quantities of `model`.
+    pub fn new(model: &CheckedModel) -> Design {
+        let compiled = CompiledModel::new(model, 1.0);
+        let n = model.joints.len();
+        let identity = (0..n).map(|i| (0..n).map(|j| f64::from(u8::from(i == j))).collect()).collect();
+        Design {
+            names: model.joints.iter().map(|j| j.name.clone()).collect(),
+            limits: model.joints.iter().map(|j| (j.lower, j.upper)).collect(),
+            peak: model.joints.iter().map(|j| j.drive.torque_limit).collect(),
+            continuous: model
+                .joints
+                .iter()
+                .map(|j| {
+                    let d = &j.drive;
+                    (d.current_limit * d.motor.torque_constant * d.gear_ratio * d.efficiency)
+                        .min(d.torque_limit)
+                })
+                .collect(),
+            count_size: model
+                .joints
+                .iter()
+                .map(|j| {
+                    std::f64::consts::TAU / (f64::from(j.drive.encoder.counts_per_turn) * j.drive.gear_ratio)
+                })
+                .collect(),
+            joint_from_drive: model.coupling.as_ref().map_or(identity, |c| c.joint_from_drive.clone()),
+            compiled,
+        }
+    }
+
+    /// Joints `N`.
+    pub fn joints(&self) -> usize {
+        self.compiled.joints
+    }
+
+    /// Task dimension `M`.
+    pub fn task_dim(&self) -> usize {
+        self.compiled.task_dim
+    }
+
+    /// The quantities at `q`, or `None` where the loops do not close (non-finite values).
+    pub fn sample(&self, q: &[f64]) -> Option<Sample> {
+        let (n, m) = (self.joints(), self.task_dim());
+        let zero = vec![0.0; n];
+        let c = &self.compiled;
+        let mut kin = vec![0.0; c.kinematics.len()];
+        c.kinematics.eval(&mut c.kinematics.scratch(), q, &zero, &c.parameters, &mut kin);
+        let mut dynamics = vec![0.0; c.dynamics.len()];
+        c.dynamics.eval(&mut c.dynamics.scratch(), q, &zero, &c.parameters, &mut dynamics);
+        if kin.iter().chain(&dynamics).any(|v| !v.is_finite()) {
+            return None;
+        }
+        // The rotors' reflected inertia belongs to what the operator moves.
+        let inertia = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| dynamics[i * n + j] + if i == j { c.reflected_rotor_inertia[i] } else { 0.0 })
+                    .collect()
+            })
+            .collect();
+        Some(Sample {
+            q: q.to_vec(),
+            position: kin[..m].to_vec(),
+            jacobian: (0..m).map(|i| kin[m + i * n..m + (i + 1) * n].to_vec()).collect(),
+            inertia,
+            gravity: dynamics[n * n + n..n * n + 2 * n].to_vec(),
+        })
+    }
+
+    /// The task point and Jacobian at `q` (kinematics only, for inverse kinematics), or `None`
+    /// where the loops do not close.
+    fn position_jacobian(
+        &self,
+        q: &[f64],
+        scratch: &mut [f64],
+        out: &mut [f64],
+    ) -> Option<(Vec<f64>, DMatrix<f64>)> {
+        let (n, m) = (self.joints(), self.task_dim());
+        let c = &self.compiled;
+        let zero = [0.0; 16];
+        c.kinematics.eval(scratch, q, &zero[..n.min(16)], &c.parameters, out);
+        if out[..m + m * n].iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        Some((out[..m].to_vec(), DMatrix::from_fn(m, n, |i, k| out[m + i * n + k])))
+    }
+
+    /// The rows `a_i` of `C⁻ᵀ Jᵀ` (drive `i`'s torque per unit grip force) and the drives'
+    /// gravity torques `C⁻ᵀ g`.
+    fn drive_rows(&self, s: &Sample) -> (Vec<Vec<f64>>, Vec<f64>) {
+        let (n, m) = (self.joints(), self.task_dim());
+        let inv = &self.joint_from_drive;
+        // (C⁻ᵀ v)_i = Σ_j C⁻¹[j][i] v_j.
+        let rows = (0..n)
+            .map(|i| (0..m).map(|k| (0..n).map(|j| inv[j][i] * s.jacobian[k][j]).sum()).collect())
+            .collect();
+        let gravity = (0..n).map(|i| (0..n).map(|j| inv[j][i] * s.gravity[j]).sum()).collect();
+        (rows, gravity)
+    }
+
+    /// The force available in every direction at `s`, N (negative where gravity alone exceeds a
+    /// drive), against the drives' `limits`.
+    pub fn force_capability(&self, s: &Sample, limits: &[f64]) -> f64 {
+        let (rows, gravity) = self.drive_rows(s);
+        rows.iter()
+            .zip(&gravity)
+            .zip(limits)
+            .map(|((a, g), limit)| {
+                let spare = limit - g.abs();
+                let reach = a.iter().map(|x| x * x).sum::<f64>().sqrt();
+                if reach > 0.0 {
+                    spare / reach
+                } else if spare >= 0.0 {
+                    f64::INFINITY // this drive carries no grip force
+                } else {
+                    spare
+                }
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// The smallest and largest eigenvalue of `Λ = (J D⁻¹ Jᵀ)⁻¹`, kg; `None` at a singular pose.
+    pub fn apparent_inertia(&self, s: &Sample) -> Option<(f64, f64)> {
+        let (n, m) = (self.joints(), self.task_dim());
+        let d = DMatrix::from_fn(n, n, |i, j| s.inertia[i][j]);
+        let j = DMatrix::from_fn(m, n, |i, k| s.jacobian[i][k]);
+        let mobility = &j * d.try_inverse()? * j.transpose();
+        let eigen = nalgebra::SymmetricEigen::new(mobility);
+        let (least, most) =
+            eigen.eigenvalues.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &e| (lo.min(e), hi.max(e)));
+        // Λ's eigenvalues are the mobility's reciprocals.
+        (least > 0.0).then(|| (1.0 / most, 1.0 / least))
+    }
+
+    /// The largest task-space step of one encoder count of one drive, m.
+    pub fn resolution(&self, s: &Sample) -> f64 {
+        let (n, m) = (self.joints(), self.task_dim());
+        (0..n)
+            .map(|i| {
+                // A count of drive i moves the joints by C⁻¹ e_i δ_i.
+                let step: f64 = (0..m)
+                    .map(|k| {
+                        let v: f64 = (0..n).map(|j| s.jacobian[k][j] * self.joint_from_drive[j][i]).sum();
+                        v * v
+                    })
+                    .sum::<f64>()
+                    .sqrt();
+                step * self.count_size[i]
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Joint coordinates reaching task point `x` within the limits, by damped Newton from `start`;
+    /// `None` if it does not converge to within 1 µm inside the limits.
+    pub fn inverse_kinematics(&self, x: &[f64], start: &[f64]) -> Option<Vec<f64>> {
+        let m = self.task_dim();
+        let c = &self.compiled;
+        let (mut scratch, mut out) = (c.kinematics.scratch(), vec![0.0; c.kinematics.len()]);
+        let mut q = start.to_vec();
+        for _ in 0..40 {
+            let (position, j) = self.position_jacobian(&q, &mut scratch, &mut out)?;
+            let error = DVector::from_fn(m, |k, _| x[k] - position[k]);
+            if error.norm() < 1e-6 {
+                return self.limits.iter().zip(&q).all(|(&(lo, hi), &v)| (lo..=hi).contains(&v)).then_some(q);
+            }
+            // Damped least squares, Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ e, each step at most 0.2 rad.
+            let jjt = &j * j.transpose() + DMatrix::identity(m, m) * 1e-10;
+            let step = j.transpose() * jjt.lu().solve(&error)?;
+            let scale = (0.2 / step.norm()).min(1.0);
+            for (v, d) in q.iter_mut().zip(step.iter()) {
+                *v += scale * d;
+            }
+        }
+        None
+    }
+}
+
+/// Grid values per joint of `hapticgen report`'s workspace: 21, or as many as keep `n` joints'
+/// grid within 20,000 points (at least 3).
+pub fn default_steps(n: usize) -> usize {
+    (3..=21).rev().find(|s: &usize| s.checked_pow(n as u32).is_some_and(|p| p <= 20_000)).unwrap_or(3)
+}
+
+/// The grid over the joint box: `steps` values per joint (codegen's one grid, also behind
+/// `check`'s plausibility and wall-stability analyses).
+pub fn joint_grid(limits: &[(f64, f64)], steps: usize) -> Vec<Vec<f64>> {
+    hapticgen_codegen::grid::box_grid(limits, steps).collect()
+}
+
+/// The lattice of `probes` points per edge on the hypercube of edge `edge` about `centre`.
+pub fn cube_lattice(centre: &[f64], edge: f64, probes: usize) -> Vec<Vec<f64>> {
+    let limits: Vec<(f64, f64)> = centre.iter().map(|c| (c - edge / 2.0, c + edge / 2.0)).collect();
+    joint_grid(&limits, probes)
+}
+
+/// The workspace: its samples and the inscribed hypercube.
+pub struct Workspace {
+    /// The grid's samples where the loops close.
+    pub samples: Vec<Sample>,
+    /// Grid points per joint, and all grid points.
+    pub grid: (usize, usize),
+    /// The inscribed hypercube's centre, m.
+    pub centre: Vec<f64>,
+    /// Its edge, m.
+    pub edge: f64,
+    /// The joint coordinates reaching each point of its test lattice.
+    pub lattice: Vec<Vec<f64>>,
+}
+
+impl Design {
+    /// The joint state of the sample nearest `x` (the start of inverse kinematics).
+    fn nearest<'s>(&self, samples: &'s [Sample], x: &[f64]) -> &'s Sample {
+        let distance = |s: &Sample| s.position.iter().zip(x).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+        samples.iter().min_by(|a, b| distance(a).total_cmp(&distance(b))).expect("a non-empty workspace")
+    }
+
+    /// The joint states reaching every lattice point of the cube, or `None` if one is out of reach.
+    fn cube_reached(&self, samples: &[Sample], centre: &[f64], edge: f64) -> Option<Vec<Vec<f64>>> {
+        cube_lattice(centre, edge, CUBE_PROBES)
+            .par_iter()
+            .map(|x| self.inverse_kinematics(x, &self.nearest(samples, x).q))
+            .collect()
+    }
+
+    /// The largest edge of a cube about `centre` that is reached, by bisection up to `upper`.
+    fn largest_edge(&self, samples: &[Sample], centre: &[f64], upper: f64) -> f64 {
+        let (mut lo, mut hi) = (0.0, upper);
+        if self.cube_reached(samples, centre, 1e-9).is_none() {
+            return 0.0;
+        }
+        for _ in 0..16 {
+            let mid = 0.5 * (lo + hi);
+            if self.cube_reached(samples, centre, mid).is_some() {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
+    }
+
+    /// Samples the joint box with `steps` per joint and finds the inscribed hypercube.
+    pub fn workspace(&self, steps: usize) -> Result<Workspace, DesignError> {
+        let grid = joint_grid(&self.limits, steps);
+        let samples: Vec<Sample> = grid.par_iter().filter_map(|q| self.sample(q)).collect();
+        if samples.is_empty() {
+            let limits: Vec<String> = self
+                .names
+                .iter()
+                .zip(&self.limits)
+                .map(|(name, (lo, hi))| format!("{name} in [{lo}, {hi}]"))
+                .collect();
+            return Err(DesignError::NoWorkspace(grid.len(), limits.join(" × ")));
+        }
+        let m = self.task_dim();
+        let lower: Vec<f64> =
+            (0..m).map(|k| samples.iter().map(|s| s.position[k]).fold(f64::INFINITY, f64::min)).collect();
+        let upper: Vec<f64> =
+            (0..m).map(|k| samples.iter().map(|s| s.position[k]).fold(f64::NEG_INFINITY, f64::max)).collect();
+        let span = lower.iter().zip(&upper).map(|(a, b)| b - a).fold(f64::INFINITY, f64::min);
+        // Start at the middle of the joint box's image and walk the centre where the cube grows.
+        let middle: Vec<f64> = self.limits.iter().map(|(lo, hi)| 0.5 * (lo + hi)).collect();
+        let mut centre = self.sample(&middle).map_or_else(
+            || {
+                (0..m)
+                    .map(|k| samples.iter().map(|s| s.position[k]).sum::<f64>() / samples.len() as f64)
+                    .collect()
+            },
+            |s| s.position,
+        );
+        let mut edge = self.largest_edge(&samples, &centre, span);
+        let mut step = 0.25 * edge.max(span / 20.0);
+        while step > 1e-3 * span {
+            let mut improved = false;
+            for k in 0..m {
+                for sign in [-1.0, 1.0] {
+                    let mut moved = centre.clone();
+                    moved[k] += sign * step;
+                    if self.cube_reached(&samples, &moved, edge).is_some() {
+                        let grown = self.largest_edge(&samples, &moved, span);
+                        if grown > edge * (1.0 + 1e-6) {
+                            (centre, edge, improved) = (moved, grown, true);
+                        }
+                    }
+                }
+            }
+            if !improved {
+                step *= 0.5;
+            }
+        }
+        let name = ["interval", "square", "cube"].get(m.saturating_sub(1)).copied().unwrap_or("hypercube");
+        let lattice = self
+            .cube_reached(&samples, &centre, edge)
+            .filter(|_| edge > 0.0)
+            .ok_or_else(|| DesignError::NoCube(name, centre.clone()))?;
+        Ok(Workspace { samples, grid: (steps, grid.len()), centre, edge, lattice })
+    }
+}
+
+/// Least, median and largest of some values.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Spread {
+    /// The least.
+    pub min_over_cube: f64,
+    /// The median.
+    pub median_over_cube: f64,
+    /// The largest.
+    pub max_over_cube: f64,
+}
+
+fn spread(mut values: Vec<f64>) -> Spread {
+    values.sort_by(f64::total_cmp);
+    let median = if values.is_empty() { f64::NAN } else { values[values.len() / 2] };
+    Spread {
+        min_over_cube: values.first().copied().unwrap_or(f64::NAN),
+        median_over_cube: median,
+        max_over_cube: values.last().copied().unwrap_or(f64::NAN),
+    }
+}
+
+/// The hypercube in `summary.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct CubeSummary {
+    /// Edge, m.
+    pub edge: f64,
+    /// Centre, m, world frame of the model.
+    pub centre: Vec<f64>,
+    /// Points per edge of the lattice it was tested on.
+    pub probes_per_edge: usize,
+}
+
+/// The figures `hapticgen report` writes to `summary.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    /// The model's name.
+    pub model: String,
+    /// The task coordinates' unit: `m` for a point, `rad` for joint coordinates (then forces
+    /// are torques, N·m, and inertias kg·m²).
+    pub task_unit: &'static str,
+    /// The variant.
+    pub variant: Option<String>,
+    /// Joint-box grid points per joint, all grid points, and those where the loops close.
+    pub grid: GridSummary,
+    /// The workspace's bounds and inscribed hypercube.
+    pub workspace: WorkspaceSummary,
+    /// Force available in every direction over the inscribed hypercube's lattice, N.
+    pub force: ForceSummary,
+    /// Apparent inertia's eigenvalues over the lattice, kg.
+    pub inertia: InertiaSummary,
+    /// The largest step of one encoder count over the lattice, m.
+    pub resolution: ResolutionSummary,
+}
+
+/// The grid the workspace was sampled on.
+#[derive(Clone, Debug, Serialize)]
+pub struct GridSummary {
+    /// Points per actuated joint.
+    pub steps_per_joint: usize,
+    /// All points.
+    pub points: usize,
+    /// Points where the loops close.
+    pub closed: usize,
+}
+
+/// The workspace's figures.
+#[derive(Clone, Debug, Serialize)]
+pub struct WorkspaceSummary {
+    /// Least task coordinates sampled, m.
+    pub lower: Vec<f64>,
+    /// Largest task coordinates sampled, m.
+    pub upper: Vec<f64>,
+    /// The inscribed cube (3-D tasks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inscribed_cube: Option<CubeSummary>,
+    /// The inscribed square (planar tasks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inscribed_square: Option<CubeSummary>,
+    /// The inscribed interval (1-D tasks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inscribed_interval: Option<CubeSummary>,
+}
+
+/// Peak and continuous force capability.
+#[derive(Clone, Debug, Serialize)]
+pub struct ForceSummary {
+    /// From the drives' torque limits.
+    pub peak: Spread,
+    /// From the drives' current limits.
+    pub continuous: Spread,
+}
+
+/// Apparent inertia over the lattice.
+#[derive(Clone, Debug, Serialize)]
+pub struct InertiaSummary {
+    /// The largest eigenvalue of Λ anywhere on the lattice, kg.
+    pub max_over_cube: f64,
+    /// The smallest eigenvalue of Λ anywhere on the lattice, kg.
+    pub min_over_cube: f64,
+}
+
+/// Resolution over the lattice.
+#[derive(Clone, Debug, Serialize)]
+pub struct ResolutionSummary {
+    /// The coarsest step of one count, m.
+    pub max_over_cube: f64,
+}
+
+impl Summary {
+    /// The inscribed hypercube's name and figures.
+    pub fn cube(&self) -> (&'static str, Option<&CubeSummary>) {
+        let w = &self.workspace;
+        match (&w.inscribed_cube, &w.inscribed_square, &w.inscribed_interval) {
+            (Some(c), _, _) => ("cube", Some(c)),
+            (_, Some(c), _) => ("square", Some(c)),
+            (_, _, c) => ("interval", c.as_ref()),
+        }
+    }
+
+    /// One line with the datasheet figures, in mm, N, g and µm (rad, N·m, kg·m² and µrad for
+    /// a task of joint coordinates).
+    pub fn describe(&self) -> String {
+        let point = self.task_unit == "m";
+        let (length, scale, force, mass, mass_scale, fine) = if point {
+            ("mm", 1e3, "N", "g", 1e3, "µm")
+        } else {
+            ("rad", 1.0, "N·m", "kg·m²", 1.0, "µrad")
+        };
+        let (name, cube) = self.cube();
+        let Some(cube) = cube else { return format!("no inscribed {name}") };
+        let centre: Vec<String> = cube.centre.iter().map(|c| format!("{:.1}", c * scale)).collect();
+        format!(
+            "inscribed {name} {:.1} {length} at ({}) {length}; force in every direction over it {:.2}-{:.2} {force} \
+             peak, {:.2} {force} continuous at least; apparent inertia {:.3}-{:.3} {mass}; resolution {:.1} {fine} at \
+             worst",
+            cube.edge * scale,
+            centre.join(", "),
+            self.force.peak.min_over_cube,
+            self.force.peak.max_over_cube,
+            self.force.continuous.min_over_cube,
+            self.inertia.min_over_cube * mass_scale,
+            self.inertia.max_over_cube * mass_scale,
+            self.resolution.max_over_cube * 1e6
+        )
+    }
+}
+
+/// Computes every figure of `model` on a grid of `steps` per joint.
+pub fn summarise(model: &CheckedModel, steps: usize) -> Result<(Summary, Workspace), DesignError> {
+    let design = Design::new(model);
+    eprintln!(
+        "report: sampling {} poses of the joint box ({steps} per joint)",
+        steps.pow(design.joints() as u32)
+    );
+    let ws = design.workspace(steps)?;
+    eprintln!("report: the inscribed hypercube found ({:.1} mm); figures over its lattice", ws.edge * 1e3);
+    let m = design.task_dim();
+    let on_cube: Vec<Sample> = ws.lattice.iter().filter_map(|q| design.sample(q)).collect();
+    let peak = spread(on_cube.iter().map(|s| design.force_capability(s, &design.peak)).collect());
+    let continuous = spread(on_cube.iter().map(|s| design.force_capability(s, &design.continuous)).collect());
+    let inertia: Vec<(f64, f64)> = on_cube.iter().filter_map(|s| design.apparent_inertia(s)).collect();
+    let cube = CubeSummary { edge: ws.edge, centre: ws.centre.clone(), probes_per_edge: CUBE_PROBES };
+    let lower =
+        (0..m).map(|k| ws.samples.iter().map(|s| s.position[k]).fold(f64::INFINITY, f64::min)).collect();
+    let upper =
+        (0..m).map(|k| ws.samples.iter().map(|s| s.position[k]).fold(f64::NEG_INFINITY, f64::max)).collect();
+    let summary = Summary {
+        model: model.name.clone(),
+        task_unit: match model.task {
+            hapticgen_codegen::model::TaskSpec::Point(_) => "m",
+            hapticgen_codegen::model::TaskSpec::Joints(_) => "rad",
+        },
+        variant: model.variant.clone(),
+        grid: GridSummary { steps_per_joint: ws.grid.0, points: ws.grid.1, closed: ws.samples.len() },
+        workspace: WorkspaceSummary {
+            lower,
+            upper,
+            inscribed_cube: (m == 3).then(|| cube.clone()),
+            inscribed_square: (m == 2).then(|| cube.clone()),
+            inscribed_interval: (m == 1).then_some(cube),
+        },
+        force: ForceSummary { peak, continuous },
+        inertia: InertiaSummary {
+            max_over_cube: inertia.iter().map(|e| e.1).fold(0.0, f64::max),
+            min_over_cube: inertia.iter().map(|e| e.0).fold(f64::INFINITY, f64::min),
+        },
+        resolution: ResolutionSummary {
+            max_over_cube: on_cube.iter().map(|s| design.resolution(s)).fold(0.0, f64::max),
+        },
+    };
+    Ok((summary, ws))
+}
+
+/// `hapticgen report`: writes `summary.json`, `workspace.csv` (every grid sample's joint
+/// coordinates, task point and figures) and the page `index.html`
+/// ([`crate::design_page`]) to `dir`.
+pub fn write_report(model: &CheckedModel, steps: usize, dir: &Path) -> Result<Summary, DesignError> {
+    let (summary, ws) = summarise(model, steps)?;
+    let write = |name: &str, text: String| {
+        let path = dir.join(name);
+        std::fs::create_dir_all(dir)
+            .and_then(|_| std::fs::write(&path, text))
+            .map_err(|e| DesignError::Write(path.display().to_string(), e))
+    };
+    write("summary.json", serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n")?;
+    let design = Design::new(model);
+    let (n, m) = (design.joints(), design.task_dim());
+    let mut csv = String::new();
+    let names: Vec<String> = (0..n)
+        .map(|j| format!("q{j}_rad"))
+        .chain((0..m).map(|k| format!("x{k}_m")))
+        .chain(
+            ["force_peak_N", "force_continuous_N", "inertia_min_kg", "inertia_max_kg", "resolution_m"]
+                .map(String::from),
+        )
+        .collect();
+    csv.push_str(&names.join(","));
+    csv.push('\n');
+    for s in &ws.samples {
+        let (lo, hi) = design.apparent_inertia(s).unwrap_or((f64::NAN, f64::NAN));
+        let row: Vec<String> =
+            s.q.iter()
+                .chain(&s.position)
+                .copied()
+                .chain([
+                    design.force_capability(s, &design.peak),
+                    design.force_capability(s, &design.continuous),
+                    lo,
+                    hi,
+                    design.resolution(s),
+                ])
+                .map(|v| format!("{v}"))
+                .collect();
+        csv.push_str(&row.join(","));
+        csv.push('\n');
+    }
+    write("workspace.csv", csv)?;
+    let view = crate::design_page::pose_grid(model, crate::design_page::view_steps(n));
+    write("index.html", crate::design_page::page(&view, &ws, &summary))?;
+    Ok(summary)
+}
