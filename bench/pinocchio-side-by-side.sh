@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Side-by-side timing of hapticgen's generated dynamics against Pinocchio's C++ algorithms on
-# the same model and the same states (issue 7's PHANToM target; issue 16's Falcon-like Delta).
+# the same model and the same states (the PHANToM-like arm's and the Falcon-like Delta's speed targets, docs/performance.md).
 # Not part of the test command.
 #
 #   bench/pinocchio-side-by-side.sh [MODEL [VARIANT]]    # default models/phantom_3dof.yaml

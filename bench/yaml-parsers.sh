@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Instructions per byte of the YAML parsers the crate registry offers, on the fuzzer's seed pool
-# (issue 20: why the loader's fuzz rate is bounded; docs/reliability.md). Builds
+# (why the loader's fuzz rate is bounded; docs/reliability.md). Builds
 # bench/yaml-parsers (its own crate and lockfile, outside the workspace, so that the parsers the
 # project does not use are compiled only here) and counts each parser's instructions with
 # callgrind (exact): a run of ROUNDS passes over the seeds less a run of none, divided by the

@@ -1,6 +1,6 @@
 //! Spatial direct poses: the PHANToM Premium-like arm (`models/phantom_premium.yaml`), whose
 //! parallelogram's links are absolute angles in the turning turret's plane, against the closed
-//! form a published model of the Premium 1.5 gives (`../shared/spec/devices.md`, section 2):
+//! form a published model of the Premium 1.5 gives (the data `models/phantom_premium.yaml` cites):
 //! `x = cos θ1 (l1 cos θ2 + l2 sin θ3)`, `y = sin θ1 (…)`, `z = l1 sin θ2 − l2 cos θ3`, and the
 //! parallelogram's fourth corner `l3` behind the elbow along the forearm; and its stylus's
 //! orientation, turned by the three measured gimbal joints, against the forearm's direction

@@ -1,4 +1,4 @@
-//! A passive prismatic joint in a spatial loop (issue 16): the spatial slider-crank
+//! A passive prismatic joint in a spatial loop: the spatial slider-crank
 //! (`codegen/tests/closed-chains/slider_crank_spatial.yaml`: a crank about z drives a slider
 //! along x, `h` above the crank's plane, through a rod with a universal joint at the crank pin
 //! and a ball joint at the slider, the closure) reduced to its crank angle by the generator's

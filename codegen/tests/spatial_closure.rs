@@ -1,4 +1,4 @@
-//! Spatial closed chains (issue 16): two Deltas, the Falcon-like one
+//! Spatial closed chains: two Deltas, the Falcon-like one
 //! (`models/falcon_delta.yaml`) and an omega-like one written as a file
 //! only (`omega_delta.yaml`), each open tree reduced to the three thigh angles by the
 //! generator's numerical elimination, checked against a separate formulation written here that
@@ -46,7 +46,7 @@ struct Device {
     reflected_rotor: f64,
 }
 
-/// ../shared/spec/devices.md section 1.
+/// The published Falcon-class dimensions `models/falcon_delta.yaml` cites.
 const FALCON: Device = Device {
     file: "models/falcon_delta.yaml",
     base_radius: 0.037233758,

@@ -1,4 +1,4 @@
-//! The link between a host application and a hapticgen device (issue 19): typed, versioned
+//! The link between a host application and a hapticgen device: typed, versioned
 //! messages shared by the firmware and the host, without allocation.
 //!
 //! * [`message`]: what travels. Device → host: [`DeviceMessage`] (the handshake's

@@ -1,5 +1,5 @@
 //! Closed loops solved at run time: the passive coordinates of a closed chain whose loops have
-//! no closed form (a spatial chain such as a Delta, issue 16), for generated code to build its
+//! no closed form (a spatial chain such as a Delta), for generated code to build its
 //! reduced dynamics on.
 //!
 //! The loops are constraints `Φ(q_a, q_p) = 0`, `P` equations in the `P` passive coordinates

@@ -1,5 +1,5 @@
-//! The god-object renderer side by side with parry3d on the same triangle meshes (issue 18,
-//! "Performance"): UV spheres of about 1k, 10k and 100k triangles, built with hapticgen's
+//! The god-object renderer side by side with parry3d on the same triangle meshes
+//! ("Performance"): UV spheres of about 1k, 10k and 100k triangles, built with hapticgen's
 //! build-time mesh helper (with its BVH) and handed to parry3d as the same vertices and faces.
 //!
 //! First the answers are checked equal: for 2,000 points around each sphere (inside and

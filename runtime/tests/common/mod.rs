@@ -1,4 +1,4 @@
-//! Hand-derived test rigs of `shared/spec/rigs.md`, written independently of the generator:
+//! Hand-derived test rigs of the paper (`models/joystick_1dof.yaml`, `models/parallel_link_2dof.yaml`), written independently of the generator:
 //! the 1-DOF joystick (inverted pendulum, x = q) and the vertical 2-DOF parallelogram.
 #![allow(dead_code, clippy::needless_range_loop)]
 
