@@ -89,7 +89,10 @@ enum Command {
         #[arg(short, long)]
         output: Option<PathBuf>,
     },
-    /// Evaluate p, J, J̇, J̇q̇, D, C, Cq̇, g, B at one state.
+    /// Evaluate p, J, J̇, J̇q̇, D, C, Cq̇, g, B at one state (JSON on standard output). Exits 1,
+    /// with the reason on standard error, for a state outside the joints' limits (unless
+    /// --beyond-limits), where a closed chain's loops cannot close on the file's assembly branch,
+    /// or where a value is not finite.
     Eval {
         /// The model file.
         model: PathBuf,
@@ -725,7 +728,14 @@ fn run(cli: Cli) -> Result<(), String> {
                     .iter()
                     .map(|j| (&j.name, j.kind, j.lower, j.upper))
                     .zip(&q)
-                    .chain(m.measured.iter().map(|j| (&j.name, j.kind, j.lower, j.upper)).zip(&measured));
+                    // The measured joints' angles enter only a frame's evaluation.
+                    .chain(
+                        m.measured
+                            .iter()
+                            .filter(|_| frame.is_some())
+                            .map(|j| (&j.name, j.kind, j.lower, j.upper))
+                            .zip(&measured),
+                    );
                 for ((name, kind, lower, upper), &value) in limits {
                     if !(lower..=upper).contains(&value) {
                         let unit = match kind {

@@ -53,6 +53,23 @@ fn eval_refuses_degrees_and_loops_that_cannot_close() {
     assert!(!stdout.contains("null"), "{stdout}");
 }
 
+/// A measured joint's angle outside its limits is refused too, where it is used: in a frame.
+#[test]
+fn eval_checks_measured_joints_in_a_frame() {
+    let model = "models/phantom_premium.yaml";
+    let frame = |measured: &str| {
+        outcome(&hapticgen(&["eval", model, "--q", "0,0.1,0.1", "--frame", "stylus", "--measured", measured]))
+    };
+    let (code, stdout, stderr) = frame("0,0,0");
+    assert_eq!(code, Some(0), "{stdout}{stderr}");
+    let (code, _, stderr) = frame("0,1.5,0");
+    assert_eq!(code, Some(1));
+    assert!(
+        stderr.contains("joint `gimbal_pitch` = 1.5 rad is outside its limits [-1.2, 1.2] rad"),
+        "{stderr}"
+    );
+}
+
 /// A planar closed chain whose two arms are spread too far apart: the loop named, exit code 1.
 #[test]
 fn eval_names_a_planar_loop_that_cannot_close() {
