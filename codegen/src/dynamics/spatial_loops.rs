@@ -605,7 +605,8 @@ impl SpatialLoops {
     }
 
     /// The passive coordinates at `actuated`, continued from the assembly along the straight
-    /// line in the actuated coordinates in steps of at most [`CONTINUATION_STEP`] in each, with
+    /// line in the actuated coordinates in steps of at most [`CONTINUATION_STEP`] in each (and
+    /// never fewer than the analysis' continuation takes), with
     /// Newton's method at every step; the sign of `det Φ_p` must stay the assembly's all the
     /// way (a sign change is a singular configuration passed, beyond which Newton's method
     /// would land on another assembly branch). The reason where it fails to converge or the
@@ -617,7 +618,8 @@ impl SpatialLoops {
         if !distance.is_finite() {
             return Err("the actuated coordinates are not finite".into());
         }
-        let steps = (distance / CONTINUATION_STEP).ceil().max(1.0);
+        // Never fewer steps than the analysis' continuation ([`SpatialLoops::passive_coordinates`]).
+        let steps = (distance / CONTINUATION_STEP).ceil().max(CONTINUATION_STEPS as f64);
         if steps > MAX_CONTINUATION_STEPS as f64 {
             return Err(format!(
                 "the state is {distance:.4} rad from the assembly (at the middle of the joint ranges): too far to follow the assembly's branch"
