@@ -547,7 +547,22 @@ fn explain_serde_error(raw: &str) -> (String, Option<String>) {
                     "sequence" => "a list",
                     other => other,
                 };
-                return (format!("expected {expected}, got {got}"), None);
+                // A list or mapping where one number belongs: say what a number may be written as.
+                let hint = match (expected, got) {
+                    ("a number", "a list" | "a mapping") => Some(
+                        "one number, which may carry a unit or be arithmetic on numbers and parameters: e.g. `7.72`, `30 g` or `0.13 N m * 7.72`"
+                            .to_string(),
+                    ),
+                    (whole, "a list" | "a mapping") if whole.starts_with("a whole number") => {
+                        Some("one whole number, e.g. `1280`".to_string())
+                    }
+                    ("a mapping", _) => Some(
+                        "write its keys as `key: value` lines below it, or `{key: value, …}` on one line, e.g. a drive `{like: capstan, gear_ratio: 5}`; docs/model-format.md lists each entry's keys"
+                            .to_string(),
+                    ),
+                    _ => None,
+                };
+                return (format!("expected {expected}, got {got}"), hint);
             }
         }
     }

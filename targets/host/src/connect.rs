@@ -647,7 +647,8 @@ pub fn csv_header(info: &DeviceInfo) -> Vec<String> {
 /// NaN where a channel is missing.
 pub fn csv_row(info: &DeviceInfo, frame: &StateFrame, host_seconds: f64) -> Vec<String> {
     let scales = &info.scales;
-    let value = |v: Option<f32>| v.map_or("NaN".to_string(), |v| format!("{v}"));
+    let value =
+        |v: Option<f32>| v.map_or("NaN".to_string(), |v| format!("{}", crate::output::unsigned_zero(v)));
     let joints = usize::from(info.joints);
     let task = usize::from(info.task_dim);
     let mut row = vec![

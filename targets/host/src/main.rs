@@ -89,7 +89,10 @@ enum Command {
         #[arg(short, long)]
         output: Option<PathBuf>,
     },
-    /// Evaluate p, J, J̇, J̇q̇, D, C, Cq̇, g, B at one state.
+    /// Evaluate p, J, J̇, J̇q̇, D, C, Cq̇, g, B at one state (JSON on standard output). Exits 1,
+    /// with the reason on standard error, for a state outside the joints' limits (unless
+    /// --beyond-limits), where a closed chain's loops cannot close on the file's assembly branch,
+    /// or where a value is not finite.
     Eval {
         /// The model file.
         model: PathBuf,
@@ -112,9 +115,10 @@ enum Command {
         /// With --frame: the measured joints' angles, comma-separated (default zero).
         #[arg(long, value_delimiter = ',', allow_hyphen_values = true, requires = "frame")]
         measured: Vec<f64>,
-        /// Print JSON (the only format).
+        /// Evaluate even where the state is outside the joints' limits (the values are still
+        /// refused where a closed chain's loops cannot close or a value is not finite).
         #[arg(long)]
-        json: bool,
+        beyond_limits: bool,
     },
     /// Count the operations of each emitted function.
     Stats {
@@ -697,7 +701,7 @@ fn run(cli: Cli) -> Result<(), String> {
             let text = hapticgen_codegen::generate_model_with(m, scalar, options).file_text();
             write_or_print(output.as_deref(), &text)
         }
-        Command::Eval { model, variant, q, qd, point, frame, measured, json: _ } => {
+        Command::Eval { model, variant, q, qd, point, frame, measured, beyond_limits } => {
             let m = load(&model, variant.as_deref())?;
             let n = m.joints.len();
             if q.len() != n {
@@ -717,6 +721,33 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             if let Some(bad) = q.iter().chain(&qd).chain(&measured).find(|v| !v.is_finite()) {
                 return Err(format!("error: state values must be finite, got {bad}"));
+            }
+            if !beyond_limits {
+                let limits = m
+                    .joints
+                    .iter()
+                    .map(|j| (&j.name, j.kind, j.lower, j.upper))
+                    .zip(&q)
+                    // The measured joints' angles enter only a frame's evaluation.
+                    .chain(
+                        m.measured
+                            .iter()
+                            .filter(|_| frame.is_some())
+                            .map(|j| (&j.name, j.kind, j.lower, j.upper))
+                            .zip(&measured),
+                    );
+                for ((name, kind, lower, upper), &value) in limits {
+                    if !(lower..=upper).contains(&value) {
+                        let unit = match kind {
+                            model::JointKind::Revolute => "rad",
+                            model::JointKind::Prismatic => "m",
+                        };
+                        return Err(format!(
+                            "error: joint `{name}` = {value} {unit} is outside its limits [{lower}, {upper}] {unit}{}; pass --beyond-limits to evaluate there anyway",
+                            if unit == "rad" && value.abs() > std::f64::consts::TAU { " (degrees? --q takes radians)" } else { "" }
+                        ));
+                    }
+                }
             }
             let mech = hapticgen_codegen::derive(&m);
             let selected = match &point {
@@ -742,13 +773,12 @@ fn run(cli: Cli) -> Result<(), String> {
                 let q_measured: Vec<f64> = q.iter().chain(&measured).copied().collect();
                 let qd_measured = vec![0.0; q_measured.len()];
                 let state = eval::State { q: &q_measured, qd: &qd_measured, parameters: &parameters };
-                let values = eval::evaluate_frame(&mech, &state, kin);
-                println!("{}", serde_json::to_string(&values).map_err(|e| e.to_string())?);
-                return Ok(());
+                let values =
+                    eval::try_evaluate_frame(&mech, &state, kin).map_err(|e| format!("error: {e}"))?;
+                return print_json(&values);
             }
-            let values = eval::evaluate(&mech, &state, selected);
-            println!("{}", serde_json::to_string(&values).map_err(|e| e.to_string())?);
-            Ok(())
+            let values = eval::try_evaluate(&mech, &state, selected).map_err(|e| format!("error: {e}"))?;
+            print_json(&values)
         }
         Command::Stats { model, variant, json, fma } => {
             let m = load(&model, variant.as_deref())?;
@@ -1376,6 +1406,12 @@ fn write_or_print(path: Option<&std::path::Path>, text: &str) -> Result<(), Stri
             Ok(())
         }
     }
+}
+
+/// Prints `value` as one line of JSON, every negative zero as `0.0`.
+fn print_json(value: &impl serde::Serialize) -> Result<(), String> {
+    println!("{}", hapticgen_host::output::to_json(value, false).map_err(|e| format!("error: {e}"))?);
+    Ok(())
 }
 
 fn main() -> ExitCode {
