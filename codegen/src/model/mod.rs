@@ -289,7 +289,7 @@ fn load_unclamped<T>(
     }
     let mut locator = Locator::new(source);
     let document: serde_yaml::Value = serde_yaml::from_str(source.text).map_err(|e| {
-        let message = strip_location(&e.to_string());
+        let message = crate::diag::strip_location(&e.to_string());
         // serde_yaml reports a repeated key at the mapping, with the path inside the message.
         if let (true, Some((path, (line, column)))) =
             (message.contains("duplicate entry with key"), locator.index().duplicate_key())
@@ -397,14 +397,6 @@ fn load_unclamped<T>(
     then(model, &locator)
 }
 
-/// serde_yaml appends " at line L column C" to messages; the diagnostic carries it already.
-fn strip_location(message: &str) -> String {
-    match message.find(" at line ") {
-        Some(i) => message[..i].to_string(),
-        None => message.to_string(),
-    }
-}
-
 /// Rejects NaN and infinite literals anywhere in the document.
 fn check_literals(document: &serde_yaml::Value, locator: &Locator<'_>) -> Result<(), Diagnostic> {
     /// A step of the walk: a mapping key (made a path segment only for the literal that is
@@ -463,7 +455,7 @@ fn typed<T: DeserializeOwned>(value: &serde_yaml::Value, locator: &Locator<'_>) 
                 serde_path_to_error::Segment::Enum { .. } | serde_path_to_error::Segment::Unknown => {}
             }
         }
-        let raw = strip_location(&error.inner().to_string());
+        let raw = crate::diag::strip_location(&error.inner().to_string());
         let (message, hint) = explain_serde_error(&raw);
         // An unknown key is reported at the key itself, and so is an empty value (which the
         // event parser places at the next token); anything else at the value.

@@ -1083,9 +1083,9 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     hapticgen_host::output::write_csv(&trace, &args.output.join("trace.csv"))?;
     let figures = paper::trace_figures(&trace, &args.output)?;
     println!(
-        "{}: {:.2} s simulated in {:.2} s ({:.2}× real time), controller on {}; wrote {} and {} figures",
-        args.model.display(),
+        "simulated {:.2} s of {} in {:.2} s ({:.2}× real time), controller on {}; wrote {} and {} figures",
         trace.duration(),
+        args.model.display(),
         trace.wall_seconds,
         trace.duration() / trace.wall_seconds.max(1e-9),
         if sim.uses_generated_code() { "generated code" } else { "the model's tapes" },
@@ -1149,10 +1149,10 @@ fn pil(args: PilArgs) -> Result<(), String> {
     hapticgen_host::output::write_csv(&trace, &run.output.join("trace.csv"))?;
     let figures = paper::trace_figures(&trace, &run.output)?;
     println!(
-        "{}: {:.2} s simulated in {:.2} s ({:.2}× real time), controller: firmware `{name}` under QEMU; wrote {} and {} \
-         figures",
-        run.model.display(),
+        "simulated {:.2} s of {} in {:.2} s ({:.2}× real time), controller: firmware `{name}` under QEMU; wrote {} and \
+         {} figures",
         trace.duration(),
+        run.model.display(),
         trace.wall_seconds,
         trace.duration() / trace.wall_seconds.max(1e-9),
         run.output.join("trace.csv").display(),
