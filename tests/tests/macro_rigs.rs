@@ -82,7 +82,7 @@ fn macro_expansion_equals_the_build_helper_output() {
     let file = "../models/parallel_link_2dof.yaml";
     let loaded =
         hapticgen_codegen::load_file(&manifest_dir.join(file), file, Some("vertical")).expect("valid model");
-    let options = hapticgen_codegen::EmitOptions { fused_multiply_add: true };
+    let options = hapticgen_codegen::EmitOptions { fused_multiply_add: true, ..Default::default() };
     let built = hapticgen_codegen::generate_model_with(loaded, Scalar::F64, options).formatted_items();
     assert_eq!(expanded, built);
     assert!(expanded.contains("::hapticgen_runtime::Real::mul_add("));

@@ -222,8 +222,15 @@ impl Regressor {
 
     /// Builds `Y` into `dag`, row-major (`joints` rows, one column per base parameter).
     pub fn build(&self, dag: &mut Dag, model: &Model) -> Vec<NodeId> {
-        let recursive_columns =
-            if self.joint_frames { recursive::standard_columns(dag, model) } else { Vec::new() };
+        let recursive_columns = if self.joint_frames {
+            let columns = recursive::standard_columns(dag, model);
+            // The passes with unit parameters name their forces and moments as the dynamics'
+            // would; those values are not forces here (the kinematics' names stay true).
+            dag.retain_hints(|name| !name.contains("_force") && !name.contains("_moment"));
+            columns
+        } else {
+            Vec::new()
+        };
         let p = self.base.len();
         let mut out = vec![dag.constant(0.0); self.joints * p];
         for (c, base) in self.base.iter().enumerate() {
