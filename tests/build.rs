@@ -104,6 +104,7 @@ fn write_regressor_rigs(out: &Path, models_dir: &Path, registry: &mut String) {
     let mut modules = Vec::new();
     for entry in build::models_in(models_dir, "models").unwrap_or_else(|e| panic!("{e}")) {
         let (path, display) = (&entry.path, &entry.display);
+        let mut cases = Vec::new();
         for variant in entry.variants {
             let model = hapticgen_codegen::load_file(path, display, variant.as_deref())
                 .unwrap_or_else(|e| panic!("{e}"));
@@ -112,6 +113,20 @@ fn write_regressor_rigs(out: &Path, models_dir: &Path, registry: &mut String) {
                 model.name,
                 variant.as_ref().map(|v| format!("{v}_")).unwrap_or_default()
             );
+            // A Delta also with its loops solved by Newton's method at run time.
+            let closed_form = model
+                .analyses
+                .closures
+                .as_ref()
+                .and_then(|c| c.spatial.as_ref())
+                .is_some_and(|s| s.closed_form.is_some());
+            if closed_form && variant.is_none() {
+                let newton = format!("{}_newton_f64_regressor", model.name);
+                cases.push((model.clone().with_loops_solved_numerically(), variant.clone(), newton));
+            }
+            cases.push((model, variant, module));
+        }
+        for (model, variant, module) in cases {
             let type_name = hapticgen_codegen::emit::rig_type_name(&model);
             let options = EmitOptions { regressor: true, ..Default::default() };
             let text = hapticgen_codegen::generate_model_with(model, Scalar::F64, options).file_text();

@@ -1,5 +1,6 @@
 //! The identification regressor (`generate --regressor`), compiled for every shipped model and
-//! variant (the build script's `regressor_rigs`), at random states:
+//! variant, and for the Delta also with its loops solved by Newton's method at run time (the
+//! build script's `regressor_rigs`), at random states:
 //! - `Y(q, q̇, q̈) · base_parameters()` equals the compiled `inverse_dynamics` plus the model's
 //!   viscous friction `B q̇` and Coulomb friction `fc q̇/√(q̇² + δ²)`, to rounding;
 //! - with every body's mass, centre of mass and inertia, every rotor inertia and friction
@@ -56,8 +57,9 @@ fn smooth_sign(v: f64, band: f64) -> f64 {
 #[test]
 fn regressor_times_nominal_base_parameters_is_the_inverse_dynamics() {
     let rigs = regressor_rigs();
-    // Every shipped model and variant: 9 files, 3 of them with two variants.
-    assert!(rigs.len() >= 12, "only {} regressor rigs", rigs.len());
+    // Every shipped model and variant (9 files, 3 of them with two variants), and the Delta with
+    // its loops solved by Newton's method at run time.
+    assert!(rigs.len() >= 13, "only {} regressor rigs", rigs.len());
     for rig in &rigs {
         let (model, _) = load(&rig.info);
         let n = model.joints.len();
