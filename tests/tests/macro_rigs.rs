@@ -20,6 +20,7 @@ hapticgen_macros::rig!(mod pantograph_f64 = "../models/pantograph_5bar.yaml", va
 hapticgen_macros::rig!(mod pantograph_f32 = "../models/pantograph_5bar.yaml", scalar = f32);
 hapticgen_macros::rig!(mod five_bar_f64 = "../codegen/tests/good-models/five_bar_2dof.yaml");
 hapticgen_macros::rig!(mod vertical_f32_fma = "../models/parallel_link_2dof.yaml", variant = "vertical", scalar = f32, fma = true);
+hapticgen_macros::rig!(mod pantograph_regressor = "../models/pantograph_5bar.yaml", variant = "vertical", regressor = true);
 
 #[test]
 fn macro_generated_rigs_equal_the_evaluator() {
@@ -82,10 +83,36 @@ fn macro_expansion_equals_the_build_helper_output() {
     let file = "../models/parallel_link_2dof.yaml";
     let loaded =
         hapticgen_codegen::load_file(&manifest_dir.join(file), file, Some("vertical")).expect("valid model");
-    let options = hapticgen_codegen::EmitOptions { fused_multiply_add: true };
+    let options = hapticgen_codegen::EmitOptions { fused_multiply_add: true, ..Default::default() };
     let built = hapticgen_codegen::generate_model_with(loaded, Scalar::F64, options).formatted_items();
     assert_eq!(expanded, built);
     assert!(expanded.contains("::hapticgen_runtime::Real::mul_add("));
+    // `regressor = true` is the build helper's emission with the identification regressor.
+    let input =
+        quote!(pub mod rig = "../models/pantograph_5bar.yaml", variant = "vertical", regressor = true);
+    let expanded = expansion_items(input, manifest_dir).expect("the expansion is a module with items");
+    let file = "../models/pantograph_5bar.yaml";
+    let loaded =
+        hapticgen_codegen::load_file(&manifest_dir.join(file), file, Some("vertical")).expect("valid model");
+    let options = hapticgen_codegen::EmitOptions { regressor: true, ..Default::default() };
+    let built = hapticgen_codegen::generate_model_with(loaded, Scalar::F64, options).formatted_items();
+    assert_eq!(expanded, built);
+    assert!(expanded.contains("pub fn regressor("));
+}
+
+#[test]
+fn macro_regressor_is_the_build_scripts() {
+    use hapticgen_tests::pantograph_5bar_vertical_f64_regressor::Pantograph5bar as Built;
+    let (rig, built) = (pantograph_regressor::Pantograph5bar::NOMINAL, Built::NOMINAL);
+    assert_eq!(pantograph_regressor::Pantograph5bar::BASE_PARAMETERS, Built::BASE_PARAMETERS);
+    assert_eq!(rig.base_parameters(), built.base_parameters());
+    // The middle of the joint ranges, where the loop closes.
+    let middle = |d: &hapticgen_runtime::DriveTrain<f64>| 0.5 * (d.position_lower + d.position_upper);
+    let q = [middle(&Built::DRIVES[0]), middle(&Built::DRIVES[1])];
+    let (qd, qdd) = ([0.3, -0.7], [1.5, 2.0]);
+    let y = rig.regressor(&q, &qd, &qdd);
+    assert!(y.iter().flatten().all(|x| x.is_finite()), "{y:?}");
+    assert_eq!(y, built.regressor(&q, &qd, &qdd));
 }
 
 #[test]

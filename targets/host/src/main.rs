@@ -85,6 +85,10 @@ enum Command {
         /// rounded operation).
         #[arg(long)]
         fma: bool,
+        /// Also emit the dynamic-identification regressor `regressor(q, qd, qdd)` over the base
+        /// parameters, with `BASE_PARAMETERS` and `base_parameters()` (docs/identification.md).
+        #[arg(long)]
+        regressor: bool,
         /// Write to this file instead of standard output.
         #[arg(short, long)]
         output: Option<PathBuf>,
@@ -134,6 +138,9 @@ enum Command {
         /// (two flops) in the `fused` column.
         #[arg(long)]
         fma: bool,
+        /// Also count the identification regressor (`generate --regressor`).
+        #[arg(long)]
+        regressor: bool,
     },
     /// Print the JSON Schema of the model format.
     Schema,
@@ -691,13 +698,13 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             Ok(())
         }
-        Command::Generate { model, variant, scalar, fma, output } => {
+        Command::Generate { model, variant, scalar, fma, regressor, output } => {
             let m = load(&model, variant.as_deref())?;
             let scalar = match scalar {
                 ScalarArg::F32 => Scalar::F32,
                 ScalarArg::F64 => Scalar::F64,
             };
-            let options = hapticgen_codegen::EmitOptions { fused_multiply_add: fma };
+            let options = hapticgen_codegen::EmitOptions { fused_multiply_add: fma, regressor };
             let text = hapticgen_codegen::generate_model_with(m, scalar, options).file_text();
             write_or_print(output.as_deref(), &text)
         }
@@ -780,9 +787,9 @@ fn run(cli: Cli) -> Result<(), String> {
             let values = eval::try_evaluate(&mech, &state, selected).map_err(|e| format!("error: {e}"))?;
             print_json(&values)
         }
-        Command::Stats { model, variant, json, fma } => {
+        Command::Stats { model, variant, json, fma, regressor } => {
             let m = load(&model, variant.as_deref())?;
-            let options = hapticgen_codegen::EmitOptions { fused_multiply_add: fma };
+            let options = hapticgen_codegen::EmitOptions { fused_multiply_add: fma, regressor };
             let generated = hapticgen_codegen::generate_model_with(m, Scalar::F64, options);
             if json {
                 let map: serde_json::Map<String, serde_json::Value> = generated
