@@ -5,9 +5,8 @@
 use hapticgen_protocol::message::Channels;
 use hapticgen_protocol::{
     encode, ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, FrameDecoder, HostKind,
-    HostMessage, ImpedanceSettings, LinkCounters, LinkEffect, PilLaw, PilSetup, SceneAnswer, SceneObject, SceneOutcome,
-    SensorFrame,
-    StateFrame, StateSample, MAX_FRAME_BYTES,
+    HostMessage, ImpedanceSettings, LinkCounters, LinkEffect, PilLaw, PilSetup, SceneAnswer, SceneObject,
+    SceneOutcome, SensorFrame, StateFrame, StateSample, MAX_FRAME_BYTES,
 };
 use proptest::prelude::*;
 
@@ -191,8 +190,12 @@ fn device_message() -> impl Strategy<Value = DeviceMessage> {
             DeviceMessage::Link(LinkCounters { frames, oversized, bad_stuffing, bad_crc, not_a_message })
         }),
         (any::<u8>(), 0usize..4).prop_map(|(slot, outcome)| {
-            let outcome = [SceneOutcome::Rendered, SceneOutcome::NotRendered, SceneOutcome::BadValues, SceneOutcome::NoSlot]
-                [outcome];
+            let outcome = [
+                SceneOutcome::Rendered,
+                SceneOutcome::NotRendered,
+                SceneOutcome::BadValues,
+                SceneOutcome::NoSlot,
+            ][outcome];
             DeviceMessage::Scene(SceneAnswer { slot, outcome })
         }),
     ]
