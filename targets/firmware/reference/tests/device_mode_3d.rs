@@ -90,11 +90,10 @@ impl Device {
     }
 }
 
-/// Unpowered, the Delta rests on its end stops (it sagged through its 0.85 rad limit before,
-/// issue 41); every object kind of a 3-D scene is answered `Rendered` and drawn by the god
+/// Unpowered, the Delta rests on its end stops (seen failing without them: joint 0 at 1.48 rad
+/// after 0.5 s, through its 0.85 rad limit, as issue 41 found); every object kind of a 3-D scene is answered `Rendered` and drawn by the god
 /// object; enabled, a hand pushing up with 2 N into a half-space whose face is 5 mm above the
-/// start is held 2 N / 1000 N/m = 2 mm inside the face (seen failing with the 3-D scene
-/// refused: the device rose through the face until its end stops).
+/// start is held 2 N / 1000 N/m = 2 mm inside the face, within 2 %.
 #[test]
 fn a_hand_pushing_into_a_half_space_is_held_at_the_wall_spring_s_depth() {
     let mut device = Device::new();
@@ -142,6 +141,7 @@ fn a_hand_pushing_into_a_half_space_is_held_at_the_wall_spring_s_depth() {
     assert!(device.link.outputs_allowed(), "disabled: {:?}", device.link.fault());
     let held = device.position();
     let depth = held[2] - face;
+    println!("held {:.4} mm inside the face at {held:?}; F/K = 2 N / 1000 N/m = 2 mm", depth * 1e3);
     assert!((depth - 0.002).abs() < 0.02 * 0.002, "held {depth} m inside the face, F/K = 0.002 m");
     assert!(held[0].abs() < 1e-3 && held[1].abs() < 1e-3, "{held:?}");
 }
