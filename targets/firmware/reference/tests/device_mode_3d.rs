@@ -75,7 +75,7 @@ impl Device {
         let periods = (seconds * image::CURRENT_LOOP_HZ as f32) as u32;
         let heartbeat_every = image::CURRENT_LOOP_HZ / 500;
         for _ in 0..periods {
-            if self.periods % heartbeat_every == 0 {
+            if self.periods.is_multiple_of(heartbeat_every) {
                 self.feed(&HostMessage::Heartbeat { sequence: self.periods as u16 });
             }
             self.periods += 1;
