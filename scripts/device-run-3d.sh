@@ -72,6 +72,18 @@ run() {
             printf "%s: at tick %d, before the bridges were on, z = %.2f mm (resting on its end stops)\n", name, first_tick, first_z * 1e3
         }' "$OUT/$name.csv" || FAILED=$((FAILED + 1))
 }
-run ceiling scenes/device-ceiling.yaml -0.0938 1000
-run lid scenes/device-lid.yaml -0.0888 800
+# A run that ends in the link's safe state (the heartbeat lost: the host starved of CPU while
+# other QEMU runs share the machine, as the 2-D device run's checks can be) is run once more,
+# and says so; a depth out of bounds is not.
+run_or_retry() {
+    local before=$FAILED
+    run "$@"
+    if [ "$FAILED" -gt "$before" ] && grep -q 'SAFE (heartbeat lost' "$OUT/$1.connect.out"; then
+        echo "RETRY $1: the heartbeat was lost (the machine is busy); running it once more"
+        FAILED=$before
+        run "$@"
+    fi
+}
+run_or_retry ceiling scenes/device-ceiling.yaml -0.0938 1000
+run_or_retry lid scenes/device-lid.yaml -0.0888 800
 [ "$FAILED" -eq 0 ] || { echo "FAIL $FAILED of the 3-D device runs" >&2; exit 1; }

@@ -44,8 +44,7 @@ impl Device {
         let settings =
             loop_settings(&setup, mode.parameters(), image::IMPEDANCE_LOOP_HZ, [0; 3], calibration);
         let control = Controller::new(rig, mode.source().unwrap(), &settings, false).unwrap();
-        let board =
-            SimBoard::new(rig, setup.start, 1.0 / image::CURRENT_LOOP_HZ as f32, 1e-4).with_end_stops();
+        let board = SimBoard::new(rig, setup.start, 1.0 / image::CURRENT_LOOP_HZ as f32, 1e-4);
         let link = DeviceLink::new(
             device_info(image::NAME, 3, 3, image::IMPEDANCE_LOOP_HZ),
             LinkSettings::with_timeout_ms(6, image::CURRENT_LOOP_HZ),
@@ -82,6 +81,7 @@ impl Device {
             let open = self.link.on_current_tick();
             self.control.on_current_tick(&mut Gated { board: &mut self.board, open }, &NoClock);
             self.board.advance(&if open { hand } else { [0.0; 3] });
+            self.board.stop_at_limits();
         }
     }
 

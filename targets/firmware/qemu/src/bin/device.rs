@@ -166,8 +166,7 @@ fn main() -> ! {
         setup.start,
         1.0 / image::CURRENT_LOOP_HZ as f32,
         image::sense_time_constant(),
-    )
-    .with_end_stops();
+    );
     let hand = hand_force();
     let [grid, stiffness, damping] = setup.rendering.unwrap_or([
         PAPER_RENDERING[0] as f32,
@@ -230,6 +229,7 @@ fn main() -> ! {
             _ => [0.0; M],
         };
         board.advance(&force);
+        board.stop_at_limits();
         if let Some(report) = outcome.impedance {
             let counts = board.counts();
             if let Some(length) = state_frame(&control, &Rig::NOMINAL, &link, &counts, &report, &mut buffer) {
