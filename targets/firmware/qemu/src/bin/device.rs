@@ -95,12 +95,10 @@ const COUNTERS_TICKS: u32 = 1000;
 /// Periods between two lines of `DEVICE_STATUS` on semihosting (one per 10 s at 7.5 kHz).
 const STATUS_PERIODS: u32 = 75_000;
 
-/// The hand's force from the semihosting command line's `hand=FX:FY:FZ` (newtons; missing
-/// axes zero, axes beyond the task's ignored); `None` without one or with a value that is not a
-/// finite number.
-fn hand_force() -> Option<[f32; M]> {
+/// The semihosting command line (`-semihosting-config …,arg=…`), read into `text`; `None`
+/// without one.
+fn command_line(text: &mut [u8; 128]) -> Option<&str> {
     const SYS_GET_CMDLINE: usize = 0x15;
-    let mut text = [0u8; 128];
     let mut block = [text.as_mut_ptr() as usize, text.len()];
     // SAFETY: a semihosting call with a valid parameter block (a buffer and its length, which
     // the host overwrites with the length written).
@@ -108,11 +106,17 @@ fn hand_force() -> Option<[f32; M]> {
     if status != 0 {
         return None;
     }
-    let line = core::str::from_utf8(text.get(..block[1].min(text.len()))?).ok()?;
+    let length = block[1].min(text.len());
+    core::str::from_utf8(text.get(..length)?).ok().map(|line| line.trim_end_matches('\0'))
+}
+
+/// The hand's force from the command line's `hand=FX:FY:FZ` (newtons; missing axes zero, axes
+/// beyond the task's ignored); `None` without one or with a value that is not a finite number.
+fn hand_force(line: &str) -> Option<[f32; M]> {
     let values = line.split(' ').find_map(|word| word.strip_prefix("hand="))?;
     let mut force = [0.0f32; M];
     for (k, value) in values.split(':').enumerate() {
-        let value: f32 = value.trim_end_matches('\0').parse().ok()?;
+        let value: f32 = value.parse().ok()?;
         if !value.is_finite() {
             return None;
         }
@@ -121,6 +125,18 @@ fn hand_force() -> Option<[f32; M]> {
         }
     }
     Some(force)
+}
+
+/// The heartbeat timeout, ms: the command line's `timeout_ms=N` (1 to 1000), else
+/// [`LINK_TIMEOUT_MS`]. A longer one is for runs that do not test the link's safety rules on an
+/// emulator short of time: the Delta's plant at 7.5 kHz takes QEMU most of a host core, and its
+/// UART then delivers heartbeats late (`scripts/device-run-3d.sh`).
+fn timeout_ms(line: &str) -> u32 {
+    line.split(' ')
+        .find_map(|word| word.strip_prefix("timeout_ms="))
+        .and_then(|value| value.parse::<u32>().ok())
+        .filter(|ms| (1..=1000).contains(ms))
+        .unwrap_or(LINK_TIMEOUT_MS)
 }
 
 /// The controller at start, as `mode` says (a spring to the start pose); `None` if the rig's
@@ -157,9 +173,13 @@ fn main() -> ! {
     wake.start(image::CURRENT_LOOP_HZ);
     let setup = image::setup();
     let period_ticks = qemu::SYSCLK_HZ / image::CURRENT_LOOP_HZ.max(1);
+    let mut text = [0u8; 128];
+    let line = command_line(&mut text).unwrap_or("");
+    let hand = hand_force(line);
+    let timeout = timeout_ms(line);
     let mut link = DeviceLink::new(
         device_info(image::NAME, N, M, image::IMPEDANCE_LOOP_HZ),
-        LinkSettings::with_timeout_ms(LINK_TIMEOUT_MS, image::CURRENT_LOOP_HZ),
+        LinkSettings::with_timeout_ms(timeout, image::CURRENT_LOOP_HZ),
     );
     let mut board: SimBoard<Rig, N, M> = SimBoard::new(
         Rig::NOMINAL,
@@ -167,7 +187,6 @@ fn main() -> ! {
         1.0 / image::CURRENT_LOOP_HZ as f32,
         image::sense_time_constant(),
     );
-    let hand = hand_force();
     let [grid, stiffness, damping] = setup.rendering.unwrap_or([
         PAPER_RENDERING[0] as f32,
         PAPER_RENDERING[1] as f32,
@@ -180,8 +199,7 @@ fn main() -> ! {
     };
     let mut line = Line::new();
     line.str("DEVICE_READY variant=").str(image::NAME).kv("joints", N as i64).kv("task", M as i64);
-    line.kv("current_loop_hz", i64::from(image::CURRENT_LOOP_HZ))
-        .kv("timeout_ms", i64::from(LINK_TIMEOUT_MS));
+    line.kv("current_loop_hz", i64::from(image::CURRENT_LOOP_HZ)).kv("timeout_ms", i64::from(timeout));
     if let Some(force) = &hand {
         line.str(" hand_mn=");
         for (k, f) in force.iter().enumerate() {
