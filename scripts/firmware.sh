@@ -14,7 +14,9 @@
 #                                        `pil` the joystick's processor-in-the-loop image, run by `hapticgen pil`
 #                                        against the host's plant and compared with `hapticgen simulate`;
 #                                        `pil-fig7` the parallel link's, tracing the circle of Fig. 7: ~10 min;
-#                                        `device` the device-mode image, driven by `hapticgen connect`)
+#                                        `device` the device-mode image, driven by `hapticgen connect`;
+#                                        `device-3d` the Delta's device-mode image, a hand pushing it into
+#                                        a 3-D scene sent over the link)
 #   HAPTICGEN_FW_OPT_LEVEL=s scripts/firmware.sh   another opt-level (the measurement in the docs)
 #   HAPTICGEN_FW_FMA=1 scripts/firmware.sh         generated code with fused multiply-adds (vfma.f32)
 #
@@ -40,6 +42,8 @@ PIL_FIG7=pil-fig7             # the processor-in-the-loop circle tracing, for --
 PIL_FIG7_VARIANT=vertical     # the variants.txt line it is built for (the paper's parallel link)
 DEVICE=device                 # the device-mode image driven by `hapticgen connect`, for --only (docs/link.md)
 DEVICE_VARIANT=horizontal     # the variants.txt line it is built for (a 2-D task: the link's planar scene)
+DEVICE3D=device-3d            # the device-mode image of a 3-D task, for --only (docs/link.md)
+DEVICE3D_VARIANT=falcon       # the variants.txt line it is built for (the Delta: the link's scene in the god object)
 QEMU_TIMEOUT=${HAPTICGEN_FW_QEMU_TIMEOUT:-300}
 LIMITS=()
 ONLY=()
@@ -79,7 +83,7 @@ TABLE=$(awk '{ sub(/#.*/, "") } NF { print $1 }' "$FW/variants.txt")
 # compute, so they run in the background (`background`) while the other images build and run.
 # The device image runs last, in the foreground: its clock is the host's, so its 6 ms heartbeat
 # timeout holds only if `hapticgen connect`'s heartbeat thread is not starved by the builds.
-KNOWN=$(printf '%s\n%s\n%s\n%s\n%s\n%s\n' "$PIL" "$PIL_FIG7" "$TABLE" "$BOARD" "$LINK" "$DEVICE")
+KNOWN=$(printf '%s\n%s\n%s\n%s\n%s\n%s\n%s\n' "$PIL" "$PIL_FIG7" "$TABLE" "$BOARD" "$LINK" "$DEVICE3D" "$DEVICE")
 SELECTED=()
 if [ ${#ONLY[@]} -eq 0 ]; then
     mapfile -t SELECTED <<<"$KNOWN"
@@ -345,6 +349,20 @@ for NAME in "${SELECTED[@]}"; do
             CHECKED+=("$DEVICE")
         else
             FAILED+=("$DEVICE: hapticgen connect's checks against the device image (above)")
+        fi
+        continue
+    fi
+    if [ "$NAME" = "$DEVICE3D" ]; then
+        step "device image ($DEVICE3D_VARIANT): lint and build (a 3-D task: the link's scene rendered by the god object)"
+        lint_and_build_qemu "$DEVICE3D_VARIANT" hapticgen-fw-qemu-device
+        cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-device" "$OUT/$DEVICE3D_VARIANT.device.elf"
+        "$REF" size "$OUT/$DEVICE3D_VARIANT.device.elf"
+        build_hapticgen
+        step "device-3d: a hand pushes the Delta into a half-space and a box sent by hapticgen connect; held at F/K"
+        if "$ROOT/scripts/device-run-3d.sh" "$HAPTICGEN" "$OUT/$DEVICE3D_VARIANT.device.elf" "$OUT/device-3d"; then
+            CHECKED+=("$DEVICE3D")
+        else
+            FAILED+=("$DEVICE3D: the 3-D device image's held depths (above)")
         fi
         continue
     fi

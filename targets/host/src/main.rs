@@ -442,7 +442,7 @@ struct ConnectArgs {
 
 fn connect(args: ConnectArgs) -> Result<(), String> {
     use hapticgen_host::connect::{self as link, Event, Session};
-    use hapticgen_protocol::{HostMessage, SceneObject, SCENE_SLOTS};
+    use hapticgen_protocol::HostMessage;
     if !(args.duration.is_finite() && args.duration >= 0.0) {
         return Err(format!("error: --duration must be a finite, non-negative time, got {}", args.duration));
     }
@@ -458,16 +458,23 @@ fn connect(args: ConnectArgs) -> Result<(), String> {
         "connected: protocol {}, {} joints, {} task axes, impedance loop {} Hz, rig name hash {:08x}",
         info.version, info.joints, info.task_dim, info.impedance_loop_hz, info.rig_name_hash
     );
-    if let Some(settings) = impedance {
-        session.send(&HostMessage::SetImpedance(settings))?;
-    }
-    if let Some(scene) = &scene {
-        for slot in 0..SCENE_SLOTS {
-            let object = scene.objects.get(slot).copied().unwrap_or(SceneObject::Empty);
-            session.send(&HostMessage::SetObject { slot: slot as u8, object })?;
+    // The settings and the scene, sent after each Hello (again if the device starts afresh).
+    let configure = |session: &mut Session| -> Result<(), String> {
+        if let Some(settings) = impedance {
+            session.send(&HostMessage::SetImpedance(settings))?;
         }
-        session.send(&HostMessage::SetEffect(scene.effect))?;
-        println!("scene: {} objects loaded, effect {:?}", scene.objects.len(), scene.effect);
+        if let Some(scene) = &scene {
+            session.send_scene(scene)?;
+        }
+        Ok(())
+    };
+    configure(&mut session)?;
+    if let Some(scene) = &scene {
+        println!(
+            "scene: {} objects rendered by the device (each answered), effect {:?}",
+            scene.objects.len(),
+            scene.effect
+        );
         if !scene.moving.is_empty() {
             println!("scene: {} moving, sent again every {} ms", scene.moving.len(), args.motion_period);
         }
@@ -504,7 +511,7 @@ fn connect(args: ConnectArgs) -> Result<(), String> {
     // the safety checks).
     let moving = scene.as_ref().filter(|scene| !scene.moving.is_empty());
     let mut next_motion = start + motion_period;
-    let (mut frames, mut missing) = (0u64, 0u64);
+    let (mut frames, mut missing, mut resets) = (0u64, 0u64, 0u64);
     let mut first_tick = None;
     let mut last: Option<hapticgen_protocol::StateFrame> = None;
     let mut shown = start;
@@ -532,9 +539,34 @@ fn connect(args: ConnectArgs) -> Result<(), String> {
             None if moving.is_some() => continue,
             None => break,
         };
-        let Event::State(received) = event else { continue };
+        let received = match event {
+            Event::State(received) => received,
+            // The answers to the moving objects' updates.
+            Event::Scene(answer) => match scene.as_ref().and_then(|scene| link::refusal(scene, &answer)) {
+                Some(error) => return Err(error),
+                None => continue,
+            },
+            _ => continue,
+        };
         let frame = received.frame;
         if let Some(previous) = &last {
+            let was_enabled = previous.status & hapticgen_protocol::StateFrame::ENABLED != 0;
+            if link::device_reset(previous, &frame, was_enabled) {
+                // The device started again: it has forgotten the handshake, the settings and
+                // the scene, and its bridges are off.
+                println!(
+                    "device reset (tick {} after {}): sending Hello, the settings and the scene again",
+                    frame.tick, previous.tick
+                );
+                session.sync(link::HELLO_TIMEOUT)?;
+                configure(&mut session)?;
+                if args.enable || args.check_safety {
+                    session.send(&HostMessage::Enable)?;
+                }
+                resets += 1;
+                last = None;
+                continue;
+            }
             missing += link::missing_between(previous.tick, frame.tick);
         }
         first_tick.get_or_insert(frame.tick);
@@ -576,6 +608,9 @@ fn connect(args: ConnectArgs) -> Result<(), String> {
     );
     if let Some(frame) = &last {
         println!("last: {}", link::status_line(&info, frame, frames, missing));
+    }
+    if resets > 0 {
+        println!("the device started again {resets} times; each time it was sent Hello, the settings and the scene");
     }
     if failed > 0 {
         return Err(format!("error: {failed} of the link's safety checks failed"));
