@@ -100,6 +100,7 @@ plan_image() {
         "$LINK") echo "image $1: build (with the first variants.txt line's rig), run under QEMU, decode its UART stream, check instruction ceilings" ;;
         "$PIL_FIG7") echo "image $1 ($PIL_FIG7_VARIANT): lint, build, build hapticgen, hapticgen pil (Fig. 7 circle) vs simulate, in the background" ;;
         "$DEVICE") echo "image $1 ($DEVICE_VARIANT): lint, build, build hapticgen, scripts/device-run.sh (hapticgen connect under QEMU)" ;;
+        "$DEVICE3D") echo "image $1 (the Falcon-like Delta): lint, build, build hapticgen, scripts/device-run-3d.sh (a hand pushed into a half-space and a box, held at F/K)" ;;
         "$PIL") echo "image $1 ($PIL_VARIANT): lint, build (image and probe), panic check, build hapticgen, hapticgen pil (Fig. 4 and fault tests) vs simulate, in the background" ;;
         "$BOARD") echo "image $1 ($BOARD_VARIANT): lint, layering (cargo tree), build (image, device image, probes), panic checks" ;;
         *) echo "image $1: lint, build (image and control-path probe), panic check, run under QEMU, compare with the host reference and check limits" ;;

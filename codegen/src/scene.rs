@@ -696,7 +696,12 @@ pub fn load(path: &Path) -> Result<Scene, String> {
 pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> {
     let file: SceneFile = serde_yaml::from_str(text).map_err(|e| match e.location() {
         Some(at) => {
-            format!("error: {name}:{}:{}: {}", at.line(), at.column(), crate::diag::strip_location(&e.to_string()))
+            format!(
+                "error: {name}:{}:{}: {}",
+                at.line(),
+                at.column(),
+                crate::diag::strip_location(&e.to_string())
+            )
         }
         None => format!("error: {name}: {e}"),
     })?;
