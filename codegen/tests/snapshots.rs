@@ -97,6 +97,23 @@ fn generated_code_equals_the_reviewed_snapshots() {
         );
         checked += 1;
     }
+    // The identification regressor (`EmitOptions::regressor`), as the tests crate's cases.
+    for (file, variant) in [
+        ("planar_arm_2dof", Some("vertical")),
+        ("pantograph_5bar", Some("vertical")),
+        ("joystick_1dof", None),
+    ] {
+        let display = format!("models/{file}.yaml");
+        check(
+            &format!("{file}_{}f64_regressor", variant.map(|v| format!("{v}_")).unwrap_or_default()),
+            &root().join(&display),
+            &display,
+            variant,
+            Scalar::F64,
+            EmitOptions { regressor: true, ..Default::default() },
+        );
+        checked += 1;
+    }
     // Every snapshot file was compared (the tests crate checks that the folder holds no others).
     let on_disk = std::fs::read_dir(root().join("tests/tests/snapshots"))
         .expect("the snapshot folder exists")

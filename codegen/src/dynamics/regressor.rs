@@ -138,6 +138,18 @@ fn number(x: f64) -> String {
     }
 }
 
+/// The tunable parameters' values (what the model's inertial data and damping may depend on).
+struct Nominal<'a>(&'a [f64]);
+
+impl AtomValues for Nominal<'_> {
+    fn value(&self, atom: Atom) -> f64 {
+        match atom {
+            Atom::Param(k) => self.0.get(usize::from(k)).copied().unwrap_or(0.0),
+            _ => 0.0,
+        }
+    }
+}
+
 /// Atom values at a sample: the state, its accelerations and a closed chain's elimination.
 struct Sample<'a> {
     state: State<'a>,
@@ -182,7 +194,7 @@ impl Regressor {
                     out.push(StandardParameter {
                         name: format!("{}_{body}", BODY_PARAMETERS[k]),
                         unit: body_unit(k),
-                        nominal: value.eval(&crate::eval::NominalAtoms(&params)),
+                        nominal: value.eval(&Nominal(&params)),
                         column: Column::Recursive(out.len()),
                     });
                 }
@@ -202,7 +214,7 @@ impl Regressor {
     /// regressor was built for (e.g. with other masses), in the order of [`Self::standard`].
     pub fn standard_values(&self, model: &Model) -> Vec<f64> {
         let params = model.nominal_parameters();
-        let nominal = crate::eval::NominalAtoms(&params);
+        let nominal = Nominal(&params);
         let mut values: Vec<f64> = if self.joint_frames {
             recursive::joint_frame_parameters(model)
                 .iter()
@@ -308,7 +320,7 @@ fn drive_columns(model: &Model) -> Vec<StandardParameter> {
         out.push(StandardParameter {
             name: format!("fv_{name}"),
             unit: if revolute { "N·m·s/rad" } else { "N·s/m" },
-            nominal: joint.damping.eval(&crate::eval::NominalAtoms(&params)),
+            nominal: joint.damping.eval(&Nominal(&params)),
             column: Column::Poly(unit_vector(j, Poly::atom(Atom::Qd(j as u16)))),
         });
         out.push(StandardParameter {
@@ -417,7 +429,7 @@ fn polynomial_columns(model: &Model, closures: Option<&Closures>, params: &[f64]
         })
         .collect();
     let qd = |i: usize| Poly::atom(Atom::Qd(i as u16));
-    let nominal = crate::eval::NominalAtoms(params);
+    let nominal = Nominal(params);
     let mut out = Vec::new();
     for (b, body) in model.bodies.iter().enumerate() {
         let values = body_frame_parameters(body, &nominal);
