@@ -7,12 +7,16 @@
 #
 #   scripts/firmware.sh                  everything, limits enforced
 #   scripts/firmware.sh --limits=warn    limit violations reported but not fatal
-#   scripts/firmware.sh --only NAME      one image (repeatable; `stm32f4` is the board image, `link` the
+#   scripts/firmware.sh --plan [...]     print what the run would do (steps, images), do nothing
+#   scripts/firmware.sh --only NAME      only that image: its build, checks and run (repeatable; the
+#                                        host-side lint and unit tests stay in the full run; `stm32f4` is the board image, `link` the
 #                                        host link's cost image: state frames to UART0, checked on the host;
 #                                        `pil` the joystick's processor-in-the-loop image, run by `hapticgen pil`
 #                                        against the host's plant and compared with `hapticgen simulate`;
 #                                        `pil-fig7` the parallel link's, tracing the circle of Fig. 7: ~10 min;
-#                                        `device` the device-mode image, driven by `hapticgen connect`)
+#                                        `device` the device-mode image, driven by `hapticgen connect`;
+#                                        `device-3d` the Delta's device-mode image, a hand pushing it into
+#                                        a 3-D scene sent over the link)
 #   HAPTICGEN_FW_OPT_LEVEL=s scripts/firmware.sh   another opt-level (the measurement in the docs)
 #   HAPTICGEN_FW_FMA=1 scripts/firmware.sh         generated code with fused multiply-adds (vfma.f32)
 #
@@ -38,12 +42,16 @@ PIL_FIG7=pil-fig7             # the processor-in-the-loop circle tracing, for --
 PIL_FIG7_VARIANT=vertical     # the variants.txt line it is built for (the paper's parallel link)
 DEVICE=device                 # the device-mode image driven by `hapticgen connect`, for --only (docs/link.md)
 DEVICE_VARIANT=horizontal     # the variants.txt line it is built for (a 2-D task: the link's planar scene)
+DEVICE3D=device-3d            # the device-mode image of a 3-D task, for --only (docs/link.md)
+DEVICE3D_VARIANT=falcon       # the variants.txt line it is built for (the Delta: the link's scene in the god object)
 QEMU_TIMEOUT=${HAPTICGEN_FW_QEMU_TIMEOUT:-300}
 LIMITS=()
 ONLY=()
-usage() { echo "usage: $0 [--limits=warn] [--only NAME]..." >&2; exit 2; }
+PLAN=0
+usage() { echo "usage: $0 [--plan] [--limits=warn] [--only NAME]..." >&2; exit 2; }
 while [ $# -gt 0 ]; do
     case "$1" in
+        --plan) PLAN=1 ;;
         --limits=warn) LIMITS=(--limits=warn) ;;
         --only) [ $# -ge 2 ] && [ -n "$2" ] || usage; ONLY+=("$2"); shift ;;
         --only=?*) ONLY+=("${1#--only=}") ;;
@@ -75,7 +83,7 @@ TABLE=$(awk '{ sub(/#.*/, "") } NF { print $1 }' "$FW/variants.txt")
 # compute, so they run in the background (`background`) while the other images build and run.
 # The device image runs last, in the foreground: its clock is the host's, so its 6 ms heartbeat
 # timeout holds only if `hapticgen connect`'s heartbeat thread is not starved by the builds.
-KNOWN=$(printf '%s\n%s\n%s\n%s\n%s\n%s\n' "$PIL" "$PIL_FIG7" "$TABLE" "$BOARD" "$LINK" "$DEVICE")
+KNOWN=$(printf '%s\n%s\n%s\n%s\n%s\n%s\n%s\n' "$PIL" "$PIL_FIG7" "$TABLE" "$BOARD" "$LINK" "$DEVICE3D" "$DEVICE")
 SELECTED=()
 if [ ${#ONLY[@]} -eq 0 ]; then
     mapfile -t SELECTED <<<"$KNOWN"
@@ -84,6 +92,30 @@ else
         grep -qxF -- "$NAME" <<<"$KNOWN" || die "--only $NAME: no such image (known: $(tr '\n' ' ' <<<"$KNOWN"))"
         SELECTED+=("$NAME")
     done
+fi
+
+# What each selected image's part of the run does, for --plan.
+plan_image() {
+    case "$1" in
+        "$LINK") echo "image $1: build (with the first variants.txt line's rig), run under QEMU, decode its UART stream, check instruction ceilings" ;;
+        "$PIL_FIG7") echo "image $1 ($PIL_FIG7_VARIANT): lint, build, build hapticgen, hapticgen pil (Fig. 7 circle) vs simulate, in the background" ;;
+        "$DEVICE") echo "image $1 ($DEVICE_VARIANT): lint, build, build hapticgen, scripts/device-run.sh (hapticgen connect under QEMU)" ;;
+        "$DEVICE3D") echo "image $1 (the Falcon-like Delta): lint, build, build hapticgen, scripts/device-run-3d.sh (a hand pushed into a half-space and a box, held at F/K)" ;;
+        "$PIL") echo "image $1 ($PIL_VARIANT): lint, build (image and probe), panic check, build hapticgen, hapticgen pil (Fig. 4 and fault tests) vs simulate, in the background" ;;
+        "$BOARD") echo "image $1 ($BOARD_VARIANT): lint, layering (cargo tree), build (image, device image, probes), panic checks" ;;
+        *) echo "image $1: lint, build (image and control-path probe), panic check, run under QEMU, compare with the host reference and check limits" ;;
+    esac
+}
+if [ "$PLAN" -eq 1 ]; then
+    echo "plan: toolchain and QEMU (installed if missing)"
+    if [ ${#ONLY[@]} -eq 0 ]; then
+        echo "plan: lint: host-side crates (clippy, warnings are errors)"
+        echo "plan: unit tests: renderer, table parser, panic check, reference runs"
+    fi
+    echo "plan: host reference (hapticgen-fw-reference): build, pre-generated rigs"
+    for NAME in "${SELECTED[@]}"; do echo "plan: $(plan_image "$NAME")"; done
+    echo "plan: summary: ${#SELECTED[@]} image(s): ${SELECTED[*]}"
+    exit 0
 fi
 
 step "toolchain and QEMU"
@@ -127,14 +159,17 @@ OUT=$TARGET_DIR/images
 mkdir -p "$OUT"
 echo "target directory: $TARGET_DIR"
 
-step "lint: host-side crates (clippy, warnings are errors)"
-# hapticgen-fw-build without its generator feature: its own tests need only the table parser;
-# the generator half is linted as the build dependency of hapticgen-fw-reference.
-cargo clippy --locked --all-targets -p hapticgen-fw-control -p hapticgen-fw-sim -p hapticgen-fw-reference \
-    -p hapticgen-fw-build --no-default-features -- -D warnings
+# The host-side lint and unit tests cover every image: the full run's, not one image's (--only).
+if [ ${#ONLY[@]} -eq 0 ]; then
+    step "lint: host-side crates (clippy, warnings are errors)"
+    # hapticgen-fw-build without its generator feature: its own tests need only the table parser;
+    # the generator half is linted as the build dependency of hapticgen-fw-reference.
+    cargo clippy --locked --all-targets -p hapticgen-fw-control -p hapticgen-fw-sim -p hapticgen-fw-reference \
+        -p hapticgen-fw-build --no-default-features -- -D warnings
 
-step "unit tests: renderer, table parser, panic check, and each scenario's reference run against its closed-form physics"
-cargo test --locked -q -p hapticgen-fw-control -p hapticgen-fw-build -p hapticgen-fw-reference --no-default-features
+    step "unit tests: renderer, table parser, panic check, and each scenario's reference run against its closed-form physics"
+    cargo test --locked -q -p hapticgen-fw-control -p hapticgen-fw-build -p hapticgen-fw-reference --no-default-features
+fi
 
 step "host reference (hapticgen-fw-reference)"
 cargo build --locked -p hapticgen-fw-reference
@@ -315,6 +350,20 @@ for NAME in "${SELECTED[@]}"; do
             CHECKED+=("$DEVICE")
         else
             FAILED+=("$DEVICE: hapticgen connect's checks against the device image (above)")
+        fi
+        continue
+    fi
+    if [ "$NAME" = "$DEVICE3D" ]; then
+        step "device image ($DEVICE3D_VARIANT): lint and build (a 3-D task: the link's scene rendered by the god object)"
+        lint_and_build_qemu "$DEVICE3D_VARIANT" hapticgen-fw-qemu-device
+        cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu-device" "$OUT/$DEVICE3D_VARIANT.device.elf"
+        "$REF" size "$OUT/$DEVICE3D_VARIANT.device.elf"
+        build_hapticgen
+        step "device-3d: a hand pushes the Delta into a half-space and a box sent by hapticgen connect; held at F/K"
+        if "$ROOT/scripts/device-run-3d.sh" "$HAPTICGEN" "$OUT/$DEVICE3D_VARIANT.device.elf" "$OUT/device-3d"; then
+            CHECKED+=("$DEVICE3D")
+        else
+            FAILED+=("$DEVICE3D: the 3-D device image's held depths (above)")
         fi
         continue
     fi

@@ -31,7 +31,7 @@ fn main() {
                 let file = out.join(format!("{module}.rs"));
                 let model = hapticgen_codegen::load_file(path, display, variant.as_deref())
                     .unwrap_or_else(|e| panic!("{e}"));
-                let options = EmitOptions { fused_multiply_add };
+                let options = EmitOptions { fused_multiply_add, ..Default::default() };
                 let text = hapticgen_codegen::generate_model_with(model, scalar, options).file_text();
                 std::fs::write(&file, text).expect("OUT_DIR is writable");
                 let type_name = hapticgen_codegen::emit::rig_type_name(&loaded);
@@ -91,8 +91,73 @@ fn main() {
         "/// Calls the visitor once per generated rig.\npub fn visit_all(visitor: &mut impl RigVisitor) {{\n{visits}}}"
     )
     .unwrap();
+    write_regressor_rigs(&out, models_dir, &mut registry);
     std::fs::write(out.join("registry.rs"), registry).expect("OUT_DIR is writable");
     write_doc_examples(&out);
+}
+
+/// Every shipped model and variant once more, `f64`, with the identification regressor
+/// (`EmitOptions::regressor`), and `regressor_rigs()` listing them with their functions as
+/// plain function pointers (the regressor is an inherent method, not part of `RigModel`).
+fn write_regressor_rigs(out: &Path, models_dir: &Path, registry: &mut String) {
+    let mut rigs = String::new();
+    let mut modules = Vec::new();
+    for entry in build::models_in(models_dir, "models").unwrap_or_else(|e| panic!("{e}")) {
+        let (path, display) = (&entry.path, &entry.display);
+        let mut cases = Vec::new();
+        for variant in entry.variants {
+            let model = hapticgen_codegen::load_file(path, display, variant.as_deref())
+                .unwrap_or_else(|e| panic!("{e}"));
+            let module = format!(
+                "{}_{}f64_regressor",
+                model.name,
+                variant.as_ref().map(|v| format!("{v}_")).unwrap_or_default()
+            );
+            // A Delta also with its loops solved by Newton's method at run time.
+            let closed_form = model
+                .analyses
+                .closures
+                .as_ref()
+                .and_then(|c| c.spatial.as_ref())
+                .is_some_and(|s| s.closed_form.is_some());
+            if closed_form && variant.is_none() {
+                let newton = format!("{}_newton_f64_regressor", model.name);
+                cases.push((model.clone().with_loops_solved_numerically(), variant.clone(), newton));
+            }
+            cases.push((model, variant, module));
+        }
+        for (model, variant, module) in cases {
+            let type_name = hapticgen_codegen::emit::rig_type_name(&model);
+            let options = EmitOptions { regressor: true, ..Default::default() };
+            let text = hapticgen_codegen::generate_model_with(model, Scalar::F64, options).file_text();
+            std::fs::write(out.join(format!("{module}.rs")), text).expect("OUT_DIR is writable");
+            writeln!(
+                registry,
+                "/// `{display}`{}, f64, with the identification regressor.\npub mod {module} {{ include!(concat!(env!(\"OUT_DIR\"), \"/{module}.rs\")); }}",
+                variant.as_ref().map(|v| format!(" variant `{v}`")).unwrap_or_default(),
+            )
+            .unwrap();
+            let t = format!("{module}::{type_name}");
+            writeln!(
+                rigs,
+                "        RegressorRig {{\n            info: RigInfo {{ file: \"{display}\", variant: {variant:?}, module: \"{module}\" }},\n            \
+                 names: &{t}::BASE_PARAMETERS,\n            coulomb_band: {t}::COULOMB_BAND,\n            \
+                 regressor: |q, qd, qdd| {{ let rig = {t}::NOMINAL; rig.regressor(q.try_into().unwrap(), qd.try_into().unwrap(), qdd.try_into().unwrap()).iter().map(|r| r.to_vec()).collect() }},\n            \
+                 inverse_dynamics: |q, qd, qdd| {{ let rig = {t}::NOMINAL; rig.inverse_dynamics(q.try_into().unwrap(), qd.try_into().unwrap(), qdd.try_into().unwrap()).to_vec() }},\n            \
+                 damping: || {{ let rig = {t}::NOMINAL; rig.damping().to_vec() }},\n            \
+                 base_parameters: || {{ let rig = {t}::NOMINAL; rig.base_parameters().to_vec() }},\n        }},"
+            )
+            .unwrap();
+            modules.push(format!("{module:?}"));
+        }
+    }
+    writeln!(
+        registry,
+        "/// The rigs generated with the identification regressor.\npub fn regressor_rigs() -> Vec<RegressorRig> {{\n    vec![\n{rigs}    ]\n}}\n\
+         /// The modules of [`regressor_rigs`].\npub const REGRESSOR_MODULES: &[&str] = &[{}];",
+        modules.join(", ")
+    )
+    .unwrap();
 }
 
 /// The README's and the runtime guide's text for their doc tests (`hapticgen_tests::docs`).

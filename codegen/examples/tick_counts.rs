@@ -22,7 +22,7 @@ fn main() {
         }
     };
     let mech = hapticgen_codegen::derive(&model);
-    let options = hapticgen_codegen::EmitOptions { fused_multiply_add };
+    let options = hapticgen_codegen::EmitOptions { fused_multiply_add, ..Default::default() };
     for include_position in [false, true] {
         let c = hapticgen_codegen::emit::tick_counts_with(&model, &mech, include_position, options);
         println!(

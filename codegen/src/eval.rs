@@ -29,6 +29,16 @@ impl<'a> Full<'a> {
         };
         Full { state, eliminated }
     }
+
+    /// The values at `state` for `mech`, or why a closed chain's loops cannot be closed
+    /// there on the file's assembly branch ([`crate::dynamics::closure::Closures::checked_values`]).
+    pub fn checked(mech: &Mechanics, state: &'a State<'a>) -> Result<Self, String> {
+        let eliminated = match &mech.closures {
+            Some(c) => c.checked_values(state.q, state.qd, state.parameters)?.into_iter().collect(),
+            None => std::collections::HashMap::new(),
+        };
+        Ok(Full { state, eliminated })
+    }
 }
 
 impl AtomValues for Full<'_> {
@@ -99,10 +109,53 @@ fn matrix(m: &[Vec<Poly>], s: &Full<'_>) -> Vec<Vec<f64>> {
 }
 
 /// Evaluates everything at a state; `point` selects a named point instead of the task.
+/// Where a closed chain's loops cannot be closed the values are NaN ([`try_evaluate`] says
+/// why).
 pub fn evaluate(mech: &Mechanics, state: &State<'_>, point: Option<&PointKinematics>) -> Evaluated {
+    evaluate_at(mech, &Full::new(mech, state), point)
+}
+
+/// [`evaluate`], or why its numbers would not be valid: a closed chain's loops that cannot be
+/// closed at the state on the file's assembly branch, or any value that is not finite (named).
+pub fn try_evaluate(
+    mech: &Mechanics,
+    state: &State<'_>,
+    point: Option<&PointKinematics>,
+) -> Result<Evaluated, String> {
+    let evaluated = evaluate_at(mech, &Full::checked(mech, state)?, point);
+    let vector = |name: &str, v: &[f64]| {
+        first_non_finite(v.iter().copied()).map(|(i, x)| format!("{name}[{i}] = {x}"))
+    };
+    let matrix = |name: &str, m: &[Vec<f64>]| {
+        let n = m.first().map_or(1, Vec::len).max(1);
+        first_non_finite(m.iter().flatten().copied())
+            .map(|(k, x)| format!("{name}[{}][{}] = {x}", k / n, k % n))
+    };
+    let bad = vector("p", &evaluated.p)
+        .or_else(|| matrix("J", &evaluated.jacobian))
+        .or_else(|| matrix("Jdot", &evaluated.jacobian_dot))
+        .or_else(|| vector("Jdot_qd", &evaluated.jacobian_dot_times_qdot))
+        .or_else(|| matrix("D", &evaluated.inertia_matrix))
+        .or_else(|| matrix("C", &evaluated.coriolis_matrix))
+        .or_else(|| vector("C_qd", &evaluated.coriolis_times_qdot))
+        .or_else(|| vector("g", &evaluated.g))
+        .or_else(|| matrix("B", &evaluated.damping))
+        .or_else(|| vector("V", &[evaluated.potential_energy]))
+        .or_else(|| vector("passive", &evaluated.passive));
+    match bad {
+        Some(what) => Err(format!("a value is not finite at this state: {what}")),
+        None => Ok(evaluated),
+    }
+}
+
+/// The first value that is not finite, with its index.
+fn first_non_finite(values: impl Iterator<Item = f64>) -> Option<(usize, f64)> {
+    values.enumerate().find(|(_, x)| !x.is_finite())
+}
+
+fn evaluate_at(mech: &Mechanics, state: &Full<'_>, point: Option<&PointKinematics>) -> Evaluated {
     let kin = point.unwrap_or(&mech.task);
     let n = mech.joints;
-    let state = &Full::new(mech, state);
     let damping = vector(&mech.damping, state);
     Evaluated {
         p: vector(&kin.position, state),
@@ -141,5 +194,25 @@ pub fn evaluate_frame(mech: &Mechanics, state: &State<'_>, frame: &FrameKinemati
     EvaluatedFrame {
         rotation: matrix(&frame.rotation, state),
         angular_jacobian: matrix(&frame.angular_jacobian, state),
+    }
+}
+
+/// [`evaluate_frame`], or why its numbers would not be valid (as [`try_evaluate`]).
+pub fn try_evaluate_frame(
+    mech: &Mechanics,
+    state: &State<'_>,
+    frame: &FrameKinematics,
+) -> Result<EvaluatedFrame, String> {
+    let full = &Full::checked(mech, state)?;
+    let evaluated = EvaluatedFrame {
+        rotation: matrix(&frame.rotation, full),
+        angular_jacobian: matrix(&frame.angular_jacobian, full),
+    };
+    let values = evaluated.rotation.iter().chain(&evaluated.angular_jacobian).flatten().copied();
+    match first_non_finite(values) {
+        Some((k, x)) => {
+            Err(format!("a value of frame `{}` is not finite at this state: {x} (entry {k})", frame.name))
+        }
+        None => Ok(evaluated),
     }
 }

@@ -1,9 +1,10 @@
 //! The expansion of the `rig!` proc-macro, kept here so that the macro crate is a thin shell
 //! and tests can compare the expansion with the build-script helper's output.
 //!
-//! Syntax: `rig!(pub mod NAME = "path/to/model.yaml", variant = "horizontal", scalar = f32, fma = true);`
-//! (`variant`, `scalar` and `fma` are optional; `scalar` defaults to `f64`, `fma` — fused
-//! multiply-adds, see [`crate::EmitOptions`] — to `false`). The path is relative to
+//! Syntax: `rig!(pub mod NAME = "path/to/model.yaml", variant = "horizontal", scalar = f32, fma = true,
+//! regressor = true);` (`variant`, `scalar`, `fma` and `regressor` are optional; `scalar` defaults
+//! to `f64`, `fma` — fused multiply-adds, see [`crate::EmitOptions`] — and `regressor` — the
+//! identification regressor, `crate::dynamics::regressor` — to `false`). The path is relative to
 //! the invoking crate's `CARGO_MANIFEST_DIR`. A bad model becomes a `compile_error!` spanned
 //! on the path literal, with an empty module of the requested name so that only one error is
 //! reported.
@@ -29,7 +30,8 @@ pub struct RigInput {
     pub variant: Option<LitStr>,
     /// The scalar type.
     pub scalar: Scalar,
-    /// The emission options (`fma = true`: fused multiply-adds).
+    /// The emission options (`fma = true`: fused multiply-adds; `regressor = true`: the
+    /// identification regressor).
     pub options: EmitOptions,
 }
 
@@ -50,6 +52,7 @@ impl Parse for RigInput {
         let mut variant = None;
         let mut scalar = None;
         let mut fma = None;
+        let mut regressor = None;
         while !input.is_empty() {
             input.parse::<Token![,]>()?;
             if input.is_empty() {
@@ -73,14 +76,15 @@ impl Parse for RigInput {
                     });
                 }
                 "fma" if fma.is_none() => fma = Some(input.parse::<syn::LitBool>()?.value),
-                "variant" | "scalar" | "fma" => {
+                "regressor" if regressor.is_none() => regressor = Some(input.parse::<syn::LitBool>()?.value),
+                "variant" | "scalar" | "fma" | "regressor" => {
                     return Err(syn::Error::new(key.span(), format!("`{key}` is given twice")));
                 }
                 other => {
                     return Err(syn::Error::new(
                         key.span(),
                         format!(
-                            "unknown option `{other}`: expected `variant = \"...\"`, `scalar = f32 | f64` or `fma = true | false`"
+                            "unknown option `{other}`: expected `variant = \"...\"`, `scalar = f32 | f64`, `fma = true | false` or `regressor = true | false`"
                         ),
                     ))
                 }
@@ -92,7 +96,10 @@ impl Parse for RigInput {
             path,
             variant,
             scalar: scalar.unwrap_or(Scalar::F64),
-            options: EmitOptions { fused_multiply_add: fma.unwrap_or(false) },
+            options: EmitOptions {
+                fused_multiply_add: fma.unwrap_or(false),
+                regressor: regressor.unwrap_or(false),
+            },
         })
     }
 }
@@ -121,7 +128,7 @@ pub fn expand(input: TokenStream, manifest_dir: &Path) -> TokenStream {
                 variant_name.map(|v| format!(" (variant {v})")).unwrap_or_default(),
                 scalar.name(),
                 if options.fused_multiply_add { ", fused multiply-adds" } else { "" }
-            );
+            ) + if options.regressor { ", with the identification regressor" } else { "" };
             quote! {
                 #[doc = #doc]
                 #visibility mod #module {

@@ -695,7 +695,14 @@ pub fn load(path: &Path) -> Result<Scene, String> {
 /// [`load`] of `text`, named `name` in the errors, its meshes read relative to `directory`.
 pub fn parse(name: &str, text: &str, directory: &Path) -> Result<Scene, String> {
     let file: SceneFile = serde_yaml::from_str(text).map_err(|e| match e.location() {
-        Some(at) => format!("error: {name}:{}:{}: {e}", at.line(), at.column()),
+        Some(at) => {
+            format!(
+                "error: {name}:{}:{}: {}",
+                at.line(),
+                at.column(),
+                crate::diag::strip_location(&e.to_string())
+            )
+        }
         None => format!("error: {name}: {e}"),
     })?;
     let positions = PositionIndex::build(text);
@@ -1042,6 +1049,15 @@ mod tests {
 
     fn depth(shape: SceneShape, p: [f64; 3]) -> f64 {
         shape.depth(&p).unwrap()
+    }
+
+    /// A syntax or shape error says where it is once, at the front, as the model's do.
+    #[test]
+    fn a_scene_error_names_its_location_once() {
+        let text = "objects:\n  - sphere: {center: [0, 0, 0], radius: 0.01}\n    colour: red\n";
+        let error = super::parse("bad.yaml", text, std::path::Path::new(".")).err().unwrap();
+        assert!(error.starts_with("error: bad.yaml:"), "{error}");
+        assert!(!error.contains(" at line "), "{error}");
     }
 
     #[test]

@@ -68,7 +68,7 @@ fn generated_code_equals_the_reviewed_snapshots() {
                     variant.as_ref().map(|v| format!("_{v}")).unwrap_or_default(),
                     scalar.name()
                 );
-                let options = EmitOptions { fused_multiply_add: false };
+                let options = EmitOptions { fused_multiply_add: false, ..Default::default() };
                 check(&name, &entry.path, &entry.display, variant.as_deref(), scalar, options);
                 checked += 1;
             }
@@ -81,7 +81,7 @@ fn generated_code_equals_the_reviewed_snapshots() {
             .is_some_and(|s| s.closed_form.is_some())
         {
             let name = format!("{}_newton_f64", model.name);
-            let options = EmitOptions { fused_multiply_add: false };
+            let options = EmitOptions { fused_multiply_add: false, ..Default::default() };
             check(&name, &entry.path, &entry.display, None, Scalar::F64, options);
             checked += 1;
         }
@@ -93,7 +93,24 @@ fn generated_code_equals_the_reviewed_snapshots() {
             "models/parallel_link_2dof.yaml",
             Some(variant),
             Scalar::F32,
-            EmitOptions { fused_multiply_add: true },
+            EmitOptions { fused_multiply_add: true, ..Default::default() },
+        );
+        checked += 1;
+    }
+    // The identification regressor (`EmitOptions::regressor`), as the tests crate's cases.
+    for (file, variant) in [
+        ("planar_arm_2dof", Some("vertical")),
+        ("pantograph_5bar", Some("vertical")),
+        ("joystick_1dof", None),
+    ] {
+        let display = format!("models/{file}.yaml");
+        check(
+            &format!("{file}_{}f64_regressor", variant.map(|v| format!("{v}_")).unwrap_or_default()),
+            &root().join(&display),
+            &display,
+            variant,
+            Scalar::F64,
+            EmitOptions { regressor: true, ..Default::default() },
         );
         checked += 1;
     }

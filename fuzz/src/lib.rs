@@ -82,7 +82,10 @@ pub fn check(input: &Input) -> Result<Outcome, String> {
             Err(diagnostics) => diagnostics,
         },
         Stage::Generator => {
-            let options = hapticgen_codegen::EmitOptions { fused_multiply_add: input.fused_multiply_add };
+            let options = hapticgen_codegen::EmitOptions {
+                fused_multiply_add: input.fused_multiply_add,
+                ..Default::default()
+            };
             match hapticgen_codegen::generate_with(&source, variant, input.scalar, options) {
                 Ok(generated) => {
                     if generated.formatted_items().trim().is_empty() {

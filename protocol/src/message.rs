@@ -12,13 +12,15 @@
 
 use serde::{Deserialize, Serialize};
 
-/// The protocol version both sides must speak (exchanged in the handshake). Version 4 adds
+/// The protocol version both sides must speak (exchanged in the handshake). Version 5 adds
+/// [`DeviceMessage::Scene`] (the device answers every `SetObject` with what it did with the
+/// object: [`SceneAnswer`]). Version 4 adds
 /// [`HostMessage::SetEffect`] (a free-space effect for the device's scene). Version 3 sends
 /// the state frame's channels in a code without zero bytes ([`CHANNEL_CODES`]; version 2 sent
 /// them as `i16`, and the encoder counts modulo 2¹⁶); version 2 added [`HostMessage::PilSetup`]
 /// and made [`DeviceMessage::Actuators`] an [`ActuatorFrame`] (processor in the loop);
 /// version 1 had neither.
-pub const PROTOCOL_VERSION: u16 = 4;
+pub const PROTOCOL_VERSION: u16 = 5;
 
 /// The values a state frame's channel can take: its two bytes on the wire are each from 1 to
 /// 255, the base-255 digits (low first) of the value plus [`CHANNEL_LIMIT`], each plus one.
@@ -379,6 +381,35 @@ impl HostKind {
     }
 }
 
+/// What a device did with one object it was sent ([`HostMessage::SetObject`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SceneOutcome {
+    /// The slot now holds the object, and the device renders it (an `Empty` object: the slot
+    /// is emptied).
+    Rendered,
+    /// The device cannot render this kind of object in its task's dimension (a 1-D device
+    /// renders no 3-D object; a 2-D device's planar renderer draws spheres as circles and
+    /// boxes as rectangles in the plane `z = 0`, not half-spaces nor anything off that
+    /// plane). The slot keeps what it held.
+    NotRendered,
+    /// The object's values cannot be rendered: not finite, a radius or a half-extent not
+    /// positive, a negative stiffness or damping, a zero normal. The slot keeps what it held.
+    BadValues,
+    /// The slot is not one of the device's ([`SCENE_SLOTS`]).
+    NoSlot,
+}
+
+/// The device's answer to one [`HostMessage::SetObject`] (protocol version 5): the slot it
+/// named and what became of the object. A device never answers [`SceneOutcome::Rendered`] for
+/// an object it does not render.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SceneAnswer {
+    /// The slot the host named.
+    pub slot: u8,
+    /// What the device did.
+    pub outcome: SceneOutcome,
+}
+
 /// Device → host.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum DeviceMessage {
@@ -390,6 +421,8 @@ pub enum DeviceMessage {
     Actuators(ActuatorFrame),
     /// The device's receive counters.
     Link(crate::frame::LinkCounters),
+    /// The answer to one [`HostMessage::SetObject`] (protocol version 5).
+    Scene(SceneAnswer),
 }
 
 /// One impedance tick's state in SI units, as the device has it (the input of

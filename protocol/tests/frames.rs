@@ -5,8 +5,8 @@
 use hapticgen_protocol::message::Channels;
 use hapticgen_protocol::{
     encode, ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, FrameDecoder, HostKind,
-    HostMessage, ImpedanceSettings, LinkCounters, LinkEffect, PilLaw, PilSetup, SceneObject, SensorFrame,
-    StateFrame, StateSample, MAX_FRAME_BYTES,
+    HostMessage, ImpedanceSettings, LinkCounters, LinkEffect, PilLaw, PilSetup, SceneAnswer, SceneObject,
+    SceneOutcome, SensorFrame, StateFrame, StateSample, MAX_FRAME_BYTES,
 };
 use proptest::prelude::*;
 
@@ -188,6 +188,15 @@ fn device_message() -> impl Strategy<Value = DeviceMessage> {
             }),
         any::<[u32; 5]>().prop_map(|[frames, oversized, bad_stuffing, bad_crc, not_a_message]| {
             DeviceMessage::Link(LinkCounters { frames, oversized, bad_stuffing, bad_crc, not_a_message })
+        }),
+        (any::<u8>(), 0usize..4).prop_map(|(slot, outcome)| {
+            let outcome = [
+                SceneOutcome::Rendered,
+                SceneOutcome::NotRendered,
+                SceneOutcome::BadValues,
+                SceneOutcome::NoSlot,
+            ][outcome];
+            DeviceMessage::Scene(SceneAnswer { slot, outcome })
         }),
     ]
 }
@@ -694,4 +703,30 @@ fn a_zero_byte_in_the_channels_is_not_a_message() {
     // The last byte is the last channel's high byte.
     *body.last_mut().unwrap() = 0;
     assert!(postcard::from_bytes::<DeviceMessage>(&body).is_err());
+}
+
+/// Protocol version 5: the device's answer to a `SetObject` is `Scene { slot, outcome }`, four
+/// bytes of postcard (the kind 4, the slot, the outcome's index); every outcome and the
+/// highest slot come back equal through the framing, and an outcome this version does not know
+/// is refused, not misread.
+#[test]
+fn scene_answers_round_trip() {
+    use hapticgen_protocol::PROTOCOL_VERSION;
+    assert_eq!(PROTOCOL_VERSION, 5);
+    let outcomes =
+        [SceneOutcome::Rendered, SceneOutcome::NotRendered, SceneOutcome::BadValues, SceneOutcome::NoSlot];
+    for (index, outcome) in outcomes.into_iter().enumerate() {
+        for slot in [0u8, 3, 255] {
+            let message = DeviceMessage::Scene(SceneAnswer { slot, outcome });
+            let body = postcard::to_allocvec(&message).unwrap();
+            assert_eq!(body, vec![4, slot, index as u8]);
+            let mut decoder = FrameDecoder::new();
+            assert_eq!(receive::<DeviceMessage>(&mut decoder, &frame_of(&message)), vec![message]);
+        }
+    }
+    #[derive(serde::Serialize)]
+    struct Unknown(u8, u8, u8);
+    let mut decoder = FrameDecoder::new();
+    assert!(receive::<DeviceMessage>(&mut decoder, &frame_of(&Unknown(4, 0, 4))).is_empty());
+    assert_eq!(decoder.counters().not_a_message, 1);
 }

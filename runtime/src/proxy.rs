@@ -285,6 +285,39 @@ impl<'a, S: Real, const K: usize, const M: usize> GodObject<'a, S, K, M> {
         self.held = ActiveSet::EMPTY;
     }
 
+    /// Puts the proxy at a free-space point near `hip`, for a scene set up while the device is
+    /// already where its objects are (a device's scene arrives over the link wherever the
+    /// grip is): `hip` itself when it is clear of every object; out of a solid, onto its
+    /// surface plus the proxy's radius and twice the skin along the surface's outward normal;
+    /// into a cavity, to its nearest point that far inside. The objects are taken one at a
+    /// time in slot order, so where they overlap the point may end inside another; a mesh
+    /// (a surface) moves it only when it is within the margin. The operator then feels the
+    /// object at once, pushed out along its normal, instead of nothing until the device leaves
+    /// it ([`GodObject::new`]'s first HIP must be in free space).
+    pub fn start_in_free_space(&mut self, hip: &[S; M]) {
+        let margin = self.radius + self.skin + self.skin;
+        let mut point = *hip;
+        for object in self.objects.iter().flatten() {
+            match object.kind {
+                ObjectKind::Solid => {
+                    if let Some(closest) = object.shape.closest(&point) {
+                        if closest.inside || !exceeds(norm(&sub(&point, &closest.point)), margin) {
+                            point = add_scaled(&closest.point, margin, &closest.normal);
+                        }
+                    }
+                }
+                ObjectKind::Cavity => {
+                    if let Some(inside) = object.shape.project_inside(&point, margin) {
+                        point = inside;
+                    }
+                }
+            }
+        }
+        if finite(&point) {
+            self.reset(point);
+        }
+    }
+
     /// The proxy's radius.
     pub fn radius(&self) -> S {
         self.radius

@@ -48,6 +48,29 @@ pub trait RigVisitor {
     );
 }
 
+/// A function of `(q, q̇, q̈)` of a generated rig, over slices.
+pub type StateFn<T> = fn(&[f64], &[f64], &[f64]) -> T;
+
+/// A rig generated with the identification regressor (`regressor_rigs`), its functions as
+/// plain function pointers over slices (`f64`).
+#[derive(Clone, Copy)]
+pub struct RegressorRig {
+    /// Where it came from.
+    pub info: RigInfo,
+    /// `BASE_PARAMETERS`.
+    pub names: &'static [&'static str],
+    /// `COULOMB_BAND`.
+    pub coulomb_band: f64,
+    /// `regressor(q, q̇, q̈)`, rows of `Y`.
+    pub regressor: StateFn<Vec<Vec<f64>>>,
+    /// `inverse_dynamics(q, q̇, q̈)`.
+    pub inverse_dynamics: StateFn<Vec<f64>>,
+    /// `damping()`.
+    pub damping: fn() -> Vec<f64>,
+    /// `base_parameters()`.
+    pub base_parameters: fn() -> Vec<f64>,
+}
+
 include!(concat!(env!("OUT_DIR"), "/registry.rs"));
 
 /// The workspace root (for loading model files in tests).

@@ -20,6 +20,9 @@ hapticgen_macros::rig!(mod pantograph_f64 = "../models/pantograph_5bar.yaml", va
 hapticgen_macros::rig!(mod pantograph_f32 = "../models/pantograph_5bar.yaml", scalar = f32);
 hapticgen_macros::rig!(mod five_bar_f64 = "../codegen/tests/good-models/five_bar_2dof.yaml");
 hapticgen_macros::rig!(mod vertical_f32_fma = "../models/parallel_link_2dof.yaml", variant = "vertical", scalar = f32, fma = true);
+hapticgen_macros::rig!(mod pantograph_regressor = "../models/pantograph_5bar.yaml", variant = "vertical", regressor = true);
+hapticgen_macros::rig!(mod pantograph_regressor_f32 = "../models/pantograph_5bar.yaml", variant = "vertical", scalar = f32, regressor = true);
+hapticgen_macros::rig!(mod phantom_regressor_f32 = "../models/phantom_3dof.yaml", scalar = f32, regressor = true);
 
 #[test]
 fn macro_generated_rigs_equal_the_evaluator() {
@@ -82,10 +85,36 @@ fn macro_expansion_equals_the_build_helper_output() {
     let file = "../models/parallel_link_2dof.yaml";
     let loaded =
         hapticgen_codegen::load_file(&manifest_dir.join(file), file, Some("vertical")).expect("valid model");
-    let options = hapticgen_codegen::EmitOptions { fused_multiply_add: true };
+    let options = hapticgen_codegen::EmitOptions { fused_multiply_add: true, ..Default::default() };
     let built = hapticgen_codegen::generate_model_with(loaded, Scalar::F64, options).formatted_items();
     assert_eq!(expanded, built);
     assert!(expanded.contains("::hapticgen_runtime::Real::mul_add("));
+    // `regressor = true` is the build helper's emission with the identification regressor.
+    let input =
+        quote!(pub mod rig = "../models/pantograph_5bar.yaml", variant = "vertical", regressor = true);
+    let expanded = expansion_items(input, manifest_dir).expect("the expansion is a module with items");
+    let file = "../models/pantograph_5bar.yaml";
+    let loaded =
+        hapticgen_codegen::load_file(&manifest_dir.join(file), file, Some("vertical")).expect("valid model");
+    let options = hapticgen_codegen::EmitOptions { regressor: true, ..Default::default() };
+    let built = hapticgen_codegen::generate_model_with(loaded, Scalar::F64, options).formatted_items();
+    assert_eq!(expanded, built);
+    assert!(expanded.contains("pub fn regressor("));
+}
+
+#[test]
+fn macro_regressor_is_the_build_scripts() {
+    use hapticgen_tests::pantograph_5bar_vertical_f64_regressor::Pantograph5bar as Built;
+    let (rig, built) = (pantograph_regressor::Pantograph5bar::NOMINAL, Built::NOMINAL);
+    assert_eq!(pantograph_regressor::Pantograph5bar::BASE_PARAMETERS, Built::BASE_PARAMETERS);
+    assert_eq!(rig.base_parameters(), built.base_parameters());
+    // The middle of the joint ranges, where the loop closes.
+    let middle = |d: &hapticgen_runtime::DriveTrain<f64>| 0.5 * (d.position_lower + d.position_upper);
+    let q = [middle(&Built::DRIVES[0]), middle(&Built::DRIVES[1])];
+    let (qd, qdd) = ([0.3, -0.7], [1.5, 2.0]);
+    let y = rig.regressor(&q, &qd, &qdd);
+    assert!(y.iter().flatten().all(|x| x.is_finite()), "{y:?}");
+    assert_eq!(y, built.regressor(&q, &qd, &qdd));
 }
 
 #[test]
@@ -198,4 +227,45 @@ fn the_impedance_tick_latches_a_loop_singularity_and_nothing_else_does() {
     let (margin, fault) = first_tick([coincident, std::f64::consts::PI - coincident + 1e-4]);
     assert!(margin < 1e-6, "{margin}");
     assert_eq!(fault, Some(FaultCode::LoopSingular));
+}
+
+#[test]
+fn f32_regressors_agree_with_the_f64_ones() {
+    use hapticgen_tests::pantograph_5bar_vertical_f64_regressor::Pantograph5bar as Pantograph;
+    use hapticgen_tests::phantom_3dof_f64_regressor::Phantom3dof as Phantom;
+    let close = |a: f32, b: f64, scale: f64| (f64::from(a) - b).abs() <= 1e-4 * scale;
+    let middle = |d: &hapticgen_runtime::DriveTrain<f64>| 0.5 * (d.position_lower + d.position_upper);
+
+    let q = [middle(&Pantograph::DRIVES[0]), middle(&Pantograph::DRIVES[1])];
+    let (qd, qdd) = ([0.3, -0.7], [1.5, 2.0]);
+    let want = Pantograph::NOMINAL.regressor(&q, &qd, &qdd);
+    let to32 = |v: &[f64]| -> Vec<f32> { v.iter().map(|&x| x as f32).collect() };
+    let (q32, qd32, qdd32) = (to32(&q), to32(&qd), to32(&qdd));
+    let got = pantograph_regressor_f32::Pantograph5bar::NOMINAL.regressor(
+        &q32.clone().try_into().unwrap(),
+        &qd32.clone().try_into().unwrap(),
+        &qdd32.clone().try_into().unwrap(),
+    );
+    let scale = want.iter().flatten().fold(1.0f64, |m, x| m.max(x.abs()));
+    for (g, w) in got.iter().flatten().zip(want.iter().flatten()) {
+        assert!(close(*g, *w, scale), "pantograph f32 {g} against f64 {w}");
+    }
+
+    let q = [0.3, -0.4, 0.8];
+    let (qd, qdd) = ([0.3, -0.7, 0.2], [1.5, 2.0, -1.0]);
+    let want = Phantom::NOMINAL.regressor(&q, &qd, &qdd);
+    let got = phantom_regressor_f32::Phantom3dof::NOMINAL.regressor(
+        &to32(&q).try_into().unwrap(),
+        &to32(&qd).try_into().unwrap(),
+        &to32(&qdd).try_into().unwrap(),
+    );
+    let scale = want.iter().flatten().fold(1.0f64, |m, x| m.max(x.abs()));
+    for (g, w) in got.iter().flatten().zip(want.iter().flatten()) {
+        assert!(close(*g, *w, scale), "phantom f32 {g} against f64 {w}");
+    }
+    let base: Vec<f64> =
+        phantom_regressor_f32::Phantom3dof::NOMINAL.base_parameters().iter().map(|&x| f64::from(x)).collect();
+    for (g, w) in base.iter().zip(Phantom::NOMINAL.base_parameters()) {
+        assert!((g - w).abs() <= 1e-6 * w.abs().max(1e-6), "base parameter {g} against {w}");
+    }
 }

@@ -15,6 +15,7 @@ mod proxy;
 mod random_chain;
 mod rebuild;
 mod recursive_properties;
+mod regressor;
 mod snapshot_text;
 mod snapshots;
 mod structure;

@@ -1,5 +1,5 @@
-//! Snapshots of the generated code of every shipped model, variant and scalar type, and of the
-//! parallel link with fused multiply-adds.
+//! Snapshots of the generated code of every shipped model, variant and scalar type, of the
+//! parallel link with fused multiply-adds, and of three rigs with the identification regressor.
 //!
 //! A change to the generator or to a model shows up here as a diff to review
 //! (`cargo insta review`); CI runs with `INSTA_UPDATE=no`, so an unreviewed change fails.
@@ -62,7 +62,7 @@ fn cases() -> Vec<Case> {
                     display: entry.display.clone(),
                     variant: variant.clone(),
                     scalar,
-                    options: EmitOptions { fused_multiply_add: false },
+                    options: EmitOptions { fused_multiply_add: false, ..Default::default() },
                     numerical: false,
                 });
             }
@@ -81,7 +81,7 @@ fn cases() -> Vec<Case> {
                 display: entry.display.clone(),
                 variant: None,
                 scalar: Scalar::F64,
-                options: EmitOptions { fused_multiply_add: false },
+                options: EmitOptions { fused_multiply_add: false, ..Default::default() },
                 numerical: true,
             });
         }
@@ -93,7 +93,25 @@ fn cases() -> Vec<Case> {
             display: "models/parallel_link_2dof.yaml".into(),
             variant: Some(variant.into()),
             scalar: Scalar::F32,
-            options: EmitOptions { fused_multiply_add: true },
+            options: EmitOptions { fused_multiply_add: true, ..Default::default() },
+            numerical: false,
+        });
+    }
+    // The identification regressor (`EmitOptions::regressor`), off by default: a serial arm, a
+    // planar closed chain and a spatial one, `f64`, named as the build script's modules.
+    for (file, variant) in [
+        ("planar_arm_2dof", Some("vertical")),
+        ("pantograph_5bar", Some("vertical")),
+        ("joystick_1dof", None),
+    ] {
+        let display = format!("models/{file}.yaml");
+        cases.push(Case {
+            name: format!("{file}_{}f64_regressor", variant.map(|v| format!("{v}_")).unwrap_or_default()),
+            path: workspace_root().join(&display),
+            display,
+            variant: variant.map(String::from),
+            scalar: Scalar::F64,
+            options: EmitOptions { regressor: true, ..Default::default() },
             numerical: false,
         });
     }
@@ -175,7 +193,13 @@ fn the_snapshot_folder_holds_exactly_the_asserted_snapshots() {
     let unfused: BTreeSet<String> = registry.0.iter().filter(|m| !m.ends_with("_fma")).cloned().collect();
     assert!(!unfused.is_empty(), "the registry of generated rigs is empty");
     let without_snapshot: Vec<&String> = unfused.difference(&names).collect();
-    let not_generated: Vec<&String> = names.difference(&registry.0).collect();
+    let generated: BTreeSet<String> = registry
+        .0
+        .iter()
+        .cloned()
+        .chain(hapticgen_tests::REGRESSOR_MODULES.iter().map(|m| m.to_string()))
+        .collect();
+    let not_generated: Vec<&String> = names.difference(&generated).collect();
     assert!(
         without_snapshot.is_empty() && not_generated.is_empty(),
         "generated rigs without a snapshot: {without_snapshot:?}; snapshots of no generated rig: {not_generated:?}"

@@ -63,7 +63,7 @@ fn parallel_link_tick_meets_the_operation_count_targets() {
     let plain = emit::tick_counts(&m, &mech, false);
     assert!(plain.arithmetic() <= 25 && plain.trigonometric == 4, "{plain:?}");
     assert_eq!(plain.fused, 0, "{plain:?}");
-    let fma = EmitOptions { fused_multiply_add: true };
+    let fma = EmitOptions { fused_multiply_add: true, ..Default::default() };
     let fused = emit::tick_counts_with(&m, &mech, false, fma);
     assert!(fused.arithmetic() + fused.trigonometric < 25, "{fused:?}");
     assert!(fused.fused > 0 && fused.trigonometric == 4, "{fused:?}");
@@ -81,7 +81,7 @@ fn parallel_link_tick_meets_the_operation_count_targets() {
 fn emitted_fused_terms_match_their_counts() {
     for variant in ["vertical", "horizontal"] {
         let (m, mech) = parallel_link(variant);
-        let fma = EmitOptions { fused_multiply_add: true };
+        let fma = EmitOptions { fused_multiply_add: true, ..Default::default() };
         let counts = emit::tick_counts_with(&m, &mech, true, fma);
         let generated = hapticgen_codegen::generate_model_with(m, Scalar::F32, fma);
         let terms = generated.stats.functions.iter().find(|(name, _)| name == "terms").unwrap().1;

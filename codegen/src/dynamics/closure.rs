@@ -163,6 +163,38 @@ impl Closures {
             .find_map(|(c, l)| l.joints.iter().position(|&j| j == coordinate).map(|r| (c, r)))
     }
 
+    /// Values of every substituted atom, as [`Closures::values`], or why the loops cannot be
+    /// closed at that state (on the file's branch): a planar loop whose two circles are apart
+    /// (or touch: the workspace boundary), spatial loops where Newton's method fails or a
+    /// singular configuration lies between the assembly and the state.
+    pub fn checked_values(
+        &self,
+        q: &[f64],
+        qd: &[f64],
+        parameters: &[f64],
+    ) -> Result<Vec<(Atom, f64)>, String> {
+        if let Some(spatial) = &self.spatial {
+            return spatial.checked_values(q, qd, parameters, self.spatial_first_atom());
+        }
+        let values = self.values(q, qd, parameters);
+        for (c, closure) in self.loops.iter().enumerate() {
+            let mine = |atom: &Atom| {
+                (0..2).any(|r| (0..self.actuated).any(|j| *atom == self.sensitivity(c, r, j)))
+                    || closure
+                        .joints
+                        .iter()
+                        .any(|&k| matches!(atom, Atom::Sin(i) | Atom::Cos(i) if usize::from(*i) == k))
+            };
+            if values.iter().any(|(atom, value)| mine(atom) && !value.is_finite()) {
+                return Err(format!(
+                    "the loop `{}` cannot close at this state (its two links cannot reach each other, or are aligned: the workspace boundary)",
+                    closure.name
+                ));
+            }
+        }
+        Ok(values)
+    }
+
     /// Values of every substituted atom (passive sines, cosines and velocities, `A`, `Ȧ`)
     /// at a state of the actuated coordinates, in `f64`.
     pub fn values(&self, q: &[f64], qd: &[f64], parameters: &[f64]) -> Vec<(Atom, f64)> {

@@ -7,7 +7,8 @@
 //! by either derivation; [`closure`] analyses a closed chain's loops (planar ones in closed
 //! form, spatial ones numerically in [`spatial_loops`], or in closed form where they are a
 //! Delta's, [`three_spheres`]) and `reduction` reduces the open tree's mechanics to the
-//! actuated coordinates.
+//! actuated coordinates; [`regressor`] writes the inverse dynamics linear in the base
+//! parameters for identification.
 
 pub mod closure;
 pub mod kinematics;
@@ -16,6 +17,7 @@ pub mod mechanics;
 mod projection;
 pub mod recursive;
 mod reduction;
+pub mod regressor;
 pub mod spatial_loops;
 pub mod three_spheres;
 

@@ -1252,3 +1252,67 @@ pub fn christoffel(dag: &mut Dag, inertia: &[NodeId], joint_names: &[String]) ->
     }
     c
 }
+
+/// The standard inertial parameters of each body in its joint frame, in the order of the
+/// regressor's columns (`crate::dynamics::regressor`): mass `m`, first moment `h = m c`
+/// (x, y, z) and the inertia about the joint-frame origin (xx, xy, xz, yy, yz, zz).
+pub(crate) fn joint_frame_parameters(model: &Model) -> Vec<(String, [Poly; 10])> {
+    links(model)
+        .into_iter()
+        .map(|l| {
+            let [hx, hy, hz] = l.first_moment;
+            let i = l.inertia;
+            let values = [
+                l.mass,
+                hx,
+                hy,
+                hz,
+                i[0][0].clone(),
+                i[0][1].clone(),
+                i[0][2].clone(),
+                i[1][1].clone(),
+                i[1][2].clone(),
+                i[2][2].clone(),
+            ];
+            (l.name, values)
+        })
+        .collect()
+}
+
+/// The inverse dynamics' columns for each standard parameter of [`joint_frame_parameters`]
+/// (body-major, ten per body): the Newton–Euler algorithm run with that parameter 1 and every
+/// other one, rotor inertias included, 0. The inverse dynamics is linear in these parameters,
+/// so the columns are its regressor; the kinematics of the forward pass are shared by all.
+pub(crate) fn standard_columns(dag: &mut Dag, model: &Model) -> Vec<Vec<NodeId>> {
+    let mut recursion = Recursion::new(dag, model, Formulation::AboutOrigin);
+    let n = recursion.rotor.len();
+    recursion.rotor = vec![Poly::zero(); n];
+    recursion.rotor_coupling.clear();
+    let zero3 = || [Poly::zero(), Poly::zero(), Poly::zero()];
+    let mut columns = Vec::new();
+    for body in 0..recursion.links.len() {
+        for k in 0..10 {
+            for link in &mut recursion.links {
+                link.mass = Poly::zero();
+                link.first_moment = zero3();
+                link.inertia = std::array::from_fn(|_| zero3());
+            }
+            let one = Poly::constant(1.0);
+            let link = &mut recursion.links[body];
+            match k {
+                0 => link.mass = one,
+                1..=3 => link.first_moment[k - 1] = one,
+                _ => {
+                    let (r, c) = INERTIA_ENTRIES[k - 4];
+                    link.inertia[r][c] = one.clone();
+                    link.inertia[c][r] = one;
+                }
+            }
+            columns.push(recursion.newton_euler(true, true, true));
+        }
+    }
+    columns
+}
+
+/// The six distinct entries of a symmetric inertia, in the regressor's order.
+pub(crate) const INERTIA_ENTRIES: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];

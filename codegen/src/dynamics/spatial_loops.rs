@@ -11,9 +11,11 @@
 //! **Position level**: Newton's method on `Φ(q_a, q_p) = 0` over `q_p`,
 //! `Φ_p Δq_p = −Φ`, from the assembly the file chooses (each passive joint's `assembly` angle
 //! at the middle of the actuated ranges, refined here), continued along the straight line to
-//! the requested `q_a` in steps, so the solution stays on the file's branch. A state where
-//! Newton does not converge within its bound gives NaN values (an error value, never a
-//! plausible-looking number).
+//! the requested `q_a` in steps, so the solution stays on the file's branch. The evaluator
+//! ([`SpatialLoops::continued`]) steps at most [`CONTINUATION_STEP`] in each actuated
+//! coordinate and requires the sign of `det Φ_p` to stay the assembly's. A state where Newton
+//! does not converge, or which lies beyond a singular configuration, gives NaN values and the
+//! reason (an error value, never the plausible-looking numbers of another branch).
 //!
 //! **Velocity and acceleration level**, as in the planar case: `q̇_p = A q̇_a`,
 //! `A = −Φ_p⁻¹ Φ_a`, `Ȧ = −Φ_p⁻¹ (Φ̇_p A + Φ̇_a)`, solved numerically (pivoted LU); the
@@ -28,7 +30,7 @@ use std::sync::OnceLock;
 
 use super::kinematics::{body_frames, mat_vec, point_positions};
 use super::three_spheres::{ClosedFormAtoms, ThreeSpheres};
-use crate::math::dense::{independent_columns, solve};
+use crate::math::dense::{determinant, independent_columns, solve};
 use crate::model::{Model, SpatialClosure};
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::{Atom, AtomValues, Poly, State};
@@ -39,6 +41,11 @@ const NEWTON_ITERATIONS: usize = 30;
 const RESIDUAL_TOLERANCE: f64 = 1e-13;
 /// Continuation steps from the assembly to a requested state.
 const CONTINUATION_STEPS: usize = 8;
+/// The largest step (rad, or m) of any actuated coordinate between two solutions of the
+/// evaluator's continuation from the assembly ([`SpatialLoops::continued`]).
+pub const CONTINUATION_STEP: f64 = 0.05;
+/// The most steps [`SpatialLoops::continued`] takes (1,000 rad at [`CONTINUATION_STEP`]).
+const MAX_CONTINUATION_STEPS: usize = 20_000;
 /// How far (rad, or m) the actuated coordinates may have moved since the last solution for the
 /// generated code's Newton to start from it (`hapticgen_runtime::loops::close_loops`): 50 rad/s
 /// at a 1 kHz tick. [`SpatialLoops::analyse`] checks that it reaches the file's branch from
@@ -549,16 +556,34 @@ impl SpatialLoops {
         atoms
     }
 
-    /// Atom values at `(q_a, q̇_a)`, paired with their atoms ([`SpatialLoops::values_from`]
-    /// without a guess).
+    /// Atom values at `(q_a, q̇_a)`, paired with their atoms ([`SpatialLoops::checked_values`],
+    /// with every value NaN where the loops cannot be solved on the file's branch).
     pub fn values(&self, q: &[f64], qd: &[f64], parameters: &[f64], first_atom: usize) -> Vec<(Atom, f64)> {
-        self.atoms(first_atom).into_iter().zip(self.values_from(q, qd, parameters, None).0).collect()
+        self.checked_values(q, qd, parameters, first_atom)
+            .unwrap_or_else(|_| self.atoms(first_atom).into_iter().map(|atom| (atom, f64::NAN)).collect())
+    }
+
+    /// Atom values at `(q_a, q̇_a)`, paired with their atoms, the loops solved by
+    /// [`SpatialLoops::continued`] from the assembly; or why they cannot be solved there on the
+    /// file's branch.
+    pub fn checked_values(
+        &self,
+        q: &[f64],
+        qd: &[f64],
+        parameters: &[f64],
+        first_atom: usize,
+    ) -> Result<Vec<(Atom, f64)>, String> {
+        let actuated = &q[..self.actuated.min(q.len())];
+        let passive = self.continued(actuated, parameters)?;
+        let (values, _) = self.values_at(actuated, qd, parameters, passive)?;
+        Ok(self.atoms(first_atom).into_iter().zip(values).collect())
     }
 
     /// The values of [`SpatialLoops::atoms`] at `(q_a, q̇_a)`, and the passive coordinates
     /// found. Newton's method starts from `guess` (a previous solution: a warm start) if
-    /// given and converges from it, else continues from the assembly (the file's branch).
-    /// Every value NaN, and no coordinates, where the loops cannot be solved.
+    /// given and converges from it, else continues from the assembly
+    /// ([`SpatialLoops::continued`], the file's branch). Every value NaN, and no coordinates,
+    /// where the loops cannot be solved.
     pub fn values_from(
         &self,
         q: &[f64],
@@ -567,13 +592,86 @@ impl SpatialLoops {
         guess: Option<&[f64]>,
     ) -> (Vec<f64>, Option<Vec<f64>>) {
         let (n, p) = (self.actuated, self.passive);
-        let failed = || (vec![f64::NAN; 5 * p + 2 * p * n], None);
         let actuated = &q[..n.min(q.len())];
         let warm = guess.filter(|g| g.len() == p).and_then(|g| self.newton(actuated, g, parameters));
-        let Some(passive) = warm.or_else(|| self.passive_coordinates(actuated, parameters)) else {
-            return failed();
+        let passive = match warm {
+            Some(passive) => Ok(passive),
+            None => self.continued(actuated, parameters),
         };
-        let Some(a) = self.sensitivity_at(actuated, &passive, parameters) else { return failed() };
+        match passive.and_then(|passive| self.values_at(actuated, qd, parameters, passive)) {
+            Ok((values, passive)) => (values, Some(passive)),
+            Err(_) => (vec![f64::NAN; 5 * p + 2 * p * n], None),
+        }
+    }
+
+    /// The passive coordinates at `actuated`, continued from the assembly along the straight
+    /// line in the actuated coordinates in steps of at most [`CONTINUATION_STEP`] in each (and
+    /// never fewer than the analysis' continuation takes), with
+    /// Newton's method at every step; the sign of `det Φ_p` must stay the assembly's all the
+    /// way (a sign change is a singular configuration passed, beyond which Newton's method
+    /// would land on another assembly branch). The reason where it fails to converge or the
+    /// sign changes.
+    pub fn continued(&self, actuated: &[f64], parameters: &[f64]) -> Result<Vec<f64>, String> {
+        let distance = largest(
+            &self.nominal_actuated.iter().zip(actuated).map(|(from, to)| to - from).collect::<Vec<_>>(),
+        );
+        if !distance.is_finite() {
+            return Err("the actuated coordinates are not finite".into());
+        }
+        // Never fewer steps than the analysis' continuation ([`SpatialLoops::passive_coordinates`]).
+        let steps = (distance / CONTINUATION_STEP).ceil().max(CONTINUATION_STEPS as f64);
+        if steps > MAX_CONTINUATION_STEPS as f64 {
+            return Err(format!(
+                "the state is {distance:.4} rad from the assembly (at the middle of the joint ranges): too far to follow the assembly's branch"
+            ));
+        }
+        let steps = steps as usize;
+        let determinant_at = |along: &[f64], passive: &[f64]| {
+            let state = self.tree_state(along, passive);
+            let (_, phi_p, _) = self.position_level(&State { q: &state, qd: &[], parameters });
+            determinant(phi_p)
+        };
+        let start = determinant_at(&self.nominal_actuated, &self.assembly);
+        let mut passive = self.assembly.clone();
+        let at = |along: &[f64]| along.iter().map(|q| format!("{q:.4}")).collect::<Vec<_>>().join(", ");
+        for step in 1..=steps {
+            let t = step as f64 / steps as f64;
+            let along: Vec<f64> =
+                self.nominal_actuated.iter().zip(actuated).map(|(from, to)| from + t * (to - from)).collect();
+            let Some(next) = self.newton(&along, &passive, parameters) else {
+                return Err(format!(
+                    "the loops do not close at this state: following the assembly's branch from the middle of the joint ranges, Newton's method fails at q = [{}] rad ({:.0}% of the way)",
+                    at(&along),
+                    100.0 * t
+                ));
+            };
+            // NaN (a non-finite Jacobian) fails too.
+            let same_sign = determinant_at(&along, &next) * start > 0.0;
+            if !same_sign {
+                return Err(format!(
+                    "the loops pass a singular configuration on the way from the assembly: the constraint Jacobian's determinant changes sign at q = [{}] rad ({:.0}% of the way); beyond it lies another assembly branch",
+                    at(&along),
+                    100.0 * t
+                ));
+            }
+            passive = next;
+        }
+        Ok(passive)
+    }
+
+    /// The atom values ([`SpatialLoops::atoms`]' order) at `(q_a, q̇_a)` with the passive
+    /// coordinates found, and those coordinates; why not where `Φ_p` is singular.
+    fn values_at(
+        &self,
+        actuated: &[f64],
+        qd: &[f64],
+        parameters: &[f64],
+        passive: Vec<f64>,
+    ) -> Result<(Vec<f64>, Vec<f64>), String> {
+        let (n, p) = (self.actuated, self.passive);
+        let singular =
+            || "the loops are singular at this state (the constraint Jacobian has lost rank)".to_string();
+        let a = self.sensitivity_at(actuated, &passive, parameters).ok_or_else(singular)?;
         let state = self.tree_state(actuated, &passive);
         let (_, phi_p, _) = self.position_level(&State { q: &state, qd: &[], parameters });
         let passive_velocity: Vec<f64> =
@@ -591,14 +689,14 @@ impl SpatialLoops {
                     .collect()
             })
             .collect();
-        let Some(a_dot) = solve(phi_p, right) else { return failed() };
+        let a_dot = solve(phi_p, right).ok_or_else(singular)?;
         let mut values = Vec::with_capacity(5 * p + 2 * p * n);
         for (&angle, &velocity) in passive.iter().zip(&passive_velocity) {
             values.extend([angle.sin(), angle.cos(), angle, velocity]);
         }
         values.extend(a.iter().chain(&a_dot).flatten());
         values.extend(a_dot.iter().map(|row| row.iter().zip(qd).map(|(x, v)| x * v).sum::<f64>()));
-        (values, Some(passive))
+        Ok((values, passive))
     }
 }
 

@@ -17,7 +17,7 @@ use super::fused_impl::fused_impl;
 use super::literal::{unsuffixed, Scalar};
 use super::loops::loop_constraints_impl;
 use super::lower::{BodyEmitter, EmitOptions};
-use super::methods::{closure_margin_function, function_sharing, terms_function};
+use super::methods::{closure_margin_function, function_sharing, regressor_function, terms_function};
 use super::naming::{rig_type_name, SharedNames};
 
 /// Operation counts of each emitted function and of the fused tick.
@@ -58,6 +58,12 @@ pub fn items(
         stats.functions.push(("closure_margin".into(), counts));
         methods.extend(margin);
         loop_margin = quote!(, closure_margin);
+    }
+    // The identification regressor, on request only.
+    if options.regressor {
+        let (regressor, counts) = regressor_function(model, mech, scalar, options, &names);
+        stats.functions.push(("regressor".into(), counts));
+        methods.extend(regressor);
     }
     let (fused, fused_counts) = fused_impl(model, mech, scalar, options, &names);
     stats.functions.extend(fused_counts);

@@ -30,6 +30,9 @@ pub struct EmitOptions {
     /// optimiser then minimises that count. Results differ from unfused code by the rounding
     /// the fusion saves, and are the same on every target (the runtime's `mul_add` is exact).
     pub fused_multiply_add: bool,
+    /// Also emit the dynamic-identification regressor `regressor(q, q̇, q̈)` with its base
+    /// parameters (`BASE_PARAMETERS`, `base_parameters()`; `crate::dynamics::regressor`).
+    pub regressor: bool,
 }
 
 /// Emits the body of one or more outputs sharing one DAG.

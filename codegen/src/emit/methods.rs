@@ -264,3 +264,85 @@ fn spatial_loop_margin_function(model: &Model, scalar: Scalar) -> (TokenStream, 
     };
     (tokens, OpCounts::default())
 }
+
+/// The identification regressor `regressor(q, q̇, q̈)`, its base parameters' names,
+/// combinations and nominal values (`crate::dynamics::regressor`); returns them with the
+/// regressor's operation counts.
+pub(crate) fn regressor_function(
+    model: &Model,
+    mech: &Mechanics,
+    scalar: Scalar,
+    options: EmitOptions,
+    names: &SharedNames,
+) -> (TokenStream, OpCounts) {
+    use crate::dynamics::regressor::{Regressor, COULOMB_BAND};
+    let regressor = Regressor::new(model, mech.closures.as_ref());
+    let mut body = BodyEmitter::new(model, mech, scalar, options);
+    body.share_names(names);
+    let roots = regressor.build(&mut body.dag, model);
+    let (n, p) = (regressor.joints, regressor.base.len());
+    let shape = Shape::Matrix(n, p);
+    let (statements, outputs, counts) =
+        body.emit_named(&roots, "regressor", &output_names("regressor", shape));
+    let value = shape_value(shape, &outputs);
+    let ret = shape_tokens(shape, scalar);
+    let s = scalar.tokens();
+    let (q_used, qd_used) = arguments_used(&body, &roots);
+    let q = if q_used { quote!(q) } else { quote!(_q) };
+    let qd = if qd_used { quote!(qd) } else { quote!(_qd) };
+    let qdd =
+        if uses_atom(&body.dag, &roots, |a| matches!(a, Atom::Qdd(_))) { quote!(qdd) } else { quote!(_qdd) };
+    let (n_tokens, p_tokens) = (unsuffixed(n), unsuffixed(p));
+    let frames = if regressor.joint_frames {
+        "each body's joint frame (after its joint, before a Denavit–Hartenberg tail)"
+    } else {
+        "each body's own frame"
+    };
+    let mut doc: Vec<String> = vec![
+        " The dynamic-identification regressor: `τ = Y(q, q̇, q̈) β` with `β` the base parameters".into(),
+        " [`Self::BASE_PARAMETERS`] (identifiable combinations of the standard ones; nominal values".into(),
+        " [`Self::base_parameters`]), `τ` the inverse dynamics plus viscous friction `fv q̇`, Coulomb".into(),
+        format!(
+            " friction `fc q̇/√(q̇² + δ²)` (δ = [`Self::COULOMB_BAND`] = {COULOMB_BAND}) and an offset `off`."
+        ),
+        format!(" Standard parameters: per body `m`, `m c` and the inertia about the origin of {frames};"),
+        " per joint the reflected rotor inertia `ia = N² J_m`, `fv`, `fc`, `off`. Columns:".into(),
+        String::new(),
+    ];
+    for (k, b) in regressor.base.iter().enumerate() {
+        let unit = regressor.standard[b.combination[0].0].unit;
+        doc.push(format!(" {k}. `{}` = {} ({unit})", b.name, b.describe(&regressor.standard)));
+    }
+    let names_list = regressor.base.iter().map(|b| b.name.as_str());
+    let combinations = regressor.base.iter().map(|b| b.describe(&regressor.standard));
+    let values = regressor.base.iter().map(|b| scalar.literal(b.nominal));
+    let band = scalar.literal(COULOMB_BAND);
+    let tokens = quote! {
+        /// The base parameters' names, in the order of the regressor's columns.
+        pub const BASE_PARAMETERS: [&'static str; #p_tokens] = [#(#names_list),*];
+        /// The standard parameters each base parameter combines, in the order of
+        /// [`Self::BASE_PARAMETERS`].
+        pub const BASE_PARAMETER_COMBINATIONS: [&'static str; #p_tokens] = [#(#combinations),*];
+        /// The velocity band `δ` of the regressor's Coulomb columns `q̇/√(q̇² + δ²)`, rad/s (m/s
+        /// for a prismatic joint).
+        pub const COULOMB_BAND: #s = #band;
+
+        /// The base parameters at the model's nominal values (viscous friction from the
+        /// damping, Coulomb friction from the drives, offsets 0), in the order of
+        /// [`Self::BASE_PARAMETERS`].
+        #[inline]
+        #[must_use]
+        pub fn base_parameters(&self) -> [#s; #p_tokens] {
+            [#(#values),*]
+        }
+
+        #(#[doc = #doc])*
+        #[inline]
+        #[must_use]
+        pub fn regressor(&self, #q: &[#s; #n_tokens], #qd: &[#s; #n_tokens], #qdd: &[#s; #n_tokens]) -> #ret {
+            #statements
+            #value
+        }
+    };
+    (tokens, counts)
+}

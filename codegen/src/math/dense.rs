@@ -1,6 +1,7 @@
 //! Small dense linear algebra in `f64` for the generator's numerical analyses (the spatial
 //! loops' Newton iteration and their rank checks): an LU solve with partial pivoting and a
-//! column-pivoted Gram–Schmidt that tells which columns of a matrix are independent.
+//! column-pivoted Gram–Schmidt that tells which columns of a matrix are independent, and a
+//! determinant (whose sign the evaluator follows along a continuation).
 
 /// Solves `A X = B` in place for the columns of `B` (`a` is `n × n`, `b` is `n × k`, both
 /// row-major) by Gaussian elimination with partial pivoting. `None` if a pivot is not larger
@@ -45,6 +46,39 @@ pub fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<Vec<f64>>) -> Option<Vec<Vec<f64>>
         }
     }
     Some(b)
+}
+
+/// The determinant of the square matrix `a` (row-major), by Gaussian elimination with
+/// partial pivoting: NaN if an entry is not finite, `0.0` for an exactly singular matrix.
+pub fn determinant(mut a: Vec<Vec<f64>>) -> f64 {
+    let n = a.len();
+    if a.iter().flatten().any(|x| !x.is_finite()) {
+        return f64::NAN;
+    }
+    let mut det = 1.0;
+    for column in 0..n {
+        let Some(pivot_row) = (column..n).max_by(|&i, &j| a[i][column].abs().total_cmp(&a[j][column].abs()))
+        else {
+            return 0.0;
+        };
+        let pivot = a[pivot_row][column];
+        if pivot == 0.0 {
+            return 0.0;
+        }
+        if pivot_row != column {
+            a.swap(column, pivot_row);
+            det = -det;
+        }
+        det *= pivot;
+        let (upper, lower) = a.split_at_mut(column + 1);
+        for row in lower.iter_mut() {
+            let factor = row[column] / pivot;
+            for (x, &above) in row[column..].iter_mut().zip(&upper[column][column..]) {
+                *x -= factor * above;
+            }
+        }
+    }
+    det
 }
 
 /// Which columns of the `m × n` matrix `a` (row-major) are independent, by Gram–Schmidt with
@@ -110,5 +144,14 @@ mod tests {
         assert_eq!(chosen[0], 3, "the longest column first");
         let (chosen, rest) = independent_columns(&[vec![1.0, 0.0], vec![0.0, 1.0]], 1e-10);
         assert_eq!((chosen.len(), rest.len()), (2, 0));
+    }
+
+    #[test]
+    fn determinant_keeps_the_sign_of_row_exchanges() {
+        // Worked out by hand: det = 0·(3 − 0) − 2·(3 − 0) + 1·(0 − 2) = −8.
+        let a = vec![vec![0.0, 2.0, 1.0], vec![1.0, 1.0, 0.0], vec![2.0, 0.0, 3.0]];
+        assert!((determinant(a) + 8.0).abs() < 1e-14);
+        assert_eq!(determinant(vec![vec![1.0, 2.0], vec![2.0, 4.0]]), 0.0);
+        assert!(determinant(vec![vec![f64::NAN]]).is_nan());
     }
 }

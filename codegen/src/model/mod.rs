@@ -289,7 +289,7 @@ fn load_unclamped<T>(
     }
     let mut locator = Locator::new(source);
     let document: serde_yaml::Value = serde_yaml::from_str(source.text).map_err(|e| {
-        let message = strip_location(&e.to_string());
+        let message = crate::diag::strip_location(&e.to_string());
         // serde_yaml reports a repeated key at the mapping, with the path inside the message.
         if let (true, Some((path, (line, column)))) =
             (message.contains("duplicate entry with key"), locator.index().duplicate_key())
@@ -397,14 +397,6 @@ fn load_unclamped<T>(
     then(model, &locator)
 }
 
-/// serde_yaml appends " at line L column C" to messages; the diagnostic carries it already.
-fn strip_location(message: &str) -> String {
-    match message.find(" at line ") {
-        Some(i) => message[..i].to_string(),
-        None => message.to_string(),
-    }
-}
-
 /// Rejects NaN and infinite literals anywhere in the document.
 fn check_literals(document: &serde_yaml::Value, locator: &Locator<'_>) -> Result<(), Diagnostic> {
     /// A step of the walk: a mapping key (made a path segment only for the literal that is
@@ -463,7 +455,7 @@ fn typed<T: DeserializeOwned>(value: &serde_yaml::Value, locator: &Locator<'_>) 
                 serde_path_to_error::Segment::Enum { .. } | serde_path_to_error::Segment::Unknown => {}
             }
         }
-        let raw = strip_location(&error.inner().to_string());
+        let raw = crate::diag::strip_location(&error.inner().to_string());
         let (message, hint) = explain_serde_error(&raw);
         // An unknown key is reported at the key itself, and so is an empty value (which the
         // event parser places at the next token); anything else at the value.
@@ -547,7 +539,22 @@ fn explain_serde_error(raw: &str) -> (String, Option<String>) {
                     "sequence" => "a list",
                     other => other,
                 };
-                return (format!("expected {expected}, got {got}"), None);
+                // A list or mapping where one number belongs: say what a number may be written as.
+                let hint = match (expected, got) {
+                    ("a number", "a list" | "a mapping") => Some(
+                        "one number, which may carry a unit or be arithmetic on numbers and parameters: e.g. `7.72`, `30 g` or `0.13 N m * 7.72`"
+                            .to_string(),
+                    ),
+                    (whole, "a list" | "a mapping") if whole.starts_with("a whole number") => {
+                        Some("one whole number, e.g. `1280`".to_string())
+                    }
+                    ("a mapping", _) => Some(
+                        "write its keys as `key: value` lines below it, or `{key: value, …}` on one line, e.g. a drive `{like: capstan, gear_ratio: 5}`; docs/model-format.md lists each entry's keys"
+                            .to_string(),
+                    ),
+                    _ => None,
+                };
+                return (format!("expected {expected}, got {got}"), hint);
             }
         }
     }

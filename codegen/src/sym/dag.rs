@@ -151,6 +151,11 @@ impl Dag {
         }
     }
 
+    /// Forgets the names given with [`Dag::hint`] that `keep` rejects.
+    pub(crate) fn retain_hints(&mut self, keep: impl Fn(&str) -> bool) {
+        self.hints.retain(|_, name| keep(name));
+    }
+
     /// The names given with [`Dag::hint`].
     pub fn hints(&self) -> &HashMap<NodeId, String> {
         &self.hints

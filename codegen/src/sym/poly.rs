@@ -182,7 +182,8 @@ impl Poly {
         Self::from_terms([(vec![(atom, 1)], 1.0)])
     }
 
-    fn from_terms(terms: impl IntoIterator<Item = (Monomial, f64)>) -> Self {
+    /// The sum of the given terms (monomials with their coefficients).
+    pub(crate) fn from_terms(terms: impl IntoIterator<Item = (Monomial, f64)>) -> Self {
         let mut acc = Accumulator::default();
         for (m, c) in terms {
             acc.add(m, c);

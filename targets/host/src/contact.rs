@@ -458,6 +458,28 @@ pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Chec
         },
         deepest <= 1e-9,
     );
+    // A scene nothing touched checks nothing (a scene written in millimetres is metres away):
+    // some sample must have the HIP inside a solid, taken where it was when rendered. (The
+    // scenarios' own solids, placed where the hand presses, have their own checks of contact.)
+    if setup.from_scene && !setup.solids.is_empty() {
+        let touching = samples
+            .rows()
+            .filter(|sample| {
+                sample.rendered_at.is_finite()
+                    && setup.solids.iter().any(|s| s.depth_at(&sample.hip, sample.rendered_at) > 0.0)
+            })
+            .count();
+        check(
+            "some sample in contact with a solid",
+            "at least 1 sample".into(),
+            if touching == 0 {
+                format!("{NO_SAMPLE} (are the solids where the device reaches, in metres?)")
+            } else {
+                format!("{touching} of {} samples", trace.rows.len())
+            },
+            touching > 0,
+        );
+    }
     // The other checks are about the scenario's own solids.
     if setup.from_scene {
         return checks;

@@ -106,24 +106,7 @@ pub fn run_all(sim: &Simulation, run: &ContactRun, out: &Path) -> Result<(Vec<Ch
         .ok();
     }
     let passed = checks.iter().filter(|c| c.pass).count();
-    let mut text = format!(
-        "# Contact scenarios: {}\n\nThe contact scenarios of `hapticgen simulate` (targets/host/src/contact.rs) run \
-         on the model's generated code with the god object of the runtime rendering the solids, Controller {}, \
-         K = {stiffness} N/m and B = {damping} N·s/m on every surface, a hand of 200 N/m and 1 N·s/m pressing {:.1} mm \
-         into a surface; the plant with \
-         its friction, backlash, encoder and sensor quantisation and motor electrics. The checks read the trace: \
-         the proxy against each solid's own inside test, the rendered force's direction from the proxy's offset \
-         from the HIP the controller measured.\n\n**{passed} of {} checks pass.**\n\n",
-        sim.model.file,
-        1e3 * run.push,
-        match run.law {
-            ImpedanceLaw::ForceFeedback => "1",
-            ImpedanceLaw::AccelerationFeedback => "2 (first variant)",
-            ImpedanceLaw::NaturalInertia => "2 (second variant)",
-            ImpedanceLaw::JacobianTranspose => "3",
-        },
-        checks.len()
-    );
+    let mut text = introduction(&sim.model.file, run.law, stiffness, damping, run.push, passed, checks.len());
     text.push_str(&report::table(&checks));
     text.push('\n');
     text.push_str(&sections);
@@ -138,4 +121,59 @@ pub fn run_all(sim: &Simulation, run: &ContactRun, out: &Path) -> Result<(Vec<Ch
     )
     .ok();
     Ok((checks, summary))
+}
+
+/// The controller's name in the paper's numbering.
+fn controller_name(law: ImpedanceLaw) -> &'static str {
+    match law {
+        ImpedanceLaw::ForceFeedback => "1",
+        ImpedanceLaw::AccelerationFeedback => "2 (first variant)",
+        ImpedanceLaw::NaturalInertia => "2 (second variant)",
+        ImpedanceLaw::JacobianTranspose => "3",
+    }
+}
+
+/// The report's title and first paragraph: the model file, controller, surfaces' stiffness (N/m)
+/// and damping (N·s/m), how far the hand presses (m, printed in mm) and how many checks pass.
+fn introduction(
+    file: &str,
+    law: ImpedanceLaw,
+    stiffness: f64,
+    damping: f64,
+    push: f64,
+    passed: usize,
+    total: usize,
+) -> String {
+    format!(
+        "# Contact scenarios: {file}\n\nThe contact scenarios of `hapticgen simulate` (targets/host/src/contact.rs) run \
+         on the model's generated code with the god object of the runtime rendering the solids, Controller {}, \
+         K = {stiffness} N/m and B = {damping} N·s/m on every surface, a hand of 200 N/m and 1 N·s/m pressing {:.1} mm \
+         into a surface; the plant with \
+         its friction, backlash, encoder and sensor quantisation and motor electrics. The checks read the trace: \
+         the proxy against each solid's own inside test, the rendered force's direction from the proxy's offset \
+         from the HIP the controller measured.\n\n**{passed} of {total} checks pass.**\n\n",
+        controller_name(law),
+        1e3 * push,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The paragraph quotes the numbers it was given, each in its place.
+    #[test]
+    fn the_introduction_quotes_its_numbers_in_place() {
+        let text =
+            introduction("models/falcon_delta.yaml", ImpedanceLaw::NaturalInertia, 1500.0, 5.0, 0.004, 7, 9);
+        assert!(text.starts_with("# Contact scenarios: models/falcon_delta.yaml\n"), "{text}");
+        assert!(text.contains("Controller 2 (second variant), K = 1500 N/m and B = 5 N·s/m"), "{text}");
+        assert!(text.contains("pressing 4.0 mm into a surface"), "{text}");
+        assert!(text.contains("**7 of 9 checks pass.**"), "{text}");
+        let text = introduction("m.yaml", ImpedanceLaw::JacobianTranspose, 800.0, 2.5, 0.010, 1, 1);
+        assert!(
+            text.contains("Controller 3, K = 800 N/m and B = 2.5 N·s/m") && text.contains("pressing 10.0 mm"),
+            "{text}"
+        );
+    }
 }

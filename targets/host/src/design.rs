@@ -584,7 +584,7 @@ pub fn write_report(model: &CheckedModel, steps: usize, dir: &Path) -> Result<Su
             .and_then(|_| std::fs::write(&path, text))
             .map_err(|e| DesignError::Write(path.display().to_string(), e))
     };
-    write("summary.json", serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n")?;
+    write("summary.json", crate::output::to_json(&summary, true).unwrap_or_default() + "\n")?;
     let design = Design::new(model);
     let (n, m) = (design.joints(), design.task_dim());
     let mut csv = String::new();
@@ -611,7 +611,7 @@ pub fn write_report(model: &CheckedModel, steps: usize, dir: &Path) -> Result<Su
                     hi,
                     design.resolution(s),
                 ])
-                .map(|v| format!("{v}"))
+                .map(|v| format!("{}", crate::output::unsigned_zero(v)))
                 .collect();
         csv.push_str(&row.join(","));
         csv.push('\n');

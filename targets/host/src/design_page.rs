@@ -31,7 +31,7 @@ const THREE_MODULE: &str = include_str!("../assets/three/three.module.js");
 const PAGE_TEMPLATE: &str = include_str!("../assets/design-page.html");
 
 /// Largest number of grid states the page's view holds.
-const VIEW_STATES: usize = 4096;
+pub const VIEW_STATES: usize = 4096;
 
 /// The drawing of the rig at every state of a grid over its actuated joints.
 #[derive(Clone, Debug)]

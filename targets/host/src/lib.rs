@@ -5,8 +5,9 @@
 //! evaluation tapes), [`rig`] (any model as a `RigModel`), [`generated`] (the shipped models'
 //! generated code), [`plant`] (the simulated device: rigid bodies, motors, friction, backlash,
 //! sensors), [`sim`] (the closed loop of Fig. 1 with an operator), [`simulate`] (scenarios
-//! and dispatch), [`analysis`] (fits of the responses), [`plot`] and [`output`] (figures and
-//! CSV) and [`paper`] (the experiments of section 6 and the report).
+//! and dispatch), [`analysis`] (fits of the responses), [`plot`] and [`output`] (figures;
+//! CSV with its columns' sidecar; printed numbers without negative zeros) and [`paper`] (the
+//! experiments of section 6 and the report).
 #![deny(missing_docs)]
 
 pub mod analysis;

@@ -85,11 +85,18 @@ enum Command {
         /// rounded operation).
         #[arg(long)]
         fma: bool,
+        /// Also emit the dynamic-identification regressor `regressor(q, qd, qdd)` over the base
+        /// parameters, with `BASE_PARAMETERS` and `base_parameters()` (docs/identification.md).
+        #[arg(long)]
+        regressor: bool,
         /// Write to this file instead of standard output.
         #[arg(short, long)]
         output: Option<PathBuf>,
     },
-    /// Evaluate p, J, J̇, J̇q̇, D, C, Cq̇, g, B at one state.
+    /// Evaluate p, J, J̇, J̇q̇, D, C, Cq̇, g, B at one state (JSON on standard output). Exits 1,
+    /// with the reason on standard error, for a state outside the joints' limits (unless
+    /// --beyond-limits), where a closed chain's loops cannot close on the file's assembly branch,
+    /// or where a value is not finite.
     Eval {
         /// The model file.
         model: PathBuf,
@@ -112,9 +119,10 @@ enum Command {
         /// With --frame: the measured joints' angles, comma-separated (default zero).
         #[arg(long, value_delimiter = ',', allow_hyphen_values = true, requires = "frame")]
         measured: Vec<f64>,
-        /// Print JSON (the only format).
+        /// Evaluate even where the state is outside the joints' limits (the values are still
+        /// refused where a closed chain's loops cannot close or a value is not finite).
         #[arg(long)]
-        json: bool,
+        beyond_limits: bool,
     },
     /// Count the operations of each emitted function.
     Stats {
@@ -130,6 +138,9 @@ enum Command {
         /// (two flops) in the `fused` column.
         #[arg(long)]
         fma: bool,
+        /// Also count the identification regressor (`generate --regressor`).
+        #[arg(long)]
+        regressor: bool,
     },
     /// Print the JSON Schema of the model format.
     Schema,
@@ -431,7 +442,7 @@ struct ConnectArgs {
 
 fn connect(args: ConnectArgs) -> Result<(), String> {
     use hapticgen_host::connect::{self as link, Event, Session};
-    use hapticgen_protocol::{HostMessage, SceneObject, SCENE_SLOTS};
+    use hapticgen_protocol::HostMessage;
     if !(args.duration.is_finite() && args.duration >= 0.0) {
         return Err(format!("error: --duration must be a finite, non-negative time, got {}", args.duration));
     }
@@ -447,16 +458,23 @@ fn connect(args: ConnectArgs) -> Result<(), String> {
         "connected: protocol {}, {} joints, {} task axes, impedance loop {} Hz, rig name hash {:08x}",
         info.version, info.joints, info.task_dim, info.impedance_loop_hz, info.rig_name_hash
     );
-    if let Some(settings) = impedance {
-        session.send(&HostMessage::SetImpedance(settings))?;
-    }
-    if let Some(scene) = &scene {
-        for slot in 0..SCENE_SLOTS {
-            let object = scene.objects.get(slot).copied().unwrap_or(SceneObject::Empty);
-            session.send(&HostMessage::SetObject { slot: slot as u8, object })?;
+    // The settings and the scene, sent after each Hello (again if the device starts afresh).
+    let configure = |session: &mut Session| -> Result<(), String> {
+        if let Some(settings) = impedance {
+            session.send(&HostMessage::SetImpedance(settings))?;
         }
-        session.send(&HostMessage::SetEffect(scene.effect))?;
-        println!("scene: {} objects loaded, effect {:?}", scene.objects.len(), scene.effect);
+        if let Some(scene) = &scene {
+            session.send_scene(scene)?;
+        }
+        Ok(())
+    };
+    configure(&mut session)?;
+    if let Some(scene) = &scene {
+        println!(
+            "scene: {} objects rendered by the device (each answered), effect {:?}",
+            scene.objects.len(),
+            scene.effect
+        );
         if !scene.moving.is_empty() {
             println!("scene: {} moving, sent again every {} ms", scene.moving.len(), args.motion_period);
         }
@@ -493,7 +511,7 @@ fn connect(args: ConnectArgs) -> Result<(), String> {
     // the safety checks).
     let moving = scene.as_ref().filter(|scene| !scene.moving.is_empty());
     let mut next_motion = start + motion_period;
-    let (mut frames, mut missing) = (0u64, 0u64);
+    let (mut frames, mut missing, mut resets) = (0u64, 0u64, 0u64);
     let mut first_tick = None;
     let mut last: Option<hapticgen_protocol::StateFrame> = None;
     let mut shown = start;
@@ -521,9 +539,34 @@ fn connect(args: ConnectArgs) -> Result<(), String> {
             None if moving.is_some() => continue,
             None => break,
         };
-        let Event::State(received) = event else { continue };
+        let received = match event {
+            Event::State(received) => received,
+            // The answers to the moving objects' updates.
+            Event::Scene(answer) => match scene.as_ref().and_then(|scene| link::refusal(scene, &answer)) {
+                Some(error) => return Err(error),
+                None => continue,
+            },
+            _ => continue,
+        };
         let frame = received.frame;
         if let Some(previous) = &last {
+            let was_enabled = previous.status & hapticgen_protocol::StateFrame::ENABLED != 0;
+            if link::device_reset(previous, &frame, was_enabled) {
+                // The device started again: it has forgotten the handshake, the settings and
+                // the scene, and its bridges are off.
+                println!(
+                    "device reset (tick {} after {}): sending Hello, the settings and the scene again",
+                    frame.tick, previous.tick
+                );
+                session.sync(link::HELLO_TIMEOUT)?;
+                configure(&mut session)?;
+                if args.enable || args.check_safety {
+                    session.send(&HostMessage::Enable)?;
+                }
+                resets += 1;
+                last = None;
+                continue;
+            }
             missing += link::missing_between(previous.tick, frame.tick);
         }
         first_tick.get_or_insert(frame.tick);
@@ -565,6 +608,9 @@ fn connect(args: ConnectArgs) -> Result<(), String> {
     );
     if let Some(frame) = &last {
         println!("last: {}", link::status_line(&info, frame, frames, missing));
+    }
+    if resets > 0 {
+        println!("the device started again {resets} times; each time it was sent Hello, the settings and the scene");
     }
     if failed > 0 {
         return Err(format!("error: {failed} of the link's safety checks failed"));
@@ -687,17 +733,17 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             Ok(())
         }
-        Command::Generate { model, variant, scalar, fma, output } => {
+        Command::Generate { model, variant, scalar, fma, regressor, output } => {
             let m = load(&model, variant.as_deref())?;
             let scalar = match scalar {
                 ScalarArg::F32 => Scalar::F32,
                 ScalarArg::F64 => Scalar::F64,
             };
-            let options = hapticgen_codegen::EmitOptions { fused_multiply_add: fma };
+            let options = hapticgen_codegen::EmitOptions { fused_multiply_add: fma, regressor };
             let text = hapticgen_codegen::generate_model_with(m, scalar, options).file_text();
             write_or_print(output.as_deref(), &text)
         }
-        Command::Eval { model, variant, q, qd, point, frame, measured, json: _ } => {
+        Command::Eval { model, variant, q, qd, point, frame, measured, beyond_limits } => {
             let m = load(&model, variant.as_deref())?;
             let n = m.joints.len();
             if q.len() != n {
@@ -717,6 +763,33 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             if let Some(bad) = q.iter().chain(&qd).chain(&measured).find(|v| !v.is_finite()) {
                 return Err(format!("error: state values must be finite, got {bad}"));
+            }
+            if !beyond_limits {
+                let limits = m
+                    .joints
+                    .iter()
+                    .map(|j| (&j.name, j.kind, j.lower, j.upper))
+                    .zip(&q)
+                    // The measured joints' angles enter only a frame's evaluation.
+                    .chain(
+                        m.measured
+                            .iter()
+                            .filter(|_| frame.is_some())
+                            .map(|j| (&j.name, j.kind, j.lower, j.upper))
+                            .zip(&measured),
+                    );
+                for ((name, kind, lower, upper), &value) in limits {
+                    if !(lower..=upper).contains(&value) {
+                        let unit = match kind {
+                            model::JointKind::Revolute => "rad",
+                            model::JointKind::Prismatic => "m",
+                        };
+                        return Err(format!(
+                            "error: joint `{name}` = {value} {unit} is outside its limits [{lower}, {upper}] {unit}{}; pass --beyond-limits to evaluate there anyway",
+                            if unit == "rad" && value.abs() > std::f64::consts::TAU { " (degrees? --q takes radians)" } else { "" }
+                        ));
+                    }
+                }
             }
             let mech = hapticgen_codegen::derive(&m);
             let selected = match &point {
@@ -742,17 +815,16 @@ fn run(cli: Cli) -> Result<(), String> {
                 let q_measured: Vec<f64> = q.iter().chain(&measured).copied().collect();
                 let qd_measured = vec![0.0; q_measured.len()];
                 let state = eval::State { q: &q_measured, qd: &qd_measured, parameters: &parameters };
-                let values = eval::evaluate_frame(&mech, &state, kin);
-                println!("{}", serde_json::to_string(&values).map_err(|e| e.to_string())?);
-                return Ok(());
+                let values =
+                    eval::try_evaluate_frame(&mech, &state, kin).map_err(|e| format!("error: {e}"))?;
+                return print_json(&values);
             }
-            let values = eval::evaluate(&mech, &state, selected);
-            println!("{}", serde_json::to_string(&values).map_err(|e| e.to_string())?);
-            Ok(())
+            let values = eval::try_evaluate(&mech, &state, selected).map_err(|e| format!("error: {e}"))?;
+            print_json(&values)
         }
-        Command::Stats { model, variant, json, fma } => {
+        Command::Stats { model, variant, json, fma, regressor } => {
             let m = load(&model, variant.as_deref())?;
-            let options = hapticgen_codegen::EmitOptions { fused_multiply_add: fma };
+            let options = hapticgen_codegen::EmitOptions { fused_multiply_add: fma, regressor };
             let generated = hapticgen_codegen::generate_model_with(m, Scalar::F64, options);
             if json {
                 let map: serde_json::Map<String, serde_json::Value> = generated
@@ -1053,9 +1125,9 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     hapticgen_host::output::write_csv(&trace, &args.output.join("trace.csv"))?;
     let figures = paper::trace_figures(&trace, &args.output)?;
     println!(
-        "{}: {:.2} s simulated in {:.2} s ({:.2}× real time), controller on {}; wrote {} and {} figures",
-        args.model.display(),
+        "simulated {:.2} s of {} in {:.2} s ({:.2}× real time), controller on {}; wrote {} and {} figures",
         trace.duration(),
+        args.model.display(),
         trace.wall_seconds,
         trace.duration() / trace.wall_seconds.max(1e-9),
         if sim.uses_generated_code() { "generated code" } else { "the model's tapes" },
@@ -1119,10 +1191,10 @@ fn pil(args: PilArgs) -> Result<(), String> {
     hapticgen_host::output::write_csv(&trace, &run.output.join("trace.csv"))?;
     let figures = paper::trace_figures(&trace, &run.output)?;
     println!(
-        "{}: {:.2} s simulated in {:.2} s ({:.2}× real time), controller: firmware `{name}` under QEMU; wrote {} and {} \
-         figures",
-        run.model.display(),
+        "simulated {:.2} s of {} in {:.2} s ({:.2}× real time), controller: firmware `{name}` under QEMU; wrote {} and \
+         {} figures",
         trace.duration(),
+        run.model.display(),
         trace.wall_seconds,
         trace.duration() / trace.wall_seconds.max(1e-9),
         run.output.join("trace.csv").display(),
@@ -1376,6 +1448,12 @@ fn write_or_print(path: Option<&std::path::Path>, text: &str) -> Result<(), Stri
             Ok(())
         }
     }
+}
+
+/// Prints `value` as one line of JSON, every negative zero as `0.0`.
+fn print_json(value: &impl serde::Serialize) -> Result<(), String> {
+    println!("{}", hapticgen_host::output::to_json(value, false).map_err(|e| format!("error: {e}"))?);
+    Ok(())
 }
 
 fn main() -> ExitCode {

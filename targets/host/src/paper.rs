@@ -263,7 +263,7 @@ fn figure4(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
     let prediction = second_order(&t, STEP_AT, force, inertia, bd, kd);
     plot::save(
         &Chart {
-            title: "Fig. 4: joystick, Controller 2 (M_d = W⁻¹), K_d = 1 N·m/rad, B_d = 0.01".into(),
+            title: "Fig. 4: joystick, Controller 2 (M_d = W⁻¹), K_d = 1 N·m/rad, B_d = 0.01 N·m·s/rad".into(),
             x_label: "time (s)".into(),
             y_label: "displacement q (rad)".into(),
             // The prediction first, so that the friction-free response, which follows it within
@@ -391,7 +391,7 @@ fn figure5(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
         }
     }
     let title = |what: &str| {
-        format!("Fig. 5: joystick, Controller 2 (acceleration term), B_d = 0.05, K_d = 1, {what}")
+        format!("Fig. 5: joystick, Controller 2 (acceleration term), B_d = 0.05 N·m·s/rad, K_d = 1 N·m/rad, {what}")
     };
     plot::save(
         &Chart {
@@ -427,7 +427,7 @@ fn figure5(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
     writeln!(s, "## Fig. 5: Controller 2, first variant (joystick)\n").ok();
     writeln!(
         s,
-        "A 1 N·m step, K_d = {kd}, B_d = {bd}, several M_d. \"Ideal sensing\" is an encoder of 2²² counts per \
+        "A 1 N·m step, K_d = {kd} N·m/rad, B_d = {bd} N·m·s/rad, several M_d. \"Ideal sensing\" is an encoder of 2²² counts per \
          motor turn without friction or backlash; \"quantised\" is the model's 2000 counts per turn, from which \
          the runtime estimates the acceleration by filtered differences (eq. (10) needs it).\n"
     )
@@ -484,8 +484,11 @@ fn figure6(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
         ideal_series.push(Series::line(format!("M_d = {md} kg·m²"), points(&ideal, "t", "x0", 1.0, 1.0)));
         noisy_series.push(Series::line(format!("M_d = {md} kg·m²"), points(&noisy, "t", "x0", 1.0, 1.0)));
     }
-    let title =
-        |what: &str| format!("Fig. 6: joystick, Controller 1 (force sensing), B_d = 0.03, K_d = 4, {what}");
+    let title = |what: &str| {
+        format!(
+            "Fig. 6: joystick, Controller 1 (force sensing), B_d = 0.03 N·m·s/rad, K_d = 4 N·m/rad, {what}"
+        )
+    };
     plot::save(
         &Chart {
             title: title("ideal sensing"),
@@ -510,8 +513,8 @@ fn figure6(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
     writeln!(s, "## Fig. 6: Controller 1, force sensing (joystick)\n").ok();
     writeln!(
         s,
-        "A {force} N·m load on the handle (the handle's sensors read at most {full_scale} N·m), K_d = {kd}, \
-         B_d = {bd}, several M_d. The noisy runs add the model's sensor noise (rms) and ADC quantisation and the \
+        "A {force} N·m load on the handle (the handle's sensors read at most {full_scale} N·m), K_d = {kd} N·m/rad, \
+         B_d = {bd} N·m·s/rad, several M_d. The noisy runs add the model's sensor noise (rms) and ADC quantisation and the \
          2000-count encoder.\n"
     )
     .ok();
@@ -686,6 +689,32 @@ fn singularity(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) 
     Ok(())
 }
 
+/// The header of Fig. 7's table; [`figure7_row`] writes a cell under each column.
+const FIGURE7_HEADER: &str = "| shape | max penetration (mm) | spring split s (mm) | backlash play (mm) | outline traced |\n| --- | --- | --- | --- | --- |\n";
+
+/// What Fig. 7's penetration check expects, from the spring split `s` and the tip's backlash
+/// play (m, printed in mm): at least half the split, at most twice it plus the play.
+fn figure7_expected(split: f64, play: f64) -> String {
+    format!(
+        "≥ s/2 = {:.2} mm and ≤ 2·s + backlash play {:.2} mm = {:.2} mm (spring split s = {:.2} mm)",
+        0.5 * split * 1e3,
+        play * 1e3,
+        (2.0 * split + play) * 1e3,
+        split * 1e3
+    )
+}
+
+/// One row of Fig. 7's table: the same numbers as its checks quote (m, printed in mm).
+fn figure7_row(label: &str, penetration: f64, split: f64, play: f64, coverage: f64) -> String {
+    format!(
+        "| {label} | {:.2} | {:.2} | {:.2} | {} |\n",
+        penetration * 1e3,
+        split * 1e3,
+        play * 1e3,
+        percent(coverage)
+    )
+}
+
 /// Fig. 7: tracing a square and a circle from the inside with Controller 3.
 fn figure7(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> Result<(), String> {
     let rendering = sim.model.rendering.clone();
@@ -764,12 +793,7 @@ fn figure7(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
                 "{label}: maximum penetration (hand 200 N/m pushing {} mm beyond the wall)",
                 settings.push_depth * 1e3
             ),
-            format!(
-                "≥ 0.5 s and ≤ 2 s + backlash play {:.2} mm = {:.2} mm (spring split s = {:.2} mm)",
-                play * 1e3,
-                bound * 1e3,
-                split * 1e3
-            ),
+            figure7_expected(split, play),
             format!("{:.2} mm", penetration * 1e3),
             penetration >= 0.5 * split && penetration <= bound,
         );
@@ -806,14 +830,7 @@ fn figure7(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
             },
             &out.join(file),
         )?;
-        writeln!(
-            text,
-            "| {label} | {:.2} | {:.2} | {} |",
-            penetration * 1e3,
-            static_penetration * 1e3,
-            percent(coverage)
-        )
-        .ok();
+        text.push_str(&figure7_row(label, penetration, split, play, coverage));
     }
     let mut s = String::new();
     writeln!(
@@ -837,7 +854,7 @@ fn figure7(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
          the 0.8° backlash adds up to the play of the tip that the motor-shaft encoders cannot see.\n"
     )
     .ok();
-    writeln!(s, "| shape | max penetration (mm) | spring split (mm) | backlash play (mm) | outline traced |\n| --- | --- | --- | --- | --- |\n{text}").ok();
+    writeln!(s, "{FIGURE7_HEADER}{text}").ok();
     writeln!(s, "![Fig. 7a](fig7a-square.png)\n\n![Fig. 7b](fig7b-circle.png)\n").ok();
     report.sections.push(s);
     Ok(())
@@ -1092,4 +1109,56 @@ pub fn trace_figures(trace: &Trace, out: &Path) -> Result<usize, String> {
         count += 1;
     }
     Ok(count)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The numbers (mm, two decimals) in a line of text, in order.
+    fn numbers(text: &str) -> Vec<f64> {
+        text.split(|c: char| !(c.is_ascii_digit() || c == '.'))
+            .filter(|w| w.contains('.') && w.len() > 1)
+            .filter_map(|w| w.parse().ok())
+            .collect()
+    }
+
+    /// Fig. 7's table has a cell under every header column, and its spring split and play are the
+    /// numbers its check row quotes.
+    #[test]
+    fn figure7_rows_quote_the_checked_numbers() {
+        let (penetration, split, play, coverage) = (0.00118, 0.00166, 0.00021, 0.97);
+        let row = figure7_row("square", penetration, split, play, coverage);
+        let header = FIGURE7_HEADER.lines().next().unwrap_or_default();
+        let columns = |line: &str| line.trim().trim_matches('|').split('|').count();
+        assert_eq!(columns(&row), columns(header), "{header}\n{row}");
+        let cells: Vec<&str> = row.trim().trim_matches('|').split('|').map(str::trim).collect();
+        let expected = figure7_expected(split, play);
+        // ≥ s/2, the play, 2·s + play, s.
+        assert_eq!(numbers(&expected), vec![0.83, 0.21, 3.53, 1.66], "{expected}");
+        assert_eq!(cells[1], "1.18");
+        assert_eq!(cells[2], format!("{:.2}", numbers(&expected)[3]), "the split: {row} vs {expected}");
+        assert_eq!(cells[3], format!("{:.2}", numbers(&expected)[1]), "the play: {row} vs {expected}");
+        assert!(!expected.contains(" s and ") && !expected.contains("2 s"), "reads as seconds: {expected}");
+    }
+
+    /// Every K_d and B_d the report and its figures print carries a unit.
+    #[test]
+    fn gains_are_printed_with_units() {
+        let source = include_str!("paper.rs");
+        for (at, _) in source.match_indices("B_d = ").chain(source.match_indices("K_d = ")) {
+            let after = &source[at + 6..];
+            let value_end =
+                after.find(|c: char| !(c.is_ascii_digit() || c == '.' || "{}kdb".contains(c))).unwrap_or(0);
+            if value_end == 0 {
+                continue;
+            }
+            let unit = &after[value_end..];
+            assert!(
+                unit.starts_with(" N"),
+                "a gain without a unit: {}",
+                source[at..].chars().take(40).collect::<String>()
+            );
+        }
+    }
 }

@@ -62,8 +62,7 @@ fn shipped_models_pass_check() {
 
 #[test]
 fn eval_prints_every_quantity_with_its_shape() {
-    let output =
-        hapticgen(&["eval", "models/parallel_link_2dof.yaml", "--q", "1.2,0.3", "--qd", "0.5,-1", "--json"]);
+    let output = hapticgen(&["eval", "models/parallel_link_2dof.yaml", "--q", "1.2,0.3", "--qd", "0.5,-1"]);
     assert!(output.status.success());
     let value: serde_json::Value = serde_json::from_slice(&output.stdout).expect("JSON");
     for (key, rows, cols) in [
@@ -87,7 +86,7 @@ fn eval_prints_every_quantity_with_its_shape() {
     let p0 = value["p"][0].as_f64().unwrap();
     assert!((p0 - (0.15 * 1.2f64.cos() - 0.05 * 0.3f64.cos())).abs() < 1e-15);
     // Another named point, and errors.
-    let output = hapticgen(&["eval", "models/joystick_1dof.yaml", "--q", "0.3", "--point", "tip", "--json"]);
+    let output = hapticgen(&["eval", "models/joystick_1dof.yaml", "--q", "0.3", "--point", "tip"]);
     let value: serde_json::Value = serde_json::from_slice(&output.stdout).expect("JSON");
     assert!((value["p"][0].as_f64().unwrap() - 0.15 * 0.3f64.sin()).abs() < 1e-15);
     assert_eq!(hapticgen(&["eval", "models/joystick_1dof.yaml", "--q", "0.3,0.1"]).status.code(), Some(1));

@@ -619,3 +619,28 @@ fn a_scene_s_spring_effect_holds_the_grip_against_the_hand() {
         assert!((row[proxy_z] - anchor[2]).abs() < 1e-9, "the reference left the anchor: {row:?}");
     }
 }
+
+/// `generate --regressor` adds the identification regressor (and says so in the header);
+/// `stats --regressor` counts it; without the flag neither changes.
+#[test]
+fn regressor_on_request_in_generate_and_stats() {
+    let model = "models/planar_arm_2dof.yaml";
+    let plain = hapticgen(&["generate", model, "--variant", "vertical"]);
+    assert!(plain.status.success(), "{}", String::from_utf8_lossy(&plain.stderr));
+    assert!(!String::from_utf8_lossy(&plain.stdout).contains("fn regressor("));
+    let with = hapticgen(&["generate", model, "--variant", "vertical", "--regressor"]);
+    assert!(with.status.success(), "{}", String::from_utf8_lossy(&with.stderr));
+    let text = String::from_utf8_lossy(&with.stdout);
+    assert!(text.contains("--scalar f64 --regressor -o <this file>"), "{}", &text[..400]);
+    assert!(
+        text.contains("pub fn regressor(") && text.contains("pub fn base_parameters(&self) -> [f64; 13]")
+    );
+    assert!(text.contains("\"zz_link1 + m_link2 + ia_shoulder\""));
+    let stats = |extra: &[&str]| {
+        let output = hapticgen(&[&["stats", model, "--variant", "vertical"], extra].concat());
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        String::from_utf8_lossy(&output.stdout).into_owned()
+    };
+    assert!(!stats(&[]).lines().any(|l| l.starts_with("regressor ")));
+    assert!(stats(&["--regressor"]).lines().any(|l| l.starts_with("regressor ")));
+}

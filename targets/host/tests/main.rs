@@ -9,4 +9,5 @@ mod current_gains;
 mod design;
 mod faults;
 mod paper;
+mod silent;
 mod zwidth;

@@ -27,5 +27,28 @@ fn every_experiment_meets_its_criteria() {
         }
         assert!(text.contains(&format!("{figure}.png")), "report does not show {figure}");
     }
+    // Fig. 7's table: a cell under every header column, and the spring split s each row shows
+    // is the one its penetration check quotes.
+    let header = text.lines().find(|l| l.starts_with("| shape |")).expect("Fig. 7's table");
+    let cells = |line: &str| {
+        line.trim().trim_matches('|').split('|').map(|c| c.trim().to_string()).collect::<Vec<_>>()
+    };
+    for shape in ["square", "circle"] {
+        let row = text.lines().find(|l| l.starts_with(&format!("| {shape} |"))).expect("a row");
+        assert_eq!(cells(row).len(), cells(header).len(), "{header}\n{row}");
+        let split_column =
+            cells(header).iter().position(|c| c.starts_with("spring split")).expect("a split column");
+        let check = report
+            .checks
+            .iter()
+            .find(|c| {
+                c.experiment == "Fig. 7" && c.criterion.starts_with(&format!("{shape}: maximum penetration"))
+            })
+            .expect("the check");
+        let quoted =
+            check.expected.split("spring split s = ").nth(1).expect("s quoted").trim_end_matches(" mm)");
+        assert_eq!(cells(row)[split_column], quoted, "{row} vs {}", check.expected);
+        assert_eq!(cells(row)[1], check.measured.trim_end_matches(" mm"), "{row} vs {}", check.measured);
+    }
     let _ = std::fs::remove_dir_all(&out);
 }

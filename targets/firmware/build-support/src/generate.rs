@@ -24,7 +24,7 @@ fn literal(value: f64) -> String {
 pub fn emit_options() -> EmitOptions {
     println!("cargo:rerun-if-env-changed=HAPTICGEN_FW_FMA");
     let on = std::env::var("HAPTICGEN_FW_FMA").map(|v| v == "1").unwrap_or(false);
-    EmitOptions { fused_multiply_add: on }
+    EmitOptions { fused_multiply_add: on, ..Default::default() }
 }
 
 /// Generates the rig of `v` in `scalar` into `out_dir/<module>_rig.rs` and returns the text of

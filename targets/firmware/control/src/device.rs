@@ -7,13 +7,17 @@
 //! time.
 //!
 //! The controller follows a [`LinkSource`]: at start a spring to the start pose; on a 2-D task,
-//! the planar scene of the objects the host sent, with its free-space effect. A change of
-//! settings, objects or effect replaces the
+//! the planar scene of the objects the host sent, on a 3-D task the god object's, with the
+//! scene's free-space effect. Every `SetObject` is answered (`DeviceMessage::Scene`): the slot
+//! holds the object and the device renders it, or the slot keeps what it held and the answer
+//! says why ([`object_outcome`]; an object is never acknowledged that is not rendered). A
+//! change of settings, objects or effect replaces the
 //! reference (the renderer starts afresh at the device point) and keeps the estimator and the
 //! filters running; with every slot empty again, the spring to the start pose is back.
 
 use hapticgen_protocol::{
-    ChannelScales, LinkEffect, SceneObject, StateFrame, StateSample, MAX_FRAME_BYTES, MAX_TASK,
+    encode, ChannelScales, DeviceMessage, LinkEffect, SceneAnswer, SceneObject, SceneOutcome, StateFrame,
+    StateSample, MAX_FRAME_BYTES, MAX_TASK,
 };
 use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
@@ -25,7 +29,7 @@ use hapticgen_runtime::Real;
 
 use crate::app::Controller;
 use crate::link::{DeviceLink, LinkEvent};
-use crate::link_scene::{first, LinkSource, SCENE_OBJECTS};
+use crate::link_scene::{first, object_outcome, LinkSource, SCENE_OBJECTS};
 use crate::setup::Setup;
 
 /// The host's settings and scene as the device holds them.
@@ -68,21 +72,23 @@ impl<const M: usize> DeviceMode<M> {
 
     /// The reference the settings, objects and effect ask for (a scene when there is an object
     /// or an effect; the effect itself is added by [`LinkSource::with_effect`]); `None` if
-    /// unusable (a scene on a task that is not 2-D, more objects than the planar scene holds).
+    /// unusable (a scene on a task that is neither 2-D nor 3-D, an object the task cannot draw,
+    /// more objects than the scene holds).
     pub fn source(&self) -> Option<LinkSource<M>> {
         let has_objects = self.objects.iter().any(|object| *object != SceneObject::Empty);
         let scene = has_objects || self.effect != LinkEffect::None;
         LinkSource::new(self.home, &self.impedance, &self.objects, scene.then_some(self.grid))
     }
 
-    /// Changes the host asked for that could not be applied (a slot out of range, a scene the
-    /// task cannot draw): counted, never acted on.
+    /// Changes the host asked for that could not be applied (a slot out of range, an object or
+    /// a scene the task cannot draw): counted, never acted on.
     pub fn refused_changes(&self) -> u32 {
         self.refused_changes
     }
 
     /// Applies `event` (what [`DeviceLink::receive`] returned for a byte) to `control`; returns
-    /// the length of a frame to send back, framed into `out` (the answer to `Hello`), if any.
+    /// the length of a frame to send back, framed into `out` (the answer to `Hello`, the
+    /// `Scene` answer to an object), if any.
     pub fn on_event<R, const N: usize>(
         &mut self,
         event: LinkEvent<f32>,
@@ -96,27 +102,75 @@ impl<const M: usize> DeviceMode<M> {
         match event {
             LinkEvent::Hello => return link.hello(out).ok(),
             LinkEvent::Impedance(parameters) => self.impedance = parameters,
-            LinkEvent::Object { slot, object } => match self.objects.get_mut(usize::from(slot)) {
-                Some(entry) => *entry = object,
-                None => {
+            LinkEvent::Object { slot, object } => {
+                let outcome = self.set_object(slot, object, control);
+                if outcome != SceneOutcome::Rendered {
                     self.refused_changes = self.refused_changes.saturating_add(1);
-                    return None;
                 }
-            },
+                return encode(&DeviceMessage::Scene(SceneAnswer { slot, outcome }), out).ok();
+            }
             LinkEvent::Effect(effect) => self.effect = effect,
             // Enable, disable, heartbeats and resets are the link's own; sensor frames and
             // PIL setups are for the PIL image.
             LinkEvent::Sensors | LinkEvent::PilSetup | LinkEvent::Disabled => return None,
         }
+        if !self.apply(control) {
+            self.refused_changes = self.refused_changes.saturating_add(1);
+        }
+        None
+    }
+
+    /// Puts `object` in `slot` if the device renders it there, and says what became of it (a
+    /// refused object leaves the slot and the controller as they were).
+    fn set_object<R, const N: usize>(
+        &mut self,
+        slot: u8,
+        object: SceneObject,
+        control: &mut Controller<R, LinkSource<M>, N, M>,
+    ) -> SceneOutcome
+    where
+        R: FusedImpedance<N, M, Scalar = f32> + Clone,
+    {
+        let Some(previous) = self.objects.get(usize::from(slot)).copied() else {
+            return SceneOutcome::NoSlot;
+        };
+        let outcome = object_outcome::<M>(&object);
+        if outcome != SceneOutcome::Rendered {
+            return outcome;
+        }
+        self.set_slot(slot, object);
+        if self.apply(control) {
+            SceneOutcome::Rendered
+        } else {
+            // Not drawn after all (no room in the renderer): as it was.
+            self.set_slot(slot, previous);
+            SceneOutcome::NotRendered
+        }
+    }
+
+    fn set_slot(&mut self, slot: u8, object: SceneObject) {
+        if let Some(entry) = self.objects.get_mut(usize::from(slot)) {
+            *entry = object;
+        }
+    }
+
+    /// Gives `control` the settings and the reference the device now holds; `false` (and
+    /// `control`'s reference unchanged) if that reference cannot be built.
+    fn apply<R, const N: usize>(&self, control: &mut Controller<R, LinkSource<M>, N, M>) -> bool
+    where
+        R: FusedImpedance<N, M, Scalar = f32> + Clone,
+    {
         // The controller keeps its estimator and filters (the device has not stopped); the
         // settings and the reference are replaced.
         control.haptic.controller.parameters = self.parameters();
         let impedance_period = 1.0 / R::IMPEDANCE_LOOP_HZ as f32;
         match self.source().and_then(|source| source.with_effect(&self.effect, impedance_period)) {
-            Some(source) => control.haptic.source = source,
-            None => self.refused_changes = self.refused_changes.saturating_add(1),
+            Some(source) => {
+                control.haptic.source = source;
+                true
+            }
+            None => false,
         }
-        None
     }
 }
 

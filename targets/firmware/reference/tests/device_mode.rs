@@ -11,8 +11,8 @@ use hapticgen_fw_control::{Controller, CycleCounter};
 use hapticgen_fw_reference::variants::horizontal_f32 as image;
 use hapticgen_fw_sim::plant::SimBoard;
 use hapticgen_protocol::{
-    encode, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, LinkEffect, SceneObject, StateFrame,
-    MAX_FRAME_BYTES, PROTOCOL_VERSION,
+    encode, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, LinkEffect, SceneAnswer,
+    SceneObject, SceneOutcome, StateFrame, MAX_FRAME_BYTES, PROTOCOL_VERSION,
 };
 use hapticgen_runtime::control::{ImpedanceLaw, ImpedanceParameters};
 use hapticgen_runtime::estimation::ForceSensorCalibration;
@@ -143,17 +143,37 @@ fn settings_and_objects_reach_the_controller_after_the_handshake_only() {
     // An object turns the spring to the start pose into the planar scene with the object and
     // the settings' free space; emptying the slot turns it back.
     assert!(matches!(device.control.haptic.source.reference, Reference::Fixed(_)));
-    device.feed(&HostMessage::SetObject { slot: 2, object: box_at(-0.033) });
+    let answers = device.feed(&HostMessage::SetObject { slot: 2, object: box_at(-0.033) });
+    assert_eq!(
+        answers.iter().map(|a| decode(a)).collect::<Vec<_>>(),
+        vec![scene_answer(2, SceneOutcome::Rendered)]
+    );
     let Reference::Scene(scene) = &device.control.haptic.source.reference else { panic!("no scene") };
     assert_eq!(scene.objects.iter().flatten().count(), 1);
     assert_eq!((scene.free_space_stiffness, scene.free_space_damping), (800.0, 2.0));
     device.feed(&HostMessage::SetObject { slot: 2, object: SceneObject::Empty });
     assert!(matches!(device.control.haptic.source.reference, Reference::Fixed(_)));
-    // A slot the device does not have is counted and ignored.
+    // A slot the device does not have is counted, ignored and answered so.
     assert_eq!(device.mode.refused_changes(), 0);
-    device.feed(&HostMessage::SetObject { slot: 4, object: box_at(0.0) });
+    let answers = device.feed(&HostMessage::SetObject { slot: 4, object: box_at(0.0) });
+    assert_eq!(decode(&answers[0]), scene_answer(4, SceneOutcome::NoSlot));
     assert_eq!(device.mode.refused_changes(), 1);
     assert!(matches!(device.control.haptic.source.reference, Reference::Fixed(_)));
+    // A half-space is not drawn by this 2-D device: answered `NotRendered`, the slot keeps its
+    // box (seen failing before protocol version 5: the half-space was taken, dropped by the
+    // planar renderer, and nothing told the host).
+    device.feed(&HostMessage::SetObject { slot: 1, object: box_at(-0.033) });
+    let half_space =
+        SceneObject::HalfSpace { point: [0.0; 3], normal: [0.0, 0.0, 1.0], stiffness: 1000.0, damping: 2.0 };
+    let answers = device.feed(&HostMessage::SetObject { slot: 1, object: half_space });
+    assert_eq!(decode(&answers[0]), scene_answer(1, SceneOutcome::NotRendered));
+    assert_eq!(device.mode.refused_changes(), 2);
+    let Reference::Scene(scene) = &device.control.haptic.source.reference else { panic!("no scene") };
+    assert_eq!(scene.objects.iter().flatten().count(), 1);
+}
+
+fn scene_answer(slot: u8, outcome: SceneOutcome) -> DeviceMessage {
+    DeviceMessage::Scene(SceneAnswer { slot, outcome })
 }
 
 /// `SetEffect` gives the device's scene its free-space effect: away from the scene's box, a

@@ -14,6 +14,11 @@
 //! anti-aliasing Bessel filter (time constant = the filter's DC group delay, as the current
 //! loop's designer models it) and a 12-bit ADC over ±20 A; the encoders as `floor` of the
 //! motor-shaft angle in counts (quantisation); the force sensor reads `f_op` exactly.
+//! End stops at the joint limits, on request ([`SimBoard::stop_at_limits`] after each
+//! [`SimBoard::advance`]: the device image, whose plant hangs unpowered until the host enables
+//! it): a joint past its limit is put back on it, its velocity into the stop lost (a hard,
+//! inelastic stop). The self-contained images' scenarios stay within their limits and do not
+//! call it (their code and runs are as before).
 //! Not modelled: gear backlash, Coulomb/static friction, PWM ripple.
 
 use hapticgen_fw_control::board::{CurrentSense, Encoders, ForceSense, VoltageOutput};
@@ -96,6 +101,23 @@ where
             operator_force: [zero; M],
             coupling,
             broken: false,
+        }
+    }
+
+    /// End stops at each joint's limits (the drives' `position_lower`, `position_upper`),
+    /// called after each [`SimBoard::advance`]: a joint past one is put back on it, its velocity
+    /// into it lost, until it is driven or pushed away. Without them an unpowered arm sags
+    /// through its limits under gravity (a real device rests on its stops). A separate call,
+    /// not a setting of `advance`, so that the images that do not use it carry no code for it.
+    pub fn stop_at_limits(&mut self) {
+        for ((q, qd), drive) in self.q.iter_mut().zip(self.qd.iter_mut()).zip(self.drives.iter()) {
+            if *q > drive.position_upper {
+                *q = drive.position_upper;
+                *qd = qd.min(R::Scalar::ZERO);
+            } else if *q < drive.position_lower {
+                *q = drive.position_lower;
+                *qd = qd.max(R::Scalar::ZERO);
+            }
         }
     }
 

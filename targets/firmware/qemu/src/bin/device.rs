@@ -4,8 +4,12 @@
 //!
 //! QEMU has no motors, amplifiers or encoders, so the board's peripherals are the simulated
 //! plant of the self-contained images (`hapticgen_fw_sim::plant::SimBoard`: the rig's
-//! dynamics, its drives, the encoders' quantisation, the current sense's lag), with no hand on
-//! it; on a real board they are the board's (`targets/firmware/stm32f4`). Everything else is
+//! dynamics, its drives, the encoders' quantisation, the current sense's lag) with end stops at
+//! the joint limits (unpowered, the arm rests on them instead of sagging through them); on a
+//! real board they are the board's (`targets/firmware/stm32f4`). A hand on it, if the
+//! semihosting command line says so (`-semihosting-config …,arg=hand=FX:FY:FZ`, newtons in
+//! the task frame, as many as the task has axes): the hand holds the grip with that force
+//! while the bridges are on (link enabled, no fault), and lets go when they are off. Everything else is
 //! the firmware's: [`Controller::on_current_tick`] once per current-loop period, with the
 //! bridges held off by the link ([`Gated`]) until the host enables them and whenever its
 //! heartbeat has stopped.
@@ -26,9 +30,11 @@
 //!   (with fresh heartbeats) turns them on again.
 //! * **Controller**: Controller 3 (`J^T`, any rig), at start a spring to the start pose with
 //!   the model's rendering stiffness and damping (else the paper's 1500 N/m, 5 N·s/m).
-//!   `SetImpedance` and, on a 2-D task, `SetObject` (a sphere is a circle, a box a rectangle
-//!   in the runtime's planar proxy renderer) change it as `hapticgen_fw_control::device`
-//!   says, the same on every board.
+//!   `SetImpedance` and `SetObject` change it as `hapticgen_fw_control::device` says, the
+//!   same on every board: on a 2-D task a sphere is a circle, a box a rectangle in the
+//!   runtime's planar proxy renderer; on a 3-D task spheres, boxes and half-spaces are the
+//!   runtime's god object's; every object is answered (`DeviceMessage::Scene`), refused if the
+//!   task cannot render it.
 //! * **State stream**: after each impedance tick, a `State` frame
 //!   (`hapticgen_fw_control::device::state_frame`: encoder counts, joint velocities, task
 //!   position and velocity, commanded torques and motor currents, the safety monitor's fault
@@ -89,6 +95,50 @@ const COUNTERS_TICKS: u32 = 1000;
 /// Periods between two lines of `DEVICE_STATUS` on semihosting (one per 10 s at 7.5 kHz).
 const STATUS_PERIODS: u32 = 75_000;
 
+/// The semihosting command line (`-semihosting-config …,arg=…`), read into `text`; `None`
+/// without one.
+fn command_line(text: &mut [u8; 128]) -> Option<&str> {
+    const SYS_GET_CMDLINE: usize = 0x15;
+    let mut block = [text.as_mut_ptr() as usize, text.len()];
+    // SAFETY: a semihosting call with a valid parameter block (a buffer and its length, which
+    // the host overwrites with the length written).
+    let status = unsafe { cortex_m_semihosting::syscall1(SYS_GET_CMDLINE, block.as_mut_ptr() as usize) };
+    if status != 0 {
+        return None;
+    }
+    let length = block[1].min(text.len());
+    core::str::from_utf8(text.get(..length)?).ok().map(|line| line.trim_end_matches('\0'))
+}
+
+/// The hand's force from the command line's `hand=FX:FY:FZ` (newtons; missing axes zero, axes
+/// beyond the task's ignored); `None` without one or with a value that is not a finite number.
+fn hand_force(line: &str) -> Option<[f32; M]> {
+    let values = line.split(' ').find_map(|word| word.strip_prefix("hand="))?;
+    let mut force = [0.0f32; M];
+    for (k, value) in values.split(':').enumerate() {
+        let value: f32 = value.parse().ok()?;
+        if !value.is_finite() {
+            return None;
+        }
+        if let Some(slot) = force.get_mut(k) {
+            *slot = value;
+        }
+    }
+    Some(force)
+}
+
+/// The heartbeat timeout, ms: the command line's `timeout_ms=N` (1 to 1000), else
+/// [`LINK_TIMEOUT_MS`]. A longer one is for runs that do not test the link's safety rules on an
+/// emulator short of time: the Delta's plant at 7.5 kHz takes QEMU most of a host core, and its
+/// UART then delivers heartbeats late (`scripts/device-run-3d.sh`).
+fn timeout_ms(line: &str) -> u32 {
+    line.split(' ')
+        .find_map(|word| word.strip_prefix("timeout_ms="))
+        .and_then(|value| value.parse::<u32>().ok())
+        .filter(|ms| (1..=1000).contains(ms))
+        .unwrap_or(LINK_TIMEOUT_MS)
+}
+
 /// The controller at start, as `mode` says (a spring to the start pose); `None` if the rig's
 /// rates are unusable.
 fn build(mode: &DeviceMode<M>) -> Option<Control> {
@@ -123,9 +173,13 @@ fn main() -> ! {
     wake.start(image::CURRENT_LOOP_HZ);
     let setup = image::setup();
     let period_ticks = qemu::SYSCLK_HZ / image::CURRENT_LOOP_HZ.max(1);
+    let mut text = [0u8; 128];
+    let line = command_line(&mut text).unwrap_or("");
+    let hand = hand_force(line);
+    let timeout = timeout_ms(line);
     let mut link = DeviceLink::new(
         device_info(image::NAME, N, M, image::IMPEDANCE_LOOP_HZ),
-        LinkSettings::with_timeout_ms(LINK_TIMEOUT_MS, image::CURRENT_LOOP_HZ),
+        LinkSettings::with_timeout_ms(timeout, image::CURRENT_LOOP_HZ),
     );
     let mut board: SimBoard<Rig, N, M> = SimBoard::new(
         Rig::NOMINAL,
@@ -145,8 +199,16 @@ fn main() -> ! {
     };
     let mut line = Line::new();
     line.str("DEVICE_READY variant=").str(image::NAME).kv("joints", N as i64).kv("task", M as i64);
-    line.kv("current_loop_hz", i64::from(image::CURRENT_LOOP_HZ))
-        .kv("timeout_ms", i64::from(LINK_TIMEOUT_MS));
+    line.kv("current_loop_hz", i64::from(image::CURRENT_LOOP_HZ)).kv("timeout_ms", i64::from(timeout));
+    if let Some(force) = &hand {
+        line.str(" hand_mn=");
+        for (k, f) in force.iter().enumerate() {
+            if k > 0 {
+                line.str(":");
+            }
+            line.i64((f * 1e3) as i64);
+        }
+    }
     line.emit(&mut out);
     let mut buffer = [0u8; MAX_FRAME_BYTES];
     let mut periods = 0u32;
@@ -179,7 +241,13 @@ fn main() -> ! {
         periods = periods.wrapping_add(1);
         let open = link.on_current_tick();
         let outcome = control.on_current_tick(&mut Gated { board: &mut board, open }, &counter);
-        board.advance(&[0.0; M]);
+        // The hand holds the grip while the bridges are on.
+        let force = match (&hand, open) {
+            (Some(force), true) => *force,
+            _ => [0.0; M],
+        };
+        board.advance(&force);
+        board.stop_at_limits();
         if let Some(report) = outcome.impedance {
             let counts = board.counts();
             if let Some(length) = state_frame(&control, &Rig::NOMINAL, &link, &counts, &report, &mut buffer) {
