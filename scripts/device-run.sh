@@ -14,7 +14,7 @@
 #    stream has no missing tick.
 # 3. The 3-D scene of scenes/device-ceiling.yaml (a half-space): this 2-D device answers that it
 #    does not render it, and `hapticgen connect` fails with the error at the object's line and
-#    column (issue 41: never "loaded" when nothing is rendered).
+#    column (never "loaded" when nothing is rendered).
 set -euo pipefail
 [ $# -eq 3 ] || { echo "usage: $0 HAPTICGEN IMAGE OUTDIR" >&2; exit 2; }
 HAPTICGEN=$1
