@@ -20,8 +20,6 @@
 use serde::de::{Deserialize, DeserializeOwned};
 use serde::Serialize;
 
-use crate::message::HostKind;
-
 /// The largest serialised message (before the CRC and the stuffing).
 pub const MAX_MESSAGE_BYTES: usize = 120;
 
@@ -380,14 +378,9 @@ impl<'a> Received<'a> {
         self.count(message)
     }
 
-    /// The kind of host message the body holds, if it is one ([`HostKind`]).
-    pub fn host_kind(&self) -> Option<HostKind> {
-        HostKind::of(self.body)
-    }
-
     /// The body after its first byte (a host message's kind) as one complete `T`, with no
-    /// byte left over: the fields of the [`HostKind`] variant the first byte names, decoded
-    /// without building a whole [`crate::HostMessage`].
+    /// byte left over: the fields of the host message variant the first byte names (its kind,
+    /// [`Self::host_kind`]), decoded without building the whole message.
     pub fn payload<T: Deserialize<'a>>(self) -> Option<T> {
         let message = self.body.get(1..).and_then(exactly);
         self.count(message)

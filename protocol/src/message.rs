@@ -10,6 +10,7 @@
 //! channel is sent at the channel's limit with [`StateFrame::SATURATED`] set, never clamped
 //! silently; a NaN is sent as [`StateFrame::NOT_A_NUMBER`] and comes back as NaN.
 
+use crate::frame::Received;
 use serde::{Deserialize, Serialize};
 
 /// The protocol version both sides must speak (exchanged in the handshake). Version 5 adds
@@ -378,6 +379,14 @@ impl HostKind {
             9 => Self::SetEffect,
             _ => return None,
         })
+    }
+}
+
+impl Received<'_> {
+    /// The kind of host message the body holds, if it is one ([`HostKind`]). Defined here,
+    /// beside the messages, so that the framing (`frame`) knows nothing of them.
+    pub fn host_kind(&self) -> Option<HostKind> {
+        HostKind::of(self.body())
     }
 }
 
