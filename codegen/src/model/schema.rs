@@ -225,6 +225,14 @@ pub struct Drive {
     pub static_friction: f64,
 }
 
+impl Drive {
+    /// The joint-side angle of one encoder count, rad: `2π / (counts_per_turn · N)` (a
+    /// prismatic joint's drive: its length per count, m, through the same ratio).
+    pub fn count_size(&self) -> f64 {
+        std::f64::consts::TAU / (f64::from(self.encoder.counts_per_turn) * self.gear_ratio)
+    }
+}
+
 fn one() -> f64 {
     1.0
 }

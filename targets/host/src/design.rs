@@ -99,13 +99,7 @@ impl Design {
                         .min(d.torque_limit)
                 })
                 .collect(),
-            count_size: model
-                .joints
-                .iter()
-                .map(|j| {
-                    std::f64::consts::TAU / (f64::from(j.drive.encoder.counts_per_turn) * j.drive.gear_ratio)
-                })
-                .collect(),
+            count_size: model.joints.iter().map(|j| j.drive.count_size()).collect(),
             joint_from_drive: model.coupling.as_ref().map_or(identity, |c| c.joint_from_drive.clone()),
             compiled,
         }

@@ -1253,14 +1253,7 @@ fn pil(args: PilArgs) -> Result<(), String> {
             .map_err(|e| format!("error: cannot create {}: {e}", run.output.join("simulate").display()))?;
         hapticgen_host::output::write_csv(&reference, &run.output.join("simulate/trace.csv"))?;
         let comparison = compare_traces(&trace, &reference, args.stop_after);
-        let rad_per_count: Vec<f64> = sim
-            .model
-            .joints
-            .iter()
-            .map(|j| {
-                std::f64::consts::TAU / (f64::from(j.drive.encoder.counts_per_turn) * j.drive.gear_ratio)
-            })
-            .collect();
+        let rad_per_count: Vec<f64> = sim.model.joints.iter().map(|j| j.drive.count_size()).collect();
         println!("PIL vs simulate of the same scenario (every {:.1} ms):", 1000.0 * comparison.sample_period);
         for (column, (difference, t)) in &comparison.largest {
             let counts = column

@@ -22,6 +22,7 @@
 use std::collections::{HashMap, HashSet};
 
 use super::{key, Resolver};
+use crate::math::vector::{cross, dot};
 use crate::model::positions::{KeyPath, Segment};
 use crate::model::schema::{Assembly, Body, Inertia, InertiaTensor, Joint, JointType, ModelFile, Value};
 
@@ -140,14 +141,6 @@ fn unit(v: &[f64]) -> Option<[f64; 3]> {
     let [x, y, z] = <[f64; 3]>::try_from(v).ok()?;
     let norm = (x * x + y * y + z * z).sqrt();
     (norm.is_finite() && norm > 1e-9).then(|| [x / norm, y / norm, z / norm])
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// Below this, the axes' cross product (universal) or triple product (spherical) makes the

@@ -1,0 +1,31 @@
+//! Products of 3-vectors of numbers, once for the generator's numerical analyses (the closed
+//! chains' sphere intersection, compound joints' axes, mesh normals): `a · b` and `a × b`.
+
+/// The dot product `a · b`.
+pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The cross product `a × b` (right-handed).
+pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{cross, dot};
+
+    #[test]
+    fn the_products_of_the_unit_axes() {
+        let (x, y, z) = ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]);
+        assert_eq!(cross(x, y), z);
+        assert_eq!(cross(y, z), x);
+        assert_eq!(cross(z, x), y);
+        assert_eq!(dot(x, y), 0.0);
+        // a × b is perpendicular to both, and |a × b|² + (a · b)² = |a|² |b|² (Lagrange).
+        let (a, b) = ([1.5, -2.0, 0.25], [0.5, 3.0, -1.0]);
+        let c = cross(a, b);
+        assert!(dot(c, a).abs() < 1e-12 && dot(c, b).abs() < 1e-12);
+        assert!((dot(c, c) + dot(a, b).powi(2) - dot(a, a) * dot(b, b)).abs() < 1e-12);
+    }
+}
