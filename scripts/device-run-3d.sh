@@ -72,8 +72,10 @@ run() {
             for (i = from; i <= rows; i++) { sum += z[i]; n++; if (z[i] < lo) lo = z[i]; if (z[i] > hi) hi = z[i] }
             mean = sum / n; depth = mean - face; predicted = hand / k
             error = (depth - predicted) / predicted
+            # The percentage as printed (one decimal), never "-0.0 %".
+            percent = error * 100; if (percent > -0.05 && percent < 0.05) percent = 0
             line = sprintf("%s: %d frames, %d gaps; held %.3f mm inside the face (z = %.3f mm, face %.1f mm) over the last %d frames, spread %.3f mm; F/K = %.1f N / %d N/m = %.3f mm predicted: %+.1f %%", \
-                name, rows, missing + 0, depth * 1e3, mean * 1e3, face * 1e3, n, (hi - lo) * 1e3, hand, k, predicted * 1e3, error * 100)
+                name, rows, missing + 0, depth * 1e3, mean * 1e3, face * 1e3, n, (hi - lo) * 1e3, hand, k, predicted * 1e3, percent)
             if (error < -0.03 || error > 0.03 || hi - lo > 1e-4) { print "FAIL " line; exit 1 }
             print "PASS " line
             printf "%s: at tick %d, before the bridges were on, z = %.2f mm (resting on its end stops)\n", name, first_tick, first_z * 1e3

@@ -103,18 +103,7 @@ fn a_drive_too_weak_for_part_of_the_box_is_a_warning_with_the_worst_pose() {
     let (found, _) = check(PARALLEL, Some("vertical"));
     let steps = (found.grid.0 as f64).sqrt().round() as usize;
     assert_eq!(steps * steps, found.grid.0);
-    let at = |j: usize, s: usize| {
-        m.joints[j].lower + (m.joints[j].upper - m.joints[j].lower) * s as f64 / (steps - 1) as f64
-    };
-    let mut worst: f64 = 0.0;
-    for i in 0..steps {
-        for k in 0..steps {
-            let q = [at(0, i), at(1, k)];
-            let state = hapticgen_codegen::eval::State { q: &q, qd: &[0.0, 0.0], parameters: &[] };
-            let g = hapticgen_codegen::eval::evaluate(&mech, &state, None).g;
-            worst = worst.max(g[0].abs());
-        }
-    }
+    let worst = largest_over_grid(&m, &mech, steps, |g| g[0].abs());
     assert!(worst > 0.1, "the vertical link carries its weight: {worst}");
     let limit = format!("{:.4}", worst * 0.99);
     let weak = PARALLEL.replace("torque_limit: 3.0", &format!("torque_limit: {limit}"));
@@ -205,18 +194,7 @@ fn a_differential_is_judged_by_its_motors_torques() {
     let mech = hapticgen_codegen::derive(&m);
     let grid = check(wrist, None).0.grid.0;
     let steps = (grid as f64).sqrt().round() as usize;
-    let at = |j: usize, s: usize| {
-        m.joints[j].lower + (m.joints[j].upper - m.joints[j].lower) * s as f64 / (steps - 1) as f64
-    };
-    let mut worst: f64 = 0.0;
-    for i in 0..steps {
-        for k in 0..steps {
-            let q = [at(0, i), at(1, k)];
-            let state = hapticgen_codegen::eval::State { q: &q, qd: &[0.0, 0.0], parameters: &[] };
-            let g = hapticgen_codegen::eval::evaluate(&mech, &state, None).g;
-            worst = worst.max((0.5 * (g[0] + g[1])).abs());
-        }
-    }
+    let worst = largest_over_grid(&m, &mech, steps, |g| (0.5 * (g[0] + g[1])).abs());
     assert!(worst > 0.01, "{worst}");
     let limit = format!("{:.5}", worst * 0.5);
     let weak = wrist.replace("torque_limit: 0.65", &format!("torque_limit: {limit}"));
@@ -225,4 +203,26 @@ fn a_differential_is_judged_by_its_motors_torques() {
     let d = &diagnostics[0].1;
     assert!(d.message.contains("joint `pitch`"), "{d}");
     assert!(d.message.contains(&format!("needs up to {worst:.3} N·m")), "{d}, motor 1's worst {worst}");
+}
+
+/// The largest of `measure(g(q))` over the `steps × steps` grid of a two-joint rig's joint box,
+/// from the polynomial evaluator (the same grid `check` reports having used).
+fn largest_over_grid(
+    m: &hapticgen_codegen::CheckedModel,
+    mech: &hapticgen_codegen::dynamics::mechanics::Mechanics,
+    steps: usize,
+    measure: impl Fn(&[f64]) -> f64,
+) -> f64 {
+    let at = |j: usize, s: usize| {
+        m.joints[j].lower + (m.joints[j].upper - m.joints[j].lower) * s as f64 / (steps - 1) as f64
+    };
+    let mut worst: f64 = 0.0;
+    for i in 0..steps {
+        for k in 0..steps {
+            let q = [at(0, i), at(1, k)];
+            let state = hapticgen_codegen::eval::State { q: &q, qd: &[0.0, 0.0], parameters: &[] };
+            worst = worst.max(measure(&hapticgen_codegen::eval::evaluate(mech, &state, None).g));
+        }
+    }
+    worst
 }
