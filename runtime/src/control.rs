@@ -29,7 +29,13 @@
 //! **Omitting damping compensation** (section 4): with
 //! [`ControlOptions::omit_damping_compensation`] the `B q̇` term of eq. (3) is dropped, so the
 //! device's natural damping adds to `B_d` in free space.
+//!
+//! **Friction compensation** (not in the paper): with
+//! [`ControlOptions::friction_compensation_band`] set, the rig's Coulomb friction
+//! ([`RigModel::coulomb_friction`]) is fed forward, `u += Cᵀ F_c sat(C q̇ / δ)`
+//! ([`crate::friction`]); off in [`ControlOptions::paper`].
 
+use crate::friction;
 use crate::linalg::{self, LuFactors, SolveError};
 use crate::{Real, RigModel, RigTerms};
 
@@ -111,16 +117,35 @@ pub struct ControlOptions<S> {
     /// acts as a negative damping `−K_d τ` (Colgate & Schenkel); setting `τ` to that delay
     /// restores the displayed damping `B_d` of eq. (6), (11), (13).
     pub spring_lead_time: S,
+    /// Coulomb-friction feed-forward ([`crate::friction`]): `None` (the paper's law) leaves it
+    /// off; `Some(δ)` adds `F_c sat(ȧ/δ)` per drive, the rig's
+    /// [`RigModel::coulomb_friction`] with a ramp of half-width `δ` (rad/s, m/s at the drives'
+    /// outputs) through zero velocity, so that it does not chatter at rest. A NaN or infinite
+    /// `δ` is refused like any non-finite input ([`ControlStatus::NonFiniteInput`]); a negative
+    /// one gives no compensation.
+    pub friction_compensation_band: Option<S>,
 }
 
 impl<S: Real> ControlOptions<S> {
-    /// The paper's law: damping compensation on, no spring lead, singular below `|det J| = 0`.
+    /// The paper's law: damping compensation on, no spring lead, singular below `|det J| = 0`,
+    /// no friction compensation.
     pub fn paper() -> Self {
         Self {
             omit_damping_compensation: false,
             min_abs_jacobian_determinant: S::ZERO,
             spring_lead_time: S::ZERO,
+            friction_compensation_band: None,
         }
+    }
+
+    /// `false` when a set option cannot be used: a non-finite spring lead or friction band
+    /// (the laws then refuse with [`ControlStatus::NonFiniteInput`]).
+    pub(crate) fn are_finite(&self) -> bool {
+        let band_is_finite = match self.friction_compensation_band {
+            Some(band) => band.is_finite(),
+            None => true,
+        };
+        self.spring_lead_time.is_finite() && band_is_finite
     }
 }
 
@@ -213,14 +238,18 @@ impl<S: Real, const M: usize> ImpedanceController<S, M> {
         if !sensed_is_finite
             || !inputs_are_finite(terms, joint_velocity, &damping, reference)
             || !parameters_are_finite(&self.parameters)
-            || !self.options.spring_lead_time.is_finite()
+            || !self.options.are_finite()
         {
             return ControlOutput::refused(ControlStatus::NonFiniteInput);
         }
-        // Eq. (3) without D a_q and Jᵀ a_f: C q̇ + B q̇ + g.
+        // Eq. (3) without D a_q and Jᵀ a_f: C q̇ + B q̇ + g (+ the friction feed-forward).
+        let friction = match self.options.friction_compensation_band {
+            Some(band) => friction::friction_compensation(rig, joint_velocity, band),
+            None => [S::ZERO; N],
+        };
         let mut bias = [S::ZERO; N];
         for i in 0..N {
-            bias[i] = terms.coriolis_times_qdot[i] + terms.gravity[i];
+            bias[i] = terms.coriolis_times_qdot[i] + terms.gravity[i] + friction[i];
             if !self.options.omit_damping_compensation {
                 bias[i] += damping[i] * joint_velocity[i];
             }

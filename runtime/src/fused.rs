@@ -8,13 +8,15 @@
 //! so the two give the same torques and statuses; only the arithmetic is specialised.
 //!
 //! The emitted functions return the torque of eq. (3) *without* the viscous term `B q̇`,
-//! which [`fused_torque`] adds unless `omit_damping_compensation` is set (section 4).
+//! which [`fused_torque`] adds unless `omit_damping_compensation` is set (section 4), nor the
+//! friction feed-forward, which it adds when `friction_compensation_band` is set
+//! ([`crate::friction`]).
 
 use crate::control::ImpedanceParameters;
 use crate::control::{
     ControlOutput, ControlStatus, ImpedanceController, ImpedanceLaw, TaskReference, TaskSensing,
 };
-use crate::{linalg, Real, RigModel};
+use crate::{friction, linalg, Real, RigModel};
 
 /// A fused law's result: eq. (3) without `B q̇`, and `det J` for the singularity guard.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -112,7 +114,7 @@ where
         && linalg::all_finite(&p.stiffness)
         && linalg::all_finite(&p.damping)
         && linalg::all_finite(&p.mass)
-        && controller.options.spring_lead_time.is_finite();
+        && controller.options.are_finite();
     if !finite {
         return ControlOutput::refused(ControlStatus::NonFiniteInput);
     }
@@ -157,6 +159,12 @@ where
         let damping = rig.damping();
         for i in 0..N {
             torque[i] += damping[i] * qd[i];
+        }
+    }
+    if let Some(band) = controller.options.friction_compensation_band {
+        let friction = friction::friction_compensation(rig, qd, band);
+        for (t, f) in torque.iter_mut().zip(friction.iter()) {
+            *t += *f;
         }
     }
     if linalg::all_finite(&torque) {

@@ -130,6 +130,16 @@ pub trait RigModel<const N: usize, const M: usize> {
     fn coupling(&self) -> Option<Coupling<Self::Scalar, N>> {
         None
     }
+    /// Each drive's Coulomb friction `F_c`, N·m (N for a prismatic joint), acting on its output
+    /// (drive `k` in joint `k`'s slot, as [`RigModel::drives`]): the model file's
+    /// `coulomb_friction`, which a generated rig carries as `COULOMB_FRICTION` when any drive
+    /// has some. The default, for a rig without friction, is zero. Read only by the friction
+    /// compensation ([`crate::friction`]), which is off unless
+    /// [`ControlOptions::friction_compensation_band`](crate::control::ControlOptions::friction_compensation_band)
+    /// is set.
+    fn coulomb_friction(&self) -> [Self::Scalar; N] {
+        [Self::Scalar::ZERO; N]
+    }
     /// Each motor's current-loop gains, in the order of `q`: for a generated rig its
     /// `CURRENT_LOOP_GAINS`, designed per joint from the model's motor, rates and filter.
     fn current_loop_gains(&self) -> [CurrentLoopGains<Self::Scalar>; N];
@@ -162,6 +172,7 @@ pub trait RigModel<const N: usize, const M: usize> {
 ///
 /// ```text
 /// ::hapticgen_runtime::impl_rig_model!(MyRig, f64, 2, 2, "my_rig", 7500, 1000);
+/// ::hapticgen_runtime::impl_rig_model!(MyRig, f64, 2, 2, "my_rig", 7500, 1000; friction COULOMB_FRICTION);
 /// ```
 #[macro_export]
 macro_rules! impl_rig_model {
@@ -169,7 +180,9 @@ macro_rules! impl_rig_model {
     // rig's `loop_margin`.
     // `coupling CONST`, for a rig with a transmission: the inherent constant that is its
     // `RigModel::coupling`.
-    ($rig:ty, $s:ty, $n:literal, $m:literal, $name:literal, $current_hz:literal, $impedance_hz:literal $(, $closure_margin:ident)? $(; coupling $coupling:ident)?) => {
+    // `friction CONST`, for a rig whose drives have Coulomb friction: the inherent constant
+    // that is its `RigModel::coulomb_friction`.
+    ($rig:ty, $s:ty, $n:literal, $m:literal, $name:literal, $current_hz:literal, $impedance_hz:literal $(, $closure_margin:ident)? $(; coupling $coupling:ident)? $(; friction $friction:ident)?) => {
         impl $crate::RigModel<$n, $m> for $rig {
             type Scalar = $s;
             const NAME: &'static str = $name;
@@ -212,6 +225,11 @@ macro_rules! impl_rig_model {
             $(
                 fn coupling(&self) -> Option<$crate::rig::Coupling<$s, $n>> {
                     Some(Self::$coupling)
+                }
+            )?
+            $(
+                fn coulomb_friction(&self) -> [$s; $n] {
+                    Self::$friction
                 }
             )?
             fn current_loop_gains(&self) -> [$crate::current_loop::CurrentLoopGains<$s>; $n] {

@@ -95,6 +95,7 @@ fn residuals<R: RigModel<N, N, Scalar = f64>, const N: usize>(
                 omit_damping_compensation: false,
                 min_abs_jacobian_determinant: 1e-9,
                 spring_lead_time: 0.0,
+                friction_compensation_band: None,
             },
         };
         // The law's torque for what it senses, applied to the plant: q̈ from eq. (1) and the
@@ -246,6 +247,7 @@ fn omitting_damping_compensation_removes_exactly_b_qdot() {
             omit_damping_compensation: false,
             min_abs_jacobian_determinant: 1e-6,
             spring_lead_time: 0.0,
+            friction_compensation_band: None,
         },
     };
     let reference = TaskReference::at_rest([0.1, 0.1]);

@@ -5,6 +5,7 @@
 mod closed_loop;
 mod common;
 mod coupling;
+mod friction;
 mod laws;
 mod loops;
 mod proxy;

@@ -199,6 +199,7 @@ fn with_the_grid_and_no_operator_force_the_ihip_never_moves() {
             omit_damping_compensation: true,
             min_abs_jacobian_determinant: 1e-4,
             spring_lead_time: 0.0,
+            friction_compensation_band: None,
         },
     };
     let mut q = [1.6, -0.4];

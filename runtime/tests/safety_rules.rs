@@ -20,6 +20,7 @@ fn controller(law: ImpedanceLaw) -> ImpedanceController<f64, 2> {
             // |det J| = l_l·l_e·|sin(q1 − q2)| = 0.0075·|sin(q1 − q2)|: about 3° from singular.
             min_abs_jacobian_determinant: 4e-4,
             spring_lead_time: 0.0,
+            friction_compensation_band: None,
         },
     }
 }

@@ -1,7 +1,7 @@
 //! The fused, generated control laws equal the runtime's generic laws (eq. (3), (4), (7)–(13))
 //! on every shipped rig: same status, torques within 1e-12 (f64), at 200 random states per law,
 //! including states near the singular boundary (fallback to Controller 3), with and without the
-//! `B q̇` term, and with non-finite inputs.
+//! `B q̇` term, with and without the friction compensation, and with non-finite inputs.
 
 use hapticgen_runtime::control::{
     ControlOptions, ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters, TaskReference,
@@ -43,6 +43,8 @@ fn generic_det<const N: usize, const M: usize>(j: &[[f64; N]; M]) -> f64 {
 struct FusedEqualsGeneric {
     comparisons: usize,
     fallbacks: usize,
+    /// Rigs whose model has Coulomb friction (their compensation is compared too).
+    with_friction: usize,
 }
 
 impl RigVisitor for FusedEqualsGeneric {
@@ -52,6 +54,14 @@ impl RigVisitor for FusedEqualsGeneric {
         rig: &R,
     ) {
         let drives = rig.drives();
+        // The rig carries its model's Coulomb friction, which the compensation feeds forward.
+        let path = hapticgen_tests::workspace_root().join(info.file);
+        let model = hapticgen_codegen::load_file(&path, info.file, info.variant).unwrap_or_else(|e| panic!("{e}"));
+        let coulomb: Vec<f64> = model.model.joints.iter().map(|j| j.drive.coulomb_friction).collect();
+        assert_eq!(rig.coulomb_friction().to_vec(), coulomb, "{}", info.module);
+        if coulomb.iter().any(|&fc| fc > 0.0) {
+            self.with_friction += 1;
+        }
         let mut rng = SmallRng::seed_from_u64(0xf05ed);
         for law in LAWS {
             for case in 0..200 {
@@ -86,6 +96,9 @@ impl RigVisitor for FusedEqualsGeneric {
                         omit_damping_compensation: case % 2 == 0,
                         min_abs_jacobian_determinant: 5e-4,
                         spring_lead_time: 0.0,
+                        // Every third case with the friction feed-forward (a band well inside
+                        // the sampled velocities, so both sides of it are compared).
+                        friction_compensation_band: (case % 3 == 0).then_some(0.5),
                     },
                 };
                 let generic = controller.torque(rig, &rig.terms(&q, &qd), &qd, &reference, &sensed);
@@ -127,9 +140,11 @@ impl RigVisitor for FusedEqualsGeneric {
 
 #[test]
 fn fused_generated_laws_equal_the_generic_runtime_laws() {
-    let mut v = FusedEqualsGeneric { comparisons: 0, fallbacks: 0 };
+    let mut v = FusedEqualsGeneric { comparisons: 0, fallbacks: 0, with_friction: 0 };
     visit_all(&mut v);
     assert!(v.comparisons >= 3 * 4 * 200);
     // The parallel link's random states include some near q1 = q2.
     assert!(v.fallbacks > 0, "no state exercised the singular fallback");
+    // The joystick, the parallel link, the pantograph, the PHANToM-like arm and the PUMA 560.
+    assert!(v.with_friction >= 5, "{} rigs with Coulomb friction", v.with_friction);
 }

@@ -186,6 +186,22 @@ pub fn items(
         }
         None => (TokenStream::new(), TokenStream::new()),
     };
+    // The drives' Coulomb friction, as the constant `RigModel::coulomb_friction` returns; only
+    // for a rig that has some (without it the trait's default, zero, holds).
+    let (friction_const, friction_macro) = if model.joints.iter().any(|j| j.drive.coulomb_friction != 0.0) {
+        let values = model.joints.iter().map(|j| scalar.literal(j.drive.coulomb_friction));
+        (
+            quote! {
+                /// Each drive's Coulomb friction `F_c` at its output, N·m (N), in the order of `q`:
+                /// what the runtime's friction compensation feeds forward when it is on
+                /// (`ControlOptions::friction_compensation_band`).
+                pub const COULOMB_FRICTION: [#s; #n] = [#(#values),*];
+            },
+            quote!(; friction COULOMB_FRICTION),
+        )
+    } else {
+        (TokenStream::new(), TokenStream::new())
+    };
     // Measured joints (a gimbal): their names and encoders, for `hapticgen_runtime::measured`.
     let measured_consts = if model.measured.is_empty() {
         TokenStream::new()
@@ -370,6 +386,7 @@ pub fn items(
             /// The drive train of each joint, in the order of `q`.
             pub const DRIVES: [::hapticgen_runtime::DriveTrain<#s>; #n] = [#(#drives),*];
             #coupling_const
+            #friction_const
             #measured_consts
             #(#[doc = #gains_doc])*
             pub const CURRENT_LOOP_GAINS: [::hapticgen_runtime::current_loop::CurrentLoopGains<#s>; #n] =
@@ -387,7 +404,7 @@ pub fn items(
         }
 
         // `RigModel` by the inherent methods above.
-        ::hapticgen_runtime::impl_rig_model!(#type_name, #s, #n, #m, #rig_name, #current_hz, #impedance_hz #loop_margin #coupling_macro);
+        ::hapticgen_runtime::impl_rig_model!(#type_name, #s, #n, #m, #rig_name, #current_hz, #impedance_hz #loop_margin #coupling_macro #friction_macro);
 
         #fused
 

@@ -215,11 +215,13 @@ pub struct Drive {
     #[serde(default)]
     #[schemars(with = "Quantity")]
     pub backlash: f64,
-    /// Coulomb friction at the joint, N·m; used by the simulator only.
+    /// Coulomb friction at the drive's output, N·m; simulated, and fed forward by the runtime's
+    /// friction compensation when it is on.
     #[serde(default)]
     #[schemars(with = "Quantity")]
     pub coulomb_friction: f64,
-    /// Static (breakaway) friction at the joint, N·m; used by the simulator only.
+    /// Static (breakaway) friction at the drive's output, N·m; used by the simulator only (no
+    /// feed-forward can tell which way a resting joint will break away).
     #[serde(default)]
     #[schemars(with = "Quantity")]
     pub static_friction: f64,

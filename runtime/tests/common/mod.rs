@@ -9,6 +9,8 @@ pub const GRAVITY: f64 = 9.81;
 pub const GEAR: f64 = 12.0;
 pub const ROTOR_INERTIA: f64 = 1.42e-5;
 pub const JOINT_DAMPING: f64 = 1e-3;
+/// The joystick's Coulomb friction, N·m (the model's estimate).
+pub const JOINT_COULOMB_FRICTION: f64 = 0.01;
 pub const TUBE_MASS: f64 = 0.020358;
 pub const TUBE_LENGTH: f64 = 0.15;
 
@@ -98,6 +100,9 @@ impl RigModel<1, 1> for Joystick {
     }
     fn drives(&self) -> [DriveTrain<f64>; 1] {
         [re40_drive()]
+    }
+    fn coulomb_friction(&self) -> [f64; 1] {
+        [JOINT_COULOMB_FRICTION]
     }
     fn current_loop_gains(&self) -> [CurrentLoopGains<f64>; 1] {
         [re40_current_gains()]

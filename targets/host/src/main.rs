@@ -345,6 +345,11 @@ struct SimulateArgs {
     /// Lead time of the spring term, s: compensates the sampled loop's delay (0: the paper's law).
     #[arg(long, default_value_t = 0.0)]
     spring_lead: f64,
+    /// Feed the model's Coulomb friction forward (off: the paper's law), with this velocity
+    /// band, rad/s (m/s); without a value, the model's velocity quantum (one encoder count per
+    /// impedance period, at the joint).
+    #[arg(long, value_name = "BAND", num_args = 0..=1)]
+    friction_compensation: Option<Option<f64>>,
     /// Seed of the sensor noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -1021,6 +1026,14 @@ fn configure(args: &SimulateArgs) -> Result<Configured, String> {
     cfg.seed = args.seed;
     cfg.singular_fallback = args.singular_fallback;
     cfg.spring_lead_time = args.spring_lead;
+    cfg.friction_compensation = match args.friction_compensation {
+        None => None,
+        Some(None) => Some(sim.friction_compensation_band()),
+        Some(Some(band)) if band.is_finite() && band >= 0.0 => Some(band),
+        Some(Some(band)) => {
+            return Err(format!("error: --friction-compensation: the band must be ≥ 0 rad/s, got {band}"))
+        }
+    };
     cfg.progress = true;
     let scene = match &args.scene {
         None => None,

@@ -129,6 +129,8 @@ struct StepRun<'a> {
     duration: f64,
     /// The law's spring lead (the sampled loop's delay, see `Simulation::sampled_loop_delay`).
     spring_lead: f64,
+    /// The friction compensation's band, rad/s (`None`: off, the paper's law).
+    friction_compensation: Option<f64>,
 }
 
 const STEP_AT: f64 = 0.2;
@@ -153,6 +155,7 @@ impl<'a> StepRun<'a> {
             effects,
             duration,
             spring_lead: sim.sampled_loop_delay(),
+            friction_compensation: None,
         }
     }
 }
@@ -167,6 +170,7 @@ impl StepRun<'_> {
         cfg.effects = self.effects;
         cfg.duration = self.duration;
         cfg.spring_lead_time = self.spring_lead;
+        cfg.friction_compensation = self.friction_compensation;
         let settings = ScenarioSettings { step: (self.force, STEP_AT), ..ScenarioSettings::default() };
         self.sim.apply_scenario(Scenario::Step, &settings, &mut cfg)?;
         let trace = self.sim.run(&cfg)?;
@@ -176,6 +180,48 @@ impl StepRun<'_> {
         let fit = fit_step_response(&t, &x, STEP_AT, self.duration, 0.0);
         Ok((trace, fit))
     }
+}
+
+/// "Small" displacements from a step response's steady state (the paper's "low angular
+/// displacements from steady-state", section 6.1), as a fraction of the steady-state
+/// displacement.
+const SMALL_DISPLACEMENT: f64 = 0.1;
+
+/// The first sample time from which `x` stays within `band` of `target` to the end (`None`
+/// if its last sample is outside).
+fn settled_from(t: &[f64], x: &[f64], target: f64, band: f64) -> Option<f64> {
+    // Written so that a NaN sample counts as outside.
+    let outside = |v: &f64| {
+        let inside = (v - target).abs() <= band;
+        !inside
+    };
+    match x.iter().rposition(outside) {
+        None => t.first().copied(),
+        Some(last_outside) => t.get(last_outside + 1).copied(),
+    }
+}
+
+/// The rms of `x − reference` over the samples at or after time `from` (NaN without any).
+fn rms_difference_from(t: &[f64], x: &[f64], reference: &[f64], from: f64) -> f64 {
+    let squares: Vec<f64> = t
+        .iter()
+        .zip(x.iter().zip(reference))
+        .filter(|(ti, _)| **ti >= from)
+        .map(|(_, (a, b))| (a - b).powi(2))
+        .collect();
+    if squares.is_empty() {
+        return f64::NAN;
+    }
+    (squares.iter().sum::<f64>() / squares.len() as f64).sqrt()
+}
+
+/// The step response's error at small displacements: once the friction-free response
+/// `reference` stays within [`SMALL_DISPLACEMENT`] of its steady state `steady`, the rms
+/// difference between `x` (the same run with friction) and it. Returns the error and when
+/// the window starts; `None` if the friction-free response never settles that far.
+fn small_displacement_error(t: &[f64], x: &[f64], reference: &[f64], steady: f64) -> Option<(f64, f64)> {
+    let from = settled_from(t, reference, steady, SMALL_DISPLACEMENT * steady.abs())?;
+    Some((rms_difference_from(t, x, reference, from), from))
 }
 
 /// Fig. 4: Controller 2, second variant, on the joystick.
@@ -260,6 +306,37 @@ fn figure4(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
         format!("{offset:.4} rad"),
         offset <= band,
     );
+    // The same friction, fed forward by the runtime's compensation (the model's Coulomb
+    // friction, with the model's velocity quantum as its band).
+    let compensation_band = sim.friction_compensation_band();
+    let (compensated, _) =
+        StepRun { effects: Effects::ALL, friction_compensation: Some(compensation_band), ..base }.run(report)?;
+    let xc = column(&compensated, "x0");
+    let steady_compensated = analysis::mean_between(&t, &xc, end - 0.5, end);
+    let offset_compensated = (steady_compensated - expected_ss).abs();
+    let (error_off, error_on, window) = match small_displacement_error(&t, &xr, &xs, steady) {
+        Some((error_off, window)) => (error_off, rms_difference_from(&t, &xc, &xs, window), window),
+        None => (f64::NAN, f64::NAN, f64::NAN),
+    };
+    let ratio = error_on / error_off;
+    report.check(
+        name,
+        &format!(
+            "friction on: small-displacement error (rms deviation from the friction-free response once it stays \
+             within {:.0} % of its steady state), compensation off → on",
+            100.0 * SMALL_DISPLACEMENT
+        ),
+        "falls to ≤ 0.5× with compensation".into(),
+        format!("{error_off:.4} rad → {error_on:.4} rad ({ratio:.2}×)"),
+        ratio <= 0.5,
+    );
+    report.check(
+        name,
+        "friction on, compensated: final offset within the stick band (static friction is not fed forward)",
+        format!("≤ {band:.4} rad"),
+        format!("{offset_compensated:.4} rad"),
+        offset_compensated <= band,
+    );
     let prediction = second_order(&t, STEP_AT, force, inertia, bd, kd);
     plot::save(
         &Chart {
@@ -276,6 +353,25 @@ fn figure4(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
             equal_aspect: false,
         },
         &out.join("fig4"),
+    )?;
+    // The small displacements, magnified: each response's distance from the friction-free
+    // steady state, from where the window of the small-displacement error starts.
+    let near = |x: &[f64]| -> Vec<(f64, f64)> {
+        t.iter().zip(x).filter(|(ti, _)| **ti >= window).map(|(ti, xi)| (*ti, xi - steady)).collect()
+    };
+    plot::save(
+        &Chart {
+            title: "Fig. 4, small displacements: friction on, with and without friction compensation".into(),
+            x_label: "time (s)".into(),
+            y_label: "q − steady state, friction off (rad)".into(),
+            series: vec![
+                Series::marked("friction off", near(&xs)),
+                Series::line("friction on", near(&xr)),
+                Series::line("friction on, compensated", near(&xc)),
+            ],
+            equal_aspect: false,
+        },
+        &out.join("fig4-friction"),
     )?;
     let mut s = String::new();
     writeln!(s, "## Fig. 4: Controller 2, second variant (joystick)\n").ok();
@@ -304,6 +400,24 @@ fn figure4(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
     )
     .ok();
     writeln!(s, "![Fig. 4](fig4.png)\n").ok();
+    writeln!(
+        s,
+        "**Friction compensation.** The runtime can feed the model's Coulomb friction forward \
+         (`ControlOptions::friction_compensation_band`, `hapticgen simulate --friction-compensation`): \
+         F_c sat(q̇/δ) with F_c = {fc} N·m from the model file and δ = {compensation_band:.3} rad/s, the velocity \
+         of one encoder count per impedance period. The same step with friction on: once the friction-free \
+         response stays within {small:.0} % of its steady state (from t = {window:.2} s), the response with \
+         friction deviates from it by {error_off:.4} rad rms without compensation and {error_on:.4} rad rms \
+         with it ({ratio:.2}×). Static friction ({fs} N·m) is not fed forward — no feed-forward knows which way \
+         a resting joint will break away — so the compensated response still sticks within the band τ_s/K_d, \
+         {offset_compensated:.4} rad from 1 rad (without compensation {offset:.4} rad); what the compensation \
+         removes is the Coulomb drag that stops the oscillation early.\n",
+        fc = extras.coulomb_friction,
+        fs = extras.static_friction,
+        small = 100.0 * SMALL_DISPLACEMENT,
+    )
+    .ok();
+    writeln!(s, "![Fig. 4, small displacements](fig4-friction.png)\n").ok();
     report.sections.push(s);
     Ok(())
 }
@@ -1140,6 +1254,23 @@ mod tests {
         assert_eq!(cells[2], format!("{:.2}", numbers(&expected)[3]), "the split: {row} vs {expected}");
         assert_eq!(cells[3], format!("{:.2}", numbers(&expected)[1]), "the play: {row} vs {expected}");
         assert!(!expected.contains(" s and ") && !expected.contains("2 s"), "reads as seconds: {expected}");
+    }
+
+    /// The small-displacement window starts where the reference stays inside the band for
+    /// good, and its error is the rms difference over it.
+    #[test]
+    fn small_displacement_error_is_taken_where_the_reference_has_settled() {
+        let t: Vec<f64> = (0..10).map(f64::from).collect();
+        let reference = [0.0, 2.0, 0.5, 1.2, 0.95, 1.05, 0.98, 1.0, 1.0, 1.0];
+        let x = [0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.1];
+        assert_eq!(settled_from(&t, &reference, 1.0, 0.1), Some(4.0));
+        assert_eq!(settled_from(&t, &[1.0, 1.0], 1.0, 0.1), Some(0.0));
+        assert_eq!(settled_from(&t, &reference, 1.0, 0.01), Some(7.0));
+        assert_eq!(settled_from(&t[..3], &[1.0, 1.0, f64::NAN], 1.0, 0.1), None);
+        let (error, from) = small_displacement_error(&t, &x, &reference, 1.0).expect("settles");
+        assert_eq!(from, 4.0);
+        let expected = ((0.05f64.powi(2) + 0.05f64.powi(2) + 0.02f64.powi(2) + 0.1f64.powi(2)) / 6.0).sqrt();
+        assert!((error - expected).abs() < 1e-12, "{error} vs {expected}");
     }
 
     /// Every K_d and B_d the report and its figures print carries a unit.

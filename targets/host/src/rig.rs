@@ -47,13 +47,16 @@ pub struct CompiledModel {
     pub parameters: Vec<f64>,
     /// The drive train of each joint, in the runtime's form.
     pub drives: Vec<DriveTrain<f64>>,
-    /// Backlash and friction of each joint's drive (simulation only).
+    /// Backlash and friction of each joint's drive (the plant's; the controller's friction
+    /// compensation reads the Coulomb friction too, `RigModel::coulomb_friction`).
     pub drive_extras: Vec<DriveExtras>,
     /// The factor applied to every body's mass and inertia.
     pub mass_scale: f64,
 }
 
-/// The parts of a drive the controller does not know about (model file, simulation only).
+/// The parts of a drive the controller's rig terms leave out (model file): backlash and
+/// static friction are simulated only; Coulomb friction is also fed forward by the friction
+/// compensation when it is on.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DriveExtras {
     /// Total gearhead backlash, rad (joint side).
@@ -278,6 +281,13 @@ impl<const N: usize, const M: usize> RigModel<N, M> for TapeRig<N, M> {
     fn current_loop_gains(&self) -> [CurrentLoopGains<f64>; N] {
         self.current_gains
     }
+    fn coulomb_friction(&self) -> [f64; N] {
+        let mut out = [0.0; N];
+        for (slot, extras) in out.iter_mut().zip(&self.model.drive_extras) {
+            *slot = extras.coulomb_friction;
+        }
+        out
+    }
     fn coupling(&self) -> Option<hapticgen_runtime::Coupling<f64, N>> {
         self.model.coupling.as_ref().map(|coupling| hapticgen_runtime::Coupling {
             drive_from_joint: std::array::from_fn(|k| vector(&coupling.drive_from_joint[k])),
@@ -336,6 +346,9 @@ where
     }
     fn coupling(&self) -> Option<hapticgen_runtime::Coupling<f64, N>> {
         self.inner.coupling()
+    }
+    fn coulomb_friction(&self) -> [f64; N] {
+        self.inner.coulomb_friction()
     }
     fn drives(&self) -> [DriveTrain<f64>; N] {
         self.drives

@@ -194,6 +194,10 @@ pub struct SimConfig {
     pub singular_fallback: f64,
     /// Lead time of the spring term, s (`ControlOptions::spring_lead_time`; 0 = the paper's law).
     pub spring_lead_time: f64,
+    /// The friction compensation's velocity band, rad/s (m/s): `Some(δ)` feeds the model's
+    /// Coulomb friction forward (`ControlOptions::friction_compensation_band`); `None` (the
+    /// paper's law) leaves it off.
+    pub friction_compensation: Option<f64>,
     /// Velocity low-pass cut-off of the estimator, Hz.
     pub velocity_cutoff_hz: f64,
     /// Acceleration low-pass cut-off of the estimator, Hz.
@@ -224,6 +228,7 @@ impl SimConfig {
             initial_q,
             singular_fallback: 0.0,
             spring_lead_time: 0.0,
+            friction_compensation: None,
             velocity_cutoff_hz: 100.0,
             acceleration_cutoff_hz: 25.0,
             substeps: 1,
@@ -685,6 +690,7 @@ where
                 omit_damping_compensation: false,
                 min_abs_jacobian_determinant: cfg.singular_fallback,
                 spring_lead_time: cfg.spring_lead_time,
+                friction_compensation_band: cfg.friction_compensation,
             },
         },
         estimator: EstimatorSettings {

@@ -54,6 +54,19 @@ impl Simulation {
             + 1.0 / f64::from(self.model.rates.current_loop_hz)
             + self.design.mean_delay
     }
+
+    /// The friction compensation's default velocity band, rad/s (m/s): the velocity of one
+    /// encoder count per impedance period at the joint (the coarsest drive's), the smallest
+    /// non-zero step of the estimator's backward difference. An estimate dithering by a count
+    /// at rest stays inside it, where the compensation is a ramp, not `±F_c`.
+    pub fn friction_compensation_band(&self) -> f64 {
+        let rate = f64::from(self.model.rates.impedance_loop_hz);
+        self.nominal
+            .drives
+            .iter()
+            .map(|d| std::f64::consts::TAU / (f64::from(d.encoder_counts_per_turn) * d.gear_ratio) * rate)
+            .fold(0.0, f64::max)
+    }
 }
 
 /// The named scenarios of `hapticgen simulate`.

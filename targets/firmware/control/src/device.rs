@@ -193,6 +193,7 @@ pub fn loop_settings<S: Real, const N: usize, const M: usize>(
                 omit_damping_compensation: false,
                 min_abs_jacobian_determinant: S::from_f64(1e-6),
                 spring_lead_time: S::ZERO,
+                friction_compensation_band: None,
             },
         },
         estimator: EstimatorSettings::at_rate(impedance_loop_hz),

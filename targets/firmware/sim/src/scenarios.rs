@@ -45,6 +45,7 @@ fn jacobian_transpose<S: Real, const M: usize>(
             omit_damping_compensation,
             min_abs_jacobian_determinant: s(1e-6),
             spring_lead_time: s(0.0),
+            friction_compensation_band: None,
         },
     }
 }
@@ -127,6 +128,7 @@ pub mod fig4_step {
                 omit_damping_compensation: false,
                 min_abs_jacobian_determinant: s(1e-6),
                 spring_lead_time: s(0.0),
+                friction_compensation_band: None,
             },
         };
         let fast = R::CURRENT_LOOP_HZ;

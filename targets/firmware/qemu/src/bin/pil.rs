@@ -172,6 +172,7 @@ fn build(
                 omit_damping_compensation: false,
                 min_abs_jacobian_determinant: setup.min_abs_jacobian_determinant,
                 spring_lead_time: setup.spring_lead_time,
+                friction_compensation_band: None,
             },
         },
         estimator: EstimatorSettings {
