@@ -70,7 +70,8 @@ where
         Some(coupling) => {
             let drive_velocity = linalg::mat_vec(&coupling.drive_from_joint, joint_velocity);
             let mut drive_torque = [R::Scalar::ZERO; N];
-            for ((torque, &fc), &velocity) in drive_torque.iter_mut().zip(coulomb.iter()).zip(drive_velocity.iter())
+            for ((torque, &fc), &velocity) in
+                drive_torque.iter_mut().zip(coulomb.iter()).zip(drive_velocity.iter())
             {
                 *torque = coulomb_feedforward(fc, velocity, band);
             }
@@ -111,7 +112,10 @@ mod tests {
             assert!((coulomb_feedforward(FC, -v, BAND) + expected).abs() < 1e-15, "v = {}", -v);
         }
         // Monotone across the band.
-        let samples: Vec<f64> = (-20..=20).map(|k| coulomb_feedforward(FC, f64::from(k) * 0.1 * BAND, BAND)).collect();
+        let mut samples = [0.0; 41];
+        for (k, sample) in samples.iter_mut().enumerate() {
+            *sample = coulomb_feedforward(FC, (k as f64 - 20.0) * 0.1 * BAND, BAND);
+        }
         assert!(samples.windows(2).all(|w| w[0] <= w[1]), "{samples:?}");
     }
 

@@ -35,7 +35,8 @@ fn off_is_the_papers_law() {
     for qd in [-2.0, -0.05, 0.0, 0.05, 2.0] {
         let (u, status) = torque(ImpedanceLaw::JacobianTranspose, None, qd);
         assert_eq!(status, ControlStatus::Ok);
-        let expected = Joystick.gravity(&[0.3])[0] + Joystick.damping()[0] * qd - (0.01 * qd + 1.0 * (0.3 - 0.1));
+        let expected =
+            Joystick.gravity(&[0.3])[0] + Joystick.damping()[0] * qd - (0.01 * qd + 1.0 * (0.3 - 0.1));
         assert!((u - expected).abs() < 1e-15, "q̇ = {qd}: {u} vs {expected}");
     }
 }
@@ -43,15 +44,24 @@ fn off_is_the_papers_law() {
 #[test]
 fn on_every_law_adds_the_coulomb_friction_outside_the_band_and_a_ramp_inside() {
     for law in LAWS {
-        for (qd, fraction) in
-            [(-3.0, -1.0), (-BAND, -1.0), (-0.5 * BAND, -0.5), (0.0, 0.0), (0.25 * BAND, 0.25), (BAND, 1.0), (3.0, 1.0)]
-        {
+        for (qd, fraction) in [
+            (-3.0, -1.0),
+            (-BAND, -1.0),
+            (-0.5 * BAND, -0.5),
+            (0.0, 0.0),
+            (0.25 * BAND, 0.25),
+            (BAND, 1.0),
+            (3.0, 1.0),
+        ] {
             let (off, off_status) = torque(law, None, qd);
             let (on, on_status) = torque(law, Some(BAND), qd);
             assert_eq!((off_status, on_status), (ControlStatus::Ok, ControlStatus::Ok), "{law:?}");
             let added = on - off;
             let expected = fraction * JOINT_COULOMB_FRICTION;
-            assert!((added - expected).abs() < 1e-12, "{law:?} at q̇ = {qd}: added {added}, expected {expected}");
+            assert!(
+                (added - expected).abs() < 1e-12,
+                "{law:?} at q̇ = {qd}: added {added}, expected {expected}"
+            );
         }
     }
 }

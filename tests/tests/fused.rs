@@ -56,7 +56,8 @@ impl RigVisitor for FusedEqualsGeneric {
         let drives = rig.drives();
         // The rig carries its model's Coulomb friction, which the compensation feeds forward.
         let path = hapticgen_tests::workspace_root().join(info.file);
-        let model = hapticgen_codegen::load_file(&path, info.file, info.variant).unwrap_or_else(|e| panic!("{e}"));
+        let model =
+            hapticgen_codegen::load_file(&path, info.file, info.variant).unwrap_or_else(|e| panic!("{e}"));
         let coulomb: Vec<f64> = model.model.joints.iter().map(|j| j.drive.coulomb_friction).collect();
         assert_eq!(rig.coulomb_friction().to_vec(), coulomb, "{}", info.module);
         if coulomb.iter().any(|&fc| fc > 0.0) {

@@ -348,7 +348,7 @@ struct SimulateArgs {
     /// Feed the model's Coulomb friction forward (off: the paper's law), with this velocity
     /// band, rad/s (m/s); without a value, the model's velocity quantum (one encoder count per
     /// impedance period, at the joint).
-    #[arg(long, value_name = "BAND", num_args = 0..=1)]
+    #[arg(long, value_name = "BAND", num_args = 0..=1, require_equals = true)]
     friction_compensation: Option<Option<f64>>,
     /// Seed of the sensor noise.
     #[arg(long, default_value_t = 1)]

@@ -187,6 +187,12 @@ impl StepRun<'_> {
 /// displacement.
 const SMALL_DISPLACEMENT: f64 = 0.1;
 
+/// The largest ratio of the small-displacement error with friction compensation to the error
+/// without it that counts as a measurable fall (Fig. 4's check). The error includes where each
+/// response finally sticks, anywhere in the static-friction band with or without compensation,
+/// so the bound leaves room for that; a pure sign (a band of 0) chatters and does not pass it.
+pub const MEASURABLE_FALL: f64 = 0.8;
+
 /// The first sample time from which `x` stays within `band` of `target` to the end (`None`
 /// if its last sample is outside).
 fn settled_from(t: &[f64], x: &[f64], target: f64, band: f64) -> Option<f64> {
@@ -202,7 +208,7 @@ fn settled_from(t: &[f64], x: &[f64], target: f64, band: f64) -> Option<f64> {
 }
 
 /// The rms of `x − reference` over the samples at or after time `from` (NaN without any).
-fn rms_difference_from(t: &[f64], x: &[f64], reference: &[f64], from: f64) -> f64 {
+pub fn rms_difference_from(t: &[f64], x: &[f64], reference: &[f64], from: f64) -> f64 {
     let squares: Vec<f64> = t
         .iter()
         .zip(x.iter().zip(reference))
@@ -219,7 +225,7 @@ fn rms_difference_from(t: &[f64], x: &[f64], reference: &[f64], from: f64) -> f6
 /// `reference` stays within [`SMALL_DISPLACEMENT`] of its steady state `steady`, the rms
 /// difference between `x` (the same run with friction) and it. Returns the error and when
 /// the window starts; `None` if the friction-free response never settles that far.
-fn small_displacement_error(t: &[f64], x: &[f64], reference: &[f64], steady: f64) -> Option<(f64, f64)> {
+pub fn small_displacement_error(t: &[f64], x: &[f64], reference: &[f64], steady: f64) -> Option<(f64, f64)> {
     let from = settled_from(t, reference, steady, SMALL_DISPLACEMENT * steady.abs())?;
     Some((rms_difference_from(t, x, reference, from), from))
 }
@@ -310,7 +316,8 @@ fn figure4(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
     // friction, with the model's velocity quantum as its band).
     let compensation_band = sim.friction_compensation_band();
     let (compensated, _) =
-        StepRun { effects: Effects::ALL, friction_compensation: Some(compensation_band), ..base }.run(report)?;
+        StepRun { effects: Effects::ALL, friction_compensation: Some(compensation_band), ..base }
+            .run(report)?;
     let xc = column(&compensated, "x0");
     let steady_compensated = analysis::mean_between(&t, &xc, end - 0.5, end);
     let offset_compensated = (steady_compensated - expected_ss).abs();
@@ -326,9 +333,9 @@ fn figure4(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
              within {:.0} % of its steady state), compensation off → on",
             100.0 * SMALL_DISPLACEMENT
         ),
-        "falls to ≤ 0.5× with compensation".into(),
+        format!("falls to ≤ {MEASURABLE_FALL}× with compensation"),
         format!("{error_off:.4} rad → {error_on:.4} rad ({ratio:.2}×)"),
-        ratio <= 0.5,
+        ratio <= MEASURABLE_FALL,
     );
     report.check(
         name,
