@@ -1147,6 +1147,11 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
         args.output.join("trace.csv").display(),
         figures
     );
+    if let Some(band) = cfg.friction_compensation {
+        println!(
+            "note: friction compensation on: the model's Coulomb friction fed forward, band {band:.4} rad/s"
+        );
+    }
     if let Some((t, fault)) = &trace.fault {
         println!("note: the safety monitor latched {fault} at t = {t:.3} s");
         if !plausible.is_empty() {
