@@ -185,7 +185,7 @@ impl StepRun<'_> {
 /// "Small" displacements from a step response's steady state (the paper's "low angular
 /// displacements from steady-state", section 6.1), as a fraction of the steady-state
 /// displacement.
-const SMALL_DISPLACEMENT: f64 = 0.1;
+pub const SMALL_DISPLACEMENT: f64 = 0.1;
 
 /// The largest ratio of the small-displacement error with friction compensation to the error
 /// without it that counts as a measurable fall (Fig. 4's check). The error includes where each
