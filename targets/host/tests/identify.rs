@@ -107,8 +107,8 @@ fn a_noise_free_log_gives_the_true_base_parameters() {
         // with a gain within 1e-10 of 1, and no row is left out.
         let settings =
             FitSettings { min_speed: 0.0, cutoff_hz: 100.0, decimate: 4, ..FitSettings::default() };
-        let samples = fit::prepare(&log, &settings, file).unwrap_or_else(|e| panic!("{e}"));
-        let fitted = fit::fit(&regressor, &samples, &settings).unwrap_or_else(|e| panic!("{file}: {e}"));
+        let segment = fit::prepare(&log, &settings, file).unwrap_or_else(|e| panic!("{e}"));
+        let fitted = fit::fit(&regressor, &[segment], &settings).unwrap_or_else(|e| panic!("{file}: {e}"));
         let norm = beta.iter().map(|b| b * b).sum::<f64>().sqrt();
         let error = fitted.beta.iter().zip(&beta).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
         for (c, base) in regressor.regressor.base.iter().enumerate() {

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use hapticgen_codegen::CheckedModel;
 
 use super::excite::{self, ExciteSettings};
-use super::fit::{self, FitSettings, Sample};
+use super::fit::{self, FitSettings, Segment};
 use super::log::IdentificationLog;
 use super::regressor::RegressorTape;
 use super::trajectory::TrajectoryFile;
@@ -168,14 +168,14 @@ fn read_samples(
     model: &CheckedModel,
     logs: &[PathBuf],
     settings: &FitSettings,
-) -> Result<Vec<Sample>, String> {
+) -> Result<Vec<Segment>, String> {
     let joints: Vec<String> = model.joints.iter().map(|j| j.name.clone()).collect();
-    let mut samples = Vec::new();
+    let mut segments = Vec::new();
     for path in logs {
         let log = IdentificationLog::read(path, &joints)?;
-        samples.extend(fit::prepare(&log, settings, &path.display().to_string())?);
+        segments.push(fit::prepare(&log, settings, &path.display().to_string())?);
     }
-    Ok(samples)
+    Ok(segments)
 }
 
 /// `hapticgen identify`'s fit: the base parameters from `logs`, validated on `validate`.

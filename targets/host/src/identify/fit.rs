@@ -2,13 +2,19 @@
 //!
 //! **Signals.** The encoder angles go through a zero-phase low-pass filter: a 2nd-order
 //! Butterworth section run forward and backward (4th order in magnitude, no phase lag), cutoff
-//! [`FitSettings::cutoff_hz`]; `q̇` and `q̈` are five-point central differences of the filtered angles (fourth order).
-//! The torques ([`TorqueSource`]: commanded by default) are **not** filtered: the Coulomb
-//! friction's sign is not a linear function of the signals, so filtering `τ` but not the
-//! `sgn q̇` inside `Y` smears every velocity reversal into the viscous and Coulomb columns
-//! (on noise-free joystick data, 12 % on the viscous friction); their noise is what the least
-//! squares average. Every [`FitSettings::decimate`]-th sample is kept, and
-//! [`FitSettings::edge`] seconds at each end of a log (the filter's transients) are dropped.
+//! [`FitSettings::cutoff_hz`]; `q̇` and `q̈` are five-point central differences of the filtered
+//! angles (fourth order). A device's ticks land on its current-loop periods, so the log is
+//! first interpolated onto evenly spaced times.
+//!
+//! **Parallel filtering** (Gautier 1997). `Y` is evaluated at every sample, then each of its
+//! entries and the torque ([`TorqueSource`]: commanded by default) go through the same
+//! zero-phase filter before the fit: `τ = Y β` is linear in β, so `τ_f = Y_f β` holds exactly,
+//! the Coulomb columns' sign included (filtering `τ` alone smears every velocity reversal into
+//! the friction columns: 12 % on the joystick's viscous friction), and what the filter removes —
+//! the torque held between ticks, sampled on uneven times, the feedback's reaction to encoder
+//! steps — is removed from both sides. Then every [`FitSettings::decimate`]-th sample is kept,
+//! and [`FitSettings::edge`] seconds at each end of a log (the filter's transients) are
+//! dropped.
 //!
 //! **Rows.** Each sample gives one row per joint. A joint's row is left out where that joint
 //! moves slower than [`FitSettings::min_speed`]: there a real joint sticks (static friction),
@@ -83,6 +89,15 @@ pub struct Sample {
     pub tau: Vec<f64>,
 }
 
+/// One log, prepared: its samples at the full (resampled) rate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Segment {
+    /// The samples, evenly spaced.
+    pub samples: Vec<Sample>,
+    /// Their rate, Hz.
+    pub sample_hz: f64,
+}
+
 /// The identified base parameters and their figures.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fit {
@@ -131,30 +146,61 @@ pub fn zero_phase(x: &[f64], cutoff_hz: f64, sample_hz: f64) -> Vec<f64> {
     out
 }
 
-/// `log` linearly interpolated onto the evenly spaced times `t_0 + k · period`: a device's
-/// ticks land on its current-loop periods (7.5 kHz), so a 1 kHz log's samples are 0.93 or
-/// 1.07 ms apart.
+/// `log` onto the evenly spaced times `t_0 + k · period`: a device's ticks land on its
+/// current-loop periods (7.5 kHz), so a 1 kHz log's samples are 0.93 or 1.07 ms apart. Angles
+/// are interpolated linearly. A torque holds from its tick to the next, so each evenly spaced
+/// sample takes the held torque's average over the `period` centred on it: sampling it at the
+/// instant instead moves it by up to half a tick, which a fit reads as viscous friction
+/// (the tracking loop's 8 Hz correction times the joint's inertia: 5 times the joystick's
+/// true value).
 fn resampled(log: &IdentificationLog, period: f64) -> IdentificationLog {
     let mut out = IdentificationLog::new(log.joints.clone());
+    let count = log.len();
     let start = log.time[0];
+    let n = log.joints.len();
+    // The held torque's integral from `a` to `b` (held before the first tick at its value,
+    // after the last at the last's).
+    let held_average = |rows: &[Vec<f64>], a: f64, b: f64, from: usize| -> Vec<f64> {
+        let mut sum = vec![0.0; n];
+        let mut k = from;
+        let mut t = a;
+        while t < b {
+            let until = if k + 1 < count { log.time[k + 1].min(b) } else { b };
+            let until = until.max(t);
+            for j in 0..n {
+                sum[j] += rows[k][j] * (until - t);
+            }
+            t = until;
+            if k + 1 < count && log.time[k + 1] <= t {
+                k += 1;
+            } else if until >= b {
+                break;
+            }
+        }
+        sum.iter().map(|v| v / (b - a)).collect()
+    };
     let mut i = 0;
-    for k in 0..log.len() {
-        let t = start + k as f64 * period;
-        while i + 2 < log.len() && log.time[i + 1] <= t {
+    for step in 0..count {
+        let t = start + step as f64 * period;
+        while i + 2 < count && log.time[i + 1] <= t {
             i += 1;
         }
         let (t0, t1) = (log.time[i], log.time[i + 1]);
         let w = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
-        let mix = |rows: &[Vec<f64>]| -> Vec<f64> {
-            rows[i].iter().zip(&rows[i + 1]).map(|(a, b)| a + w * (b - a)).collect()
-        };
-        out.push(t, &mix(&log.q), &mix(&log.tau), &mix(&log.tau_command));
+        let q: Vec<f64> = log.q[i].iter().zip(&log.q[i + 1]).map(|(a, b)| a + w * (b - a)).collect();
+        // The tick in force at the window's start.
+        let (a, b) = (t - 0.5 * period, t + 0.5 * period);
+        let mut first = i;
+        while first > 0 && log.time[first] > a {
+            first -= 1;
+        }
+        out.push(t, &q, &held_average(&log.tau, a, b, first), &held_average(&log.tau_command, a, b, first));
     }
     out
 }
 
-/// Filters, differentiates and decimates one log (`what` names it in errors).
-pub fn prepare(log: &IdentificationLog, settings: &FitSettings, what: &str) -> Result<Vec<Sample>, String> {
+/// Resamples one log, filters its angles and differentiates them (`what` names it in errors).
+pub fn prepare(log: &IdentificationLog, settings: &FitSettings, what: &str) -> Result<Segment, String> {
     let count = log.len();
     if count < 50 {
         return Err(format!(
@@ -187,10 +233,8 @@ pub fn prepare(log: &IdentificationLog, settings: &FitSettings, what: &str) -> R
         TorqueSource::Measured => &log.tau,
     };
     let tau: Vec<Vec<f64>> = (0..n).map(|j| column(torque, j)).collect();
-    let edge = (settings.edge / period).ceil() as usize + 2;
-    let mut samples = Vec::new();
-    let mut i = edge;
-    while i + edge < count {
+    let mut samples = Vec::with_capacity(count);
+    for i in 2..count.saturating_sub(2) {
         samples.push(Sample {
             time: log.time[i],
             q: (0..n).map(|j| q[j][i]).collect(),
@@ -205,16 +249,15 @@ pub fn prepare(log: &IdentificationLog, settings: &FitSettings, what: &str) -> R
                 .collect(),
             tau: (0..n).map(|j| tau[j][i]).collect(),
         });
-        i += settings.decimate.max(1);
     }
-    Ok(samples)
+    Ok(Segment { samples, sample_hz })
 }
 
-/// Stacks the rows of `samples` that [`FitSettings::min_speed`] lets through: `W`, `t` and
-/// each row's joint.
+/// Stacks the rows of `segments`: `Y` and `τ` filtered alike, trimmed, decimated, the rows
+/// [`FitSettings::min_speed`] lets through; returns `W`, `t` and each row's joint.
 fn stack(
     regressor: &RegressorTape,
-    samples: &[Sample],
+    segments: &[Segment],
     settings: &FitSettings,
 ) -> (DMatrix<f64>, DVector<f64>, Vec<usize>) {
     let (n, p) = (regressor.joints(), regressor.columns());
@@ -223,25 +266,43 @@ fn stack(
     let mut rows = Vec::new();
     let mut torques = Vec::new();
     let mut joint_of = Vec::new();
-    for s in samples {
-        regressor.eval(&mut scratch, &s.q, &s.qd, &s.qdd, &mut y);
-        for j in 0..n {
-            if s.qd[j].abs() < settings.min_speed {
-                continue;
+    for segment in segments {
+        let count = segment.samples.len();
+        // Entry (r, c) of Y over the segment, then the torque of each joint.
+        let mut series = vec![vec![0.0; count]; n * p + n];
+        for (i, s) in segment.samples.iter().enumerate() {
+            regressor.eval(&mut scratch, &s.q, &s.qd, &s.qdd, &mut y);
+            for (k, value) in y.iter().enumerate() {
+                series[k][i] = *value;
             }
-            rows.extend_from_slice(&y[j * p..(j + 1) * p]);
-            torques.push(s.tau[j]);
-            joint_of.push(j);
+            for j in 0..n {
+                series[n * p + j][i] = s.tau[j];
+            }
+        }
+        let filtered: Vec<Vec<f64>> =
+            series.iter().map(|x| zero_phase(x, settings.cutoff_hz, segment.sample_hz)).collect();
+        let edge = (settings.edge * segment.sample_hz).ceil() as usize;
+        let mut i = edge;
+        while i + edge < count {
+            for j in 0..n {
+                if segment.samples[i].qd[j].abs() < settings.min_speed {
+                    continue;
+                }
+                rows.extend((0..p).map(|c| filtered[j * p + c][i]));
+                torques.push(filtered[n * p + j][i]);
+                joint_of.push(j);
+            }
+            i += settings.decimate.max(1);
         }
     }
     (DMatrix::from_row_slice(torques.len(), p, &rows), DVector::from_vec(torques), joint_of)
 }
 
-/// Identifies the base parameters from prepared samples (of one or more logs).
-pub fn fit(regressor: &RegressorTape, samples: &[Sample], settings: &FitSettings) -> Result<Fit, String> {
+/// Identifies the base parameters from prepared logs.
+pub fn fit(regressor: &RegressorTape, segments: &[Segment], settings: &FitSettings) -> Result<Fit, String> {
     let (n, p) = (regressor.joints(), regressor.columns());
     let names = &regressor.regressor.base;
-    let (w, t, joint_of) = stack(regressor, samples, settings);
+    let (w, t, joint_of) = stack(regressor, segments, settings);
     let mut rows = vec![0; n];
     for &j in &joint_of {
         rows[j] += 1;
@@ -343,11 +404,11 @@ pub fn fit(regressor: &RegressorTape, samples: &[Sample], settings: &FitSettings
 pub fn prediction_error(
     regressor: &RegressorTape,
     beta: &[f64],
-    samples: &[Sample],
+    segments: &[Segment],
     settings: &FitSettings,
 ) -> (Vec<f64>, Vec<f64>) {
     let n = regressor.joints();
-    let (w, t, joint_of) = stack(regressor, samples, settings);
+    let (w, t, joint_of) = stack(regressor, segments, settings);
     let predicted = &w * DVector::from_column_slice(beta);
     let (mut error, mut torque, mut count) = (vec![0.0; n], vec![0.0; n], vec![0usize; n]);
     for (r, &j) in joint_of.iter().enumerate() {
