@@ -8,6 +8,7 @@ mod cli;
 mod current_gains;
 mod design;
 mod faults;
+mod identify;
 mod paper;
 mod silent;
 mod zwidth;
