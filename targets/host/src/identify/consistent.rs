@@ -263,6 +263,21 @@ fn body_from_vector(v: &[f64; 10]) -> (f64, [f64; 3], [[f64; 3]; 3]) {
     (m, c, ic)
 }
 
+/// The central inertia with its second moments `Σ_c = ½ tr(I) 1 − I` clamped at 0 (and the
+/// planar moment about z at 0).
+fn clamp_central(inertia: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    let i = Matrix3::from_fn(|r, s| inertia[r][s]);
+    let sigma = Matrix3::identity() * (0.5 * i.trace()) - i;
+    let eigen = SymmetricEigen::new(sigma);
+    if eigen.eigenvalues.iter().all(|&x| x >= 0.0) {
+        return *inertia;
+    }
+    let clamped = eigen.eigenvalues.map(|x| x.max(0.0));
+    let sigma = eigen.eigenvectors * Matrix3::from_diagonal(&clamped) * eigen.eigenvectors.transpose();
+    let i = Matrix3::identity() * sigma.trace() - sigma;
+    std::array::from_fn(|r| std::array::from_fn(|s| 0.5 * (i[(r, s)] + i[(s, r)])))
+}
+
 /// The spatial pseudo-inertia of `v`.
 fn pseudo_inertia(v: &[f64; 10]) -> Matrix4<f64> {
     let mut inertia = Matrix3::zeros();
@@ -313,19 +328,14 @@ fn planar_pseudo_inertia(v: &[f64; 10]) -> Matrix3<f64> {
     j
 }
 
-/// `U` of the log-Cholesky parameters and its derivatives.
+/// `U` of the Cholesky parameters and its derivatives.
 fn cholesky_factor(theta: &[f64]) -> (Matrix4<f64>, [Matrix4<f64>; 10]) {
     let a = theta[0].exp();
     let mut u = Matrix4::zeros();
     let mut du = [Matrix4::zeros(); 10];
     // theta: α, d1, d2, d3, s12, s13, s23, t1, t2, t3
-    for i in 0..3 {
-        let e = (theta[1 + i]).exp();
-        u[(i, i)] = a * e;
-        du[1 + i][(i, i)] = a * e;
-    }
-    let off = [(0, 1, 4), (0, 2, 5), (1, 2, 6), (0, 3, 7), (1, 3, 8), (2, 3, 9)];
-    for &(r, c, k) in &off {
+    let entries = [(0, 0, 1), (1, 1, 2), (2, 2, 3), (0, 1, 4), (0, 2, 5), (1, 2, 6), (0, 3, 7), (1, 3, 8), (2, 3, 9)];
+    for &(r, c, k) in &entries {
         u[(r, c)] = a * theta[k];
         du[k][(r, c)] = a;
     }
@@ -334,7 +344,7 @@ fn cholesky_factor(theta: &[f64]) -> (Matrix4<f64>, [Matrix4<f64>; 10]) {
     (u, du)
 }
 
-/// Log-Cholesky parameters of a positive definite pseudo-inertia.
+/// Cholesky parameters of a positive definite pseudo-inertia.
 fn cholesky_parameters(j: &Matrix4<f64>) -> Option<[f64; 10]> {
     // J = U Uᵀ, U upper: the lower Cholesky factor of the reversed matrix, reversed.
     let mut reversed = Matrix4::zeros();
@@ -351,12 +361,11 @@ fn cholesky_parameters(j: &Matrix4<f64>) -> Option<[f64; 10]> {
         }
     }
     let a = u[(3, 3)];
-    let alpha = a.ln();
     Some([
-        alpha,
-        (u[(0, 0)] / a).ln(),
-        (u[(1, 1)] / a).ln(),
-        (u[(2, 2)] / a).ln(),
+        a.ln(),
+        u[(0, 0)] / a,
+        u[(1, 1)] / a,
+        u[(2, 2)] / a,
         u[(0, 1)] / a,
         u[(0, 2)] / a,
         u[(1, 2)] / a,
@@ -380,14 +389,14 @@ impl Body {
         match self.kind {
             Kind::Fixed => (self.nominal, Vec::new()),
             Kind::Planar => {
-                let (m, cx, cy, izz) = ((2.0 * theta[0]).exp(), theta[1], theta[2], (2.0 * theta[3]).exp());
+                let (m, cx, cy, izz) = ((2.0 * theta[0]).exp(), theta[1], theta[2], theta[3] * theta[3]);
                 let v = body_vector(m, [cx, cy, 0.0], &[[0.0; 3], [0.0; 3], [0.0, 0.0, izz]]);
                 let dm = body_vector(2.0 * m, [cx, cy, 0.0], &[[0.0; 3]; 3]);
                 // ∂/∂c_x and ∂/∂c_y of (m, m c, m (|c|² 1 − c cᵀ)).
                 let dcx = [0.0, m, 0.0, 0.0, 0.0, -m * cy, 0.0, 2.0 * m * cx, 0.0, 2.0 * m * cx];
                 let dcy = [0.0, 0.0, m, 0.0, 2.0 * m * cy, -m * cx, 0.0, 0.0, 0.0, 2.0 * m * cy];
                 let mut dz = [0.0; 10];
-                dz[9] = 2.0 * izz;
+                dz[9] = 2.0 * theta[3];
                 (v, vec![dm, dcx, dcy, dz])
             }
             Kind::Spatial => {
@@ -410,16 +419,16 @@ impl Body {
             Kind::Fixed => Vec::new(),
             Kind::Planar => {
                 let (m, c, ic) = body_from_vector(v);
-                let floor = 1e-6 * self.scale[9];
-                vec![0.5 * m.ln(), c[0], c[1], 0.5 * ic[2][2].max(floor).ln()]
+                let floor = 1e-10 * self.scale[9];
+                vec![0.5 * m.ln(), c[0], c[1], ic[2][2].max(floor).sqrt()]
             }
             Kind::Spatial => {
                 let mut j = pseudo_inertia(v);
                 let (m, l2) = (self.scale[0], self.scale[4] / self.scale[0]);
                 for i in 0..3 {
-                    j[(i, i)] += 1e-6 * m * l2;
+                    j[(i, i)] += 1e-10 * m * l2;
                 }
-                j[(3, 3)] += 1e-9 * m;
+                j[(3, 3)] += 1e-12 * m;
                 let fallback = {
                     let mut j = Matrix4::identity() * (m * l2);
                     j[(3, 3)] = m;
@@ -552,8 +561,20 @@ pub fn fit(
     let problem = setup(model, regressor, beta, sigma);
     let mut theta = problem.start();
     let mut lambda = 1e-2_f64.max(options.regularisation);
+    let mut misfit = f64::INFINITY;
     loop {
-        theta = problem.levenberg_marquardt(theta, lambda, options.iterations);
+        let next = problem.levenberg_marquardt(theta.clone(), lambda, options.iterations);
+        let next_misfit = problem.misfit(&next);
+        // A smaller weight that no longer improves the fit (β̂ out of reach of a consistent
+        // model) only lets the free parameters drift: keep the last stage's.
+        if next_misfit > 0.5 * misfit {
+            if next_misfit < misfit {
+                theta = next;
+            }
+            break;
+        }
+        theta = next;
+        misfit = next_misfit;
         if lambda <= options.regularisation {
             break;
         }
@@ -674,15 +695,18 @@ impl Problem {
     }
 
     /// Standard parameters, the bodies' `v_b` and `∂π/∂θ`.
-    fn standard(&self, theta: &[f64]) -> (Vec<f64>, Vec<[f64; 10]>, DMatrix<f64>) {
+    fn standard(&self, theta: &[f64], with_jacobian: bool) -> (Vec<f64>, Vec<[f64; 10]>, DMatrix<f64>) {
         let mut pi = self.fixed.clone();
-        let mut jacobian = DMatrix::zeros(pi.len(), self.unknowns);
+        let mut jacobian = DMatrix::zeros(if with_jacobian { pi.len() } else { 0 }, self.unknowns);
         let mut vectors = Vec::with_capacity(self.bodies.len());
         for body in &self.bodies {
             let (v, dv) = body.vector(&theta[body.offset..body.offset + body.unknowns()]);
             for i in 0..10 {
                 let row = body.standard + i;
                 pi[row] = (0..10).map(|j| body.map[i][j] * v[j]).sum();
+                if !with_jacobian {
+                    continue;
+                }
                 for (u, d) in dv.iter().enumerate() {
                     jacobian[(row, body.offset + u)] = (0..10).map(|j| body.map[i][j] * d[j]).sum();
                 }
@@ -697,22 +721,29 @@ impl Problem {
                 (theta[d.offset] * d.scale, d.scale)
             };
             pi[d.standard] = x;
-            jacobian[(d.standard, d.offset)] = dx;
+            if with_jacobian {
+                jacobian[(d.standard, d.offset)] = dx;
+            }
         }
         (pi, vectors, jacobian)
     }
 
-    /// The stacked residual (data, then the pull toward the file) and its Jacobian.
-    fn residual(&self, theta: &[f64], lambda: f64) -> (DVector<f64>, DMatrix<f64>) {
-        let (pi, vectors, dpi) = self.standard(theta);
+    /// The stacked residual (data, then the pull toward the file) and, if asked for, its
+    /// Jacobian (else an empty matrix).
+    fn residual(&self, theta: &[f64], lambda: f64, with_jacobian: bool) -> (DVector<f64>, DMatrix<f64>) {
+        let (pi, vectors, dpi) = self.standard(theta, with_jacobian);
         let p = self.target.len();
         let regularised: usize = self.bodies.iter().filter(|b| b.kind != Kind::Fixed).count() * 10 + self.drives.len();
         let mut r = DVector::zeros(p + regularised);
-        let mut jac = DMatrix::zeros(p + regularised, self.unknowns);
+        let rows = if with_jacobian { p + regularised } else { 0 };
+        let mut jac = DMatrix::zeros(rows, self.unknowns);
         let kpi = &self.k * DVector::from_vec(pi.clone());
-        let kd = &self.k * &dpi;
+        let kd = if with_jacobian { &self.k * &dpi } else { DMatrix::zeros(0, 0) };
         for i in 0..p {
             r[i] = self.weights[i] * (kpi[i] - self.target[i]);
+            if !with_jacobian {
+                continue;
+            }
             for u in 0..self.unknowns {
                 jac[(i, u)] = self.weights[i] * kd[(i, u)];
             }
@@ -727,7 +758,7 @@ impl Problem {
             for i in 0..10 {
                 let s = w / body.scale[i].max(1e-300);
                 r[row] = s * (v[i] - body.nominal[i]);
-                for (u, d) in dv.iter().enumerate() {
+                for (u, d) in dv.iter().enumerate().filter(|_| with_jacobian) {
                     jac[(row, body.offset + u)] = s * d[i];
                 }
                 row += 1;
@@ -736,52 +767,69 @@ impl Problem {
         for d in &self.drives {
             let s = w / d.scale;
             r[row] = s * (pi[d.standard] - d.nominal);
-            jac[(row, d.offset)] = s * dpi[(d.standard, d.offset)];
+            if with_jacobian {
+                jac[(row, d.offset)] = s * dpi[(d.standard, d.offset)];
+            }
             row += 1;
         }
         (r, jac)
     }
 
+    /// `‖W (K π − β̂)‖`.
+    fn misfit(&self, theta: &[f64]) -> f64 {
+        let (r, _) = self.residual(theta, 0.0, false);
+        r.rows(0, self.target.len()).norm()
+    }
+
+    /// Levenberg–Marquardt on the stacked residual: each step minimises
+    /// `‖r + 𝒥 δ‖² + μ ‖S δ‖²` (`S` the Jacobian's column norms, Moré's scaling) through one
+    /// SVD of `𝒥 S⁻¹` per iteration, never the squared normal equations.
     fn levenberg_marquardt(&self, mut theta: Vec<f64>, lambda: f64, iterations: usize) -> Vec<f64> {
-        let mut mu = 1e-3;
-        let (mut r, mut jac) = self.residual(&theta, lambda);
+        let n = self.unknowns;
+        let (mut r, mut jac) = self.residual(&theta, lambda, true);
         let mut cost = r.norm_squared();
+        let mut mu = 1e-3;
+        let mut slow = 0;
+        // Moré's scaling: the largest column norm seen so far.
+        let mut scale: Vec<f64> = vec![0.0; n];
         for _ in 0..iterations {
-            let gradient = jac.transpose() * &r;
-            let hessian = jac.transpose() * &jac;
-            let largest = (0..self.unknowns).map(|i| hessian[(i, i)]).fold(0.0, f64::max).max(1e-300);
+            let norms: Vec<f64> = (0..n).map(|u| jac.column(u).norm()).collect();
+            let largest = norms.iter().copied().fold(0.0, f64::max).max(1e-300);
+            for (s, &x) in scale.iter_mut().zip(&norms) {
+                *s = s.max(x).max(1e-8 * largest);
+            }
+            let mut scaled = jac.clone();
+            for (u, &s) in scale.iter().enumerate() {
+                scaled.column_mut(u).unscale_mut(s);
+            }
+            let svd = scaled.svd(true, true);
+            let (Some(left), Some(right)) = (svd.u.as_ref(), svd.v_t.as_ref()) else { break };
+            let projected = left.transpose() * &r;
+            let sigma_max = svd.singular_values.iter().copied().fold(0.0, f64::max);
             let mut accepted = false;
-            for _ in 0..40 {
-                let mut a = hessian.clone();
-                for i in 0..self.unknowns {
-                    a[(i, i)] += mu * hessian[(i, i)].max(1e-12 * largest);
+            while mu < 1e30 {
+                let damping = mu * sigma_max * sigma_max;
+                let mut y = DVector::zeros(n);
+                for (i, &sv) in svd.singular_values.iter().enumerate() {
+                    let w = -sv / (sv * sv + damping) * projected[i];
+                    y += right.row(i).transpose() * w;
                 }
-                let step = match a.clone().cholesky() {
-                    Some(c) => c.solve(&(-&gradient)),
-                    None => match a.lu().solve(&(-&gradient)) {
-                        Some(s) => s,
-                        None => {
-                            mu *= 4.0;
-                            continue;
-                        }
-                    },
-                };
-                let candidate: Vec<f64> = theta.iter().zip(step.iter()).map(|(t, s)| t + s).collect();
-                let (r2, j2) = self.residual(&candidate, lambda);
+                let candidate: Vec<f64> = theta.iter().zip(y.iter()).zip(&scale).map(|((t, y), s)| t + y / s).collect();
+                let (r2, _) = self.residual(&candidate, lambda, false);
                 let cost2 = r2.norm_squared();
                 if cost2.is_finite() && cost2 < cost {
                     let decrease = (cost - cost2) / cost.max(1e-300);
                     theta = candidate;
-                    r = r2;
-                    jac = j2;
+                    (r, jac) = self.residual(&theta, lambda, true);
                     cost = cost2;
-                    mu = (mu / 3.0).max(1e-15);
-                    accepted = decrease > 1e-15;
+                    mu = (mu / 5.0).max(1e-16);
+                    accepted = true;
+                    slow = if decrease < 1e-14 { slow + 1 } else { 0 };
                     break;
                 }
                 mu *= 4.0;
             }
-            if !accepted || cost == 0.0 {
+            if !accepted || slow >= 3 || cost == 0.0 {
                 break;
             }
         }
@@ -789,7 +837,7 @@ impl Problem {
     }
 
     fn result(&self, model: &CheckedModel, regressor: &Regressor, theta: &[f64], beta: &[f64]) -> ConsistentParameters {
-        let (pi, vectors, _) = self.standard(theta);
+        let (pi, vectors, _) = self.standard(theta, false);
         let base = regressor.base_values(&pi);
         let weighted = |x: &dyn Fn(usize) -> f64| (0..beta.len()).map(|i| (self.weights[i] * x(i)).powi(2)).sum::<f64>().sqrt();
         let error = weighted(&|i| base[i] - beta[i]);
@@ -806,6 +854,10 @@ impl Problem {
             .zip(&vectors)
             .map(|((body, fit), v)| {
                 let (mass, com, inertia) = body_from_vector(v);
+                // Round-off of `c = h / m` and the parallel-axis shift can leave a second moment
+                // of a body on the cone's boundary (a rod, a point mass) at −1e-16: clamp.
+                let inertia = if planar { inertia } else { clamp_central(&inertia) };
+                let v = &if fit.kind == Kind::Fixed { *v } else { body_vector(mass, com, &inertia) };
                 let eigenvalues: Vec<f64> = if planar {
                     SymmetricEigen::new(planar_pseudo_inertia(v)).eigenvalues.iter().copied().collect()
                 } else {
