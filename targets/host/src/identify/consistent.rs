@@ -263,16 +263,19 @@ fn body_from_vector(v: &[f64; 10]) -> (f64, [f64; 3], [[f64; 3]; 3]) {
     (m, c, ic)
 }
 
-/// The central inertia with its second moments `Σ_c = ½ tr(I) 1 − I` clamped at 0 (and the
-/// planar moment about z at 0).
+/// The central inertia with its second moments `Σ_c = ½ tr(I) 1 − I` at least 10⁻⁷ of the
+/// largest: a body on the cone's boundary (a rod, a point mass) written just inside it, where
+/// the loader's check of the triangle inequality (10⁻⁹, with eigenvalues of repeated moments
+/// good to about 10⁻⁸) accepts it.
 fn clamp_central(inertia: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
     let i = Matrix3::from_fn(|r, s| inertia[r][s]);
     let sigma = Matrix3::identity() * (0.5 * i.trace()) - i;
     let eigen = SymmetricEigen::new(sigma);
-    if eigen.eigenvalues.iter().all(|&x| x >= 0.0) {
+    let floor = 1e-7 * eigen.eigenvalues.iter().copied().fold(0.0, f64::max);
+    if eigen.eigenvalues.iter().all(|&x| x >= floor) {
         return *inertia;
     }
-    let clamped = eigen.eigenvalues.map(|x| x.max(0.0));
+    let clamped = eigen.eigenvalues.map(|x| x.max(floor));
     let sigma = eigen.eigenvectors * Matrix3::from_diagonal(&clamped) * eigen.eigenvectors.transpose();
     let i = Matrix3::identity() * sigma.trace() - sigma;
     std::array::from_fn(|r| std::array::from_fn(|s| 0.5 * (i[(r, s)] + i[(s, r)])))
@@ -328,53 +331,6 @@ fn planar_pseudo_inertia(v: &[f64; 10]) -> Matrix3<f64> {
     j
 }
 
-/// `U` of the Cholesky parameters and its derivatives.
-fn cholesky_factor(theta: &[f64]) -> (Matrix4<f64>, [Matrix4<f64>; 10]) {
-    let a = theta[0].exp();
-    let mut u = Matrix4::zeros();
-    let mut du = [Matrix4::zeros(); 10];
-    // theta: α, d1, d2, d3, s12, s13, s23, t1, t2, t3
-    let entries = [(0, 0, 1), (1, 1, 2), (2, 2, 3), (0, 1, 4), (0, 2, 5), (1, 2, 6), (0, 3, 7), (1, 3, 8), (2, 3, 9)];
-    for &(r, c, k) in &entries {
-        u[(r, c)] = a * theta[k];
-        du[k][(r, c)] = a;
-    }
-    u[(3, 3)] = a;
-    du[0] = u;
-    (u, du)
-}
-
-/// Cholesky parameters of a positive definite pseudo-inertia.
-fn cholesky_parameters(j: &Matrix4<f64>) -> Option<[f64; 10]> {
-    // J = U Uᵀ, U upper: the lower Cholesky factor of the reversed matrix, reversed.
-    let mut reversed = Matrix4::zeros();
-    for r in 0..4 {
-        for c in 0..4 {
-            reversed[(r, c)] = j[(3 - r, 3 - c)];
-        }
-    }
-    let l = reversed.cholesky()?.l();
-    let mut u = Matrix4::zeros();
-    for r in 0..4 {
-        for c in 0..4 {
-            u[(r, c)] = l[(3 - r, 3 - c)];
-        }
-    }
-    let a = u[(3, 3)];
-    Some([
-        a.ln(),
-        u[(0, 0)] / a,
-        u[(1, 1)] / a,
-        u[(2, 2)] / a,
-        u[(0, 1)] / a,
-        u[(0, 2)] / a,
-        u[(1, 2)] / a,
-        u[(0, 3)] / a,
-        u[(1, 3)] / a,
-        u[(2, 3)] / a,
-    ])
-}
-
 impl Body {
     fn unknowns(&self) -> usize {
         match self.kind {
@@ -384,64 +340,74 @@ impl Body {
         }
     }
 
-    /// `v_b` and `∂v_b/∂θ` (10 × unknowns, column-major as a vector of columns).
+    /// `v_b` and `∂v_b/∂θ` (one column per unknown): the unknowns are `v_b` itself
+    /// (spatial) or `(m, h_x, h_y, zz)` (planar; the out-of-plane entries, which no base
+    /// parameter holds, are filled in by [`Problem::result`]).
     fn vector(&self, theta: &[f64]) -> ([f64; 10], Vec<[f64; 10]>) {
+        let unit = |k: usize| {
+            let mut e = [0.0; 10];
+            e[k] = 1.0;
+            e
+        };
         match self.kind {
             Kind::Fixed => (self.nominal, Vec::new()),
             Kind::Planar => {
-                let (m, cx, cy, izz) = ((2.0 * theta[0]).exp(), theta[1], theta[2], theta[3] * theta[3]);
-                let v = body_vector(m, [cx, cy, 0.0], &[[0.0; 3], [0.0; 3], [0.0, 0.0, izz]]);
-                let dm = body_vector(2.0 * m, [cx, cy, 0.0], &[[0.0; 3]; 3]);
-                // ∂/∂c_x and ∂/∂c_y of (m, m c, m (|c|² 1 − c cᵀ)).
-                let dcx = [0.0, m, 0.0, 0.0, 0.0, -m * cy, 0.0, 2.0 * m * cx, 0.0, 2.0 * m * cx];
-                let dcy = [0.0, 0.0, m, 0.0, 2.0 * m * cy, -m * cx, 0.0, 0.0, 0.0, 2.0 * m * cy];
-                let mut dz = [0.0; 10];
-                dz[9] = 2.0 * theta[3];
-                (v, vec![dm, dcx, dcy, dz])
+                let mut v = [0.0; 10];
+                for (u, &k) in PLANAR.iter().enumerate() {
+                    v[k] = theta[u];
+                }
+                (v, PLANAR.iter().map(|&k| unit(k)).collect())
             }
             Kind::Spatial => {
-                let (u, du) = cholesky_factor(theta);
-                let v = vector_of_pseudo_inertia(&(u * u.transpose()));
-                let d = du
-                    .iter()
-                    .map(|d| vector_of_pseudo_inertia(&(d * u.transpose() + u * d.transpose())))
-                    .collect();
-                (v, d)
+                let mut v = [0.0; 10];
+                v.copy_from_slice(&theta[..10]);
+                (v, (0..10).map(unit).collect())
             }
         }
     }
 
-    /// The starting unknowns: the file's values, nudged inside the cone where they are on its
-    /// boundary.
+    /// The body's pseudo-inertia at `theta` (4 × 4, or the plane's 3 × 3
+    /// `[[zz, h_x, h_y], [h_x, m, 0], [h_y, 0, m]]`), as a dynamic matrix.
+    fn pseudo_inertia(&self, theta: &[f64]) -> DMatrix<f64> {
+        match self.kind {
+            Kind::Fixed => DMatrix::zeros(0, 0),
+            Kind::Planar => {
+                let (m, hx, hy, zz) = (theta[0], theta[1], theta[2], theta[3]);
+                DMatrix::from_row_slice(3, 3, &[zz, hx, hy, hx, m, 0.0, hy, 0.0, m])
+            }
+            Kind::Spatial => {
+                let mut v = [0.0; 10];
+                v.copy_from_slice(&theta[..10]);
+                let j = pseudo_inertia(&v);
+                DMatrix::from_fn(4, 4, |r, c| j[(r, c)])
+            }
+        }
+    }
+
+    /// The starting unknowns: the file's values, moved 10⁻⁶ inside the cone (a rod or a point
+    /// mass is on its boundary, where the barrier is infinite).
     fn start(&self) -> Vec<f64> {
         let v = &self.nominal;
+        let (m, l2) = (self.scale[0], self.scale[4] / self.scale[0].max(1e-300));
         match self.kind {
             Kind::Fixed => Vec::new(),
             Kind::Planar => {
-                let (m, c, ic) = body_from_vector(v);
-                let floor = 1e-10 * self.scale[9];
-                vec![0.5 * m.ln(), c[0], c[1], ic[2][2].max(floor).sqrt()]
+                let h2 = (v[1] * v[1] + v[2] * v[2]) / m.max(1e-300);
+                vec![v[0], v[1], v[2], v[9].max(h2) + 1e-6 * m * l2]
             }
             Kind::Spatial => {
                 let mut j = pseudo_inertia(v);
-                let (m, l2) = (self.scale[0], self.scale[4] / self.scale[0]);
                 for i in 0..3 {
-                    j[(i, i)] += 1e-10 * m * l2;
+                    j[(i, i)] += 1e-6 * m * l2;
                 }
-                j[(3, 3)] += 1e-12 * m;
-                let fallback = {
-                    let mut j = Matrix4::identity() * (m * l2);
-                    j[(3, 3)] = m;
-                    j
-                };
-                cholesky_parameters(&j)
-                    .or_else(|| cholesky_parameters(&fallback))
-                    .map(|t| t.to_vec())
-                    .unwrap_or_else(|| vec![0.0; 10])
+                vector_of_pseudo_inertia(&j).to_vec()
             }
         }
     }
 }
+
+/// The entries of `v_b` a planar body's unknowns are: `m, h_x, h_y, zz`.
+const PLANAR: [usize; 4] = [0, 1, 2, 9];
 
 /// A model's body and standard parameter values with every body set to `(m, c, I_c)`.
 fn standard_with(model: &CheckedModel, regressor: &Regressor, m: f64, c: [f64; 3], ic: [[f64; 3]; 3]) -> Vec<f64> {
@@ -563,7 +529,7 @@ pub fn fit(
     let mut lambda = 1e-2_f64.max(options.regularisation);
     let mut misfit = f64::INFINITY;
     loop {
-        let next = problem.levenberg_marquardt(theta.clone(), lambda, options.iterations);
+        let next = problem.barrier_newton(theta.clone(), lambda, options.iterations);
         let next_misfit = problem.misfit(&next);
         // A smaller weight that no longer improves the fit (β̂ out of reach of a consistent
         // model) only lets the free parameters drift: keep the last stage's.
@@ -688,8 +654,7 @@ impl Problem {
             theta[body.offset..body.offset + start.len()].copy_from_slice(&start);
         }
         for d in &self.drives {
-            theta[d.offset] =
-                if d.nonnegative { d.nominal.max(1e-3 * d.scale).ln() } else { d.nominal / d.scale };
+            theta[d.offset] = if d.nonnegative { d.nominal.max(1e-3 * d.scale) } else { d.nominal };
         }
         theta
     }
@@ -714,12 +679,7 @@ impl Problem {
             vectors.push(v);
         }
         for d in &self.drives {
-            let (x, dx) = if d.nonnegative {
-                let x = theta[d.offset].exp();
-                (x, x)
-            } else {
-                (theta[d.offset] * d.scale, d.scale)
-            };
+            let (x, dx) = (theta[d.offset], 1.0);
             pi[d.standard] = x;
             if with_jacobian {
                 jacobian[(d.standard, d.offset)] = dx;
@@ -781,63 +741,152 @@ impl Problem {
         r.rows(0, self.target.len()).norm()
     }
 
-    /// Levenberg–Marquardt on the stacked residual: each step minimises
-    /// `‖r + 𝒥 δ‖² + μ ‖S δ‖²` (`S` the Jacobian's column norms, Moré's scaling) through one
-    /// SVD of `𝒥 S⁻¹` per iteration, never the squared normal equations.
-    fn levenberg_marquardt(&self, mut theta: Vec<f64>, lambda: f64, iterations: usize) -> Vec<f64> {
+    /// The barrier `φ = −Σ_b log det J_b − Σ log x` (drives that must not be negative), its
+    /// gradient and Hessian; `None` outside the cones.
+    fn barrier(&self, theta: &[f64], derivatives: bool) -> Option<(f64, DVector<f64>, DMatrix<f64>)> {
         let n = self.unknowns;
-        let (mut r, mut jac) = self.residual(&theta, lambda, true);
-        let mut cost = r.norm_squared();
-        let mut mu = 1e-3;
-        let mut slow = 0;
-        // Moré's scaling: the largest column norm seen so far.
-        let mut scale: Vec<f64> = vec![0.0; n];
-        for _ in 0..iterations {
-            let norms: Vec<f64> = (0..n).map(|u| jac.column(u).norm()).collect();
-            let largest = norms.iter().copied().fold(0.0, f64::max).max(1e-300);
-            for (s, &x) in scale.iter_mut().zip(&norms) {
-                *s = s.max(x).max(1e-8 * largest);
+        let mut value = 0.0;
+        let mut gradient = DVector::zeros(if derivatives { n } else { 0 });
+        let mut hessian = DMatrix::zeros(if derivatives { n } else { 0 }, if derivatives { n } else { 0 });
+        for body in self.bodies.iter().filter(|b| b.kind != Kind::Fixed) {
+            let k = body.unknowns();
+            let local = &theta[body.offset..body.offset + k];
+            let j = body.pseudo_inertia(local);
+            let cholesky = j.clone().cholesky()?;
+            value -= 2.0 * cholesky.l().diagonal().iter().map(|x| x.ln()).sum::<f64>();
+            if !derivatives {
+                continue;
             }
-            let mut scaled = jac.clone();
-            for (u, &s) in scale.iter().enumerate() {
-                scaled.column_mut(u).unscale_mut(s);
-            }
-            let svd = scaled.svd(true, true);
-            let (Some(left), Some(right)) = (svd.u.as_ref(), svd.v_t.as_ref()) else { break };
-            let projected = left.transpose() * &r;
-            let sigma_max = svd.singular_values.iter().copied().fold(0.0, f64::max);
-            let mut accepted = false;
-            while mu < 1e30 {
-                let damping = mu * sigma_max * sigma_max;
-                let mut y = DVector::zeros(n);
-                for (i, &sv) in svd.singular_values.iter().enumerate() {
-                    let w = -sv / (sv * sv + damping) * projected[i];
-                    y += right.row(i).transpose() * w;
+            let inverse = cholesky.inverse();
+            // A_u = ∂J/∂θ_u (J is linear in θ); B_u = J⁻¹ A_u.
+            let b: Vec<DMatrix<f64>> = (0..k)
+                .map(|u| {
+                    let mut e = vec![0.0; k];
+                    e[u] = 1.0;
+                    &inverse * body.pseudo_inertia(&e)
+                })
+                .collect();
+            for u in 0..k {
+                gradient[body.offset + u] -= b[u].trace();
+                for w in 0..k {
+                    hessian[(body.offset + u, body.offset + w)] += (&b[u] * &b[w]).trace();
                 }
-                let candidate: Vec<f64> = theta.iter().zip(y.iter()).zip(&scale).map(|((t, y), s)| t + y / s).collect();
-                let (r2, _) = self.residual(&candidate, lambda, false);
-                let cost2 = r2.norm_squared();
-                if cost2.is_finite() && cost2 < cost {
-                    let decrease = (cost - cost2) / cost.max(1e-300);
-                    theta = candidate;
-                    (r, jac) = self.residual(&theta, lambda, true);
-                    cost = cost2;
-                    mu = (mu / 5.0).max(1e-16);
-                    accepted = true;
-                    slow = if decrease < 1e-14 { slow + 1 } else { 0 };
+            }
+        }
+        for d in self.drives.iter().filter(|d| d.nonnegative) {
+            let x = theta[d.offset];
+            if x <= 0.0 {
+                return None;
+            }
+            value -= x.ln();
+            if derivatives {
+                gradient[d.offset] -= 1.0 / x;
+                hessian[(d.offset, d.offset)] += 1.0 / (x * x);
+            }
+        }
+        Some((value, gradient, hessian))
+    }
+
+    /// Minimises `‖r(θ)‖² + t φ(θ)` (`r` the stacked residual at weight `lambda`, linear in
+    /// `θ`) for `t` from 10⁻⁴ down to 10⁻¹⁸ by damped Newton steps that stay inside the cones
+    /// (a barrier method, Boyd and Vandenberghe ch. 11; the objective is convex).
+    fn barrier_newton(&self, mut theta: Vec<f64>, lambda: f64, iterations: usize) -> Vec<f64> {
+        let n = self.unknowns;
+        if n == 0 {
+            return theta;
+        }
+        let merit = |theta: &[f64], t: f64| -> Option<f64> {
+            let (phi, _, _) = self.barrier(theta, false)?;
+            let (r, _) = self.residual(theta, lambda, false);
+            Some(r.norm_squared() + t * phi)
+        };
+        let mut t = 1e-4;
+        while t >= 1e-18 {
+            for _ in 0..iterations {
+                let Some((_, g_phi, h_phi)) = self.barrier(&theta, true) else { return theta };
+                let (r, jac) = self.residual(&theta, lambda, true);
+                let gradient = 2.0 * jac.transpose() * &r + t * g_phi;
+                let hessian = 2.0 * jac.transpose() * &jac + t * h_phi;
+                // Solve with the Hessian's diagonal scaled to 1.
+                let d: Vec<f64> = (0..n).map(|i| hessian[(i, i)].max(1e-300).sqrt()).collect();
+                let scaled = DMatrix::from_fn(n, n, |i, j| hessian[(i, j)] / (d[i] * d[j]));
+                let rhs = DVector::from_fn(n, |i, _| -gradient[i] / d[i]);
+                let y = match scaled.clone().cholesky() {
+                    Some(c) => c.solve(&rhs),
+                    None => {
+                        let ridge = scaled + DMatrix::identity(n, n) * 1e-12;
+                        match ridge.lu().solve(&rhs) {
+                            Some(y) => y,
+                            None => break,
+                        }
+                    }
+                };
+                let step = DVector::from_fn(n, |i, _| y[i] / d[i]);
+                let decrement = -gradient.dot(&step);
+                let Some(current) = merit(&theta, t) else { return theta };
+                if !(decrement > 1e-30 + 1e-15 * current.abs()) {
                     break;
                 }
-                mu *= 4.0;
+                let mut alpha = 1.0;
+                let mut moved = false;
+                for _ in 0..60 {
+                    let candidate: Vec<f64> = theta.iter().zip(step.iter()).map(|(x, s)| x + alpha * s).collect();
+                    if let Some(value) = merit(&candidate, t) {
+                        if value <= current - 1e-4 * alpha * decrement {
+                            theta = candidate;
+                            moved = true;
+                            break;
+                        }
+                    }
+                    alpha *= 0.5;
+                }
+                if !moved || decrement < 1e-9 * t {
+                    break;
+                }
             }
-            if !accepted || slow >= 3 || cost == 0.0 {
-                break;
-            }
+            t *= 0.1;
         }
         theta
     }
 
     fn result(&self, model: &CheckedModel, regressor: &Regressor, theta: &[f64], beta: &[f64]) -> ConsistentParameters {
-        let (pi, vectors, _) = self.standard(theta, false);
+        let (mut pi, vectors, _) = self.standard(theta, false);
+        let planar = model.model.planar;
+        // Each body as the file writes it, and its standard parameters from that.
+        let mut bodies = Vec::new();
+        for ((body, fit), v) in model.model.bodies.iter().zip(&self.bodies).zip(&vectors) {
+            let (mass, com, inertia) = match fit.kind {
+                Kind::Fixed => body_from_vector(v),
+                Kind::Planar => {
+                    let m = v[0];
+                    let c = [v[1] / m, v[2] / m, 0.0];
+                    let izz = (v[9] - m * (c[0] * c[0] + c[1] * c[1])).max(0.0);
+                    (m, c, [[0.0; 3], [0.0; 3], [0.0, 0.0, izz]])
+                }
+                Kind::Spatial => {
+                    let (m, c, inertia) = body_from_vector(v);
+                    (m, c, clamp_central(&inertia))
+                }
+            };
+            let v = if fit.kind == Kind::Fixed { *v } else { body_vector(mass, com, &inertia) };
+            for i in 0..10 {
+                pi[fit.standard + i] = (0..10).map(|j| fit.map[i][j] * v[j]).sum();
+            }
+            let eigenvalues: Vec<f64> = if planar {
+                SymmetricEigen::new(planar_pseudo_inertia(&v)).eigenvalues.iter().copied().collect()
+            } else {
+                SymmetricEigen::new(pseudo_inertia(&v)).eigenvalues.iter().copied().collect()
+            };
+            bodies.push(IdentifiedBody {
+                name: body.name.clone(),
+                mass,
+                com,
+                inertia,
+                smallest_eigenvalue: eigenvalues.iter().copied().fold(f64::INFINITY, f64::min),
+                largest_eigenvalue: eigenvalues.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                fitted: fit.kind != Kind::Fixed,
+            });
+        }
         let base = regressor.base_values(&pi);
         let weighted = |x: &dyn Fn(usize) -> f64| (0..beta.len()).map(|i| (self.weights[i] * x(i)).powi(2)).sum::<f64>().sqrt();
         let error = weighted(&|i| base[i] - beta[i]);
@@ -845,35 +894,6 @@ impl Problem {
         let residual = if size > 0.0 { error / size } else { error };
         let largest_error =
             (0..beta.len()).map(|i| (self.weights[i] * (base[i] - beta[i])).abs()).fold(0.0, f64::max);
-        let planar = model.model.planar;
-        let bodies = model
-            .model
-            .bodies
-            .iter()
-            .zip(&self.bodies)
-            .zip(&vectors)
-            .map(|((body, fit), v)| {
-                let (mass, com, inertia) = body_from_vector(v);
-                // Round-off of `c = h / m` and the parallel-axis shift can leave a second moment
-                // of a body on the cone's boundary (a rod, a point mass) at −1e-16: clamp.
-                let inertia = if planar { inertia } else { clamp_central(&inertia) };
-                let v = &if fit.kind == Kind::Fixed { *v } else { body_vector(mass, com, &inertia) };
-                let eigenvalues: Vec<f64> = if planar {
-                    SymmetricEigen::new(planar_pseudo_inertia(v)).eigenvalues.iter().copied().collect()
-                } else {
-                    SymmetricEigen::new(pseudo_inertia(v)).eigenvalues.iter().copied().collect()
-                };
-                IdentifiedBody {
-                    name: body.name.clone(),
-                    mass,
-                    com,
-                    inertia,
-                    smallest_eigenvalue: eigenvalues.iter().copied().fold(f64::INFINITY, f64::min),
-                    largest_eigenvalue: eigenvalues.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-                    fitted: fit.kind != Kind::Fixed,
-                }
-            })
-            .collect();
         let first = 10 * model.model.bodies.len();
         let joints = model
             .model
