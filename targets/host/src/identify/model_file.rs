@@ -63,7 +63,9 @@ pub enum ModelFileError {
         what: String,
     },
     /// The model's variant replaces a value the identification changes.
-    #[error("variant `{variant}` sets `{key}`, which the identified model changes: edit the variant by hand")]
+    #[error(
+        "variant `{variant}` sets `{key}`, which the identified model changes: edit the variant by hand"
+    )]
     SetByVariant {
         /// The variant.
         variant: String,
@@ -116,7 +118,13 @@ impl<'a> Editor<'a> {
     fn new(text: &'a str) -> Self {
         let mut line_starts = vec![0];
         line_starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
-        Editor { text, index: PositionIndex::build(text), line_starts, edits: Vec::new(), notes: BTreeMap::new() }
+        Editor {
+            text,
+            index: PositionIndex::build(text),
+            line_starts,
+            edits: Vec::new(),
+            notes: BTreeMap::new(),
+        }
     }
 
     /// Byte offset of a (line, column) position (both 1-based, the column in characters).
@@ -231,13 +239,22 @@ impl<'a> Editor<'a> {
         });
         let line_end = self.line_end(end);
         self.edits.push(Edit { start, end, text });
-        self.notes.entry(line_end).or_default().push(format!("{}{old}", last.map(|l| format!("{l} ")).unwrap_or_default()));
+        self.notes
+            .entry(line_end)
+            .or_default()
+            .push(format!("{}{old}", last.map(|l| format!("{l} ")).unwrap_or_default()));
         Ok(())
     }
 
     /// Inserts `name: text` into the block mapping at `mapping`, on a new line after its entry
     /// `after` (a single-line scalar).
-    fn insert(&mut self, mapping: &[Segment], after: &[&str], name: &str, text: String) -> Result<(), ModelFileError> {
+    fn insert(
+        &mut self,
+        mapping: &[Segment],
+        after: &[&str],
+        name: &str,
+        text: String,
+    ) -> Result<(), ModelFileError> {
         if !self.is_block_mapping(mapping) {
             return Err(self.unsupported(mapping, format!("cannot add `{name}` to a flow mapping")));
         }
@@ -289,7 +306,11 @@ fn changed(new: f64, old: f64, scale: f64) -> bool {
 
 /// The identified model as a model file: `text` (the file `model` was loaded from) with the
 /// values of `fit` that differ from the file's replaced (see the module documentation).
-pub fn write_model_file(text: &str, model: &CheckedModel, fit: &ConsistentParameters) -> Result<String, ModelFileError> {
+pub fn write_model_file(
+    text: &str,
+    model: &CheckedModel,
+    fit: &ConsistentParameters,
+) -> Result<String, ModelFileError> {
     let doc: Value = serde_yaml::from_str(text)?;
     let mut editor = Editor::new(text);
     let params = model.nominal_parameters();
@@ -349,7 +370,9 @@ pub fn write_model_file(text: &str, model: &CheckedModel, fit: &ConsistentParame
             };
             let path = at("inertia");
             if entry.get("inertia").is_some_and(Value::is_mapping) && !editor.is_flow(&path) {
-                return Err(editor.unsupported(&path, "a block-style inertia mapping: write it as `{…}` on one line"));
+                return Err(
+                    editor.unsupported(&path, "a block-style inertia mapping: write it as `{…}` on one line")
+                );
             }
             editor.replace(&path, value)?;
             changed_paths.push(display_path(&path));
@@ -358,9 +381,8 @@ pub fn write_model_file(text: &str, model: &CheckedModel, fit: &ConsistentParame
 
     // Joints: damping.
     let file_joints = doc.get("joints").and_then(Value::as_sequence).cloned().unwrap_or_default();
-    let joint_entry = |name: &str| {
-        file_joints.iter().position(|j| j.get("name").and_then(Value::as_str) == Some(name))
-    };
+    let joint_entry =
+        |name: &str| file_joints.iter().position(|j| j.get("name").and_then(Value::as_str) == Some(name));
     for (joint, fitted) in model.joints.iter().zip(&fit.joints) {
         let Some(j) = joint_entry(&joint.name) else { continue };
         let old = joint.damping.eval(&nominal);
@@ -399,7 +421,8 @@ pub fn write_model_file(text: &str, model: &CheckedModel, fit: &ConsistentParame
             if entry.get("coulomb_friction").is_some() {
                 editor.replace(&path, format_number(friction(first)))?;
             } else {
-                let after = ["gear_ratio", "torque_limit", "current_limit", "supply_voltage", "efficiency", "like"];
+                let after =
+                    ["gear_ratio", "torque_limit", "current_limit", "supply_voltage", "efficiency", "like"];
                 editor.insert(&mapping, &after, "coulomb_friction", format_number(friction(first)))?;
             }
             changed_paths.push(display_path(&path));
@@ -417,7 +440,8 @@ pub fn write_model_file(text: &str, model: &CheckedModel, fit: &ConsistentParame
         // The other joints of a shared drive, where their values differ.
         for &j in &joints[1..] {
             let scale_f = friction(first).abs().max(1e-300);
-            let friction_differs = (friction(j) - friction(first)).abs() > UNCHANGED * scale_f.max(friction(j).abs());
+            let friction_differs =
+                (friction(j) - friction(first)).abs() > UNCHANGED * scale_f.max(friction(j).abs());
             let rotor_differs = match (rotor(j), rotor(first)) {
                 (Some(a), Some(b)) => (a - b).abs() > UNCHANGED * a.abs().max(b.abs()),
                 _ => false,
@@ -433,7 +457,8 @@ pub fn write_model_file(text: &str, model: &CheckedModel, fit: &ConsistentParame
                 k += 1;
             }
             taken.push(name.clone());
-            let mut fields = vec![format!("like: {drive}"), format!("coulomb_friction: {}", format_number(friction(j)))];
+            let mut fields =
+                vec![format!("like: {drive}"), format!("coulomb_friction: {}", format_number(friction(j)))];
             if let Some(j_m) = rotor(j) {
                 fields.push(format!("motor: {{rotor_inertia: {}}}", format_number(j_m)));
             }
@@ -463,7 +488,9 @@ pub fn write_model_file(text: &str, model: &CheckedModel, fit: &ConsistentParame
             .unwrap_or_default();
         for set in sets.keys().filter_map(Value::as_str) {
             let touches = changed_paths.iter().any(|p| p.starts_with(set) || set.starts_with(p.as_str()))
-                || ["bodies", "joints", "drives"].iter().any(|section| set.starts_with(section) && changed_paths.iter().any(|p| p.starts_with(section)));
+                || ["bodies", "joints", "drives"].iter().any(|section| {
+                    set.starts_with(section) && changed_paths.iter().any(|p| p.starts_with(section))
+                });
             if touches {
                 return Err(ModelFileError::SetByVariant { variant: variant.clone(), key: set.to_string() });
             }
