@@ -143,7 +143,7 @@ pub struct FitOptions {
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { regularisation: 1e-10, iterations: 50 }
+        FitOptions { regularisation: 1e-10, iterations: 200 }
     }
 }
 
