@@ -367,3 +367,27 @@ fn changed_values_are_marked_with_what_they_were() {
         }
     }
 }
+
+/// A key the file does not have (a joint's `damping`, a drive's `coulomb_friction`) is added
+/// on a line of its own, in the entry's indentation.
+#[test]
+fn missing_keys_are_added() {
+    let text = read("joystick_1dof.yaml")
+        .replace("    damping: 1.0e-3\n", "")
+        .replace("    coulomb_friction: 0.01        # estimate (simulation only)\n", "");
+    let model = load("joystick_1dof.yaml", &text, None);
+    let regressor = regressor(&model);
+    let truth = true_model(&model, 11);
+    let beta = regressor.base_values(&regressor.standard_values(&truth.model));
+    let fitted = fit(&model, &regressor, &beta, None, &FitOptions::default()).expect("the fit starts");
+    let written = write_model_file(&text, &model, &fitted).unwrap_or_else(|e| panic!("{e}"));
+    assert!(written.contains("\n    damping: "), "{written}");
+    assert!(written.contains("\n    coulomb_friction: "), "{written}");
+    let reloaded = load("joystick_1dof.yaml", &written, None);
+    let joint = &reloaded.joints[0];
+    assert!((joint.drive.coulomb_friction - fitted.joints[0].coulomb_friction).abs() < 1e-10);
+    let params = reloaded.nominal_parameters();
+    let damping = joint.damping.eval(&NominalAtoms(&params));
+    assert!((damping - fitted.joints[0].damping).abs() < 1e-12, "{damping} {:?}", fitted.joints[0]);
+    check_comments_kept(&text, &written);
+}
