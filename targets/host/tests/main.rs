@@ -5,10 +5,10 @@
 
 mod check;
 mod cli;
+mod consistent;
 mod current_gains;
 mod design;
 mod faults;
-mod identify;
 mod paper;
 mod silent;
 mod zwidth;
