@@ -9,6 +9,7 @@ mod consistent;
 mod current_gains;
 mod design;
 mod faults;
+mod identify;
 mod paper;
 mod silent;
 mod zwidth;
