@@ -289,6 +289,10 @@ enum Command {
         /// Write the parameter table and figures (markdown) here.
         #[arg(long)]
         report: Option<PathBuf>,
+        /// Write the identified model file here: the input file with physically consistent
+        /// masses, centres of mass, inertias and frictions, every changed value marked.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
     },
     /// Map the stable (K, B) region of a virtual wall by simulation (in parallel) and plot it
     /// against the analytic passivity and stability bounds; writes DIR/zwidth.{csv,svg,png,md}.
@@ -1028,7 +1032,7 @@ fn run(cli: Cli) -> Result<(), String> {
             println!("{text}");
             Ok(())
         }
-        Command::Identify { model, variant, logs, validate, cutoff, measured_torque, report } => {
+        Command::Identify { model, variant, logs, validate, cutoff, measured_torque, report, output } => {
             use hapticgen_host::identify::fit::{FitSettings, TorqueSource};
             let torque = if measured_torque { TorqueSource::Measured } else { TorqueSource::Commanded };
             let settings = FitSettings { cutoff_hz: cutoff, torque, ..Default::default() };
@@ -1041,8 +1045,19 @@ fn run(cli: Cli) -> Result<(), String> {
             )?;
             let text = identified.describe();
             print!("{text}");
+            // Everything is computed before anything is written.
+            let written = output.as_ref().map(|_| identified.model_file(&model)).transpose()?;
             if let Some(path) = report {
                 std::fs::write(&path, &text).map_err(|e| format!("error: {}: {e}", path.display()))?;
+            }
+            if let (Some(path), Some((file, residual))) = (output, written) {
+                std::fs::write(&path, file).map_err(|e| format!("error: {}: {e}", path.display()))?;
+                println!(
+                    "wrote {}: physically consistent, reproducing the identified base parameters to {:.1e} \
+                     (relative, weighted by their σ)",
+                    path.display(),
+                    residual
+                );
             }
             Ok(())
         }

@@ -293,3 +293,72 @@ fn identifies_the_parallel_link_from_a_simulated_run() {
     // the first joint's viscous friction comes out 21 % low, C q̇ 8.2 % off.
     identifies_the_true_device("models/parallel_link_2dof.yaml", Some("vertical"), 12, 0.25, 0.10);
 }
+
+fn hapticgen(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_hapticgen"))
+        .args(args)
+        .current_dir(workspace())
+        .output()
+        .expect("runs")
+}
+
+/// The three commands end to end on the joystick, as docs/identification.md walks through
+/// them; and a log the fit cannot use refused at its line, nothing written.
+#[test]
+fn excite_simulate_identify_write_a_model_file_that_checks() {
+    let dir = std::env::temp_dir().join(format!("hapticgen-identify-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = |name: &str| dir.join(name).display().to_string();
+    let model = "models/joystick_1dof.yaml";
+    let out = hapticgen(&["excite", model, "--evaluations", "100", "-o", &path("traj.yaml")]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = hapticgen(&[
+        "simulate",
+        model,
+        "--scenario",
+        "excite",
+        "--trajectory",
+        &path("traj.yaml"),
+        "--duration",
+        "21",
+        "-o",
+        &path("run"),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let log = path("run/log.csv");
+    let out = hapticgen(&["identify", model, "--log", &log, "-o", &path("identified.yaml")]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}{}", stdout, String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("| fc_q |") && stdout.contains("Condition number"), "{stdout}");
+    let written = std::fs::read_to_string(path("identified.yaml")).unwrap();
+    assert!(written.contains("# identified (was mass 0.020358)"), "{written}");
+    let out = hapticgen(&["check", &path("identified.yaml")]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+
+    // A non-numeric value: refused at its line, no model file written.
+    let mut text = std::fs::read_to_string(&log).unwrap();
+    let line_start = text.match_indices('\n').nth(99).unwrap().0 + 1;
+    let comma = line_start + text[line_start..].find(',').unwrap();
+    text.replace_range(line_start..comma, "x1.5");
+    std::fs::write(path("bad.csv"), &text).unwrap();
+    let out = hapticgen(&["identify", model, "--log", &path("bad.csv"), "-o", &path("never.yaml")]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("bad.csv:101: column `time`: `x1.5` is not a number"),
+        "{stderr}"
+    );
+    assert!(!dir.join("never.yaml").exists());
+    // A joint that never moves: named.
+    let mut still = String::from("time,q_q,tau_q,tau_cmd_q\n");
+    for k in 0..2000 {
+        still.push_str(&format!("{},0.1,0.0,0.0\n", k as f64 * 1e-3));
+    }
+    std::fs::write(path("still.csv"), still).unwrap();
+    let out = hapticgen(&["identify", model, "--log", &path("still.csv")]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("joint `q` moves 0.00e0 over the whole log"),
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -5,6 +5,7 @@
 
 mod check;
 mod cli;
+mod consistent;
 mod current_gains;
 mod design;
 mod faults;

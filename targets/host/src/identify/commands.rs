@@ -224,6 +224,32 @@ pub fn identify(
 }
 
 impl Identified {
+    /// The identified model file: physically consistent standard parameters for the fitted
+    /// base parameters ([`super::consistent`]), written into the model file's own text
+    /// ([`super::model_file`]); `model_path` is the file it was loaded from. Returns the text
+    /// and the fit's relative residual.
+    pub fn model_file(&self, model_path: &Path) -> Result<(String, f64), String> {
+        let text = std::fs::read_to_string(model_path)
+            .map_err(|e| format!("error: {}: {e}", model_path.display()))?;
+        let consistent = super::consistent::fit(
+            &self.model,
+            &self.regressor.regressor,
+            &self.fit.beta,
+            Some(&self.fit.sigma),
+            &super::consistent::FitOptions::default(),
+        )
+        .map_err(|e| format!("error: the consistent fit: {e}"))?;
+        let written = super::model_file::write_model_file(&text, &self.model, &consistent)
+            .map_err(|e| format!("error: {}: {e}", model_path.display()))?;
+        // What is written must load, as the model it claims to be.
+        hapticgen_codegen::load(
+            &hapticgen_codegen::Source { name: &model_path.display().to_string(), text: &written },
+            self.model.variant.as_deref(),
+        )
+        .map_err(|d| format!("error: the identified model does not load (nothing written):\n{d}"))?;
+        Ok((written, consistent.residual))
+    }
+
     /// The parameter table and the figures, as markdown.
     pub fn describe(&self) -> String {
         let base = &self.regressor.regressor.base;
