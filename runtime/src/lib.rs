@@ -14,6 +14,7 @@ pub mod control;
 pub mod current_loop;
 pub mod effects;
 pub mod estimation;
+pub mod excitation;
 pub mod friction;
 pub mod fused;
 pub mod linalg;

@@ -326,6 +326,31 @@ where
         self.finish(output, estimation_status)
     }
 
+    /// An impedance tick with a joint-space law instead of the impedance controller: the
+    /// same watchdog, estimation, loop check and safety rules, with the torque the caller's
+    /// `law` computes from the rig, its terms at the estimated state and that state (e.g.
+    /// [`crate::excitation::JointTracking::torque`] playing an identification excitation).
+    /// A `None` from the law, or a non-finite torque, latches
+    /// [`FaultCode::NonFiniteTorque`] as the impedance laws' would.
+    pub fn joint_tick<F>(
+        &mut self,
+        inputs: &ImpedanceInputs<R::Scalar, N, M>,
+        law: F,
+    ) -> ImpedanceReport<R::Scalar, N>
+    where
+        F: FnOnce(&R, &crate::RigTerms<R::Scalar, N, M>, &JointState<R::Scalar, N>) -> Option<[R::Scalar; N]>,
+    {
+        let (state, estimation_status) = self.estimate(inputs);
+        let terms = self.rig.terms(&state.position, &state.velocity);
+        let output = match law(&self.rig, &terms, &state) {
+            Some(torque) if torque.iter().all(|t| t.is_finite()) => {
+                ControlOutput { torque, status: ControlStatus::Ok }
+            }
+            _ => ControlOutput { torque: [R::Scalar::ZERO; N], status: ControlStatus::NonFiniteResult },
+        };
+        self.finish(output, estimation_status)
+    }
+
     /// Watchdog, estimation and the loops' singularity check: the first step of every
     /// impedance tick. The joint state, mapped from the drives' by `C⁻¹` for a coupled rig.
     fn estimate(

@@ -18,6 +18,7 @@ pub mod design;
 pub mod design_page;
 pub mod faults;
 pub mod generated;
+pub mod identify;
 pub mod output;
 pub mod paper;
 pub mod pil;

@@ -232,6 +232,68 @@ enum Command {
         #[arg(short, long, default_value = "out/faults")]
         output: PathBuf,
     },
+    /// Design an excitation trajectory for identification: a Fourier series per joint inside the
+    /// limits, optimised for the condition number of the stacked base regressor.
+    Excite {
+        /// The model file.
+        model: PathBuf,
+        /// The variant (default: the model's `default_variant`).
+        #[arg(long)]
+        variant: Option<String>,
+        /// Period of the series, s.
+        #[arg(long, default_value_t = 10.0)]
+        period: f64,
+        /// Harmonics per joint.
+        #[arg(long, default_value_t = 5)]
+        harmonics: usize,
+        /// Margin inside each joint's limits, fraction of its range.
+        #[arg(long, default_value_t = 0.1)]
+        margin: f64,
+        /// Largest drive speed, fraction of its no-load speed.
+        #[arg(long, default_value_t = 0.5)]
+        speed_fraction: f64,
+        /// Largest drive torque, fraction of its limit.
+        #[arg(long, default_value_t = 0.8)]
+        torque_fraction: f64,
+        /// Candidate trajectories the search evaluates.
+        #[arg(long, default_value_t = 1500)]
+        evaluations: usize,
+        /// Seed of the search.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// The trajectory file to write.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Identify the base parameters of a model from excitation logs (weighted least squares on
+    /// the base regressor); prints them with their standard deviations.
+    Identify {
+        /// The model file.
+        model: PathBuf,
+        /// The variant (default: the model's `default_variant`).
+        #[arg(long)]
+        variant: Option<String>,
+        /// An excitation log (`simulate --scenario excite` writes DIR/log.csv); repeatable.
+        #[arg(long = "log", required = true)]
+        logs: Vec<PathBuf>,
+        /// A second log to validate the identified model on (torque prediction error).
+        #[arg(long)]
+        validate: Option<PathBuf>,
+        /// Cutoff of the zero-phase low-pass filter, Hz.
+        #[arg(long, default_value_t = 15.0)]
+        cutoff: f64,
+        /// Fit the torque of the measured currents (the log's tau_* columns) instead of the
+        /// commanded torque (tau_cmd_*); see docs/identification.md.
+        #[arg(long)]
+        measured_torque: bool,
+        /// Write the parameter table and figures (markdown) here.
+        #[arg(long)]
+        report: Option<PathBuf>,
+        /// Write the identified model file here: the input file with physically consistent
+        /// masses, centres of mass, inertias and frictions, every changed value marked.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
     /// Map the stable (K, B) region of a virtual wall by simulation (in parallel) and plot it
     /// against the analytic passivity and stability bounds; writes DIR/zwidth.{csv,svg,png,md}.
     Zwidth {
@@ -293,6 +355,10 @@ enum ScenarioArg {
     ThinPlate,
     /// Press on a closed triangle mesh and circle on it (3-D tasks; see --mesh).
     Mesh,
+    /// Play an excitation trajectory (--trajectory, from `hapticgen excite`) with joint-space
+    /// tracking on the model's dynamics, the device another model file if --plant says so;
+    /// writes DIR/log.csv for `hapticgen identify` (docs/identification.md).
+    Excite,
 }
 
 #[derive(clap::Args)]
@@ -302,9 +368,9 @@ struct SimulateArgs {
     /// The variant (default: the model's `default_variant`).
     #[arg(long)]
     variant: Option<String>,
-    /// The impedance controller.
-    #[arg(long, value_enum)]
-    controller: ControllerArg,
+    /// The impedance controller (every scenario but `excite`, which tracks in joint space).
+    #[arg(long, value_enum, required_unless_present = "trajectory")]
+    controller: Option<ControllerArg>,
     /// Desired stiffness K_d (default per scenario: 1 for a step, the model's wall stiffness
     /// or 1500 for rendering, 100 for singularity).
     #[arg(long)]
@@ -366,6 +432,13 @@ struct SimulateArgs {
     /// and only the checks that hold for any scene are made.
     #[arg(long)]
     scene: Option<PathBuf>,
+    /// The excite scenario's trajectory file (`hapticgen excite -o TRAJ.yaml`).
+    #[arg(long)]
+    trajectory: Option<PathBuf>,
+    /// The excite scenario's simulated device: another model file with the same joints (its
+    /// "true" masses and frictions); default: the model itself.
+    #[arg(long)]
+    plant: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -933,6 +1006,66 @@ fn run(cli: Cli) -> Result<(), String> {
             println!("{summary}");
             Ok(())
         }
+        Command::Excite {
+            model,
+            variant,
+            period,
+            harmonics,
+            margin,
+            speed_fraction,
+            torque_fraction,
+            evaluations,
+            seed,
+            output,
+        } => {
+            let settings = hapticgen_host::identify::excite::ExciteSettings {
+                period,
+                harmonics,
+                position_margin: margin,
+                speed_fraction,
+                torque_fraction,
+                evaluations,
+                seed,
+                ..Default::default()
+            };
+            let text = hapticgen_host::identify::commands::excite_command(
+                &model,
+                variant.as_deref(),
+                &settings,
+                &output,
+            )?;
+            println!("{text}");
+            Ok(())
+        }
+        Command::Identify { model, variant, logs, validate, cutoff, measured_torque, report, output } => {
+            use hapticgen_host::identify::fit::{FitSettings, TorqueSource};
+            let torque = if measured_torque { TorqueSource::Measured } else { TorqueSource::Commanded };
+            let settings = FitSettings { cutoff_hz: cutoff, torque, ..Default::default() };
+            let identified = hapticgen_host::identify::commands::identify(
+                &model,
+                variant.as_deref(),
+                &logs,
+                validate.as_deref(),
+                &settings,
+            )?;
+            let text = identified.describe();
+            print!("{text}");
+            // Everything is computed before anything is written.
+            let written = output.as_ref().map(|_| identified.model_file(&model)).transpose()?;
+            if let Some(path) = report {
+                std::fs::write(&path, &text).map_err(|e| format!("error: {}: {e}", path.display()))?;
+            }
+            if let (Some(path), Some((file, residual))) = (output, written) {
+                std::fs::write(&path, file).map_err(|e| format!("error: {}: {e}", path.display()))?;
+                println!(
+                    "wrote {}: physically consistent, reproducing the identified base parameters to {:.1e} \
+                     (relative, weighted by their σ)",
+                    path.display(),
+                    residual
+                );
+            }
+            Ok(())
+        }
         Command::Zwidth { model, variant, output, quick } => {
             let sim = Simulation::load(&model, variant.as_deref())?;
             let settings = if quick {
@@ -1004,6 +1137,7 @@ fn configure(args: &SimulateArgs) -> Result<Configured, String> {
         ScenarioArg::BoxEdges => Scenario::Contact(Contact::BoxEdges),
         ScenarioArg::ThinPlate => Scenario::Contact(Contact::ThinPlate),
         ScenarioArg::Mesh => Scenario::Contact(Contact::Mesh),
+        ScenarioArg::Excite => return Err("error: the excite scenario is run by excite_run".into()),
     };
     let rendering = sim.model.rendering.as_ref();
     let (kd, bd) = match scenario {
@@ -1016,7 +1150,7 @@ fn configure(args: &SimulateArgs) -> Result<Configured, String> {
         None => sim.home(),
     };
     let mut cfg = hapticgen_host::sim::SimConfig::new(start.clone());
-    cfg.law = law(args.controller);
+    cfg.law = law(args.controller.ok_or("error: --controller is needed for this scenario")?);
     cfg.stiffness = args.kd.unwrap_or(kd);
     cfg.damping = args.bd.unwrap_or(bd);
     cfg.mass = args.md.unwrap_or(0.01);
@@ -1131,6 +1265,9 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     for line in &plausible {
         eprintln!("{line}");
     }
+    if matches!(args.scenario, ScenarioArg::Excite) || args.trajectory.is_some() || args.plant.is_some() {
+        return excite_run(&args);
+    }
     let Configured { sim, cfg, scenario, singular_start, contact } = configure(&args)?;
     let largest_det = sim.largest_jacobian_determinant();
     let singularity = |q: &[f64]| largest_det.map(|largest| sim.task_at(q).1.abs() / largest);
@@ -1179,6 +1316,37 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
             );
         }
     }
+    Ok(())
+}
+
+/// `simulate --scenario excite`: the identification run (hapticgen_host::identify).
+fn excite_run(args: &SimulateArgs) -> Result<(), String> {
+    if !matches!(args.scenario, ScenarioArg::Excite) {
+        return Err(
+            "error: --trajectory and --plant belong to the excite scenario (--scenario excite)".into()
+        );
+    }
+    let trajectory =
+        args.trajectory.as_deref().ok_or("error: the excite scenario needs --trajectory TRAJ.yaml")?;
+    let sim = Simulation::load(&args.model, args.variant.as_deref())?;
+    let mut cfg = hapticgen_host::sim::SimConfig::new(sim.home());
+    cfg.effects = Effects::ALL.without(&args.without).map_err(|e| format!("error: --without: {e}"))?;
+    cfg.seed = args.seed;
+    if let Some(duration) = args.duration {
+        if !(duration.is_finite() && duration > 0.0) {
+            return Err(format!("error: --duration must be a positive number of seconds, got {duration}"));
+        }
+    }
+    let run = hapticgen_host::identify::commands::ExciteRun {
+        trajectory,
+        plant: args.plant.as_deref(),
+        cfg,
+        duration: args.duration,
+        output: &args.output,
+    };
+    let text =
+        hapticgen_host::identify::commands::excite_run(&sim, &args.model, args.variant.as_deref(), run)?;
+    print!("{text}");
     Ok(())
 }
 

@@ -450,7 +450,10 @@ impl Simulation {
 
     /// Calls `visitor` with the controller's rig: the generated code of a shipped model, else
     /// the model's tapes.
-    fn dispatch<T, V: RigVisitor<Output = Result<T, String>>>(&self, visitor: V) -> Result<T, String> {
+    pub(crate) fn dispatch<T, V: RigVisitor<Output = Result<T, String>>>(
+        &self,
+        visitor: V,
+    ) -> Result<T, String> {
         if let Some(index) = self.shipped {
             if let Some(result) = generated::visit(index, visitor) {
                 return result;

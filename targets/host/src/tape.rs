@@ -34,6 +34,8 @@ enum Source {
     Cos(usize),
     Q(usize),
     Qd(usize),
+    /// A joint acceleration (only tapes evaluated with [`Tape::eval_with_accelerations`]).
+    Qdd(usize),
     Param(usize),
     /// A spatial closed chain's loop value (a passive coordinate's sine, cosine, angle or
     /// rate, or an entry of `A` or `Ȧ`): entry `k` of `SpatialLoops::atoms`.
@@ -73,6 +75,17 @@ impl Tape {
     /// Compiles `outputs` of a model whose closed chains `closures` eliminates (the
     /// elimination's nodes are computed on the tape in front of the outputs).
     pub fn compile_closed(outputs: &[&Poly], joints: usize, closures: Option<&Closures>) -> Tape {
+        Tape::compile_built(joints, closures, |dag| outputs.iter().map(|p| dag.polynomial(p)).collect())
+    }
+
+    /// Compiles the nodes that `build` adds to a DAG in which a closed chain's elimination
+    /// (`closures`) is installed, e.g. the identification regressor's
+    /// (`Regressor::build`), whose outputs are nodes rather than polynomials.
+    pub fn compile_built(
+        joints: usize,
+        closures: Option<&Closures>,
+        build: impl FnOnce(&mut Dag) -> Vec<NodeId>,
+    ) -> Tape {
         let mut dag = Dag::new();
         hapticgen_codegen::dynamics::closure::install(&mut dag, closures);
         // Spatial loops in closed form (a Delta) are nodes of the tape like a planar loop's;
@@ -80,7 +93,7 @@ impl Tape {
         let spatial = closures.and_then(|c| c.solved_at_run_time());
         // A spatial chain's loop values are numbered after the planar loops' (it has none).
         let loop_atoms = spatial.map(|s| s.atoms(0)).unwrap_or_default();
-        let roots: Vec<NodeId> = outputs.iter().map(|p| dag.polynomial(p)).collect();
+        let roots = build(&mut dag);
         let reachable = dag.reachable(&roots);
         let mut register_of = vec![u32::MAX; dag.nodes().len()];
         let mut registers = Vec::with_capacity(reachable.len());
@@ -102,8 +115,9 @@ impl Tape {
                         Atom::Cos(j) => Source::Cos(usize::from(j)),
                         Atom::Q(j) => Source::Q(usize::from(j)),
                         Atom::Qd(j) => Source::Qd(usize::from(j)),
+                        Atom::Qdd(j) => Source::Qdd(usize::from(j)),
                         Atom::Param(k) => Source::Param(usize::from(k)),
-                        Atom::Qdd(_) | Atom::External(_) | Atom::Closure(_) => Source::Zero,
+                        Atom::External(_) | Atom::Closure(_) => Source::Zero,
                     };
                     inputs.push((slot, source));
                 }
@@ -165,6 +179,20 @@ impl Tape {
     /// Evaluates every output at `(q, q̇)` into `out` (`out.len() == self.len()`); `scratch`
     /// must come from [`Tape::scratch`] of this tape. Missing inputs read as zero.
     pub fn eval(&self, scratch: &mut [f64], q: &[f64], qd: &[f64], parameters: &[f64], out: &mut [f64]) {
+        self.eval_with_accelerations(scratch, q, qd, &[], parameters, out);
+    }
+
+    /// [`Tape::eval`] with the joint accelerations `q̈` as inputs too (missing ones read as
+    /// zero, as in [`Tape::eval`]).
+    pub fn eval_with_accelerations(
+        &self,
+        scratch: &mut [f64],
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        parameters: &[f64],
+        out: &mut [f64],
+    ) {
         let mut trig = [(0.0_f64, 1.0_f64); 8];
         let mut trig_heap = Vec::new();
         let trig: &mut [(f64, f64)] = if self.joints <= trig.len() {
@@ -192,6 +220,7 @@ impl Tape {
                 Source::Cos(j) => trig.get(j).map_or(1.0, |t| t.1),
                 Source::Q(j) => get(q, j),
                 Source::Qd(j) => get(qd, j),
+                Source::Qdd(j) => get(qdd, j),
                 Source::Param(k) => get(parameters, k),
                 Source::Loop(k) => get(&loop_values, k),
                 Source::Zero => 0.0,

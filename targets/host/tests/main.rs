@@ -5,9 +5,11 @@
 
 mod check;
 mod cli;
+mod consistent;
 mod current_gains;
 mod design;
 mod faults;
+mod identify;
 mod paper;
 mod silent;
 mod zwidth;

@@ -1,0 +1,309 @@
+//! The identification commands' work, for the CLI's thin shell: `hapticgen excite` (design a
+//! trajectory), `hapticgen simulate --scenario excite` (play it on a simulated device) and
+//! `hapticgen identify` (fit the base parameters to the logs).
+
+use std::io::IsTerminal as _;
+use std::path::{Path, PathBuf};
+
+use hapticgen_codegen::CheckedModel;
+
+use super::excite::{self, ExciteSettings};
+use super::fit::{self, FitSettings, Segment};
+use super::log::IdentificationLog;
+use super::regressor::RegressorTape;
+use super::trajectory::TrajectoryFile;
+use crate::sim::SimConfig;
+use crate::simulate::Simulation;
+
+fn load(path: &Path, variant: Option<&str>) -> Result<CheckedModel, String> {
+    hapticgen_codegen::load_file(path, &path.display().to_string(), variant).map_err(|d| d.to_string())
+}
+
+fn progress_bar(total: u64, what: &'static str) -> Option<indicatif::ProgressBar> {
+    std::io::stderr().is_terminal().then(|| {
+        let bar = indicatif::ProgressBar::new(total);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(&format!("{{bar:40}} {{pos}}/{{len}} {what} {{msg}}"))
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar
+    })
+}
+
+/// `hapticgen excite`: designs a trajectory and writes it to `output`; returns what to print.
+pub fn excite_command(
+    model_path: &Path,
+    variant: Option<&str>,
+    settings: &ExciteSettings,
+    output: &Path,
+) -> Result<String, String> {
+    let model = load(model_path, variant)?;
+    let started = std::time::Instant::now();
+    let bar = progress_bar(settings.evaluations as u64, "candidates");
+    let design = excite::design(&model, variant, settings, |done, best| {
+        if let Some(bar) = &bar {
+            bar.set_position(done as u64);
+            bar.set_message(format!("cond {best:.1}"));
+        }
+    })?;
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    let a = &design.assessment;
+    let header = format!(
+        "Excitation trajectory for {} (hapticgen excite): {} harmonics of a {} s period.\n\
+         Condition number of the stacked base regressor (unit-length columns, {} samples a period): {:.2}.\n\
+         Peak drive torque {:.0} % of its limit, peak drive speed {:.0} % of its no-load speed.",
+        model_path.display(),
+        settings.harmonics,
+        settings.period,
+        settings.samples,
+        a.condition_number,
+        100.0 * a.torque_fraction,
+        100.0 * a.speed_fraction
+    );
+    let text = design.file.to_yaml(&header)?;
+    std::fs::write(output, text).map_err(|e| format!("error: {}: {e}", output.display()))?;
+    Ok(format!(
+        "{}: condition number {:.2} (start {:.2}) after {} candidates in {:.1} s; peak torque {:.0} %, peak \
+         speed {:.0} % of the drives' limits; wrote {}",
+        model_path.display(),
+        a.condition_number,
+        design.initial_condition_number,
+        design.evaluations,
+        started.elapsed().as_secs_f64(),
+        100.0 * a.torque_fraction,
+        100.0 * a.speed_fraction,
+        output.display()
+    ))
+}
+
+/// What an excitation run needs besides the model.
+pub struct ExciteRun<'a> {
+    /// The trajectory file.
+    pub trajectory: &'a Path,
+    /// The simulated device's model file (`None`: the model itself).
+    pub plant: Option<&'a Path>,
+    /// The simulation's settings (effects, seed, duration).
+    pub cfg: SimConfig,
+    /// `None`: the trajectory's ramp and four periods.
+    pub duration: Option<f64>,
+    /// Where `log.csv` goes.
+    pub output: &'a Path,
+}
+
+/// `hapticgen simulate --scenario excite`: plays the trajectory, writes `DIR/log.csv` (and
+/// the full trace as `DIR/trace.csv`); returns what to print.
+pub fn excite_run(
+    sim: &Simulation,
+    model_path: &Path,
+    variant: Option<&str>,
+    run: ExciteRun,
+) -> Result<String, String> {
+    let trajectory = TrajectoryFile::read(run.trajectory, &sim.model)?;
+    let plant = run.plant.map(|path| load(path, variant)).transpose()?;
+    let mut cfg = run.cfg;
+    cfg.duration = run.duration.unwrap_or(trajectory.ramp + 4.0 * trajectory.period);
+    cfg.progress = true;
+    let (trace, log) = sim.run_excitation(&trajectory, plant.as_ref(), &cfg)?;
+    std::fs::create_dir_all(run.output).map_err(|e| format!("error: {}: {e}", run.output.display()))?;
+    let log_path = run.output.join("log.csv");
+    log.write(&log_path)?;
+    crate::output::write_csv(&trace, &run.output.join("trace.csv"))?;
+    // Tracking: the encoder angle against the reference, after the blend.
+    let series = trajectory.series();
+    let n = sim.joints();
+    let mut worst = vec![0.0_f64; n];
+    for (t, q) in log.time.iter().zip(&log.q) {
+        if *t >= trajectory.ramp {
+            let reference = series.reference(*t).position;
+            for j in 0..n {
+                worst[j] = worst[j].max((reference[j] - q[j]).abs());
+            }
+        }
+    }
+    let mut text = format!(
+        "simulated {:.2} s of {} playing {} in {:.2} s, controller on {}, device {}; wrote {} ({} samples)\n",
+        trace.duration(),
+        model_path.display(),
+        run.trajectory.display(),
+        trace.wall_seconds,
+        if sim.uses_generated_code() { "generated code" } else { "the model's tapes" },
+        run.plant.map_or_else(|| "the same model".to_string(), |p| p.display().to_string()),
+        log_path.display(),
+        log.len()
+    );
+    for (joint, error) in sim.model.joints.iter().zip(&worst) {
+        text.push_str(&format!("  joint {}: largest tracking error {:.3e}\n", joint.name, error));
+    }
+    if let Some((t, fault)) = &trace.fault {
+        return Err(format!(
+            "{text}error: the safety monitor latched {fault} at t = {t:.3} s: the log is not usable"
+        ));
+    }
+    if trace.clamped_ticks > 0 {
+        text.push_str(&format!(
+            "warning: {} of {} ticks clamped a torque at its limit: those samples measure the limit, not the \
+             dynamics; lower the trajectory's torque (hapticgen excite --torque-fraction)\n",
+            trace.clamped_ticks, trace.impedance_ticks
+        ));
+    }
+    Ok(text)
+}
+
+/// What `hapticgen identify` found.
+pub struct Identified {
+    /// The fit.
+    pub fit: fit::Fit,
+    /// The regressor (names, combinations, nominal values).
+    pub regressor: RegressorTape,
+    /// Per joint: prediction error and torque RMS on the validation log, if one was given.
+    pub validation: Option<(Vec<f64>, Vec<f64>)>,
+    /// The model.
+    pub model: CheckedModel,
+}
+
+/// Reads logs (checked against the model's joints), prepared for the fit.
+fn read_samples(
+    model: &CheckedModel,
+    logs: &[PathBuf],
+    settings: &FitSettings,
+) -> Result<Vec<Segment>, String> {
+    let joints: Vec<String> = model.joints.iter().map(|j| j.name.clone()).collect();
+    let mut segments = Vec::new();
+    for path in logs {
+        let log = IdentificationLog::read(path, &joints)?;
+        segments.push(fit::prepare(&log, settings, &path.display().to_string())?);
+    }
+    Ok(segments)
+}
+
+/// `hapticgen identify`'s fit: the base parameters from `logs`, validated on `validate`.
+pub fn identify(
+    model_path: &Path,
+    variant: Option<&str>,
+    logs: &[PathBuf],
+    validate: Option<&Path>,
+    settings: &FitSettings,
+) -> Result<Identified, String> {
+    let model = load(model_path, variant)?;
+    if logs.is_empty() {
+        return Err("error: give at least one --log".into());
+    }
+    let joints: Vec<String> = model.joints.iter().map(|j| j.name.clone()).collect();
+    // A joint that never moves leaves its parameters unexcited: say which, by name.
+    for path in logs {
+        let log = IdentificationLog::read(path, &joints)?;
+        for (j, name) in joints.iter().enumerate() {
+            let (lo, hi) = log
+                .q
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| (lo.min(q[j]), hi.max(q[j])));
+            let moved = hi - lo;
+            if moved.is_nan() || moved <= 1e-3 {
+                return Err(format!(
+                    "error: {}: joint `{name}` moves {:.2e} over the whole log: its parameters cannot be identified \
+                     from it (an excitation moves every joint)",
+                    path.display(),
+                    (hi - lo).max(0.0)
+                ));
+            }
+        }
+    }
+    let samples = read_samples(&model, logs, settings)?;
+    let regressor = RegressorTape::new(&model);
+    let fit = fit::fit(&regressor, &samples, settings)?;
+    let validation = match validate {
+        Some(path) => {
+            let samples = read_samples(&model, &[path.to_path_buf()], settings)?;
+            Some(fit::prediction_error(&regressor, &fit.beta, &samples, settings))
+        }
+        None => None,
+    };
+    Ok(Identified { fit, regressor, validation, model })
+}
+
+impl Identified {
+    /// The identified model file: physically consistent standard parameters for the fitted
+    /// base parameters ([`super::consistent`]), written into the model file's own text
+    /// ([`super::model_file`]); `model_path` is the file it was loaded from. Returns the text
+    /// and the fit's relative residual.
+    pub fn model_file(&self, model_path: &Path) -> Result<(String, f64), String> {
+        let text = std::fs::read_to_string(model_path)
+            .map_err(|e| format!("error: {}: {e}", model_path.display()))?;
+        let consistent = super::consistent::fit(
+            &self.model,
+            &self.regressor.regressor,
+            &self.fit.beta,
+            Some(&self.fit.sigma),
+            &super::consistent::FitOptions::default(),
+        )
+        .map_err(|e| format!("error: the consistent fit: {e}"))?;
+        let written = super::model_file::write_model_file(&text, &self.model, &consistent)
+            .map_err(|e| format!("error: {}: {e}", model_path.display()))?;
+        // What is written must load, as the model it claims to be.
+        hapticgen_codegen::load(
+            &hapticgen_codegen::Source { name: &model_path.display().to_string(), text: &written },
+            self.model.variant.as_deref(),
+        )
+        .map_err(|d| format!("error: the identified model does not load (nothing written):\n{d}"))?;
+        Ok((written, consistent.residual))
+    }
+
+    /// The parameter table and the figures, as markdown.
+    pub fn describe(&self) -> String {
+        let base = &self.regressor.regressor.base;
+        let standard = &self.regressor.regressor.standard;
+        let mut text = String::from(
+            "| base parameter | combines | model file | identified | σ | σ % |\n|---|---|---|---|---|---|\n",
+        );
+        for (c, b) in base.iter().enumerate() {
+            let (beta, sigma) = (self.fit.beta[c], self.fit.sigma[c]);
+            let relative = if beta != 0.0 { 100.0 * sigma / beta.abs() } else { f64::INFINITY };
+            text.push_str(&format!(
+                "| {} | {} | {:.6e} | {:.6e} | {:.2e} | {:.1} |\n",
+                b.name,
+                b.describe(standard),
+                b.nominal,
+                beta,
+                sigma,
+                relative
+            ));
+        }
+        text.push_str(&format!(
+            "\nCondition number of the stacked regressor (unit columns): {:.2}\n\n",
+            self.fit.condition_number
+        ));
+        text.push_str("| joint | rows | torque RMS | residual RMS | residual % |");
+        let validation = self.validation.as_ref();
+        if validation.is_some() {
+            text.push_str(" validation error RMS | validation % |");
+        }
+        text.push('\n');
+        text.push_str(if validation.is_some() {
+            "|---|---|---|---|---|---|---|\n"
+        } else {
+            "|---|---|---|---|---|\n"
+        });
+        for (j, joint) in self.model.joints.iter().enumerate() {
+            let (residual, torque) = (self.fit.residual_rms[j], self.fit.torque_rms[j]);
+            text.push_str(&format!(
+                "| {} | {} | {:.4e} | {:.4e} | {:.2} |",
+                joint.name,
+                self.fit.rows[j],
+                torque,
+                residual,
+                100.0 * residual / torque.max(1e-300)
+            ));
+            if let Some((error, torque)) = validation {
+                text.push_str(&format!(
+                    " {:.4e} | {:.2} |",
+                    error[j],
+                    100.0 * error[j] / torque[j].max(1e-300)
+                ));
+            }
+            text.push('\n');
+        }
+        text
+    }
+}
