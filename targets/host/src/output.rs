@@ -87,6 +87,25 @@ pub fn unsigned_zero<F: Copy + PartialEq + Default>(x: F) -> F {
     }
 }
 
+/// A number for a model file: rounded to `significant` digits, the shortest text that reads
+/// back as that, always with a decimal point or an exponent (YAML reads it as a float), plain
+/// between 1e-3 and 1e6.
+pub fn yaml_number(x: f64, significant: usize) -> String {
+    let rounded: f64 = format!("{x:.*e}", significant.max(1) - 1).parse().unwrap_or(x);
+    if rounded == 0.0 {
+        "0.0".into()
+    } else if (1e-3..1e6).contains(&rounded.abs()) {
+        let text = format!("{rounded}");
+        if text.contains('.') {
+            text
+        } else {
+            format!("{text}.0")
+        }
+    } else {
+        format!("{rounded:e}")
+    }
+}
+
 /// `value` as JSON (indented if `pretty`), every number through [`unsigned_zero`] and the keys in
 /// their declared order (`eval`, `summary.json`).
 pub fn to_json(value: &impl serde::Serialize, pretty: bool) -> Result<String, String> {

@@ -449,7 +449,7 @@ fn runtime_effect<const M: usize>(effect: &SceneEffect, period: f64) -> Result<E
 }
 
 /// A standard normal sample (Box–Muller).
-fn gaussian(rng: &mut SmallRng) -> f64 {
+pub(crate) fn gaussian(rng: &mut SmallRng) -> f64 {
     let u1: f64 = rng.gen::<f64>().max(1e-300);
     let u2: f64 = rng.gen::<f64>();
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()

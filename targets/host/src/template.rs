@@ -135,19 +135,7 @@ impl MotorData {
 
 /// A number with no more digits than it needs (at most 9 significant).
 fn number(x: f64) -> String {
-    let rounded: f64 = format!("{x:.8e}").parse().unwrap_or(x);
-    if rounded == 0.0 {
-        "0.0".into()
-    } else if (1e-3..1e6).contains(&rounded.abs()) {
-        let text = format!("{rounded}");
-        if text.contains('.') {
-            text
-        } else {
-            format!("{text}.0")
-        }
-    } else {
-        format!("{rounded:e}")
-    }
+    crate::output::yaml_number(x, 9)
 }
 
 /// The sections every template ends with: rates and the current loop's targets.

@@ -411,8 +411,11 @@ pub fn design(
     let mut step = 0.3;
     let mut best_rank = rank(&best);
     while evaluations < settings.evaluations {
-        let candidate: Vec<f64> =
-            x.iter().enumerate().map(|(i, &v)| v + step * scale[i] * standard_normal(&mut rng)).collect();
+        let candidate: Vec<f64> = x
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| v + step * scale[i] * crate::sim::gaussian(&mut rng))
+            .collect();
         let assessment = assessor.assess(&from_vector(&template, &candidate), settings.samples, settings);
         evaluations += 1;
         let candidate_rank = rank(&assessment);
@@ -434,11 +437,4 @@ pub fn design(
 
 fn is_offset(index: usize, harmonics: usize) -> bool {
     index.is_multiple_of(1 + 2 * harmonics)
-}
-
-/// A standard normal sample (Box–Muller).
-fn standard_normal(rng: &mut SmallRng) -> f64 {
-    let u1: f64 = rng.gen::<f64>().max(1e-300);
-    let u2: f64 = rng.gen::<f64>();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }

@@ -76,21 +76,7 @@ pub enum ModelFileError {
 
 /// A number as written: 12 significant digits, the shortest text that reads back as that.
 pub fn format_number(x: f64) -> String {
-    if x == 0.0 {
-        return "0.0".into();
-    }
-    let rounded: f64 = format!("{x:.11e}").parse().unwrap_or(x);
-    let magnitude = rounded.abs();
-    if (1e-3..1e6).contains(&magnitude) {
-        let text = format!("{rounded}");
-        if text.contains('.') {
-            text
-        } else {
-            format!("{text}.0")
-        }
-    } else {
-        format!("{rounded:e}")
-    }
+    crate::output::yaml_number(x, 12)
 }
 
 /// One text edit: replace `start..end` (byte offsets of the input) by `text`.
