@@ -20,6 +20,9 @@
 #   HAPTICGEN_FW_OPT_LEVEL=s scripts/firmware.sh   another opt-level (the measurement in the docs)
 #   HAPTICGEN_FW_FMA=1 scripts/firmware.sh         generated code with fused multiply-adds (vfma.f32)
 #
+# HAPTICGEN_HOST_TARGET_DIR: where the root workspace's `hapticgen` is built for the runs it
+# drives (default: CARGO_TARGET_DIR, else <target dir>/host); CI points it at the target
+# directory its tests built in, so that the CLI is not built a second time from scratch.
 # Works with any CARGO_TARGET_DIR (binaries are found through `cargo metadata`); outputs land
 # in <target dir>/images. Honours CARGO_BUILD_JOBS (default: 1, from targets/firmware's
 # .cargo/config.toml). Fails, and says why, when a step cannot run, when `--only` names an
@@ -264,7 +267,7 @@ lint_and_build_qemu() {
 # The `hapticgen` CLI (root workspace) for the runs it drives: `$HAPTICGEN`. Its build goes
 # where this script's does, never into <repo>/target.
 build_hapticgen() {
-    HOST_TARGET_DIR=${CARGO_TARGET_DIR:-$TARGET_DIR/host}
+    HOST_TARGET_DIR=${HAPTICGEN_HOST_TARGET_DIR:-${CARGO_TARGET_DIR:-$TARGET_DIR/host}}
     (cd "$ROOT" && cargo build --locked -p hapticgen --target-dir "$HOST_TARGET_DIR") || die "building hapticgen failed"
     HAPTICGEN=$HOST_TARGET_DIR/debug/hapticgen
     [ -x "$HAPTICGEN" ] || die "hapticgen was built but is not at $HAPTICGEN"

@@ -286,8 +286,10 @@ enum Command {
         /// commanded torque (tau_cmd_*); see docs/identification.md.
         #[arg(long)]
         measured_torque: bool,
-        /// Write the parameter table and figures (markdown) here.
-        #[arg(long)]
+        /// Write a report into this directory: identification.md (the parameter table with σ,
+        /// the fit's figures, and each joint's measured torque against the torque the model
+        /// file's and the identified parameters predict) and those figures as SVG and PNG.
+        #[arg(long, value_name = "DIR")]
         report: Option<PathBuf>,
         /// Write the identified model file here: the input file with physically consistent
         /// masses, centres of mass, inertias and frictions, every changed value marked.
@@ -1052,8 +1054,9 @@ fn run(cli: Cli) -> Result<(), String> {
             print!("{text}");
             // Everything is computed before anything is written.
             let written = output.as_ref().map(|_| identified.model_file(&model)).transpose()?;
-            if let Some(path) = report {
-                std::fs::write(&path, &text).map_err(|e| format!("error: {}: {e}", path.display()))?;
+            if let Some(dir) = report {
+                let path = identified.write_report(&dir, &model)?;
+                println!("wrote {} and a torque figure per joint", path.display());
             }
             if let (Some(path), Some((file, residual))) = (output, written) {
                 std::fs::write(&path, file).map_err(|e| format!("error: {}: {e}", path.display()))?;

@@ -326,10 +326,59 @@ fn excite_simulate_identify_write_a_model_file_that_checks() {
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let log = path("run/log.csv");
-    let out = hapticgen(&["identify", model, "--log", &log, "-o", &path("identified.yaml")]);
+
+    // A hand-edited trajectory outside the joint's limits: refused at the joint's entry, no run.
+    let designed = std::fs::read_to_string(path("traj.yaml")).unwrap();
+    let edited: String = designed
+        .lines()
+        .map(|line| if line.trim_start().starts_with("offset:") { "  offset: 100.0" } else { line })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(path("outside.yaml"), edited).unwrap();
+    let entry = 1 + designed.lines().position(|line| line.trim() == "- name: q").expect("the joint's entry");
+    let out = hapticgen(&[
+        "simulate",
+        model,
+        "--scenario",
+        "excite",
+        "--trajectory",
+        &path("outside.yaml"),
+        "-o",
+        &path("never-run"),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success()
+            && stderr.contains(&format!("outside.yaml:{entry}: the trajectory cannot be played"))
+            && stderr.contains("outside [-1.5000, 1.5000]"),
+        "{stderr}"
+    );
+    assert!(!dir.join("never-run").exists());
+    let out = hapticgen(&[
+        "identify",
+        model,
+        "--log",
+        &log,
+        "-o",
+        &path("identified.yaml"),
+        "--report",
+        &path("report"),
+    ]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{}{}", stdout, String::from_utf8_lossy(&out.stderr));
     assert!(stdout.contains("| fc_q |") && stdout.contains("Condition number"), "{stdout}");
+    // The report: the table, the torque comparison, the figure it links.
+    let report = std::fs::read_to_string(path("report/identification.md")).unwrap();
+    assert!(report.contains("| fc_q |") && report.contains("![joint q](torque_q.svg)"), "{report}");
+    let row = report
+        .lines()
+        .find(|l| l.starts_with("| q | ") && l.split('|').count() == 8)
+        .expect("the torque row");
+    let identified_percent: f64 = row.split('|').nth(6).unwrap().trim().parse().unwrap();
+    assert!(identified_percent < 5.0, "{row}");
+    for figure in ["report/torque_q.svg", "report/torque_q.png"] {
+        assert!(std::fs::metadata(path(figure)).unwrap().len() > 1000, "{figure}");
+    }
     let written = std::fs::read_to_string(path("identified.yaml")).unwrap();
     assert!(written.contains("# identified (was mass 0.020358)"), "{written}");
     let out = hapticgen(&["check", &path("identified.yaml")]);

@@ -78,6 +78,16 @@ pub fn excite_command(
     ))
 }
 
+/// The line (1-based) of joint `name`'s entry in a trajectory file's text.
+fn joint_entry_line(text: &str, name: &str) -> Option<usize> {
+    text.lines()
+        .position(|line| {
+            let entry = line.trim_start().trim_start_matches("- ").trim_start();
+            entry.strip_prefix("name:").is_some_and(|value| value.trim().trim_matches(['"', '\'']) == name)
+        })
+        .map(|index| index + 1)
+}
+
 /// What an excitation run needs besides the model.
 pub struct ExciteRun<'a> {
     /// The trajectory file.
@@ -101,6 +111,18 @@ pub fn excite_run(
     run: ExciteRun,
 ) -> Result<String, String> {
     let trajectory = TrajectoryFile::read(run.trajectory, &sim.model)?;
+    if let Err((joint, what)) = super::excite::check_playable(&sim.model, &trajectory) {
+        let name = &sim.model.joints[joint].name;
+        let line = std::fs::read_to_string(run.trajectory)
+            .ok()
+            .and_then(|text| joint_entry_line(&text, name))
+            .map_or_else(String::new, |line| format!("{line}:"));
+        return Err(format!(
+            "error: {}:{line} the trajectory cannot be played on this device: {what} \
+             (design one with `hapticgen excite`, or shrink this joint's coefficients)",
+            run.trajectory.display()
+        ));
+    }
     let plant = run.plant.map(|path| load(path, variant)).transpose()?;
     let mut cfg = run.cfg;
     cfg.duration = run.duration.unwrap_or(trajectory.ramp + 4.0 * trajectory.period);
@@ -161,6 +183,11 @@ pub struct Identified {
     pub validation: Option<(Vec<f64>, Vec<f64>)>,
     /// The model.
     pub model: CheckedModel,
+    /// The log the report's figures show (the validation log if given, else the first log),
+    /// prepared, and its path.
+    pub figure_log: (PathBuf, Segment),
+    /// The fit's settings.
+    pub settings: FitSettings,
 }
 
 /// Reads logs (checked against the model's joints), prepared for the fit.
@@ -213,14 +240,15 @@ pub fn identify(
     let samples = read_samples(&model, logs, settings)?;
     let regressor = RegressorTape::new(&model);
     let fit = fit::fit(&regressor, &samples, settings)?;
-    let validation = match validate {
+    let (validation, figure_log) = match validate {
         Some(path) => {
-            let samples = read_samples(&model, &[path.to_path_buf()], settings)?;
-            Some(fit::prediction_error(&regressor, &fit.beta, &samples, settings))
+            let mut samples = read_samples(&model, &[path.to_path_buf()], settings)?;
+            let error = fit::prediction_error(&regressor, &fit.beta, &samples, settings);
+            (Some(error), (path.to_path_buf(), samples.remove(0)))
         }
-        None => None,
+        None => (None, (logs[0].clone(), samples.into_iter().next().ok_or("error: no log")?)),
     };
-    Ok(Identified { fit, regressor, validation, model })
+    Ok(Identified { fit, regressor, validation, model, figure_log, settings: settings.clone() })
 }
 
 impl Identified {
@@ -248,6 +276,79 @@ impl Identified {
         )
         .map_err(|d| format!("error: the identified model does not load (nothing written):\n{d}"))?;
         Ok((written, consistent.residual))
+    }
+
+    /// Writes the report into `dir`: `identification.md` (what [`Identified::describe`]
+    /// prints, then the measured torque against the torque the model file's and the identified
+    /// parameters predict, per joint, on the figure log) and one figure per joint,
+    /// `torque_<joint>.svg` and `.png`. Returns the markdown's path.
+    pub fn write_report(&self, dir: &Path, model_path: &Path) -> Result<PathBuf, String> {
+        let (log_path, segment) = &self.figure_log;
+        let nominal: Vec<f64> = self.regressor.regressor.base.iter().map(|b| b.nominal).collect();
+        let trace =
+            fit::prediction_trace(&self.regressor, &[&nominal, &self.fit.beta], segment, &self.settings);
+        if trace.time.is_empty() {
+            return Err(format!("error: {}: too short for the report's figures", log_path.display()));
+        }
+        std::fs::create_dir_all(dir).map_err(|e| format!("error: {}: {e}", dir.display()))?;
+        let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt();
+        let difference = |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x - y).collect() };
+        let role = if self.validation.is_some() {
+            "the validation log, not used by the fit"
+        } else {
+            "a log of the fit; --validate gives one it did not see"
+        };
+        let mut text = format!("# Identification of {}\n\n{}", model_path.display(), self.describe());
+        text.push_str(&format!(
+            "\n## Measured and predicted torque\n\nOn {} ({role}): each joint's torque as the fit sees it \
+             (zero-phase filtered at {} Hz) beside the torque predicted by the model file's base parameters and by \
+             the identified ones; the errors are RMS over the {} samples shown.\n\n\
+             | joint | torque RMS | error RMS, model file | % | error RMS, identified | % |\n\
+             |---|---|---|---|---|---|\n",
+            log_path.display(),
+            self.settings.cutoff_hz,
+            trace.time.len()
+        ));
+        // At most this many points per curve in a figure.
+        const FIGURE_POINTS: usize = 4000;
+        let stride = trace.time.len().div_ceil(FIGURE_POINTS);
+        for (j, joint) in self.model.joints.iter().enumerate() {
+            let measured = &trace.measured[j];
+            let torque = rms(measured);
+            let before = rms(&difference(&trace.predicted[0][j], measured));
+            let after = rms(&difference(&trace.predicted[1][j], measured));
+            text.push_str(&format!(
+                "| {} | {torque:.4e} | {before:.4e} | {:.2} | {after:.4e} | {:.2} |\n",
+                joint.name,
+                100.0 * before / torque.max(1e-300),
+                100.0 * after / torque.max(1e-300)
+            ));
+            let points = |y: &[f64]| -> Vec<(f64, f64)> {
+                trace.time.iter().zip(y).step_by(stride).map(|(&t, &v)| (t, v)).collect()
+            };
+            let chart = crate::plot::Chart {
+                title: format!("Joint {}: measured and predicted torque", joint.name),
+                x_label: "time (s)".into(),
+                y_label: match joint.kind {
+                    hapticgen_codegen::model::JointKind::Prismatic => "joint force (N)".into(),
+                    hapticgen_codegen::model::JointKind::Revolute => "joint torque (N·m)".into(),
+                },
+                series: vec![
+                    crate::plot::Series::line("measured", points(measured)),
+                    crate::plot::Series::dashed("model file", points(&trace.predicted[0][j])),
+                    crate::plot::Series::line("identified", points(&trace.predicted[1][j])),
+                ],
+                equal_aspect: false,
+            };
+            crate::plot::save(&chart, &dir.join(format!("torque_{}", joint.name)))?;
+        }
+        text.push('\n');
+        for joint in &self.model.joints {
+            text.push_str(&format!("![joint {0}](torque_{0}.svg)\n\n", joint.name));
+        }
+        let path = dir.join("identification.md");
+        std::fs::write(&path, text).map_err(|e| format!("error: {}: {e}", path.display()))?;
+        Ok(path)
     }
 
     /// The parameter table and the figures, as markdown.

@@ -79,6 +79,8 @@ pub struct Assessment {
     pub violation: f64,
     /// What the largest excess is, if any.
     pub worst: Option<String>,
+    /// The joint (index in the model) whose position or drive has the largest excess.
+    pub worst_joint: Option<usize>,
     /// Largest drive torque over the samples, fraction of its limit.
     pub torque_fraction: f64,
     /// Largest drive speed, fraction of its no-load speed.
@@ -149,12 +151,14 @@ impl Assessor {
         let mut w = DMatrix::<f64>::zeros(samples * n, p);
         let mut violation = 0.0_f64;
         let mut worst = None;
+        let mut worst_joint = None;
         let mut peak_torque = 0.0_f64;
         let mut peak_speed = 0.0_f64;
-        let mut exceed = |excess: f64, what: &dyn Fn() -> String, violation: &mut f64| {
+        let mut exceed = |excess: f64, joint: usize, what: &dyn Fn() -> String, violation: &mut f64| {
             if excess > *violation {
                 *violation = excess;
                 worst = Some(what());
+                worst_joint = Some(joint);
             }
         };
         for i in 0..samples {
@@ -169,6 +173,7 @@ impl Assessor {
                     let excess = if q[j].is_finite() { excess } else { f64::INFINITY };
                     exceed(
                         excess,
+                        j,
                         &|| {
                             format!(
                                 "joint `{}` at {:.4} outside [{lo:.4}, {hi:.4}] at t = {t:.3} s",
@@ -220,6 +225,7 @@ impl Assessor {
                         if speed.is_finite() { speed / settings.speed_fraction - 1.0 } else { f64::INFINITY };
                     exceed(
                         excess,
+                        k,
                         &|| {
                             format!(
                                 "drive of `{name}` at {:.0} % of its no-load speed at t = {t:.3} s",
@@ -237,6 +243,7 @@ impl Assessor {
                     };
                     exceed(
                         excess,
+                        k,
                         &|| {
                             format!(
                                 "drive of `{name}` at {:.0} % of its torque limit at t = {t:.3} s",
@@ -279,6 +286,7 @@ impl Assessor {
             condition_number,
             violation: if violation.is_nan() { f64::INFINITY } else { violation },
             worst,
+            worst_joint,
             torque_fraction: peak_torque,
             speed_fraction: peak_speed,
             unexcited,
@@ -433,6 +441,31 @@ pub fn design(
         }
     }
     Ok(Design { file: from_vector(&template, &x), assessment: best, initial_condition_number, evaluations })
+}
+
+/// Samples per period at which [`check_playable`] checks a trajectory.
+pub const PLAYABLE_SAMPLES: usize = 1000;
+
+/// Checks that `file` can be played on the device of `model` as it stands: every joint inside
+/// its limits (no margin), every drive under its no-load speed and its torque limit, at
+/// [`PLAYABLE_SAMPLES`] points of a period (the blend from rest stays between the rest pose
+/// and the series, so the period bounds it). A trajectory written by `excite` passes with its
+/// margins to spare; a hand-edited one may not. Err: the offending joint (index in the model)
+/// and what exceeds which bound, when.
+pub fn check_playable(model: &CheckedModel, file: &TrajectoryFile) -> Result<(), (usize, String)> {
+    let settings = ExciteSettings {
+        position_margin: 0.0,
+        speed_fraction: 1.0,
+        torque_fraction: 1.0,
+        ..Default::default()
+    };
+    let assessment = Assessor::new(model).assess(file, PLAYABLE_SAMPLES, &settings);
+    if assessment.violation > 0.0 {
+        let joint = assessment.worst_joint.unwrap_or(0);
+        let what = assessment.worst.unwrap_or_else(|| "the dynamics are not finite along it".to_string());
+        return Err((joint, what));
+    }
+    Ok(())
 }
 
 fn is_offset(index: usize, harmonics: usize) -> bool {

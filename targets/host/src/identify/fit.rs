@@ -25,7 +25,10 @@
 //! is solved again (Gautier & Poignet 2001). The parameters' covariance is
 //! `(Wᵀ Σ⁻¹ W)⁻¹`, from the weighted problem's singular values; each parameter's standard
 //! deviation and relative deviation `100 σ / |β|` are reported. The condition number is that of
-//! `W` with unit-length columns (as [`super::excite`] optimises it).
+//! `W` with unit-length columns (as [`super::excite`] optimises it). All of it is computed on
+//! each joint's rows reduced by a QR factorisation, `[W_j | t_j] = Q_j R_j` (`P + 1` rows per
+//! joint instead of thousands; the same norms, singular values and solutions), and `Y` is
+//! evaluated on the samples in parallel.
 
 // Matrix code reads best with explicit indices.
 #![allow(clippy::needless_range_loop)]
@@ -146,6 +149,38 @@ pub fn zero_phase(x: &[f64], cutoff_hz: f64, sample_hz: f64) -> Vec<f64> {
     out
 }
 
+/// [`zero_phase`] of every channel of `rows` in place: `rows` holds `channels` interleaved
+/// signals, sample by sample (row-major), as `Y` is evaluated; each is filtered exactly as
+/// [`zero_phase`] filters one, sweeping the rows forward then backward (no transposition).
+fn zero_phase_rows(rows: &mut [f64], channels: usize, cutoff_hz: f64, sample_hz: f64) {
+    let (b, a) = butterworth(cutoff_hz, sample_hz);
+    if channels == 0 || rows.len() < channels {
+        return;
+    }
+    // Per channel: x1, x2, y1, y2, started at rest at the sweep's first value.
+    let mut state = vec![[0.0_f64; 4]; channels];
+    let sweep = |row: &mut [f64], state: &mut [[f64; 4]]| {
+        for (x0, [x1, x2, y1, y2]) in row.iter_mut().zip(state.iter_mut()) {
+            let y0 = b[0] * *x0 + b[1] * *x1 + b[2] * *x2 - a[0] * *y1 - a[1] * *y2;
+            (*x2, *x1, *y2, *y1) = (*x1, *x0, *y1, y0);
+            *x0 = y0;
+        }
+    };
+    let rest = |row: &[f64], state: &mut [[f64; 4]]| {
+        for (value, s) in row.iter().zip(state.iter_mut()) {
+            *s = [*value; 4];
+        }
+    };
+    rest(&rows[..channels], &mut state);
+    for row in rows.chunks_exact_mut(channels) {
+        sweep(row, &mut state);
+    }
+    rest(&rows[rows.len() - channels..], &mut state);
+    for row in rows.chunks_exact_mut(channels).rev() {
+        sweep(row, &mut state);
+    }
+}
+
 /// `log` onto the evenly spaced times `t_0 + k · period`: a device's ticks land on its
 /// current-loop periods (7.5 kHz), so a 1 kHz log's samples are 0.93 or 1.07 ms apart. Angles
 /// are interpolated linearly. A torque holds from its tick to the next, so each evenly spaced
@@ -253,6 +288,32 @@ pub fn prepare(log: &IdentificationLog, settings: &FitSettings, what: &str) -> R
     Ok(Segment { samples, sample_hz })
 }
 
+/// A segment's `Y` entries and torques, each filtered, row-major: sample `i`'s values start at
+/// `i * (N * P + N)`, entry (r, c) of `Y` at offset `r * P + c`, joint j's torque at `N * P + j`;
+/// and the samples at each end the filter's transients spoil.
+fn filtered_series(
+    regressor: &RegressorTape,
+    segment: &Segment,
+    settings: &FitSettings,
+) -> (Vec<f64>, usize) {
+    use rayon::prelude::*;
+    let (n, p) = (regressor.joints(), regressor.columns());
+    let width = n * p + n;
+    // Y at every sample, in parallel chunks (each with its own register file): the costliest
+    // step of a fit, a Delta's regressor being thousands of operations.
+    const CHUNK: usize = 256;
+    let mut rows = vec![0.0; segment.samples.len() * width];
+    rows.par_chunks_mut(CHUNK * width).zip(segment.samples.par_chunks(CHUNK)).for_each(|(out, samples)| {
+        let mut scratch = regressor.scratch();
+        for (row, s) in out.chunks_mut(width).zip(samples) {
+            regressor.eval(&mut scratch, &s.q, &s.qd, &s.qdd, &mut row[..n * p]);
+            row[n * p..].copy_from_slice(&s.tau);
+        }
+    });
+    zero_phase_rows(&mut rows, width, settings.cutoff_hz, segment.sample_hz);
+    (rows, (settings.edge * segment.sample_hz).ceil() as usize)
+}
+
 /// Stacks the rows of `segments`: `Y` and `τ` filtered alike, trimmed, decimated, the rows
 /// [`FitSettings::min_speed`] lets through; returns `W`, `t` and each row's joint.
 fn stack(
@@ -261,41 +322,71 @@ fn stack(
     settings: &FitSettings,
 ) -> (DMatrix<f64>, DVector<f64>, Vec<usize>) {
     let (n, p) = (regressor.joints(), regressor.columns());
-    let mut scratch = regressor.scratch();
-    let mut y = vec![0.0; n * p];
     let mut rows = Vec::new();
     let mut torques = Vec::new();
     let mut joint_of = Vec::new();
     for segment in segments {
-        let count = segment.samples.len();
-        // Entry (r, c) of Y over the segment, then the torque of each joint.
-        let mut series = vec![vec![0.0; count]; n * p + n];
-        for (i, s) in segment.samples.iter().enumerate() {
-            regressor.eval(&mut scratch, &s.q, &s.qd, &s.qdd, &mut y);
-            for (k, value) in y.iter().enumerate() {
-                series[k][i] = *value;
-            }
-            for j in 0..n {
-                series[n * p + j][i] = s.tau[j];
-            }
-        }
-        let filtered: Vec<Vec<f64>> =
-            series.iter().map(|x| zero_phase(x, settings.cutoff_hz, segment.sample_hz)).collect();
-        let edge = (settings.edge * segment.sample_hz).ceil() as usize;
+        let (filtered, edge) = filtered_series(regressor, segment, settings);
+        let width = n * p + n;
         let mut i = edge;
-        while i + edge < count {
+        while i + edge < segment.samples.len() {
+            let row = &filtered[i * width..(i + 1) * width];
             for j in 0..n {
                 if segment.samples[i].qd[j].abs() < settings.min_speed {
                     continue;
                 }
-                rows.extend((0..p).map(|c| filtered[j * p + c][i]));
-                torques.push(filtered[n * p + j][i]);
+                rows.extend_from_slice(&row[j * p..(j + 1) * p]);
+                torques.push(row[n * p + j]);
                 joint_of.push(j);
             }
             i += settings.decimate.max(1);
         }
     }
     (DMatrix::from_row_slice(torques.len(), p, &rows), DVector::from_vec(torques), joint_of)
+}
+
+/// A log's torques over time beside their predictions, for the report's figures.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PredictionTrace {
+    /// Time of each kept sample, s.
+    pub time: Vec<f64>,
+    /// `[j][i]`: joint j's torque (filtered as the fit sees it).
+    pub measured: Vec<Vec<f64>>,
+    /// `[b][j][i]`: the torque `Y β_b` predicts with the `b`-th parameter vector.
+    pub predicted: Vec<Vec<Vec<f64>>>,
+}
+
+/// The torques of `segment` and their predictions by each of `betas`, every
+/// [`FitSettings::decimate`]-th sample between the filter's edges (every row, the slow ones
+/// too: the figure shows where the model misses).
+pub fn prediction_trace(
+    regressor: &RegressorTape,
+    betas: &[&[f64]],
+    segment: &Segment,
+    settings: &FitSettings,
+) -> PredictionTrace {
+    let (n, p) = (regressor.joints(), regressor.columns());
+    let (filtered, edge) = filtered_series(regressor, segment, settings);
+    let width = n * p + n;
+    let mut trace = PredictionTrace {
+        time: Vec::new(),
+        measured: vec![Vec::new(); n],
+        predicted: vec![vec![Vec::new(); n]; betas.len()],
+    };
+    let mut i = edge;
+    while i + edge < segment.samples.len() {
+        trace.time.push(segment.samples[i].time);
+        let row = &filtered[i * width..(i + 1) * width];
+        for j in 0..n {
+            trace.measured[j].push(row[n * p + j]);
+            for (b, beta) in betas.iter().enumerate() {
+                trace.predicted[b][j]
+                    .push(row[j * p..(j + 1) * p].iter().zip(beta.iter()).map(|(y, b)| y * b).sum());
+            }
+        }
+        i += settings.decimate.max(1);
+    }
+    trace
 }
 
 /// Identifies the base parameters from prepared logs.
@@ -316,8 +407,48 @@ pub fn fit(regressor: &RegressorTape, segments: &[Segment], settings: &FitSettin
             2 * p
         ));
     }
+    // Each joint's rows reduced to a triangle, `[W_j | t_j] = Q_j R_j`: as `‖[W_j | t_j] x‖ =
+    // ‖R_j x‖` for every x, the column norms, the singular values, the least-squares
+    // solutions (weighted per joint) and each joint's residual follow from the stacked `R_j`,
+    // (P + 1) rows per joint instead of thousands.
+    let triangles: Vec<DMatrix<f64>> = (0..n)
+        .map(|j| {
+            let mine: Vec<usize> = (0..joint_of.len()).filter(|&r| joint_of[r] == j).collect();
+            let block =
+                DMatrix::from_fn(mine.len(), p + 1, |i, c| if c < p { w[(mine[i], c)] } else { t[mine[i]] });
+            block.qr().r()
+        })
+        .collect();
+    let stacked = |weights: &[f64]| -> (DMatrix<f64>, DVector<f64>) {
+        let height: usize = triangles.iter().map(|r| r.nrows()).sum();
+        let mut a = DMatrix::zeros(height, p);
+        let mut b = DVector::zeros(height);
+        let mut at = 0;
+        for (r, weight) in triangles.iter().zip(weights) {
+            for i in 0..r.nrows() {
+                for c in 0..p {
+                    a[(at + i, c)] = weight * r[(i, c)];
+                }
+                b[at + i] = weight * r[(i, p)];
+            }
+            at += r.nrows();
+        }
+        (a, b)
+    };
+    // `‖t_j − W_j β‖²`.
+    let residual_squares = |beta: &DVector<f64>| -> Vec<f64> {
+        triangles
+            .iter()
+            .map(|r| {
+                (0..r.nrows())
+                    .map(|i| (r[(i, p)] - (0..p).map(|c| r[(i, c)] * beta[c]).sum::<f64>()).powi(2))
+                    .sum()
+            })
+            .collect()
+    };
+    let (reduced, reduced_torque) = stacked(&vec![1.0; n]);
     // Which parameters no row excites, and how well the rest are conditioned.
-    let mut scaled = w.clone();
+    let mut scaled = reduced.clone();
     let mut unexcited = Vec::new();
     for c in 0..p {
         let norm = scaled.column(c).norm();
@@ -330,7 +461,7 @@ pub fn fit(regressor: &RegressorTape, segments: &[Segment], settings: &FitSettin
     if !unexcited.is_empty() {
         return Err(format!("error: the logs do not excite the base parameters {}", unexcited.join(", ")));
     }
-    let svd = scaled.clone().svd(false, true);
+    let svd = scaled.svd(false, true);
     let (largest, smallest) =
         svd.singular_values.iter().fold((0.0_f64, f64::INFINITY), |(a, b), &s| (a.max(s), b.min(s)));
     let condition_number = largest / smallest;
@@ -354,29 +485,20 @@ pub fn fit(regressor: &RegressorTape, segments: &[Segment], settings: &FitSettin
         ));
     }
     // Ordinary, then weighted least squares.
-    let solve = |w: &DMatrix<f64>, t: &DVector<f64>| -> Result<DVector<f64>, String> {
-        w.clone().svd(true, true).solve(t, 1e-14).map_err(|e| format!("error: least squares: {e}"))
+    let solve = |a: &DMatrix<f64>, b: &DVector<f64>| -> Result<DVector<f64>, String> {
+        a.clone().svd(true, true).solve(b, 1e-14).map_err(|e| format!("error: least squares: {e}"))
     };
-    let beta0 = solve(&w, &t)?;
-    let residual0 = &t - &w * &beta0;
-    let mut variance = vec![0.0; n];
-    for (r, &j) in joint_of.iter().enumerate() {
-        variance[j] += residual0[r] * residual0[r];
-    }
+    let beta0 = solve(&reduced, &reduced_torque)?;
+    let mut variance = residual_squares(&beta0);
     for j in 0..n {
         let dof = (rows[j] as f64 - p as f64 / n as f64).max(1.0);
         variance[j] = (variance[j] / dof).max(1e-300);
     }
-    let mut ww = w.clone();
-    let mut tw = t.clone();
-    for (r, &j) in joint_of.iter().enumerate() {
-        let weight = 1.0 / variance[j].sqrt();
-        ww.row_mut(r).scale_mut(weight);
-        tw[r] *= weight;
-    }
-    let beta = solve(&ww, &tw)?;
+    let weights: Vec<f64> = variance.iter().map(|v| 1.0 / v.sqrt()).collect();
+    let (weighted_matrix, weighted_torque) = stacked(&weights);
+    let beta = solve(&weighted_matrix, &weighted_torque)?;
     // Covariance (Wᵀ Σ⁻¹ W)⁻¹ = V S⁻² Vᵀ of the weighted problem.
-    let weighted = ww.svd(false, true);
+    let weighted = weighted_matrix.svd(false, true);
     let v_t = weighted.v_t.ok_or("error: least squares: no singular vectors")?;
     let sigma: Vec<f64> = (0..p)
         .map(|c| {
@@ -384,17 +506,13 @@ pub fn fit(regressor: &RegressorTape, segments: &[Segment], settings: &FitSettin
             variance.sqrt()
         })
         .collect();
-    let residual = &t - &w * &beta;
+    let residual = residual_squares(&beta);
     let mut residual_rms = vec![0.0; n];
     let mut torque_rms = vec![0.0; n];
-    for (r, &j) in joint_of.iter().enumerate() {
-        residual_rms[j] += residual[r] * residual[r];
-        torque_rms[j] += t[r] * t[r];
-    }
     for j in 0..n {
         let count = rows[j].max(1) as f64;
-        residual_rms[j] = (residual_rms[j] / count).sqrt();
-        torque_rms[j] = (torque_rms[j] / count).sqrt();
+        residual_rms[j] = (residual[j] / count).sqrt();
+        torque_rms[j] = (triangles[j].column(p).norm_squared() / count).sqrt();
     }
     Ok(Fit { beta: beta.iter().copied().collect(), sigma, condition_number, residual_rms, torque_rms, rows })
 }
@@ -427,6 +545,22 @@ pub fn prediction_error(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_interleaved_filter_filters_each_channel_as_the_single_one_does() {
+        let rate = 1000.0;
+        let channels: Vec<Vec<f64>> = (0..3)
+            .map(|c| (0..500).map(|i| (i as f64 * 0.01 * (c + 1) as f64).sin() + 0.3 * c as f64).collect())
+            .collect();
+        let mut rows: Vec<f64> = (0..500).flat_map(|i| channels.iter().map(move |x| x[i])).collect();
+        zero_phase_rows(&mut rows, 3, 15.0, rate);
+        for (c, x) in channels.iter().enumerate() {
+            let single = zero_phase(x, 15.0, rate);
+            for i in 0..500 {
+                assert_eq!(rows[i * 3 + c], single[i], "channel {c}, sample {i}");
+            }
+        }
+    }
 
     #[test]
     fn the_zero_phase_filter_passes_slow_signals_without_lag_and_stops_fast_ones() {
