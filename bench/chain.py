@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Writes model files of serial chains with n = 1..7 revolute joints for the scaling
-measurements of docs/performance.md: spatial chains `chain_N.yaml` (alternating axes, centres
+measurements of docs/operation-counts.md: spatial chains `chain_N.yaml` (alternating axes, centres
 of mass off the axes, full inertia tensors) and planar chains `planar_chain_N.yaml` (vertical
 plane, centres of mass off the link axes): `python3 bench/chain.py OUTDIR`."""
 import sys

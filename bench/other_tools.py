@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The other tools of docs/performance.md's operation counts, measured on the same models.
+"""The other tools of docs/operation-counts.md's operation counts, measured on the same models.
 
 A textbook Lagrangian derivation (per-body Jacobians, D = Σ m Jᵥᵀ Jᵥ + J_ωᵀ I J_ω + diag(N² J_m),
 C from the Christoffel symbols, g = ∂V/∂q, J = ∂p/∂q, J̇·q̇ = Σᵢ ∂(J q̇)/∂qᵢ q̇ᵢ), written once

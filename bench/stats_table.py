@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""docs/performance.md's table of `hapticgen stats`: the operation counts of the main emitted
+"""docs/operation-counts.md's table of `hapticgen stats`: the operation counts of the main emitted
 functions for every variant of every model in `models/`, as a Markdown table.
 
 Each cell is `arithmetic + trig`: arithmetic is additions, multiplications, divisions, square

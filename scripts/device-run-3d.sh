@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The 3-D device image (the Delta, `falcon`) under QEMU, driven by `hapticgen connect`
-# (docs/link.md): a hand pushes the grip up with 2 N (the image's semihosting argument
+# (docs/link-device.md): a hand pushes the grip up with 2 N (the image's semihosting argument
 # `hand=0:0:2`, applied while the bridges are on) into a scene sent over the link, and the grip
 # must be held at the depth the wall spring predicts, F / K, within 3 %:
 #

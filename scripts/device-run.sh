@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The device image under QEMU, driven by `hapticgen connect` as an application drives a device
-# (docs/link.md). QEMU runs without -icount, so that the image's clock is the host's
+# (docs/link-device.md). QEMU runs without -icount, so that the image's clock is the host's
 # (the heartbeat timeout is real time); its UART0 is a Unix socket in OUTDIR.
 #
 #   scripts/device-run.sh HAPTICGEN IMAGE OUTDIR

@@ -1,6 +1,6 @@
 //! Time of `model::load` (parse, variant, resolve, validate) per model file, against a parse
 //! with serde_yaml alone and with yaml-rust2 alone (the loader runs both: see
-//! docs/reliability.md, "Fuzzing at two rates"). `ROUNDS` (default 200) loads per file:
+//! docs/reliability.md, "Fuzzing the loader and the generator"). `ROUNDS` (default 200) loads per file:
 //!
 //! ```sh
 //! cargo run --release -p hapticgen-codegen --example load_rate -- models/*.yaml

@@ -1,5 +1,6 @@
 //! The model format's public face: the checked-in JSON Schema, the good example models and
-//! the examples of `docs/model-format.md`.
+//! the examples of the model format's guide (`docs/model-format.md` and the pages of
+//! `docs/model-format/`).
 //!
 //! - `schema/model.schema.json` must equal what the Rust types generate;
 //! - every shipped and good model must validate against that schema (with a small validator
@@ -336,22 +337,63 @@ fn yaml_blocks(markdown: &str) -> Vec<(usize, String)> {
     blocks
 }
 
-/// The repository paths of the `.yaml` files a Markdown page in `docs/` links to
-/// (`[…](../models/x.yaml)`), in order.
-fn linked_models(markdown: &str) -> Vec<String> {
+/// The model format's guide: `docs/model-format.md` and every page of `docs/model-format/`
+/// (each of which the first links), as (path from the repository root, text).
+fn guide_pages() -> Vec<(String, String)> {
+    let index = "docs/model-format.md".to_string();
+    let index_text = read(&repo_root().join(&index));
+    let mut pages: Vec<String> = std::fs::read_dir(repo_root().join("docs/model-format"))
+        .expect("docs/model-format/")
+        .map(|e| e.expect("directory entry").file_name().to_string_lossy().into_owned())
+        .filter(|name| name.ends_with(".md"))
+        .map(|name| format!("docs/model-format/{name}"))
+        .collect();
+    pages.sort();
+    assert!(pages.len() >= 5, "docs/model-format/ holds only {} pages", pages.len());
+    for page in &pages {
+        let link = format!("]({})", page.trim_start_matches("docs/"));
+        assert!(index_text.contains(&link), "docs/model-format.md does not link {page}");
+    }
+    let mut guide = vec![(index, index_text)];
+    guide.extend(pages.into_iter().map(|page| {
+        let text = read(&repo_root().join(&page));
+        (page, text)
+    }));
+    guide
+}
+
+/// A relative link `target` of the page at `page` (both from the repository root), as a path
+/// from the repository root: `../../models/x.yaml` of `docs/model-format/a.md` is
+/// `models/x.yaml`.
+fn resolve_link(page: &str, target: &str) -> String {
+    let mut parts: Vec<&str> = page.split('/').collect();
+    parts.pop();
+    for part in target.split('/') {
+        match part {
+            ".." => assert!(parts.pop().is_some(), "{page}: the link {target} leaves the repository"),
+            "." | "" => {}
+            part => parts.push(part),
+        }
+    }
+    parts.join("/")
+}
+
+/// The repository paths of the `.yaml` files a Markdown page (`page`, from the repository
+/// root) links to (`[…](../models/x.yaml)`), in order.
+fn linked_models(page: &str, markdown: &str) -> Vec<String> {
     markdown
-        .split("](../")
+        .split("](")
         .skip(1)
         .filter_map(|rest| rest.split(')').next())
-        .filter(|target| target.ends_with(".yaml"))
-        .map(str::to_string)
+        .filter(|target| target.ends_with(".yaml") && !target.contains("://"))
+        .map(|target| resolve_link(page, target))
         .collect()
 }
 
 #[test]
 fn every_model_linked_from_the_guide_loads() {
-    let guide = read(&repo_root().join("docs/model-format.md"));
-    let linked = linked_models(&guide);
+    let linked: Vec<String> =
+        guide_pages().iter().flat_map(|(page, text)| linked_models(page, text)).collect();
     assert!(linked.len() >= 8, "the guide links only {} complete models", linked.len());
     for file in &linked {
         let text = read(&repo_root().join(file));
@@ -364,14 +406,16 @@ fn every_model_linked_from_the_guide_loads() {
     for path in good_models() {
         let file = path.file_name().expect("file name").to_string_lossy();
         let relative = format!("codegen/tests/good-models/{file}");
-        assert!(linked.contains(&relative), "docs/model-format.md does not link {relative}");
+        assert!(linked.contains(&relative), "no page of the model format's guide links {relative}");
     }
 }
 
 #[test]
 fn linked_model_extraction_sees_every_link() {
-    let text = "a [`models/a.yaml`](../models/a.yaml) b [c](../docs/c.md) [d](../x/d.yaml).";
-    assert_eq!(linked_models(text), vec!["models/a.yaml".to_string(), "x/d.yaml".to_string()]);
+    let text = "a [`models/a.yaml`](../models/a.yaml) b [c](../docs/c.md) [d](../x/d.yaml) [e](e.yaml).";
+    assert_eq!(linked_models("docs/model-format.md", text), vec!["models/a.yaml", "x/d.yaml", "docs/e.yaml"]);
+    let text = "[a](../../models/a.yaml) [b](../c.md) [c](https://example.com/c.yaml)";
+    assert_eq!(linked_models("docs/model-format/examples.md", text), vec!["models/a.yaml"]);
 }
 
 /// The tutorial's model, as it stands after each step, loads; its last step is the complete
@@ -400,10 +444,13 @@ fn the_tutorials_models_load() {
 /// shows complete, and which is loaded above).
 #[test]
 fn frames_example_in_the_guide_is_part_of_the_phantom_model() {
-    let guide = read(&repo_root().join("docs/model-format.md"));
     let phantom = read(&repo_root().join("models/phantom_3dof.yaml"));
-    let excerpts: Vec<String> =
-        yaml_blocks(&guide).into_iter().map(|(_, t)| t).filter(|t| t.starts_with("frames:")).collect();
+    let excerpts: Vec<String> = guide_pages()
+        .iter()
+        .flat_map(|(_, text)| yaml_blocks(text))
+        .map(|(_, t)| t)
+        .filter(|t| t.starts_with("frames:"))
+        .collect();
     assert_eq!(excerpts.len(), 1, "the guide's frames section shows one example");
     assert!(
         phantom.contains(&excerpts[0]),
@@ -424,10 +471,9 @@ fn yaml_block_extraction_sees_every_block() {
 /// what the loader reports.
 #[test]
 fn diagnostic_transcripts_in_the_guide_are_real() {
-    let guide = read(&repo_root().join("docs/model-format.md"));
     let mut transcripts: Vec<(Vec<String>, String)> = Vec::new();
     let mut in_text = false;
-    for line in guide.lines() {
+    for line in guide_pages().iter().flat_map(|(_, text)| text.lines()) {
         if line.starts_with("```") {
             in_text = line == "```text";
             continue;

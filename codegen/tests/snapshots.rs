@@ -6,7 +6,7 @@
 //! The tests crate asserts the same snapshots, but it builds every shipped rig in its build
 //! script first; here the generator's own tests see a change to the emitted text, which is what
 //! lets mutation testing of `codegen/src/emit` run on `cargo test -p hapticgen-codegen`
-//! (docs/reliability.md, "Mutation testing"). The snapshot files are only read.
+//! (docs/mutation-testing.md). The snapshot files are only read.
 
 use std::path::{Path, PathBuf};
 

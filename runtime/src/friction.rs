@@ -17,7 +17,7 @@
 //! torque proportional to the dither rather than `±F_c` switching every tick. The band is the
 //! price: within it the compensation is partial. The identification regressor models the
 //! same friction with the smoothed sign `q̇/√(q̇² + δ²)` (`COULOMB_BAND`,
-//! `docs/identification.md`); the ramp here reaches `±F_c` at `|ȧ| = δ` instead of
+//! `docs/regressor.md`); the ramp here reaches `±F_c` at `|ȧ| = δ` instead of
 //! approaching it.
 //!
 //! Only Coulomb friction is fed forward. Static friction (`static_friction`) holds a joint at

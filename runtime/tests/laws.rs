@@ -13,7 +13,7 @@
 //! wrapper of the fused laws (`fused_torque`) around a hand-written `FusedImpedance` for the
 //! joystick, which returns exactly these closed forms: the wrapper's own work (spring lead,
 //! `B q̇`, singularity threshold, checks of its inputs and of `M_d`) is what is under test.
-//! These were written to kill mutants that survived `cargo mutants` (docs/reliability.md).
+//! These were written to kill mutants that survived `cargo mutants` (docs/mutation-testing.md).
 
 use crate::common::{Joystick, Parallelogram, JOINT_DAMPING};
 use hapticgen_runtime::control::{
@@ -321,7 +321,7 @@ fn acceleration_feedback_at_the_reference_is_finite() {
 /// with a heavy desired mass and a stiff spring (`M_d = K_d = 10²⁰⁰`, so `r/M_d` is about 0.2
 /// while `r·M_d` is beyond `f64`) the torque is still the closed form of the table, in which
 /// `a_x` cancels (about `3·10²⁰⁰`, finite). Kills the `r/M_d → r·M_d` mutant of `a_x`, which
-/// is otherwise equivalent up to rounding (docs/reliability.md).
+/// is otherwise equivalent up to rounding (docs/mutation-testing.md).
 #[test]
 fn acceleration_feedback_with_a_heavy_desired_mass_stays_exact() {
     let mut c = case();

@@ -696,7 +696,7 @@ fn free_space_effects_give_their_closed_form_forces() {
 }
 
 // The tests below were written to kill mutants that survived `cargo mutants`
-// (docs/reliability.md, "Mutation testing"); each expected value is worked out by hand.
+// (docs/mutation-testing.md); each expected value is worked out by hand.
 
 #[test]
 fn the_plane_projection_is_exact_at_a_corner_and_with_unnormalised_normals() {
@@ -893,7 +893,7 @@ fn a_proxy_left_inside_a_solid_does_not_move_deeper() {
 
 #[test]
 fn from_a_point_on_its_axis_a_cylinder_is_closest_on_its_side_perpendicular_to_the_axis() {
-    // Written to kill a mutant that survived `cargo mutants` (docs/reliability.md). On the axis
+    // Written to kill a mutant that survived `cargo mutants` (docs/mutation-testing.md). On the axis
     // the radial direction is undefined; any direction perpendicular to the axis will do, but it
     // must be perpendicular. Axis along x (the first basis vector), then along y and z.
     for axis in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] {
@@ -910,7 +910,7 @@ fn from_a_point_on_its_axis_a_cylinder_is_closest_on_its_side_perpendicular_to_t
 
 #[test]
 fn the_bounding_volume_hierarchy_finds_the_closest_face_after_a_farther_one() {
-    // Written to kill mutants that survived `cargo mutants` (docs/reliability.md). Two
+    // Written to kill mutants that survived `cargo mutants` (docs/mutation-testing.md). Two
     // triangles over the origin, in the planes z = 1 and z = 0.6, each in its own leaf; the
     // farther one's leaf is visited first. Its squared distance, 1, bounds the search; the
     // nearer leaf's box is 0.6 away (0.36 squared) and must not be pruned.
@@ -948,7 +948,7 @@ fn the_bounding_volume_hierarchy_finds_the_closest_face_after_a_farther_one() {
 
 #[test]
 fn shape_corner_cases_have_their_documented_closest_points_and_inner_bodies() {
-    // Written to kill mutants that survived `cargo mutants` (docs/reliability.md).
+    // Written to kill mutants that survived `cargo mutants` (docs/mutation-testing.md).
     // A sphere queried at its exact centre: the boundary point along +x1, normal +x1.
     let sphere = Shape::Sphere { center: [0.1, 0.2, 0.3], radius: 0.05 };
     let at_centre = sphere.closest(&[0.1, 0.2, 0.3]).unwrap();
@@ -994,7 +994,7 @@ fn shape_corner_cases_have_their_documented_closest_points_and_inner_bodies() {
 
 #[test]
 fn min_distance_contact_is_the_deepest_of_two_overlapping_solids() {
-    // Written to kill a mutant that survived `cargo mutants` (docs/reliability.md). Two solid
+    // Written to kill a mutant that survived `cargo mutants` (docs/mutation-testing.md). Two solid
     // spheres of radius 5 cm, centres 6 cm apart on x; the HIP at x = 4 cm is 1 cm inside the
     // first and 3 cm inside the second: the second (deeper) one is in contact, the IHIP on its
     // surface along −x from its centre.
@@ -1875,7 +1875,7 @@ fn the_bounding_volume_hierarchy_bounds_a_box_by_its_gap_beyond_its_high_side() 
 /// ticks. Friction has no say without a dynamic coefficient: the straight sweep from the old
 /// proxy that friction uses to slide would cut into the sphere. (Written for the
 /// cargo-mutants survivor of held-out shard 2/8 `μ_d > 0 && slide > 0` → `||`, which sends
-/// frictionless slides through that sweep; it does not kill it, see docs/reliability.md.)
+/// frictionless slides through that sweep; it does not kill it, see docs/mutation-testing.md.)
 #[test]
 fn on_a_frictionless_sphere_the_proxy_follows_a_quarter_turn() {
     let mut scene: GodObject<f64, 1, 3> = GodObject::new(0.0, 0.0, R, SKIN);

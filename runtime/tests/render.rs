@@ -238,7 +238,7 @@ fn diagonal_slope(_: f64) -> f64 {
 
 #[test]
 fn a_contour_function_is_closest_at_the_perpendicular_foot_or_an_end_and_acts_only_in_range() {
-    // Written to kill mutants that survived `cargo mutants` (docs/reliability.md).
+    // Written to kill mutants that survived `cargo mutants` (docs/mutation-testing.md).
     let contour: Shape<f64, 4> =
         Shape::ContourFunction { function: diagonal, slope: diagonal_slope, x1_range: [0.0, 1.0] };
     // Interior: the foot of the perpendicular from (0.6, 0.2) is t = 0.4; the point is below.
@@ -264,7 +264,7 @@ fn a_contour_function_is_closest_at_the_perpendicular_foot_or_an_end_and_acts_on
 
 #[test]
 fn a_contour_table_interpolates_the_height_that_decides_inside() {
-    // Written to kill mutants that survived `cargo mutants` (docs/reliability.md).
+    // Written to kill mutants that survived `cargo mutants` (docs/mutation-testing.md).
     // Three samples over [0, 1] (spacing 0.5) of x2 = x1, heights 0, 0.5, 1: at x1 = 0.75 the
     // interpolated height is 0.75, so 0.7 is inside (below) and 0.8 outside.
     let mut samples = [0.0; 4];
@@ -284,7 +284,7 @@ fn a_contour_table_interpolates_the_height_that_decides_inside() {
 
 #[test]
 fn the_anti_drift_grid_holds_its_node_within_one_spacing_and_snaps_beyond() {
-    // Written to kill mutants that survived `cargo mutants` (docs/reliability.md).
+    // Written to kill mutants that survived `cargo mutants` (docs/mutation-testing.md).
     let mut grid = AntiDriftGrid::new(0.01);
     assert_eq!(grid.update(&[0.001, -0.002]), [0.0, 0.0]);
     // Within one spacing of the node on both axes: held.

@@ -1,7 +1,7 @@
 //! The haptic loop (`tick`) on the 1-DOF joystick: the start pose `for_rig` chooses, the
 //! force Controller 1 senses reaching the torque, and the current loop's watchdog on a skipped
 //! impedance tick. Written to kill mutants that survived `cargo mutants`
-//! (docs/reliability.md, "Mutation testing").
+//! (docs/mutation-testing.md).
 
 use crate::common::{Joystick, GEAR};
 use hapticgen_runtime::control::{ImpedanceController, ImpedanceLaw, TaskReference};

@@ -2,7 +2,7 @@
 //! derivation predicts (section 5, Spong's five-bar): constant diagonal inertia, an
 //! off-diagonal entry proportional to cos(q1 − q2), and only the sines and cosines of q1 and
 //! q2 evaluated (two sin/cos pairs) for D, C q̇, g, J and J̇ q̇ together; and the operation
-//! counts of those quantities against the targets docs/performance.md states.
+//! counts of those quantities against the targets docs/operation-counts.md states.
 
 use hapticgen_codegen::dynamics::mechanics;
 use hapticgen_codegen::emit;

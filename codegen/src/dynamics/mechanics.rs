@@ -24,7 +24,7 @@ use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::{Atom, Poly};
 
 /// Serial models with at least this many joints always take the recursive path: their
-/// expanded polynomials grow exponentially with the chain (docs/performance.md).
+/// expanded polynomials grow exponentially with the chain (docs/operation-counts.md).
 pub const RECURSIVE_FROM_JOINTS: usize = 4;
 
 /// The derivations used to build the emitted code of one function.

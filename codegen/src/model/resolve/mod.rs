@@ -282,7 +282,7 @@ pub(crate) fn resolve(
             r.error_hint(
                 &[key("closures")],
                 "a model with measured joints has no closures",
-                "measured joints (a gimbal) on a closed chain are not supported yet: see docs/model-format.md",
+                "measured joints (a gimbal) on a closed chain are not supported yet: see docs/model-format/limits.md",
             );
         }
     }
