@@ -437,8 +437,10 @@ struct SimulateArgs {
     /// The excite scenario's trajectory file (`hapticgen excite -o TRAJ.yaml`).
     #[arg(long)]
     trajectory: Option<PathBuf>,
-    /// The excite scenario's simulated device: another model file with the same joints (its
-    /// "true" masses and frictions); default: the model itself.
+    /// The simulated device: another model file with the same joints and task (its "true"
+    /// masses, inertias and frictions), while the controller runs on MODEL's; default: the
+    /// model itself. Any scenario (e.g. the model file of estimates against the device, then
+    /// the identified one against it).
     #[arg(long)]
     plant: Option<PathBuf>,
 }
@@ -1160,6 +1162,16 @@ fn configure(args: &SimulateArgs) -> Result<Configured, String> {
     cfg.duration = args.duration.unwrap_or(5.0);
     cfg.effects = Effects::ALL.without(&args.without).map_err(|e| format!("error: --without: {e}"))?;
     cfg.plant_mass_scale = args.mass_scale;
+    if let Some(path) = &args.plant {
+        if args.mass_scale != 1.0 {
+            return Err(
+                "error: give --plant (another model file as the device) or --mass-scale, not both".into()
+            );
+        }
+        let device = hapticgen_codegen::load_file(path, &path.display().to_string(), args.variant.as_deref())
+            .map_err(|d| d.to_string())?;
+        cfg.plant_model = Some(sim.device(&device)?);
+    }
     cfg.seed = args.seed;
     cfg.singular_fallback = args.singular_fallback;
     cfg.spring_lead_time = args.spring_lead;
@@ -1268,7 +1280,7 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     for line in &plausible {
         eprintln!("{line}");
     }
-    if matches!(args.scenario, ScenarioArg::Excite) || args.trajectory.is_some() || args.plant.is_some() {
+    if matches!(args.scenario, ScenarioArg::Excite) || args.trajectory.is_some() {
         return excite_run(&args);
     }
     let Configured { sim, cfg, scenario, singular_start, contact } = configure(&args)?;
@@ -1278,15 +1290,21 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     hapticgen_host::output::write_csv(&trace, &args.output.join("trace.csv"))?;
     let figures = paper::trace_figures(&trace, &args.output)?;
     println!(
-        "simulated {:.2} s of {} in {:.2} s ({:.2}× real time), controller on {}; wrote {} and {} figures",
+        "simulated {:.2} s of {} in {:.2} s ({:.2}× real time), controller on {}{}; wrote {} and {} figures",
         trace.duration(),
         args.model.display(),
         trace.wall_seconds,
         trace.duration() / trace.wall_seconds.max(1e-9),
         if sim.uses_generated_code() { "generated code" } else { "the model's tapes" },
+        args.plant.as_ref().map_or_else(String::new, |p| format!(", device {}", p.display())),
         args.output.join("trace.csv").display(),
         figures
     );
+    if let Some((rms, largest)) = trace.rendering_error() {
+        println!(
+            "task position against the rendered reference |x − x_p|: RMS {rms:.4e}, largest {largest:.4e}"
+        );
+    }
     if let Some(band) = cfg.friction_compensation {
         println!(
             "note: friction compensation on: the model's Coulomb friction fed forward, band {band:.4} rad/s"
@@ -1325,9 +1343,7 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
 /// `simulate --scenario excite`: the identification run (hapticgen_host::identify).
 fn excite_run(args: &SimulateArgs) -> Result<(), String> {
     if !matches!(args.scenario, ScenarioArg::Excite) {
-        return Err(
-            "error: --trajectory and --plant belong to the excite scenario (--scenario excite)".into()
-        );
+        return Err("error: --trajectory belongs to the excite scenario (--scenario excite)".into());
     }
     let trajectory =
         args.trajectory.as_deref().ok_or("error: the excite scenario needs --trajectory TRAJ.yaml")?;

@@ -182,6 +182,10 @@ pub struct SimConfig {
     pub effects: Effects,
     /// Factor on the plant's body masses and inertias (the controller keeps the model's).
     pub plant_mass_scale: f64,
+    /// The simulated device, if it is another model file than the controller's (`--plant`:
+    /// the same joints and task, other masses and frictions; see
+    /// [`crate::simulate::Simulation::device`]). Takes precedence over `plant_mass_scale`.
+    pub plant_model: Option<Arc<CompiledModel>>,
     /// Seed of the sensor noise.
     pub seed: u64,
     /// The operator.
@@ -222,6 +226,7 @@ impl SimConfig {
             duration: 5.0,
             effects: Effects::ALL,
             plant_mass_scale: 1.0,
+            plant_model: None,
             seed: 1,
             operator: Operator::Free,
             reference: Reference::Fixed(None),
@@ -297,6 +302,26 @@ pub struct Trace {
 }
 
 impl Trace {
+    /// The task position's distance from the rendered reference (the `x` and `xp` columns)
+    /// over the run: RMS and largest, in the task's units; `None` for an empty trace.
+    pub fn rendering_error(&self) -> Option<(f64, f64)> {
+        let columns = |prefix: &str| -> Option<Vec<Vec<f64>>> {
+            (0..self.task_dim).map(|k| self.column(&format!("{prefix}{k}"))).collect()
+        };
+        let (position, reference) = (columns("x")?, columns("xp")?);
+        let samples = position.first()?.len();
+        if samples == 0 {
+            return None;
+        }
+        let distances: Vec<f64> = (0..samples)
+            .map(|i| {
+                (0..self.task_dim).map(|k| (position[k][i] - reference[k][i]).powi(2)).sum::<f64>().sqrt()
+            })
+            .collect();
+        let rms = (distances.iter().map(|d| d * d).sum::<f64>() / samples as f64).sqrt();
+        Some((rms, distances.iter().copied().fold(0.0, f64::max)))
+    }
+
     /// The samples of one column.
     pub fn column(&self, name: &str) -> Option<Vec<f64>> {
         let index = self.columns.iter().position(|c| c == name)?;

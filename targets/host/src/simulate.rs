@@ -429,8 +429,28 @@ impl Simulation {
         (position, det)
     }
 
+    /// The simulated device `device` (another model file: its own masses, inertias and
+    /// frictions) for this simulation's controller, checked to have the same joints and task.
+    pub fn device(&self, device: &hapticgen_codegen::CheckedModel) -> Result<Arc<CompiledModel>, String> {
+        let ours: Vec<&str> = self.model.joints.iter().map(|j| j.name.as_str()).collect();
+        let theirs: Vec<&str> = device.joints.iter().map(|j| j.name.as_str()).collect();
+        if ours != theirs || device.task_dim() != self.model.task_dim() {
+            return Err(format!(
+                "error: {}: the plant's joints [{}] and task ({} coordinates) must be the model's [{}] ({})",
+                device.file,
+                theirs.join(", "),
+                device.task_dim(),
+                ours.join(", "),
+                self.model.task_dim()
+            ));
+        }
+        Ok(Arc::new(CompiledModel::new(device, 1.0)))
+    }
+
     fn plant(&self, cfg: &SimConfig) -> Arc<CompiledModel> {
-        if cfg.plant_mass_scale == 1.0 {
+        if let Some(device) = &cfg.plant_model {
+            device.clone()
+        } else if cfg.plant_mass_scale == 1.0 {
             self.nominal.clone()
         } else {
             Arc::new(CompiledModel::new(&self.model, cfg.plant_mass_scale))

@@ -411,3 +411,80 @@ fn excite_simulate_identify_write_a_model_file_that_checks() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The loop closed: a "true" joystick heavier than its model file, identified from a
+/// simulated run; then a second, different trajectory played on that true device with the
+/// computed-torque tracking of each model file: the identified file tracks it closer than the
+/// file of estimates. And `--plant` is refused for a device with other joints.
+#[test]
+fn the_identified_model_controls_the_true_device_better_than_the_estimates() {
+    let dir = std::env::temp_dir().join(format!("hapticgen-closed-loop-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = |name: &str| dir.join(name).display().to_string();
+    let model = "models/joystick_1dof.yaml";
+    let estimates = std::fs::read_to_string(workspace().join(model)).unwrap();
+    let truth = estimates
+        .replace("mass: 0.020358", "mass: 0.0285")
+        .replace("mass: 0.05\n", "mass: 0.068\n")
+        .replace("coulomb_friction: 0.01 ", "coulomb_friction: 0.013 ");
+    assert_ne!(truth, estimates, "the true device differs from the model file");
+    std::fs::write(path("true.yaml"), &truth).unwrap();
+    let run = |args: &[&str]| {
+        let out = hapticgen(args);
+        let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+        assert!(out.status.success(), "{args:?}: {stdout}{}", String::from_utf8_lossy(&out.stderr));
+        stdout
+    };
+    let play = |controller_model: &str, trajectory: &str, output: &str| -> String {
+        run(&[
+            "simulate",
+            controller_model,
+            "--plant",
+            &path("true.yaml"),
+            "--scenario",
+            "excite",
+            "--trajectory",
+            &path(trajectory),
+            "--duration",
+            "21",
+            "-o",
+            &path(output),
+        ])
+    };
+    run(&["excite", model, "--evaluations", "100", "-o", &path("traj.yaml")]);
+    run(&["excite", model, "--evaluations", "100", "--seed", "2", "-o", &path("other.yaml")]);
+    let played = play(model, "traj.yaml", "run");
+    assert!(played.contains(&format!("device {}", path("true.yaml"))), "{played}");
+    run(&["identify", model, "--log", &path("run/log.csv"), "-o", &path("identified.yaml")]);
+    let tracking_error = |stdout: &str| -> f64 {
+        let line = stdout
+            .lines()
+            .find(|l| l.contains("largest tracking error"))
+            .unwrap_or_else(|| panic!("no tracking error in {stdout}"));
+        let figure = line.rsplit(' ').next().unwrap_or_default();
+        figure.parse().unwrap_or_else(|e| panic!("{line}: {e}"))
+    };
+    let with_estimates = tracking_error(&play(model, "other.yaml", "estimates"));
+    let with_identified = tracking_error(&play(&path("identified.yaml"), "other.yaml", "identified"));
+    println!(
+        "the true device tracking another trajectory: largest error {with_estimates:.4e} rad with the \
+         estimates, {with_identified:.4e} rad identified"
+    );
+    assert!(with_identified < 0.8 * with_estimates, "{with_identified:.4e} vs {with_estimates:.4e}");
+    // A device with other joints is refused.
+    let out = hapticgen(&[
+        "simulate",
+        model,
+        "--scenario",
+        "step",
+        "--controller",
+        "natural-inertia",
+        "--plant",
+        "models/planar_arm_2dof.yaml",
+        "-o",
+        &path("never"),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && stderr.contains("the plant's joints"), "{stderr}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -147,21 +147,7 @@ impl Simulation {
         trajectory.check(&self.model).map_err(|e| format!("error: the trajectory: {e}"))?;
         let plant = match plant {
             None => self.nominal.clone(),
-            Some(device) => {
-                let ours: Vec<&str> = self.model.joints.iter().map(|j| j.name.as_str()).collect();
-                let theirs: Vec<&str> = device.joints.iter().map(|j| j.name.as_str()).collect();
-                if ours != theirs || device.task_dim() != self.model.task_dim() {
-                    return Err(format!(
-                        "error: {}: the plant's joints [{}] and task ({} coordinates) must be the model's [{}] ({})",
-                        device.file,
-                        theirs.join(", "),
-                        device.task_dim(),
-                        ours.join(", "),
-                        self.model.task_dim()
-                    ));
-                }
-                Arc::new(CompiledModel::new(device, 1.0))
-            }
+            Some(device) => self.device(device)?,
         };
         let series = trajectory.series();
         let n = self.joints();
