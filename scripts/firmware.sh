@@ -13,12 +13,13 @@
 #                                        host link's cost image: state frames to UART0, checked on the host;
 #                                        `pil` the joystick's processor-in-the-loop image, run by `hapticgen pil`
 #                                        against the host's plant and compared with `hapticgen simulate`;
-#                                        `pil-fig7` the parallel link's, tracing the circle of Fig. 7: ~10 min;
+#                                        `pil-fig7` the parallel link's, tracing the circle of Fig. 7 (its first half: ~5 min);
 #                                        `device` the device-mode image, driven by `hapticgen connect`;
 #                                        `device-3d` the Delta's device-mode image, a hand pushing it into
 #                                        a 3-D scene sent over the link)
 #   HAPTICGEN_FW_OPT_LEVEL=s scripts/firmware.sh   another opt-level (the measurement in the docs)
 #   HAPTICGEN_FW_FMA=1 scripts/firmware.sh         generated code with fused multiply-adds (vfma.f32)
+#   HAPTICGEN_PIL_FIG7_SECONDS=8.8 scripts/firmware.sh --only pil-fig7   the whole Fig. 7 lap under PIL
 #
 # HAPTICGEN_HOST_TARGET_DIR: where the root workspace's `hapticgen` is built for the runs it
 # drives (default: CARGO_TARGET_DIR, else <target dir>/host); CI points it at the target
@@ -43,6 +44,9 @@ PIL_VARIANT=joystick          # the variants.txt line it is built for
 PIL_MAX_COUNTS=4              # PIL vs simulate: largest joint difference, encoder counts (docs/link-pil.md)
 PIL_FIG7=pil-fig7             # the processor-in-the-loop circle tracing, for --only (docs/link-pil.md)
 PIL_FIG7_VARIANT=vertical     # the variants.txt line it is built for (the paper's parallel link)
+# Simulated seconds of the Fig. 7 PIL run: the approach and the first half of the 6 s lap
+# (about 5 min under QEMU, in the background); 8.8 for the whole figure (about 10 min).
+PIL_FIG7_SECONDS=${HAPTICGEN_PIL_FIG7_SECONDS:-4.3}
 DEVICE=device                 # the device-mode image driven by `hapticgen connect`, for --only (docs/link-device.md)
 DEVICE_VARIANT=horizontal     # the variants.txt line it is built for (a 2-D task: the link's planar scene)
 DEVICE3D=device-3d            # the device-mode image of a 3-D task, for --only (docs/link-device.md)
@@ -338,7 +342,8 @@ for NAME in "${SELECTED[@]}"; do
         build_hapticgen
         step "PIL: Fig. 7 (circle tracing) on the parallel link under QEMU vs hapticgen simulate (bound: $PIL_MAX_COUNTS counts through |J|, two grid spacings)"
         background "$PIL_FIG7" "$HAPTICGEN" pil "$ROOT/models/parallel_link_2dof.yaml" --variant "$PIL_FIG7_VARIANT" \
-            --controller jacobian-transpose --scenario trace-circle --compare --max-counts "$PIL_MAX_COUNTS" \
+            --controller jacobian-transpose --scenario trace-circle --duration "$PIL_FIG7_SECONDS" \
+            --compare --max-counts "$PIL_MAX_COUNTS" \
             --image "$OUT/$PIL_FIG7_VARIANT.pil.elf" -o "$OUT/pil-fig7"
         continue
     fi

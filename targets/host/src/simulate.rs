@@ -44,6 +44,28 @@ pub struct Simulation {
     pub design: CurrentLoopDesign,
 }
 
+/// Each joint's PI current loop designed for its own motor, as the generator designs the
+/// `CURRENT_LOOP_GAINS` of the generated code (the motors of a rig may differ).
+pub fn current_loop_designs(model: &CheckedModel) -> Result<Vec<CurrentLoopDesign>, String> {
+    let spec = &model.current_loop;
+    model
+        .joints
+        .iter()
+        .map(|joint| {
+            design_current_loop(&CurrentLoopDesignInput {
+                resistance: joint.drive.motor.resistance,
+                inductance: joint.drive.motor.inductance,
+                sample_rate_hz: f64::from(model.rates.current_loop_hz),
+                bandwidth_hz: spec.bandwidth_hz,
+                damping_ratio: spec.damping_ratio,
+                filter_cutoff_hz: spec.anti_alias_cutoff_hz,
+                filter_order: spec.anti_alias_filter_order,
+            })
+            .map_err(|e| format!("error: {}: current_loop of joint `{}`: {e}", model.file, joint.name))
+        })
+        .collect()
+}
+
 impl Simulation {
     /// The delay of the sampled control loop seen by the spring term, s: half an impedance
     /// period (zero-order hold), one current-loop period (a new setpoint takes effect from the
@@ -298,25 +320,7 @@ impl Simulation {
                 model.file
             ));
         }
-        // Each joint's PI current loop designed for its own motor, as the generator designs
-        // the `CURRENT_LOOP_GAINS` of the generated code (the motors of a rig may differ).
-        let spec = &model.current_loop;
-        let designs = model
-            .joints
-            .iter()
-            .map(|joint| {
-                design_current_loop(&CurrentLoopDesignInput {
-                    resistance: joint.drive.motor.resistance,
-                    inductance: joint.drive.motor.inductance,
-                    sample_rate_hz: f64::from(model.rates.current_loop_hz),
-                    bandwidth_hz: spec.bandwidth_hz,
-                    damping_ratio: spec.damping_ratio,
-                    filter_cutoff_hz: spec.anti_alias_cutoff_hz,
-                    filter_order: spec.anti_alias_filter_order,
-                })
-                .map_err(|e| format!("error: {}: current_loop of joint `{}`: {e}", model.file, joint.name))
-            })
-            .collect::<Result<Vec<CurrentLoopDesign>, String>>()?;
+        let designs = current_loop_designs(&model)?;
         let design = designs[0];
         let data = LoopData {
             current_loop_hz: model.rates.current_loop_hz,

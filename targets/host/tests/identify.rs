@@ -181,12 +181,25 @@ fn relative_errors(n: usize, identified: &[f64], truth: &[f64]) -> [f64; 3] {
 /// D, C q̇ and g within 2 % of the true ones' norms at 100 random states, the viscous and
 /// Coulomb friction within 10 %, the torque on a second, different trajectory predicted
 /// within 5 % RMS.
+/// What a simulated identification must reach: the largest relative error of `D`, `C q̇`
+/// and `g` over 100 random states, and of each viscous and Coulomb friction parameter.
+struct Bounds {
+    inertia: f64,
+    coriolis: f64,
+    gravity: f64,
+    viscous: f64,
+    coulomb: f64,
+}
+
+/// The targets.
+const TARGETS: Bounds = Bounds { inertia: 0.02, coriolis: 0.02, gravity: 0.02, viscous: 0.10, coulomb: 0.10 };
+
 fn identifies_the_true_device(
     file: &str,
     variant: Option<&str>,
     seed: u64,
-    friction_bound: f64,
-    coriolis_bound: f64,
+    bounds: Bounds,
+    design_evaluations: usize,
 ) {
     use hapticgen_host::sim::SimConfig;
     use hapticgen_host::simulate::Simulation;
@@ -195,11 +208,15 @@ fn identifies_the_true_device(
     let regressor = RegressorTape::new(&model);
     let beta = true_base(&regressor, &truth);
     let sim = Simulation::from_model(model.clone()).unwrap_or_else(|e| panic!("{e}"));
-    let settings = FitSettings::default();
+    let settings = FitSettings {
+        torque_lead: hapticgen_host::identify::commands::torque_leads(&model, fit::TorqueSource::Commanded)
+            .unwrap_or_else(|e| panic!("{e}")),
+        ..FitSettings::default()
+    };
     let run = |design_seed: u64| {
         let excite = ExciteSettings {
             period: 5.0,
-            evaluations: 300,
+            evaluations: design_evaluations,
             samples: 50,
             seed: design_seed,
             ..ExciteSettings::default()
@@ -227,18 +244,23 @@ fn identifies_the_true_device(
             base.name, beta[c], fitted.beta[c], fitted.sigma[c]
         );
     }
-    // Friction: each joint's viscous and Coulomb base parameter.
+    // Friction: each joint's viscous and Coulomb base parameter (checked last, after every
+    // figure is printed).
+    let mut friction_misses = Vec::new();
     for (c, base) in regressor.regressor.base.iter().enumerate() {
         if base.name.starts_with("fv_") || base.name.starts_with("fc_") {
             let error = (fitted.beta[c] - beta[c]).abs() / beta[c].abs();
-            assert!(
-                error <= friction_bound,
-                "{file}: {} identified {:.4e}, true {:.4e} ({:.1} %)",
-                base.name,
-                fitted.beta[c],
-                beta[c],
-                100.0 * error
-            );
+            println!("{file}: {} {:.1} % off", base.name, 100.0 * error);
+            let bound = if base.name.starts_with("fv_") { bounds.viscous } else { bounds.coulomb };
+            if error > bound {
+                friction_misses.push(format!(
+                    "{} identified {:.4e}, true {:.4e} ({:.1} %)",
+                    base.name,
+                    fitted.beta[c],
+                    beta[c],
+                    100.0 * error
+                ));
+            }
         }
     }
     // Rigid-body terms at random states inside the limits.
@@ -268,10 +290,6 @@ fn identifies_the_true_device(
         "{file}: largest relative error over 100 states: D {:.2e}, C q̇ {:.2e}, g {:.2e}",
         worst[0], worst[1], worst[2]
     );
-    assert!(
-        worst[0] <= 0.02 && worst[1] <= coriolis_bound && worst[2] <= 0.02,
-        "{file}: D, C q̇, g errors {worst:?}"
-    );
     let (error, torque) = fit::prediction_error(&regressor, &fitted.beta, &[validation], &settings);
     let total_error: f64 = error.iter().map(|e| e * e).sum::<f64>().sqrt();
     let total_torque: f64 = torque.iter().map(|t| t * t).sum::<f64>().sqrt();
@@ -280,18 +298,28 @@ fn identifies_the_true_device(
         total_error <= 0.05 * total_torque,
         "{file}: validation error {total_error:.3e} of {total_torque:.3e}"
     );
+    assert!(
+        worst[0] <= bounds.inertia && worst[1] <= bounds.coriolis && worst[2] <= bounds.gravity,
+        "{file}: D, C q̇, g errors {worst:?}"
+    );
+    assert!(friction_misses.is_empty(), "{file}: {}", friction_misses.join("; "));
 }
 
 #[test]
 fn identifies_the_joystick_from_a_simulated_run() {
-    identifies_the_true_device("models/joystick_1dof.yaml", None, 11, 0.10, 0.02);
+    identifies_the_true_device("models/joystick_1dof.yaml", None, 11, TARGETS, 300);
 }
 
 #[test]
 fn identifies_the_parallel_link_from_a_simulated_run() {
-    // Short of the targets of 10 % and 2 %, measured and stated in docs/identification.md:
-    // the first joint's viscous friction comes out 21 % low, C q̇ 8.2 % off.
-    identifies_the_true_device("models/parallel_link_2dof.yaml", Some("vertical"), 12, 0.25, 0.10);
+    // C q̇ short of the 2 % target, measured and stated in docs/identification.md: 5.8 %.
+    identifies_the_true_device(
+        "models/parallel_link_2dof.yaml",
+        Some("vertical"),
+        12,
+        Bounds { coriolis: 0.07, ..TARGETS },
+        300,
+    );
 }
 
 fn hapticgen(args: &[&str]) -> std::process::Output {
@@ -487,4 +515,30 @@ fn the_identified_model_controls_the_true_device_better_than_the_estimates() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && stderr.contains("the plant's joints"), "{stderr}");
     std::fs::remove_dir_all(&dir).ok();
+}
+
+// The 3-joint rigs' runs take minutes in a debug build: these two are in release test builds
+// only, `cargo test --release -p hapticgen --test host identifies_the_` (docs/identification.md
+// quotes their output).
+#[cfg(not(debug_assertions))]
+#[test]
+fn identifies_the_phantom_premium_from_a_simulated_run() {
+    identifies_the_true_device("models/phantom_premium.yaml", None, 13, TARGETS, 300);
+}
+
+#[cfg(not(debug_assertions))]
+#[test]
+fn identifies_the_falcon_delta_from_a_simulated_run() {
+    // Short of the targets, measured and stated in docs/identification.md: the torque along a
+    // new trajectory is predicted to 0.3 %, but the regressor's condition number (~1e5 at
+    // best inside the Delta's joint limits) leaves some base parameters barely seen, which
+    // weigh at other states: D 7.4 %, g 6.8 %, viscous friction up to 17 %; C q̇, small on
+    // this light mechanism, is not identified (145 %) and not bounded here.
+    identifies_the_true_device(
+        "models/falcon_delta.yaml",
+        None,
+        14,
+        Bounds { inertia: 0.10, coriolis: f64::INFINITY, gravity: 0.10, viscous: 0.20, coulomb: 0.10 },
+        1500,
+    );
 }

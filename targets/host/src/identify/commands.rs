@@ -173,6 +173,22 @@ pub fn excite_run(
     Ok(text)
 }
 
+/// Per joint, how much later the logged torque acts on the device
+/// ([`FitSettings::torque_lead`]), from the model's rates and current-loop design: a commanded
+/// torque takes effect from the next current-loop period and reaches the motor through the
+/// loop's mean delay; a measured one trails the motor by the current sensor's filter lag.
+pub fn torque_leads(model: &CheckedModel, source: fit::TorqueSource) -> Result<Vec<f64>, String> {
+    let designs = crate::simulate::current_loop_designs(model)?;
+    let period = 1.0 / f64::from(model.rates.current_loop_hz);
+    Ok(designs
+        .iter()
+        .map(|design| match source {
+            fit::TorqueSource::Commanded => period + design.mean_delay,
+            fit::TorqueSource::Measured => -design.filter_time_constant,
+        })
+        .collect())
+}
+
 /// What `hapticgen identify` found.
 pub struct Identified {
     /// The fit.
@@ -237,6 +253,11 @@ pub fn identify(
             }
         }
     }
+    let mut settings = settings.clone();
+    if settings.torque_lead.is_empty() {
+        settings.torque_lead = torque_leads(&model, settings.torque)?;
+    }
+    let settings = &settings;
     let samples = read_samples(&model, logs, settings)?;
     let regressor = RegressorTape::new(&model);
     let fit = fit::fit(&regressor, &samples, settings)?;
@@ -372,9 +393,28 @@ impl Identified {
             ));
         }
         text.push_str(&format!(
-            "\nCondition number of the stacked regressor (unit columns): {:.2}\n\n",
+            "\nCondition number of the stacked regressor (unit columns): {:.2}\n",
             self.fit.condition_number
         ));
+        let leads: Vec<String> = self
+            .model
+            .joints
+            .iter()
+            .zip(&self.settings.torque_lead)
+            .map(|(joint, lead)| format!("{} {:.3} ms", joint.name, 1e3 * lead))
+            .collect();
+        if !leads.is_empty() {
+            text.push_str(&format!(
+                "Torque timing: the logged {} torque taken to act on the device this long after its time stamp \
+                 (negative: before; the current loop's delay): {}\n",
+                match self.settings.torque {
+                    fit::TorqueSource::Commanded => "commanded",
+                    fit::TorqueSource::Measured => "measured",
+                },
+                leads.join(", ")
+            ));
+        }
+        text.push('\n');
         text.push_str("| joint | rows | torque RMS | residual RMS | residual % |");
         let validation = self.validation.as_ref();
         if validation.is_some() {

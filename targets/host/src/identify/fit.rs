@@ -51,6 +51,13 @@ pub struct FitSettings {
     pub min_speed: f64,
     /// Which torque the fit explains.
     pub torque: TorqueSource,
+    /// Per joint, how much later the logged torque (of [`FitSettings::torque`]) acts on the
+    /// device, s; empty: it acts when logged. A commanded torque takes effect from the next
+    /// current-loop period and reaches the motor through the current loop's mean delay; a
+    /// measured one trails the motor by the current sensor's filter lag (a negative lead).
+    /// Left uncorrected, a delay `d` makes the fit read the inertial torque's derivative as
+    /// viscous friction, off by about `D ω² d` (`torque_leads` gives the values).
+    pub torque_lead: Vec<f64>,
 }
 
 /// Which of a log's torques the fit explains.
@@ -73,6 +80,7 @@ impl Default for FitSettings {
             edge: 0.2,
             min_speed: 0.05,
             torque: TorqueSource::Commanded,
+            torque_lead: Vec::new(),
         }
     }
 }
@@ -188,7 +196,7 @@ fn zero_phase_rows(rows: &mut [f64], channels: usize, cutoff_hz: f64, sample_hz:
 /// instant instead moves it by up to half a tick, which a fit reads as viscous friction
 /// (the tracking loop's 8 Hz correction times the joint's inertia: 5 times the joystick's
 /// true value).
-fn resampled(log: &IdentificationLog, period: f64) -> IdentificationLog {
+fn resampled(log: &IdentificationLog, period: f64, torque: TorqueSource, lead: &[f64]) -> IdentificationLog {
     let mut out = IdentificationLog::new(log.joints.clone());
     let count = log.len();
     let start = log.time[0];
@@ -223,13 +231,30 @@ fn resampled(log: &IdentificationLog, period: f64) -> IdentificationLog {
         let (t0, t1) = (log.time[i], log.time[i + 1]);
         let w = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
         let q: Vec<f64> = log.q[i].iter().zip(&log.q[i + 1]).map(|(a, b)| a + w * (b - a)).collect();
-        // The tick in force at the window's start.
-        let (a, b) = (t - 0.5 * period, t + 0.5 * period);
-        let mut first = i;
-        while first > 0 && log.time[first] > a {
-            first -= 1;
-        }
-        out.push(t, &q, &held_average(&log.tau, a, b, first), &held_average(&log.tau_command, a, b, first));
+        // Each joint's torque acting over the window: the logged one over the window moved
+        // back by its lead (from the tick in force at the moved window's start).
+        let acting = |rows: &[Vec<f64>], source: TorqueSource| -> Vec<f64> {
+            (0..n)
+                .map(|j| {
+                    let shift = if source == torque { lead.get(j).copied().unwrap_or(0.0) } else { 0.0 };
+                    let (a, b) = (t - 0.5 * period - shift, t + 0.5 * period - shift);
+                    let mut first = i;
+                    while first > 0 && log.time[first] > a {
+                        first -= 1;
+                    }
+                    while first + 1 < count && log.time[first + 1] <= a {
+                        first += 1;
+                    }
+                    held_average(rows, a, b, first)[j]
+                })
+                .collect()
+        };
+        out.push(
+            t,
+            &q,
+            &acting(&log.tau, TorqueSource::Measured),
+            &acting(&log.tau_command, TorqueSource::Commanded),
+        );
     }
     out
 }
@@ -258,7 +283,10 @@ pub fn prepare(log: &IdentificationLog, settings: &FitSettings, what: &str) -> R
             settings.cutoff_hz
         ));
     }
-    let log = &resampled(log, period);
+    if let Some(bad) = settings.torque_lead.iter().find(|d| !(d.is_finite() && d.abs() < 0.1)) {
+        return Err(format!("error: a torque lead of {bad} s: it must be finite and under 0.1 s"));
+    }
+    let log = &resampled(log, period, settings.torque, &settings.torque_lead);
     let n = log.joints.len();
     let column = |rows: &[Vec<f64>], j: usize| -> Vec<f64> { rows.iter().map(|r| r[j]).collect() };
     let q: Vec<Vec<f64>> =
