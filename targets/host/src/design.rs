@@ -46,6 +46,25 @@ pub struct Sample {
     pub gravity: Vec<f64>,
 }
 
+/// The design figures at one pose.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Figures {
+    /// Force available in every direction from the torque limits, N.
+    pub force_peak: f64,
+    /// Force available in every direction from the current limits, N.
+    pub force_continuous: f64,
+    /// The smallest eigenvalue of `Λ`, kg (NaN at a singular pose).
+    pub inertia_min: f64,
+    /// The largest eigenvalue of `Λ`, kg (NaN at a singular pose).
+    pub inertia_max: f64,
+    /// `κ(J)`, the Jacobian's condition number.
+    pub condition: f64,
+    /// Holding the device against gravity, % of the most loaded drive's peak torque.
+    pub gravity_load: f64,
+    /// The largest step of one encoder count, m.
+    pub resolution: f64,
+}
+
 /// The model's design quantities, evaluated through its compiled tapes.
 pub struct Design {
     compiled: CompiledModel,
@@ -61,6 +80,8 @@ pub struct Design {
     pub count_size: Vec<f64>,
     /// `C⁻¹` of a transmission, else the identity.
     pub joint_from_drive: Vec<Vec<f64>>,
+    /// Whether the task is a point (m), not joint coordinates (rad).
+    point: bool,
 }
 
 /// Why the design figures could not be computed.
@@ -78,6 +99,12 @@ pub enum DesignError {
     /// A file could not be written.
     #[error("cannot write {0}: {1}")]
     Write(String, std::io::Error),
+    /// The maps could not be drawn or written.
+    #[error("maps: {0}")]
+    Map(String),
+    /// The wall-stiffness simulation could not run.
+    #[error("the renderable stiffness: {0}")]
+    Simulation(String),
 }
 
 impl Design {
@@ -101,6 +128,7 @@ impl Design {
                 .collect(),
             count_size: model.joints.iter().map(|j| j.drive.count_size()).collect(),
             joint_from_drive: model.coupling.as_ref().map_or(identity, |c| c.joint_from_drive.clone()),
+            point: matches!(model.task, hapticgen_codegen::model::TaskSpec::Point(_)),
             compiled,
         }
     }
@@ -113,6 +141,12 @@ impl Design {
     /// Task dimension `M`.
     pub fn task_dim(&self) -> usize {
         self.compiled.task_dim
+    }
+
+    /// Whether the task is a point in metres (else joint coordinates in radians, whose
+    /// forces are torques).
+    pub fn task_is_point(&self) -> bool {
+        self.point
     }
 
     /// The quantities at `q`, or `None` where the loops do not close (non-finite values).
@@ -227,6 +261,42 @@ impl Design {
             .fold(0.0, f64::max)
     }
 
+    /// The condition number `κ(J) = σ_max / σ_min` of the task Jacobian (infinite at a
+    /// singular pose): 1 where the grip moves alike in every direction (isotropy).
+    pub fn condition(&self, s: &Sample) -> f64 {
+        let (n, m) = (self.joints(), self.task_dim());
+        let j = DMatrix::from_fn(m, n, |i, k| s.jacobian[i][k]);
+        let values = j.singular_values();
+        let (least, most) =
+            values.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        if least > 0.0 {
+            most / least
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// The largest share of a drive's peak torque that holding the device against gravity takes,
+    /// `max_i |(C⁻ᵀ g)_i| / τ_i`, %.
+    pub fn gravity_load(&self, s: &Sample) -> f64 {
+        let (_, gravity) = self.drive_rows(s);
+        gravity.iter().zip(&self.peak).map(|(g, limit)| 100.0 * g.abs() / limit).fold(0.0, f64::max)
+    }
+
+    /// Every figure at `s`.
+    pub fn figures(&self, s: &Sample) -> Figures {
+        let (inertia_min, inertia_max) = self.apparent_inertia(s).unwrap_or((f64::NAN, f64::NAN));
+        Figures {
+            force_peak: self.force_capability(s, &self.peak),
+            force_continuous: self.force_capability(s, &self.continuous),
+            inertia_min,
+            inertia_max,
+            condition: self.condition(s),
+            gravity_load: self.gravity_load(s),
+            resolution: self.resolution(s),
+        }
+    }
+
     /// Joint coordinates reaching task point `x` within the limits, by damped Newton from `start`;
     /// `None` if it does not converge to within 1 µm inside the limits.
     pub fn inverse_kinematics(&self, x: &[f64], start: &[f64]) -> Option<Vec<f64>> {
@@ -284,18 +354,39 @@ pub struct Workspace {
     pub lattice: Vec<Vec<f64>>,
 }
 
-impl Design {
-    /// The joint state of the sample nearest `x` (the start of inverse kinematics).
-    fn nearest<'s>(&self, samples: &'s [Sample], x: &[f64]) -> &'s Sample {
-        let distance = |s: &Sample| s.position.iter().zip(x).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
-        samples.iter().min_by(|a, b| distance(a).total_cmp(&distance(b))).expect("a non-empty workspace")
+/// The sample whose task point is nearest `x` (the start of inverse kinematics); `samples` is
+/// never empty ([`Design::workspace`] refuses an empty workspace).
+fn nearest<'s>(samples: &'s [Sample], x: &[f64]) -> &'s Sample {
+    let distance = |s: &Sample| s.position.iter().zip(x).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+    samples.iter().min_by(|a, b| distance(a).total_cmp(&distance(b))).expect("a non-empty workspace")
+}
+
+impl Workspace {
+    /// The sample whose task point is nearest `x`.
+    pub fn nearest(&self, x: &[f64]) -> &Sample {
+        nearest(&self.samples, x)
     }
 
+    /// The least and largest task coordinates sampled.
+    pub fn bounds(&self) -> (Vec<f64>, Vec<f64>) {
+        sample_bounds(&self.samples, self.centre.len())
+    }
+}
+
+/// The least and largest of each of the `m` task coordinates of `samples`.
+fn sample_bounds(samples: &[Sample], m: usize) -> (Vec<f64>, Vec<f64>) {
+    let lower = (0..m).map(|k| samples.iter().map(|s| s.position[k]).fold(f64::INFINITY, f64::min)).collect();
+    let upper =
+        (0..m).map(|k| samples.iter().map(|s| s.position[k]).fold(f64::NEG_INFINITY, f64::max)).collect();
+    (lower, upper)
+}
+
+impl Design {
     /// The joint states reaching every lattice point of the cube, or `None` if one is out of reach.
     fn cube_reached(&self, samples: &[Sample], centre: &[f64], edge: f64) -> Option<Vec<Vec<f64>>> {
         cube_lattice(centre, edge, CUBE_PROBES)
             .par_iter()
-            .map(|x| self.inverse_kinematics(x, &self.nearest(samples, x).q))
+            .map(|x| self.inverse_kinematics(x, &nearest(samples, x).q))
             .collect()
     }
 
@@ -330,10 +421,7 @@ impl Design {
             return Err(DesignError::NoWorkspace(grid.len(), limits.join(" × ")));
         }
         let m = self.task_dim();
-        let lower: Vec<f64> =
-            (0..m).map(|k| samples.iter().map(|s| s.position[k]).fold(f64::INFINITY, f64::min)).collect();
-        let upper: Vec<f64> =
-            (0..m).map(|k| samples.iter().map(|s| s.position[k]).fold(f64::NEG_INFINITY, f64::max)).collect();
+        let (lower, upper) = sample_bounds(&samples, m);
         let span = lower.iter().zip(&upper).map(|(a, b)| b - a).fold(f64::INFINITY, f64::min);
         // Start at the middle of the joint box's image and walk the centre where the cube grows.
         let middle: Vec<f64> = self.limits.iter().map(|(lo, hi)| 0.5 * (lo + hi)).collect();
@@ -426,6 +514,18 @@ pub struct Summary {
     pub inertia: InertiaSummary,
     /// The largest step of one encoder count over the lattice, m.
     pub resolution: ResolutionSummary,
+    /// The Jacobian's conditioning over the lattice.
+    pub isotropy: IsotropySummary,
+    /// Holding the device against gravity over the lattice.
+    pub gravity: GravitySummary,
+    /// The stiffest wall rendered stably at the hypercube's centre and corners (2-D and 3-D
+    /// tasks; absent for one task coordinate).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub renderable_stiffness: Option<StiffnessSummary>,
+    /// The published figures of the device the model resembles, beside the model's
+    /// ([`crate::design_published`]; shipped models only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub published: Option<crate::design_published::Comparison>,
 }
 
 /// The grid the workspace was sampled on.
@@ -473,6 +573,8 @@ pub struct InertiaSummary {
     pub max_over_cube: f64,
     /// The smallest eigenvalue of Λ anywhere on the lattice, kg.
     pub min_over_cube: f64,
+    /// The largest ratio of Λ's largest to its smallest eigenvalue at one lattice point.
+    pub anisotropy_max_over_cube: f64,
 }
 
 /// Resolution over the lattice.
@@ -480,6 +582,62 @@ pub struct InertiaSummary {
 pub struct ResolutionSummary {
     /// The coarsest step of one count, m.
     pub max_over_cube: f64,
+}
+
+/// The Jacobian's conditioning over the lattice.
+#[derive(Clone, Debug, Serialize)]
+pub struct IsotropySummary {
+    /// `κ(J) = σ_max / σ_min` (1: isotropic).
+    pub condition: Spread,
+    /// The mean of `1/κ(J)` over the lattice (Gosselin & Angeles' global conditioning index
+    /// over the cube, whose lattice samples it evenly): 1 for a device isotropic everywhere.
+    pub global_conditioning_index: f64,
+}
+
+/// The gravity load over the lattice.
+#[derive(Clone, Debug, Serialize)]
+pub struct GravitySummary {
+    /// Holding the device still, % of the most loaded drive's peak torque.
+    pub load_percent: Spread,
+}
+
+/// The stiffest wall rendered stably, by simulation ([`crate::zwidth::largest_stable_stiffness`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct StiffnessSummary {
+    /// The wall's damping `B`, N·s/m.
+    pub wall_damping: f64,
+    /// The pressing hand's stiffness, N/m, and damping, N·s/m.
+    pub hand: (f64, f64),
+    /// Bisection steps on a log scale over `range`, N/m.
+    pub bisection_steps: usize,
+    /// The stiffness range searched, N/m.
+    pub range: (f64, f64),
+    /// The analytic bound `2 (b + B) / T` of the sampled wall with the hand's damping `b`, N/m.
+    pub stability_bound: f64,
+    /// The largest stable stiffness pressed at the centre along `+x`, N/m (`null`: not even
+    /// the range's lower end was stable).
+    pub centre: Option<f64>,
+    /// At each corner, pressed along `x` towards the centre: the corner's position (m) and the
+    /// stiffness, N/m (`null` as at the centre).
+    pub corners: Vec<(Vec<f64>, Option<f64>)>,
+    /// The least over the corners, N/m (`null` if one corner had no stable wall).
+    pub min_over_corners: Option<f64>,
+    /// Whether a wall at the top of `range` was stable somewhere: the figures there are lower
+    /// bounds.
+    pub reached_range_top: bool,
+}
+
+impl StiffnessSummary {
+    /// The centre's figure with its unit (`force`/`length`), `at least` where the search's top
+    /// was stable, or `none ≥` the range's lower end.
+    pub fn describe(&self, force: &str, length: &str) -> String {
+        match self.centre {
+            Some(k) => {
+                format!("{}{k:.0} {force}/{length}", if self.reached_range_top { "at least " } else { "" })
+            }
+            None => format!("none down to {:.0} {force}/{length}", self.range.0),
+        }
+    }
 }
 
 impl Summary {
@@ -505,10 +663,20 @@ impl Summary {
         let (name, cube) = self.cube();
         let Some(cube) = cube else { return format!("no inscribed {name}") };
         let centre: Vec<String> = cube.centre.iter().map(|c| format!("{:.1}", c * scale)).collect();
+        let wall = self.renderable_stiffness.as_ref().map_or(String::new(), |k| {
+            format!(
+                "; stable wall {} at the centre, {} at the least corner",
+                k.describe(force, self.task_unit),
+                {
+                    let least = StiffnessSummary { centre: k.min_over_corners, ..k.clone() };
+                    least.describe(force, self.task_unit)
+                }
+            )
+        });
         format!(
             "inscribed {name} {:.1} {length} at ({}) {length}; force in every direction over it {:.2}-{:.2} {force} \
              peak, {:.2} {force} continuous at least; apparent inertia {:.3}-{:.3} {mass}; resolution {:.1} {fine} at \
-             worst",
+             worst; condition number of J {:.2}-{:.2}; gravity load {:.0} % of peak at most{wall}",
             cube.edge * scale,
             centre.join(", "),
             self.force.peak.min_over_cube,
@@ -516,36 +684,127 @@ impl Summary {
             self.force.continuous.min_over_cube,
             self.inertia.min_over_cube * mass_scale,
             self.inertia.max_over_cube * mass_scale,
-            self.resolution.max_over_cube * 1e6
+            self.resolution.max_over_cube * 1e6,
+            self.isotropy.condition.min_over_cube,
+            self.isotropy.condition.max_over_cube,
+            self.gravity.load_percent.max_over_cube,
         )
     }
 }
 
-/// Computes every figure of `model` on a grid of `steps` per joint.
-pub fn summarise(model: &CheckedModel, steps: usize) -> Result<(Summary, Workspace), DesignError> {
+/// The Z-width search of the report for a rig whose analytic bound `2 (b + B) / T` is `bound`:
+/// a wall without damping, 5 bisection steps on a log scale from `bound / 16` to `2 bound`
+/// (the last step 11 % wide), runs of at least 1 s.
+pub fn report_sweep(bound: f64) -> crate::zwidth::Sweep {
+    crate::zwidth::Sweep {
+        damping: vec![0.0],
+        stiffness_range: (bound / 16.0, 2.0 * bound),
+        steps: 5,
+        duration: 1.0,
+    }
+}
+
+/// The stiffest stable wall at the workspace's hypercube centre and corners.
+pub fn renderable_stiffness(
+    model: &CheckedModel,
+    design: &Design,
+    ws: &Workspace,
+) -> Result<Option<StiffnessSummary>, String> {
+    use crate::zwidth::{largest_stable_stiffness, Press, HAND_DAMPING, HAND_STIFFNESS};
+    let m = design.task_dim();
+    if !(2..=3).contains(&m) {
+        return Ok(None);
+    }
+    let sim = crate::simulate::Simulation::from_model(model.clone())?;
+    let sample_period = 1.0 / f64::from(model.rates.impedance_loop_hz);
+    let wall_damping = 0.0;
+    let stability_bound =
+        hapticgen_codegen::check::stability::stable_stiffness(HAND_DAMPING, wall_damping, sample_period);
+    let settings = report_sweep(stability_bound);
+    let half = 0.5 * ws.edge;
+    // The centre, then the corners (first coordinate fastest).
+    let mut places = vec![(ws.centre.clone(), 1.0)];
+    for corner in 0..1usize << m {
+        let at: Vec<f64> =
+            (0..m).map(|k| ws.centre[k] + if corner >> k & 1 == 1 { half } else { -half }).collect();
+        let side = if corner & 1 == 1 { -1.0 } else { 1.0 };
+        places.push((at, side));
+    }
+    let stiffness: Result<Vec<Option<f64>>, String> = places
+        .par_iter()
+        .map(|(x, side)| {
+            let start = design
+                .inverse_kinematics(x, &ws.nearest(x).q)
+                .ok_or_else(|| format!("no joint state reaches the cube's point {x:?}"))?;
+            // The run lasts four periods of the device's heaviest direction on the hand's spring
+            // (at least 1 s, at most 6 s), so that a slow device's approach has settled.
+            let heaviest =
+                design.sample(&start).and_then(|s| design.apparent_inertia(&s)).map_or(0.0, |l| l.1);
+            let period = std::f64::consts::TAU * (heaviest / HAND_STIFFNESS).sqrt();
+            let settings = crate::zwidth::Sweep {
+                duration: (4.0 * period).clamp(settings.duration, 6.0),
+                ..settings.clone()
+            };
+            largest_stable_stiffness(&sim, &Press { start, axis: 0, side: *side }, wall_damping, &settings)
+        })
+        .collect();
+    let stiffness = stiffness?;
+    // A value within the search's last step of its top is only a lower bound.
+    let (low, high) = settings.stiffness_range;
+    let last_step = (high / low).powf(0.5f64.powi(settings.steps as i32));
+    let reached_range_top = stiffness.iter().flatten().any(|&k| k * last_step >= high * (1.0 - 1e-9));
+    let corners: Vec<(Vec<f64>, Option<f64>)> =
+        places[1..].iter().map(|p| p.0.clone()).zip(stiffness[1..].iter().copied()).collect();
+    Ok(Some(StiffnessSummary {
+        wall_damping,
+        hand: (HAND_STIFFNESS, HAND_DAMPING),
+        bisection_steps: settings.steps,
+        range: settings.stiffness_range,
+        stability_bound,
+        reached_range_top,
+        centre: stiffness[0],
+        min_over_corners: corners
+            .iter()
+            .map(|c| c.1)
+            .try_fold(f64::INFINITY, |least, k| k.map(|k| least.min(k))),
+        corners,
+    }))
+}
+
+/// Computes every figure of `model` on a grid of `steps` per joint (the renderable stiffness
+/// only with `zwidth`: it simulates).
+pub fn summarise(
+    model: &CheckedModel,
+    steps: usize,
+    zwidth: bool,
+) -> Result<(Summary, Workspace), DesignError> {
     let design = Design::new(model);
     eprintln!(
         "report: sampling {} poses of the joint box ({steps} per joint)",
         steps.pow(design.joints() as u32)
     );
     let ws = design.workspace(steps)?;
-    eprintln!("report: the inscribed hypercube found ({:.1} mm); figures over its lattice", ws.edge * 1e3);
     let m = design.task_dim();
-    let on_cube: Vec<Sample> = ws.lattice.iter().filter_map(|q| design.sample(q)).collect();
-    let peak = spread(on_cube.iter().map(|s| design.force_capability(s, &design.peak)).collect());
-    let continuous = spread(on_cube.iter().map(|s| design.force_capability(s, &design.continuous)).collect());
-    let inertia: Vec<(f64, f64)> = on_cube.iter().filter_map(|s| design.apparent_inertia(s)).collect();
+    let (unit, scale) = if design.task_is_point() { ("mm", 1e3) } else { ("rad", 1.0) };
+    eprintln!(
+        "report: the inscribed hypercube found ({:.1} {unit}); figures over its lattice",
+        ws.edge * scale
+    );
+    let on_cube: Vec<Figures> =
+        ws.lattice.iter().filter_map(|q| design.sample(q)).map(|s| design.figures(&s)).collect();
     let cube = CubeSummary { edge: ws.edge, centre: ws.centre.clone(), probes_per_edge: CUBE_PROBES };
-    let lower =
-        (0..m).map(|k| ws.samples.iter().map(|s| s.position[k]).fold(f64::INFINITY, f64::min)).collect();
-    let upper =
-        (0..m).map(|k| ws.samples.iter().map(|s| s.position[k]).fold(f64::NEG_INFINITY, f64::max)).collect();
+    let (lower, upper) = ws.bounds();
+    let over = |f: fn(&Figures) -> f64| spread(on_cube.iter().map(f).collect());
+    let finite_inertia: Vec<&Figures> = on_cube.iter().filter(|f| f.inertia_max.is_finite()).collect();
+    let renderable_stiffness = if zwidth {
+        eprintln!("report: the stiffest stable wall at the centre and the corners (simulated)");
+        renderable_stiffness(model, &design, &ws).map_err(DesignError::Simulation)?
+    } else {
+        None
+    };
     let summary = Summary {
         model: model.name.clone(),
-        task_unit: match model.task {
-            hapticgen_codegen::model::TaskSpec::Point(_) => "m",
-            hapticgen_codegen::model::TaskSpec::Joints(_) => "rad",
-        },
+        task_unit: if design.task_is_point() { "m" } else { "rad" },
         variant: model.variant.clone(),
         grid: GridSummary { steps_per_joint: ws.grid.0, points: ws.grid.1, closed: ws.samples.len() },
         workspace: WorkspaceSummary {
@@ -555,23 +814,41 @@ pub fn summarise(model: &CheckedModel, steps: usize) -> Result<(Summary, Workspa
             inscribed_square: (m == 2).then(|| cube.clone()),
             inscribed_interval: (m == 1).then_some(cube),
         },
-        force: ForceSummary { peak, continuous },
+        force: ForceSummary { peak: over(|f| f.force_peak), continuous: over(|f| f.force_continuous) },
         inertia: InertiaSummary {
-            max_over_cube: inertia.iter().map(|e| e.1).fold(0.0, f64::max),
-            min_over_cube: inertia.iter().map(|e| e.0).fold(f64::INFINITY, f64::min),
+            max_over_cube: finite_inertia.iter().map(|f| f.inertia_max).fold(0.0, f64::max),
+            min_over_cube: finite_inertia.iter().map(|f| f.inertia_min).fold(f64::INFINITY, f64::min),
+            anisotropy_max_over_cube: finite_inertia
+                .iter()
+                .map(|f| f.inertia_max / f.inertia_min)
+                .fold(0.0, f64::max),
         },
         resolution: ResolutionSummary {
-            max_over_cube: on_cube.iter().map(|s| design.resolution(s)).fold(0.0, f64::max),
+            max_over_cube: on_cube.iter().map(|f| f.resolution).fold(0.0, f64::max),
         },
+        isotropy: IsotropySummary {
+            condition: over(|f| f.condition),
+            global_conditioning_index: on_cube.iter().map(|f| 1.0 / f.condition).sum::<f64>()
+                / on_cube.len().max(1) as f64,
+        },
+        gravity: GravitySummary { load_percent: over(|f| f.gravity_load) },
+        renderable_stiffness,
+        published: None,
     };
-    Ok((summary, ws))
+    let published = crate::design_published::compare(&summary).map_err(DesignError::Map)?;
+    Ok((Summary { published, ..summary }, ws))
 }
 
 /// `hapticgen report`: writes `summary.json`, `workspace.csv` (every grid sample's joint
-/// coordinates, task point and figures) and the page `index.html`
-/// ([`crate::design_page`]) to `dir`.
-pub fn write_report(model: &CheckedModel, steps: usize, dir: &Path) -> Result<Summary, DesignError> {
-    let (summary, ws) = summarise(model, steps)?;
+/// coordinates, task point and figures), the maps ([`crate::design_maps`], `maps/`) and the
+/// page `index.html` ([`crate::design_page`]) to `dir`.
+pub fn write_report(
+    model: &CheckedModel,
+    steps: usize,
+    zwidth: bool,
+    dir: &Path,
+) -> Result<Summary, DesignError> {
+    let (summary, ws) = summarise(model, steps, zwidth)?;
     let write = |name: &str, text: String| {
         let path = dir.join(name);
         std::fs::create_dir_all(dir)
@@ -586,24 +863,34 @@ pub fn write_report(model: &CheckedModel, steps: usize, dir: &Path) -> Result<Su
         .map(|j| format!("q{j}_rad"))
         .chain((0..m).map(|k| format!("x{k}_m")))
         .chain(
-            ["force_peak_N", "force_continuous_N", "inertia_min_kg", "inertia_max_kg", "resolution_m"]
-                .map(String::from),
+            [
+                "force_peak_N",
+                "force_continuous_N",
+                "inertia_min_kg",
+                "inertia_max_kg",
+                "condition",
+                "gravity_load_percent",
+                "resolution_m",
+            ]
+            .map(String::from),
         )
         .collect();
     csv.push_str(&names.join(","));
     csv.push('\n');
     for s in &ws.samples {
-        let (lo, hi) = design.apparent_inertia(s).unwrap_or((f64::NAN, f64::NAN));
+        let f = design.figures(s);
         let row: Vec<String> =
             s.q.iter()
                 .chain(&s.position)
                 .copied()
                 .chain([
-                    design.force_capability(s, &design.peak),
-                    design.force_capability(s, &design.continuous),
-                    lo,
-                    hi,
-                    design.resolution(s),
+                    f.force_peak,
+                    f.force_continuous,
+                    f.inertia_min,
+                    f.inertia_max,
+                    f.condition,
+                    f.gravity_load,
+                    f.resolution,
                 ])
                 .map(|v| format!("{}", crate::output::unsigned_zero(v)))
                 .collect();
@@ -611,7 +898,14 @@ pub fn write_report(model: &CheckedModel, steps: usize, dir: &Path) -> Result<Su
         csv.push('\n');
     }
     write("workspace.csv", csv)?;
+    eprintln!(
+        "report: maps over {} slice(s), {} cells per side",
+        m.min(3).saturating_sub(1).max(1),
+        crate::design_maps::MAP_CELLS
+    );
+    let slices = crate::design_maps::slices(&design, &ws, crate::design_maps::MAP_CELLS);
+    let maps = crate::design_maps::write_maps(&design, &ws, &slices, dir).map_err(DesignError::Map)?;
     let view = crate::design_page::pose_grid(model, crate::design_page::view_steps(n));
-    write("index.html", crate::design_page::page(&view, &ws, &summary))?;
+    write("index.html", crate::design_page::page(&view, &ws, &summary, &maps, dir))?;
     Ok(summary)
 }

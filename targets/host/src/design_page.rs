@@ -20,7 +20,10 @@ use hapticgen_codegen::model::Motion;
 use hapticgen_codegen::sym::poly::Poly;
 use hapticgen_codegen::CheckedModel;
 
+use std::path::Path;
+
 use crate::design::{joint_grid, Summary, Workspace};
+use crate::design_maps::MapFile;
 
 /// three.js's core module, rewritten to import nothing.
 const THREE_CORE: &str = include_str!("../assets/three/three.core.js");
@@ -185,8 +188,141 @@ fn escape_html(text: &str) -> String {
     text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
 }
 
-/// The page: the figures as a table, the 3-D view, one slider per joint.
-pub fn page(grid: &PoseGrid, workspace: &Workspace, summary: &Summary) -> String {
+/// The maps' section: each map's PNG (already written under `dir`) inlined as a `data:` image,
+/// with its SVG and PNG linked; a map whose PNG cannot be read is named, not dropped.
+fn maps_section(maps: &[MapFile], dir: &Path) -> String {
+    let mut out = String::new();
+    for map in maps {
+        let png = format!("{}.png", map.base);
+        let caption = escape_html(&map.caption);
+        match std::fs::read(dir.join(&png)) {
+            Ok(bytes) => {
+                let _ = writeln!(
+                    out,
+                    "<figure class=\"map\"><img alt=\"{caption}\" src=\"data:image/png;base64,{}\"><figcaption>{caption} \
+                     (<a href=\"{base}.svg\">SVG</a>, <a href=\"{png}\">PNG</a>)</figcaption></figure>",
+                    base64(&bytes),
+                    base = map.base
+                );
+            }
+            Err(e) => {
+                let _ =
+                    writeln!(out, "<p>{caption}: {}</p>", escape_html(&format!("cannot read {png}: {e}")));
+            }
+        }
+    }
+    out
+}
+
+/// The summary's figures as a table, in mm, N, g and µm (a task of joint coordinates: rad, N·m,
+/// kg·m², µrad).
+fn figures_table(summary: &Summary) -> String {
+    let point = summary.task_unit == "m";
+    let (length, scale, force, mass, mass_scale, fine) =
+        if point { ("mm", 1e3, "N", "g", 1e3, "µm") } else { ("rad", 1.0, "N·m", "kg·m²", 1.0, "µrad") };
+    let (name, cube) = summary.cube();
+    let mut rows: Vec<(String, String)> = Vec::new();
+    if let Some(cube) = cube {
+        let centre: Vec<String> = cube.centre.iter().map(|c| format!("{:.1}", c * scale)).collect();
+        rows.push((
+            format!("inscribed {name}"),
+            format!("{:.1} {length}, centred at ({}) {length}", cube.edge * scale, centre.join(", ")),
+        ));
+    }
+    let spread = |s: &crate::design::Spread, f: f64, unit: &str, digits: usize| {
+        format!(
+            "{:.*} / {:.*} / {:.*} {unit}",
+            digits,
+            s.min_over_cube * f,
+            digits,
+            s.median_over_cube * f,
+            digits,
+            s.max_over_cube * f
+        )
+    };
+    rows.push((
+        format!("peak force in every direction (min / median / max over the {name})"),
+        spread(&summary.force.peak, 1.0, force, 2),
+    ));
+    rows.push((
+        "continuous force in every direction".into(),
+        spread(&summary.force.continuous, 1.0, force, 2),
+    ));
+    rows.push((
+        "apparent inertia (least / largest eigenvalue of Λ; largest ratio)".into(),
+        format!(
+            "{:.1} / {:.1} {mass}; {:.1}",
+            summary.inertia.min_over_cube * mass_scale,
+            summary.inertia.max_over_cube * mass_scale,
+            summary.inertia.anisotropy_max_over_cube
+        ),
+    ));
+    rows.push((
+        "condition number of J (min / median / max)".into(),
+        spread(&summary.isotropy.condition, 1.0, "", 2),
+    ));
+    rows.push((
+        "global conditioning index".into(),
+        format!("{:.3}", summary.isotropy.global_conditioning_index),
+    ));
+    rows.push(("gravity load (% of peak torque)".into(), spread(&summary.gravity.load_percent, 1.0, "%", 1)));
+    rows.push((
+        "resolution, one count at worst".into(),
+        format!("{:.1} {fine}", summary.resolution.max_over_cube * 1e6),
+    ));
+    if let Some(k) = &summary.renderable_stiffness {
+        rows.push((
+            format!("stable wall stiffness (B = {} N·s/m; centre / least corner)", k.wall_damping),
+            format!(
+                "{} / {} (analytic bound 2(b + B)/T = {:.0})",
+                k.describe(force, summary.task_unit),
+                crate::design::StiffnessSummary { centre: k.min_over_corners, ..k.clone() }
+                    .describe(force, summary.task_unit),
+                k.stability_bound
+            ),
+        ));
+    }
+    let mut out = String::from("<table id=\"summary\">\n");
+    for (what, value) in rows {
+        let _ = writeln!(out, "<tr><th>{}</th><td>{}</td></tr>", escape_html(&what), escape_html(&value));
+    }
+    out.push_str("</table>\n");
+    if let Some(c) = &summary.published {
+        let _ = writeln!(
+            out,
+            "<h2>Beside the {}</h2>\n<table id=\"published\">\n<tr><th></th><th>this model</th><th>published</th></tr>",
+            escape_html(&c.device)
+        );
+        for row in &c.rows {
+            let _ = writeln!(
+                out,
+                "<tr><th>{}</th><td>{}</td><td>{}</td></tr>",
+                escape_html(&row.figure),
+                escape_html(&row.model),
+                escape_html(&row.published)
+            );
+        }
+        out.push_str("</table>\n<p>Why they differ:</p>\n<ul>\n");
+        for note in &c.notes {
+            let _ = writeln!(out, "<li>{}</li>", escape_html(note));
+        }
+        out.push_str("</ul>\n<p>Sources:</p>\n<ul>\n");
+        for source in &c.sources {
+            let _ = writeln!(out, "<li>{}</li>", escape_html(source));
+        }
+        out.push_str("</ul>\n");
+    }
+    out
+}
+
+/// The page: the figures as a table, the 3-D view, one slider per joint, the maps.
+pub fn page(
+    grid: &PoseGrid,
+    workspace: &Workspace,
+    summary: &Summary,
+    maps: &[MapFile],
+    dir: &Path,
+) -> String {
     let core = format!("data:text/javascript;base64,{}", base64(THREE_CORE.as_bytes()));
     let module = format!("data:text/javascript;base64,{}", base64(THREE_MODULE.as_bytes()));
     let title = escape_html(&format!(
@@ -200,6 +336,8 @@ pub fn page(grid: &PoseGrid, workspace: &Workspace, summary: &Summary) -> String
     PAGE_TEMPLATE
         .replace("@@TITLE@@", &title)
         .replace("@@FIGURES@@", &figures)
+        .replace("@@TABLE@@", &figures_table(summary))
+        .replace("@@MAPS@@", &maps_section(maps, dir))
         .replace("@@MODULE@@", &module)
         .replace("@@CORE@@", &core)
         .replace("@@DATA@@", &data)

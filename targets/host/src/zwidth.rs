@@ -4,7 +4,8 @@
 //! For each wall damping `B` of a sweep, the largest stable wall stiffness `K` is found by
 //! bisection (on a log scale) over closed-loop simulations, run in parallel with rayon: the
 //! device's task point is pressed by a soft hand (a spring-damper whose anchor sits 5 mm inside
-//! a flat virtual wall, a solid rendered by the runtime's proxy method with Controller 3) and
+//! a flat virtual wall: for a planar task a solid rendered by the runtime's proxy method with
+//! Controller 3, for a spatial task a half-space rendered by the god object) and
 //! the contact counts as stable when its oscillation decays: the task velocity's rms over the
 //! last 30 % of the run is below 90 % of its rms over the 30 % before (or below 2 mm/s). The
 //! simulated plant has ideal mechanics and sensing (no friction, backlash or quantisation) but
@@ -24,6 +25,7 @@ use crate::plant::Effects;
 use crate::plot::{self, Chart, Series};
 use crate::sim::{Operator, Path as HandPath, Reference, SimConfig};
 use crate::simulate::Simulation;
+use crate::solids::{Solid, SolidShape};
 
 /// Stiffness of the pressing hand, N/m.
 pub const HAND_STIFFNESS: f64 = 100.0;
@@ -84,41 +86,100 @@ pub struct ZWidth {
     pub boundary: Vec<BoundaryPoint>,
 }
 
-/// Whether a wall `(K, B)` holds the pressed device still.
+/// Where a wall is pressed: the joint state the device starts at, and the task axis and side
+/// (`+1` or `−1`) the wall lies on from the task point there.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Press {
+    /// The joint state at the start.
+    pub start: Vec<f64>,
+    /// The task axis the wall is normal to.
+    pub axis: usize,
+    /// The side of the task point the wall lies on along `axis`, `+1.0` or `−1.0`.
+    pub side: f64,
+}
+
+impl Press {
+    /// The map's press: at the model's home pose, the wall beyond it along `+x`.
+    pub fn home(sim: &Simulation) -> Press {
+        Press { start: sim.home(), axis: 0, side: 1.0 }
+    }
+}
+
+/// Whether a wall `(K, B)` holds the pressed device still, pressed at the model's home pose.
 pub fn is_stable(sim: &Simulation, stiffness: f64, damping: f64, duration: f64) -> Result<bool, String> {
-    let home = sim.home();
-    let (x0, _) = sim.task_at(&home);
+    is_stable_at(sim, &Press::home(sim), stiffness, damping, duration)
+}
+
+/// Whether a wall `(K, B)` holds the device still when pressed as `press` says: a flat wall
+/// 2 mm from the start's task point, the hand's anchor 5 mm into it. A 2-D task renders the
+/// wall as a rectangle with the proxy method and Controller 3; a 3-D task as a half-space with
+/// the god object.
+pub fn is_stable_at(
+    sim: &Simulation,
+    press: &Press,
+    stiffness: f64,
+    damping: f64,
+    duration: f64,
+) -> Result<bool, String> {
+    let (x0, _) = sim.task_at(&press.start);
     if x0.is_empty() {
         return Err("error: the model has no task coordinates".into());
     }
-    // A wall 2 mm beyond the start along the first task axis; the hand's anchor 5 mm into it.
+    if press.axis >= x0.len() {
+        return Err(format!("error: no task axis {} in a {}-D task", press.axis, x0.len()));
+    }
+    let (axis, side) = (press.axis, press.side.signum());
     let mut face = x0.clone();
-    face[0] += 0.002;
+    face[axis] += side * 0.002;
     let mut anchor = x0.clone();
-    anchor[0] += 0.007;
-    let shape = if x0.len() == 2 {
-        Shape::Rectangle { center: [face[0] + 0.05, face[1]], half_extents: [0.05, 0.1], angle: 0.0 }
-    } else {
-        return Err("error: zwidth renders a planar wall and needs a 2-D task".into());
+    anchor[axis] += side * 0.007;
+    let mut cfg = SimConfig::new(press.start.clone());
+    cfg.reference = match x0.len() {
+        2 => {
+            let mut center = [face[0], face[1]];
+            center[axis] += side * 0.05;
+            let half_extents = if axis == 0 { [0.05, 0.1] } else { [0.1, 0.05] };
+            let shape = Shape::Rectangle { center, half_extents, angle: 0.0 };
+            Reference::Scene {
+                objects: vec![VirtualObject { shape, kind: ObjectKind::Solid, stiffness, damping }],
+                free_stiffness: 0.0,
+                free_damping: 0.0,
+                grid_spacing: 0.0,
+            }
+        }
+        3 => {
+            // The half-space's outward normal points back at the task point.
+            let mut normal = vec![0.0; 3];
+            normal[axis] = -side;
+            let wall = Solid {
+                shape: SolidShape::HalfSpace { point: face, normal },
+                cavity: false,
+                stiffness,
+                damping,
+                static_friction: 0.0,
+                dynamic_friction: 0.0,
+                motion: None,
+            };
+            Reference::Solids { solids: vec![wall], effect: None }
+        }
+        m => {
+            return Err(format!(
+                "error: zwidth renders a wall in a 2-D or 3-D task; this one has {m} coordinates"
+            ))
+        }
     };
-    let mut cfg = SimConfig::new(home);
     cfg.law = ImpedanceLaw::JacobianTranspose;
     cfg.stiffness = 0.0;
     cfg.damping = 0.0;
     cfg.duration = duration;
     cfg.effects = Effects::IDEAL;
     cfg.record_hz = 1000.0;
-    cfg.reference = Reference::Scene {
-        objects: vec![VirtualObject { shape, kind: ObjectKind::Solid, stiffness, damping }],
-        free_stiffness: 0.0,
-        free_damping: 0.0,
-        grid_spacing: 0.0,
-    };
     cfg.operator = Operator::Hand {
         stiffness: HAND_STIFFNESS,
         damping: HAND_DAMPING,
         path: HandPath { keys: vec![(0.0, anchor)] },
     };
+    cfg.substeps = cfg.substeps.max(sim.hand_substeps(&press.start, HAND_STIFFNESS, HAND_DAMPING));
     let trace = sim.run(&cfg)?;
     let t = trace.column("t").ok_or("error: no time column")?;
     let velocities: Vec<Vec<f64>> = (0..x0.len()).filter_map(|k| trace.column(&format!("x{k}"))).collect();
@@ -147,32 +208,46 @@ pub fn is_stable(sim: &Simulation, stiffness: f64, damping: f64, duration: f64) 
     Ok(late < 2e-3 || late < 0.9 * middle)
 }
 
+/// The largest wall stiffness `K` (with damping `damping`) found stable when pressed as `press`
+/// says, by bisection on a log scale over `settings`' range and steps; `None` if even the
+/// range's lower end is not stable.
+pub fn largest_stable_stiffness(
+    sim: &Simulation,
+    press: &Press,
+    damping: f64,
+    settings: &Sweep,
+) -> Result<Option<f64>, String> {
+    let (mut low, mut high) = (settings.stiffness_range.0.ln(), settings.stiffness_range.1.ln());
+    if !is_stable_at(sim, press, low.exp(), damping, settings.duration)? {
+        return Ok(None);
+    }
+    for _ in 0..settings.steps {
+        if high <= low {
+            break;
+        }
+        let mid = 0.5 * (low + high);
+        if is_stable_at(sim, press, mid.exp(), damping, settings.duration)? {
+            low = mid;
+        } else {
+            high = mid;
+        }
+    }
+    Ok(Some(low.exp()))
+}
+
 /// Maps the boundary of the stable region.
 pub fn sweep(sim: &Simulation, settings: &Sweep) -> Result<ZWidth, String> {
     let task_damping = HAND_DAMPING;
     let sample_period = 1.0 / f64::from(sim.model.rates.impedance_loop_hz);
+    let press = Press::home(sim);
     let boundary: Result<Vec<BoundaryPoint>, String> = settings
         .damping
         .par_iter()
         .map(|&b| {
-            let (mut low, mut high) = (settings.stiffness_range.0.ln(), settings.stiffness_range.1.ln());
-            if !is_stable(sim, low.exp(), b, settings.duration)? {
-                high = low;
-            }
-            for _ in 0..settings.steps {
-                if high <= low {
-                    break;
-                }
-                let mid = 0.5 * (low + high);
-                if is_stable(sim, mid.exp(), b, settings.duration)? {
-                    low = mid;
-                } else {
-                    high = mid;
-                }
-            }
             Ok(BoundaryPoint {
                 damping: b,
-                stable_stiffness: low.exp(),
+                stable_stiffness: largest_stable_stiffness(sim, &press, b, settings)?
+                    .unwrap_or(settings.stiffness_range.0),
                 passive_bound: stability::passive_stiffness(task_damping, b, sample_period),
                 stable_bound: stability::stable_stiffness(task_damping, b, sample_period),
             })

@@ -644,3 +644,49 @@ fn regressor_on_request_in_generate_and_stats() {
     assert!(!stats(&[]).lines().any(|l| l.starts_with("regressor ")));
     assert!(stats(&["--regressor"]).lines().any(|l| l.starts_with("regressor ")));
 }
+
+/// `hapticgen report` on the five-bar: the page, the figures a program reads, every map as SVG
+/// and PNG and inlined in the page; a model whose loops cannot close is refused at its line,
+/// nothing written.
+#[test]
+fn report_writes_the_page_figures_and_maps_and_refuses_a_model_that_cannot_close() {
+    let out = scratch("report");
+    let result =
+        hapticgen(&["report", "models/pantograph_5bar.yaml", "--steps", "9", "-o", out.to_str().unwrap()]);
+    assert!(result.status.success(), "{}", String::from_utf8_lossy(&result.stderr));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for key in [
+        "/workspace/inscribed_square/edge",
+        "/force/peak/min_over_cube",
+        "/force/continuous/min_over_cube",
+        "/inertia/max_over_cube",
+        "/inertia/min_over_cube",
+        "/resolution/max_over_cube",
+        "/isotropy/global_conditioning_index",
+        "/gravity/load_percent/max_over_cube",
+        "/renderable_stiffness/centre",
+        "/grid/steps_per_joint",
+    ] {
+        assert!(summary.pointer(key).is_some_and(|v| v.is_number()), "{key} in {summary}");
+    }
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    let maps = std::fs::read_dir(out.join("maps")).unwrap().count();
+    // Seven quantities as SVG and PNG, and the slice's CSV.
+    assert_eq!(maps, 7 * 2 + 1);
+    assert_eq!(page.matches("<img alt=").count(), 7, "every map inlined in the page");
+    let refused = scratch("report-refused");
+    let result = hapticgen(&[
+        "report",
+        "codegen/tests/bad-models/spatial-closure-cannot-close.yaml",
+        "-o",
+        refused.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(!result.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("spatial-closure-cannot-close.yaml:216:3:") && stderr.contains("do not close"),
+        "{stderr}"
+    );
+    assert!(!refused.exists(), "nothing written for a refused model");
+}

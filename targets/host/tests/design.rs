@@ -2,7 +2,9 @@
 //! every direction against a search over directions of the torque equation itself, the
 //! apparent inertia against Rayleigh quotients of the mobility, the inscribed square's
 //! lattice against the polynomial evaluator's forward kinematics and against a brute-force
-//! sampling of the joint box.
+//! sampling of the joint box; the condition number against the closed-form eigenvalues of
+//! the evaluator's J Jᵀ and the gravity load against its g; the maps' cells against the evaluator's forward
+//! kinematics and a brute-force sampling; the stiffest stable wall against the analytic bound.
 
 use hapticgen_codegen::eval::{evaluate, State};
 use hapticgen_host::design::{cube_lattice, joint_grid, Design, Sample};
@@ -183,4 +185,137 @@ fn the_page_draws_the_rig_where_the_evaluator_puts_it() {
         // Every segment joins two nodes of the drawing.
         assert!(grid.segments.iter().all(|&(a, b)| a < grid.nodes.len() && b < grid.nodes.len() && a != b));
     }
+}
+
+/// The evaluator's quantities at `q` as a [`Sample`] (D without the rotors: the gravity and the
+/// Jacobian are what the checks below use).
+fn evaluator_sample(mech: &hapticgen_codegen::dynamics::mechanics::Mechanics, q: &[f64]) -> Sample {
+    let n = q.len();
+    let e = evaluate(mech, &State { q, qd: &vec![0.0; n], parameters: &[] }, None);
+    Sample { q: q.to_vec(), position: e.p, jacobian: e.jacobian, inertia: e.inertia_matrix, gravity: e.g }
+}
+
+/// The eigenvalues of a symmetric 2×2 or 3×3 matrix in closed form (the quadratic formula;
+/// Smith's trigonometric solution of the characteristic cubic), least first.
+fn symmetric_eigenvalues(a: &[Vec<f64>]) -> Vec<f64> {
+    if a.len() == 2 {
+        let (mean, half) = (0.5 * (a[0][0] + a[1][1]), 0.5 * (a[0][0] - a[1][1]));
+        let r = half.hypot(a[0][1]);
+        return vec![mean - r, mean + r];
+    }
+    let q = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
+    let off = a[0][1].powi(2) + a[0][2].powi(2) + a[1][2].powi(2);
+    let p =
+        (((a[0][0] - q).powi(2) + (a[1][1] - q).powi(2) + (a[2][2] - q).powi(2) + 2.0 * off) / 6.0).sqrt();
+    let b: Vec<Vec<f64>> =
+        (0..3).map(|i| (0..3).map(|j| (a[i][j] - if i == j { q } else { 0.0 }) / p).collect()).collect();
+    let det = b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1])
+        - b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0])
+        + b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0]);
+    let phi = (det / 2.0).clamp(-1.0, 1.0).acos() / 3.0;
+    let largest = q + 2.0 * p * phi.cos();
+    let least = q + 2.0 * p * (phi + 2.0 * std::f64::consts::PI / 3.0).cos();
+    vec![least, 3.0 * q - largest - least, largest]
+}
+
+#[test]
+fn condition_number_and_gravity_load_match_the_evaluator() {
+    // κ(J) = √(λ_max / λ_min) of J Jᵀ, with the polynomial evaluator's J and the eigenvalues in
+    // closed form; the gravity load from the evaluator's g and the drives' torque limits.
+    for name in ["falcon_delta.yaml", "phantom_3dof.yaml", "pantograph_5bar.yaml"] {
+        let m = model(name);
+        let mech = hapticgen_codegen::derive(&m);
+        let design = Design::new(&m);
+        let limits: Vec<f64> = m.joints.iter().map(|j| j.drive.torque_limit).collect();
+        for q in joint_grid(&design.limits, 3).iter().step_by(4) {
+            let Some(s) = design.sample(q) else { continue };
+            let e = evaluator_sample(&mech, q);
+            let dim = e.jacobian.len();
+            let jjt: Vec<Vec<f64>> = (0..dim)
+                .map(|i| {
+                    (0..dim)
+                        .map(|k| (0..q.len()).map(|j| e.jacobian[i][j] * e.jacobian[k][j]).sum())
+                        .collect()
+                })
+                .collect();
+            let eigen = symmetric_eigenvalues(&jjt);
+            let expected = (eigen[dim - 1] / eigen[0]).sqrt();
+            let condition = design.condition(&s);
+            assert!(
+                (condition / expected - 1.0).abs() < 1e-6,
+                "{name} at {q:?}: κ {condition} vs {expected}"
+            );
+            let load = e.gravity.iter().zip(&limits).map(|(g, l)| 100.0 * g.abs() / l).fold(0.0, f64::max);
+            assert!((design.gravity_load(&s) - load).abs() <= 1e-9 * load.max(1.0), "{name} at {q:?}");
+        }
+    }
+}
+
+#[test]
+fn the_maps_cells_are_reached_where_the_joint_box_reaches() {
+    use hapticgen_host::design_maps::slices;
+    let m = model("pantograph_5bar.yaml");
+    let mech = hapticgen_codegen::derive(&m);
+    let design = Design::new(&m);
+    let ws = design.workspace(15).unwrap();
+    let slice = slices(&design, &ws, 24).pop().expect("a planar task has one slice");
+    assert_eq!(slice.cells.len(), 24 * 24);
+    // A reached cell: its joint state within the limits reaches the cell's centre by the
+    // evaluator's forward kinematics, and its force is the weakest over directions of the
+    // torque equation at the evaluator's J and g.
+    let mut reached = 0;
+    for (k, cell) in slice.cells.iter().enumerate() {
+        let Some(cell) = cell else { continue };
+        reached += 1;
+        let x = [slice.u[k % 24], slice.v[k / 24]];
+        assert!(
+            design.limits.iter().zip(&cell.q).all(|(&(lo, hi), v)| (lo..=hi).contains(v)),
+            "{:?}",
+            cell.q
+        );
+        let e = evaluator_sample(&mech, &cell.q);
+        assert!((e.position[0] - x[0]).hypot(e.position[1] - x[1]) < 2e-6, "{:?} vs {x:?}", e.position);
+        let searched = directions(2, 720)
+            .iter()
+            .map(|u| largest_force_along(&e, u, &design.peak))
+            .fold(f64::INFINITY, f64::min);
+        let mapped = cell.figures.force_peak;
+        assert!(searched >= mapped * (1.0 - 1e-9) && searched <= mapped * 1.02, "{searched} vs {mapped}");
+    }
+    assert!(reached > 24 * 24 / 5, "only {reached} cells reached");
+    // An unreached cell: no pose of a fine grid over the joint box (≈ 0.4 mm apart) lands within
+    // 0.2 mm of its centre, but for a few at the workspace's edge.
+    let cloud: Vec<[f64; 2]> = joint_grid(&design.limits, 301)
+        .iter()
+        .filter_map(|q| {
+            let p = evaluate(&mech, &State { q, qd: &[0.0; 2], parameters: &[] }, None).p;
+            (p[0].is_finite() && p[1].is_finite()).then_some([p[0], p[1]])
+        })
+        .collect();
+    let missed = slice
+        .cells
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| c.is_none())
+        .filter(|(k, _)| {
+            let x = [slice.u[k % 24], slice.v[k / 24]];
+            cloud.iter().any(|c| (c[0] - x[0]).hypot(c[1] - x[1]) < 0.2e-3)
+        })
+        .count();
+    let unreached = 24 * 24 - reached;
+    assert!(missed * 50 <= unreached, "{missed} of {unreached} unreached cells lie in the workspace");
+}
+
+#[test]
+fn the_stiffest_wall_lies_under_the_bound_at_the_centre_and_every_corner() {
+    let m = model("pantograph_5bar.yaml");
+    let design = Design::new(&m);
+    let ws = design.workspace(11).unwrap();
+    let k = hapticgen_host::design::renderable_stiffness(&m, &design, &ws).unwrap().expect("a planar task");
+    assert_eq!(k.corners.len(), 4);
+    for value in std::iter::once(k.centre).chain(k.corners.iter().map(|c| c.1)) {
+        let value = value.expect("a stable wall");
+        assert!(value >= k.range.0 && value <= 1.05 * k.stability_bound, "{value} vs {k:?}");
+    }
+    assert_eq!(k.min_over_corners, k.corners.iter().map(|c| c.1.unwrap()).reduce(f64::min));
 }

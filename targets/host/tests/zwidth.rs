@@ -28,3 +28,19 @@ fn the_stable_region_grows_with_damping_and_lies_under_the_bound() {
     }
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// A spatial task's wall (a half-space rendered by the god object), pressed at the
+/// PHANToM Premium-like arm's home pose: a wall well under the analytic bound holds the arm
+/// still, one far above it does not.
+#[test]
+fn a_spatial_wall_is_stable_under_the_bound_and_not_far_above_it() {
+    use hapticgen_host::zwidth::{is_stable_at, Press};
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/phantom_premium.yaml");
+    let sim = Simulation::load(&model, None).expect("shipped model");
+    let press = Press::home(&sim);
+    assert!(is_stable_at(&sim, &press, 100.0, 0.0, 1.0).unwrap(), "a soft wall must be stable");
+    assert!(
+        !is_stable_at(&sim, &press, 20_000.0, 0.0, 1.0).unwrap(),
+        "a wall 20 times the bound must not be"
+    );
+}
