@@ -569,8 +569,13 @@ pub fn summarise(model: &CheckedModel, steps: usize) -> Result<(Summary, Workspa
 
 /// `hapticgen report`: writes `summary.json`, `workspace.csv` (every grid sample's joint
 /// coordinates, task point and figures) and the page `index.html`
-/// ([`crate::design_page`]) to `dir`.
-pub fn write_report(model: &CheckedModel, steps: usize, dir: &Path) -> Result<Summary, DesignError> {
+/// ([`crate::design_page`], with `replay`'s run if given) to `dir`.
+pub fn write_report(
+    model: &CheckedModel,
+    steps: usize,
+    replay: Option<&crate::replay::Replay>,
+    dir: &Path,
+) -> Result<Summary, DesignError> {
     let (summary, ws) = summarise(model, steps)?;
     let write = |name: &str, text: String| {
         let path = dir.join(name);
@@ -612,6 +617,6 @@ pub fn write_report(model: &CheckedModel, steps: usize, dir: &Path) -> Result<Su
     }
     write("workspace.csv", csv)?;
     let view = crate::design_page::pose_grid(model, crate::design_page::view_steps(n));
-    write("index.html", crate::design_page::page(&view, &ws, &summary))?;
+    write("index.html", crate::design_page::page(&view, &ws, &summary, replay))?;
     Ok(summary)
 }
