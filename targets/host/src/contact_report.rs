@@ -90,6 +90,7 @@ pub fn run_all(sim: &Simulation, run: &ContactRun, out: &Path) -> Result<(Vec<Ch
         let dir = out.join(&name);
         std::fs::create_dir_all(&dir).map_err(|e| format!("error: cannot create {}: {e}", dir.display()))?;
         crate::output::write_csv(&trace, &dir.join("trace.csv"))?;
+        crate::replay::write_scene(&cfg.reference, sim.task_dim(), &dir)?;
         trace_figures(&trace, &dir)?;
         simulated += trace.duration();
         let experiment = if friction.1 > 0.0 {

@@ -841,11 +841,12 @@ pub fn summarise(
 
 /// `hapticgen report`: writes `summary.json`, `workspace.csv` (every grid sample's joint
 /// coordinates, task point and figures), the maps ([`crate::design_maps`], `maps/`) and the
-/// page `index.html` ([`crate::design_page`]) to `dir`.
+/// page `index.html` ([`crate::design_page`], with `replay`'s run if given) to `dir`.
 pub fn write_report(
     model: &CheckedModel,
     steps: usize,
     zwidth: bool,
+    replay: Option<&crate::replay::Replay>,
     dir: &Path,
 ) -> Result<Summary, DesignError> {
     let (summary, ws) = summarise(model, steps, zwidth)?;
@@ -906,6 +907,6 @@ pub fn write_report(
     let slices = crate::design_maps::slices(&design, &ws, crate::design_maps::MAP_CELLS);
     let maps = crate::design_maps::write_maps(&design, &ws, &slices, dir).map_err(DesignError::Map)?;
     let view = crate::design_page::pose_grid(model, crate::design_page::view_steps(n));
-    write("index.html", crate::design_page::page(&view, &ws, &summary, &maps, dir))?;
+    write("index.html", crate::design_page::page(&view, &ws, &summary, &maps, dir, replay))?;
     Ok(summary)
 }

@@ -24,13 +24,15 @@ use std::path::Path;
 
 use crate::design::{joint_grid, Summary, Workspace};
 use crate::design_maps::MapFile;
+use crate::replay::Replay;
 
 /// three.js's core module, rewritten to import nothing.
 const THREE_CORE: &str = include_str!("../assets/three/three.core.js");
 /// three.js's module entry, importing the core as `three/core`.
 const THREE_MODULE: &str = include_str!("../assets/three/three.module.js");
 
-/// The page, with `@@TITLE@@`, `@@FIGURES@@`, `@@MODULE@@`, `@@CORE@@` and `@@DATA@@` slots.
+/// The page, with `@@TITLE@@`, `@@FIGURES@@`, `@@MODULE@@`, `@@CORE@@`, `@@DATA@@` and
+/// `@@REPLAY@@` slots.
 const PAGE_TEMPLATE: &str = include_str!("../assets/design-page.html");
 
 /// Largest number of grid states the page's view holds.
@@ -65,60 +67,89 @@ pub fn view_steps(n: usize) -> usize {
     steps
 }
 
-/// The drawing of `model` on a grid of `steps` per joint.
-pub fn pose_grid(model: &CheckedModel, steps: usize) -> PoseGrid {
-    let mech = hapticgen_codegen::derive(model);
-    let origins = hapticgen_codegen::dynamics::kinematics::body_origins(model);
-    let points = hapticgen_codegen::dynamics::kinematics::point_positions(model);
-    let bodies = model.bodies.len();
-    let mut nodes = vec!["base".to_string()];
-    nodes.extend(model.bodies.iter().map(|b| b.name.clone()));
-    nodes.extend(model.points.iter().map(|p| p.name.clone()));
-    let node_of = |body: Option<usize>| body.map_or(0, |b| b + 1);
-    let mut segments = Vec::new();
-    for (k, body) in model.bodies.iter().enumerate() {
-        let parent = match &body.motion {
-            Motion::Serial { parent, .. } => node_of(*parent),
-            Motion::Direct { origin_body, .. } => node_of(*origin_body),
-            #[allow(unreachable_patterns)]
-            _ => 0,
+/// How to draw `model` at any joint state: the drawing's nodes and lines, and the polynomials
+/// of the nodes' positions, evaluated per state by [`RigDrawing::pose`]. The one drawing of a
+/// state that the grid view ([`pose_grid`]) and the replay of a run ([`crate::replay`]) share.
+pub struct RigDrawing {
+    mechanics: hapticgen_codegen::dynamics::mechanics::Mechanics,
+    origins: Vec<Vec<Poly>>,
+    points: Vec<Vec<Poly>>,
+    parameters: Vec<f64>,
+    /// The drawing's nodes: the base, each body's origin, then each named point.
+    pub nodes: Vec<String>,
+    /// Lines between nodes: each body's joint to its parent's, each point to its body's origin.
+    pub segments: Vec<(usize, usize)>,
+    /// The task point's node, if the task is a point.
+    pub task_node: Option<usize>,
+}
+
+impl RigDrawing {
+    /// The drawing of `model`.
+    pub fn new(model: &CheckedModel) -> RigDrawing {
+        let bodies = model.bodies.len();
+        let mut nodes = vec!["base".to_string()];
+        nodes.extend(model.bodies.iter().map(|b| b.name.clone()));
+        nodes.extend(model.points.iter().map(|p| p.name.clone()));
+        let node_of = |body: Option<usize>| body.map_or(0, |b| b + 1);
+        let mut segments = Vec::new();
+        for (k, body) in model.bodies.iter().enumerate() {
+            let parent = match &body.motion {
+                Motion::Serial { parent, .. } => node_of(*parent),
+                Motion::Direct { origin_body, .. } => node_of(*origin_body),
+                #[allow(unreachable_patterns)]
+                _ => 0,
+            };
+            if parent != k + 1 {
+                segments.push((parent, k + 1));
+            }
+        }
+        for (i, point) in model.points.iter().enumerate() {
+            segments.push((node_of(point.body), 1 + bodies + i));
+        }
+        let task_node = match model.task {
+            hapticgen_codegen::model::TaskSpec::Point(p) => Some(1 + bodies + p),
+            hapticgen_codegen::model::TaskSpec::Joints(_) => None,
         };
-        if parent != k + 1 {
-            segments.push((parent, k + 1));
+        RigDrawing {
+            mechanics: hapticgen_codegen::derive(model),
+            origins: hapticgen_codegen::dynamics::kinematics::body_origins(model),
+            points: hapticgen_codegen::dynamics::kinematics::point_positions(model),
+            parameters: model.nominal_parameters(),
+            nodes,
+            segments,
+            task_node,
         }
     }
-    for (i, point) in model.points.iter().enumerate() {
-        segments.push((node_of(point.body), 1 + bodies + i));
+
+    /// Each node's position (x, y, z; z = 0 for a planar model), m, at the actuated joints'
+    /// coordinates `q`; NaN where the loops do not close.
+    pub fn pose(&self, q: &[f64]) -> Vec<[f64; 3]> {
+        let zero = vec![0.0; q.len()];
+        let state = State { q, qd: &zero, parameters: &self.parameters };
+        let full = Full::new(&self.mechanics, &state);
+        let at = |p: &[Poly]| -> [f64; 3] {
+            let get = |i: usize| p.get(i).map_or(0.0, |x| x.eval(&full));
+            [get(0), get(1), get(2)]
+        };
+        let mut row = vec![[0.0; 3]];
+        row.extend(self.origins.iter().map(|o| at(o)));
+        row.extend(self.points.iter().map(|p| at(p)));
+        row
     }
-    let task_node = match model.task {
-        hapticgen_codegen::model::TaskSpec::Point(p) => Some(1 + bodies + p),
-        hapticgen_codegen::model::TaskSpec::Joints(_) => None,
-    };
+}
+
+/// The drawing of `model` on a grid of `steps` per joint.
+pub fn pose_grid(model: &CheckedModel, steps: usize) -> PoseGrid {
+    let drawing = RigDrawing::new(model);
     let limits: Vec<(f64, f64)> = model.joints.iter().map(|j| (j.lower, j.upper)).collect();
-    let parameters = model.nominal_parameters();
-    let zero = vec![0.0; model.joints.len()];
-    let at = |p: &[Poly], full: &Full<'_>| -> [f64; 3] {
-        let get = |i: usize| p.get(i).map_or(0.0, |x| x.eval(full));
-        [get(0), get(1), get(2)]
-    };
-    let positions = joint_grid(&limits, steps)
-        .iter()
-        .map(|q| {
-            let state = State { q, qd: &zero, parameters: &parameters };
-            let full = Full::new(&mech, &state);
-            let mut row = vec![[0.0; 3]];
-            row.extend(origins.iter().map(|o| at(o, &full)));
-            row.extend(points.iter().map(|p| at(p, &full)));
-            row
-        })
-        .collect();
+    let positions = joint_grid(&limits, steps).iter().map(|q| drawing.pose(q)).collect();
     PoseGrid {
         joints: model.joints.iter().map(|j| j.name.clone()).collect(),
         limits,
         steps,
-        nodes,
-        segments,
-        task_node,
+        nodes: drawing.nodes,
+        segments: drawing.segments,
+        task_node: drawing.task_node,
         positions,
     }
 }
@@ -141,7 +172,8 @@ pub fn base64(bytes: &[u8]) -> String {
     out
 }
 
-fn json_number(x: f64) -> String {
+/// `x` for the page's JSON: at most six decimals (1 µm), `null` when not finite.
+pub(crate) fn json_number(x: f64) -> String {
     if x.is_finite() {
         format!("{:.6}", x).trim_end_matches('0').trim_end_matches('.').to_string()
     } else {
@@ -315,13 +347,15 @@ fn figures_table(summary: &Summary) -> String {
     out
 }
 
-/// The page: the figures as a table, the 3-D view, one slider per joint, the maps.
+/// The page: the figures as a table, the 3-D view, one slider per joint, the maps, and the
+/// replay of a run if one is given ([`crate::replay`]).
 pub fn page(
     grid: &PoseGrid,
     workspace: &Workspace,
     summary: &Summary,
     maps: &[MapFile],
     dir: &Path,
+    replay: Option<&Replay>,
 ) -> String {
     let core = format!("data:text/javascript;base64,{}", base64(THREE_CORE.as_bytes()));
     let module = format!("data:text/javascript;base64,{}", base64(THREE_MODULE.as_bytes()));
@@ -332,6 +366,7 @@ pub fn page(
     ));
     let figures = escape_html(&summary.describe());
     let data = page_data(grid, workspace, summary).replace("</", "<\\/");
+    let replay = replay.map_or_else(|| "null".to_string(), crate::replay::page_data).replace("</", "<\\/");
     // The template is plain HTML with `@@NAME@@` slots, so that its script needs no escaping.
     PAGE_TEMPLATE
         .replace("@@TITLE@@", &title)
@@ -341,6 +376,7 @@ pub fn page(
         .replace("@@MODULE@@", &module)
         .replace("@@CORE@@", &core)
         .replace("@@DATA@@", &data)
+        .replace("@@REPLAY@@", &replay)
 }
 
 #[cfg(test)]

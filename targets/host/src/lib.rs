@@ -26,6 +26,7 @@ pub mod paper;
 pub mod pil;
 pub mod plant;
 pub mod plot;
+pub mod replay;
 pub mod report;
 pub mod rig;
 pub mod scene;

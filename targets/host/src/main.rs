@@ -48,8 +48,9 @@ enum Command {
     /// The device design figures of a model: its workspace and inscribed cube, the force it
     /// holds in every direction, its apparent inertia, isotropy, gravity load and resolution
     /// over the cube and as maps, the stiffest wall it renders stably at the cube's centre and
-    /// corners; writes DIR/index.html (with a 3-D view of the rig), DIR/summary.json,
-    /// DIR/workspace.csv and DIR/maps/.
+    /// corners; writes DIR/index.html (with a 3-D view of the rig, docs/design-report.md),
+    /// DIR/summary.json, DIR/workspace.csv and DIR/maps/; with --replay, the page replays a run
+    /// in that view.
     Report {
         /// The model file.
         model: PathBuf,
@@ -64,6 +65,12 @@ enum Command {
         /// summary.json then has no `renderable_stiffness`.
         #[arg(long)]
         no_zwidth: bool,
+        /// Replay this run in the page's 3-D view: the directory `hapticgen simulate -o RUN`
+        /// wrote (or one run's of `hapticgen contact -o DIR`, DIR/wall…) or its trace.csv; the
+        /// rig at the trace's joint angles (at most 2,000 frames), the task point's path, the
+        /// proxy and the scene's objects (RUN/scene.json). The trace must be of this model.
+        #[arg(long, value_name = "RUN")]
+        replay: Option<PathBuf>,
         /// Output directory.
         #[arg(short, long)]
         output: PathBuf,
@@ -175,7 +182,8 @@ enum Command {
         output: Option<PathBuf>,
     },
     /// Simulate a model in closed loop with one of the paper's controllers; writes
-    /// DIR/trace.csv and plots (DIR/*.svg, DIR/*.png).
+    /// DIR/trace.csv, DIR/scene.json (the objects it rendered, for `report --replay`) and plots
+    /// (DIR/*.svg, DIR/*.png).
     Simulate(SimulateArgs),
     /// Processor in the loop: the rig's firmware image under QEMU (Cortex-M4F) controls the
     /// simulated plant of `simulate`, lock-step over the board's UART (one exchange per
@@ -188,7 +196,7 @@ enum Command {
     Connect(ConnectArgs),
     /// Run every contact scenario (a floor, sliding with and without friction, a ball, a box's
     /// edges and corner, a thin plate, meshes) on a rig with a 3-D task, with the runtime's
-    /// god object rendering; writes each run's trace and figures and DIR/report.md with a
+    /// god object rendering; writes each run's trace, scene and figures and DIR/report.md with a
     /// pass/fail row per check, and fails if a check fails.
     Contact {
         /// The model file (3 task coordinates).
@@ -716,11 +724,26 @@ fn load(
 
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
-        Command::Report { model, variant, steps, no_zwidth, output } => {
+        Command::Report { model, variant, steps, no_zwidth, replay, output } => {
             let m = load(&model, variant.as_deref())?;
             let steps = steps.unwrap_or_else(|| hapticgen_host::design::default_steps(m.joints.len())).max(2);
-            let summary = hapticgen_host::design::write_report(&m, steps, !no_zwidth, &output)
-                .map_err(|e| format!("error: {e}"))?;
+            // Read before anything is written: a bad run leaves no report behind.
+            let replay = replay.map(|run| hapticgen_host::replay::load(&m, &run)).transpose()?;
+            if let Some(replay) = &replay {
+                let scene = replay.scene.as_ref().map_or_else(
+                    || format!("no {} beside it: no objects drawn", hapticgen_host::replay::SCENE_FILE),
+                    |s| format!("objects drawn: {}", s.objects.len()),
+                );
+                eprintln!(
+                    "report: replaying {} ({} rows as {} frames; {scene})",
+                    replay.trace.display(),
+                    replay.rows,
+                    replay.frames.len()
+                );
+            }
+            let summary =
+                hapticgen_host::design::write_report(&m, steps, !no_zwidth, replay.as_ref(), &output)
+                    .map_err(|e| format!("error: {e}"))?;
             println!(
                 "{}: {}; wrote {}",
                 model.display(),
@@ -1294,6 +1317,7 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     let singularity = |q: &[f64]| largest_det.map(|largest| sim.task_at(q).1.abs() / largest);
     let trace = sim.run(&cfg)?;
     hapticgen_host::output::write_csv(&trace, &args.output.join("trace.csv"))?;
+    hapticgen_host::replay::write_scene(&cfg.reference, sim.task_dim(), &args.output)?;
     let figures = paper::trace_figures(&trace, &args.output)?;
     println!(
         "simulated {:.2} s of {} in {:.2} s ({:.2}× real time), controller on {}{}; wrote {} and {} figures",

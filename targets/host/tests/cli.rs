@@ -8,11 +8,13 @@ fn workspace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn hapticgen(args: &[&str]) -> std::process::Output {
+/// Runs `hapticgen ARGS` from the workspace's root (the replay tests use it too).
+pub(crate) fn hapticgen(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_hapticgen")).args(args).current_dir(workspace()).output().expect("runs")
 }
 
-fn scratch(name: &str) -> PathBuf {
+/// A scratch path of this test process under the system's temporary directory.
+pub(crate) fn scratch(name: &str) -> PathBuf {
     std::env::temp_dir().join(format!("hapticgen-cli-{name}-{}", std::process::id()))
 }
 

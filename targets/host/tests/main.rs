@@ -11,5 +11,6 @@ mod design;
 mod faults;
 mod identify;
 mod paper;
+mod replay;
 mod silent;
 mod zwidth;
