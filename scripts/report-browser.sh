@@ -5,7 +5,8 @@
 # drawn and every map image decoded), and a
 # screenshot of the 3-D view alone with the sliders at one end differs from one with them at
 # the other in more than 200 pixels (the sliders move the rig). Then a `simulate` run of the
-# planar rig and a `contact` run of the Delta replayed in their pages (`report --replay`): each
+# planar rig and a `contact` run of the PHANToM Premium-like arm (a spatial rig whose runs are
+# quick in a debug build) replayed in their pages (`report --replay`): each
 # renders without error, and the view at the replay's start (`#t=0`) differs from the view
 # 2.5 s in (`#t=2.5`) in more than 200 pixels (the replay's time moves the rig). The screenshots stay in the target directory
 # (`$CARGO_TARGET_DIR/report-browser/`). Installs Debian's chromium if it is missing.
@@ -51,10 +52,10 @@ for model in pantograph_5bar falcon_delta; do
     "$BIN" report "models/$model.yaml" --steps 9 "${extra[@]}" -o "$OUT/$model" 2>/dev/null >/dev/null
     check_page "$model" "$OUT/$model" "q=0,0,0" "q=15,15,15" "the sliders"
 done
-# Replays: a simulated run of the five-bar tracing its circle, and the Delta sliding on a floor.
+# Replays: a simulated run of the five-bar tracing its circle, and the Premium-like arm sliding on a floor.
 "$BIN" simulate models/pantograph_5bar.yaml --controller 3 --scenario trace-circle -o "$OUT/run-pantograph_5bar" >/dev/null
-"$BIN" contact models/falcon_delta.yaml --only slide -o "$OUT/run-falcon_delta" >/dev/null
-for model in pantograph_5bar falcon_delta; do
+"$BIN" contact models/phantom_premium.yaml --only slide -o "$OUT/run-phantom_premium" >/dev/null
+for model in pantograph_5bar phantom_premium; do
     run="$OUT/run-$model"
     [ -d "$run/slide" ] && run="$run/slide"
     "$BIN" report "models/$model.yaml" --steps 9 --no-zwidth --replay "$run" -o "$OUT/replay-$model" 2>/dev/null >/dev/null

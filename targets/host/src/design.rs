@@ -462,6 +462,16 @@ impl Design {
     }
 }
 
+/// `v` with `digits` decimals, never `-0.0` (a centre 0.03 µm left of an axis is at 0.0 mm).
+pub fn fixed(v: f64, digits: usize) -> String {
+    let text = format!("{v:.digits$}");
+    if text.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+        text.trim_start_matches('-').to_string()
+    } else {
+        text
+    }
+}
+
 /// Least, median and largest of some values.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Spread {
@@ -662,7 +672,7 @@ impl Summary {
         };
         let (name, cube) = self.cube();
         let Some(cube) = cube else { return format!("no inscribed {name}") };
-        let centre: Vec<String> = cube.centre.iter().map(|c| format!("{:.1}", c * scale)).collect();
+        let centre: Vec<String> = cube.centre.iter().map(|c| fixed(c * scale, 1)).collect();
         let wall = self.renderable_stiffness.as_ref().map_or(String::new(), |k| {
             format!(
                 "; stable wall {} at the centre, {} at the least corner",

@@ -255,7 +255,7 @@ fn figures_table(summary: &Summary) -> String {
     let (name, cube) = summary.cube();
     let mut rows: Vec<(String, String)> = Vec::new();
     if let Some(cube) = cube {
-        let centre: Vec<String> = cube.centre.iter().map(|c| format!("{:.1}", c * scale)).collect();
+        let centre: Vec<String> = cube.centre.iter().map(|c| crate::design::fixed(c * scale, 1)).collect();
         rows.push((
             format!("inscribed {name}"),
             format!("{:.1} {length}, centred at ({}) {length}", cube.edge * scale, centre.join(", ")),

@@ -692,3 +692,47 @@ fn report_writes_the_page_figures_and_maps_and_refuses_a_model_that_cannot_close
     );
     assert!(!refused.exists(), "nothing written for a refused model");
 }
+
+/// docs/design-your-device.md's walk-through, run as written (the stiffest-wall search left
+/// out: the page quotes none of its figures): a five-bar from the template, its motor links
+/// lengthened from 70 to 90 mm by one line, and the page's table of figures against the two
+/// reports' summary.json.
+#[test]
+fn the_design_walkthrough_quotes_what_the_reports_compute() {
+    let dir = scratch("walkthrough");
+    std::fs::create_dir_all(&dir).unwrap();
+    let short = dir.join("my_five_bar.yaml");
+    let result = hapticgen(&["new", "five-bar", "-o", short.to_str().unwrap()]);
+    assert!(result.status.success(), "{}", String::from_utf8_lossy(&result.stderr));
+    let text = std::fs::read_to_string(&short).unwrap();
+    let edited = text.replacen("    value: 70 mm", "    value: 90 mm", 1);
+    assert_ne!(edited, text, "the template's proximal length line");
+    let long = dir.join("my_five_bar_long.yaml");
+    std::fs::write(&long, edited).unwrap();
+    let summary = |model: &Path, name: &str| -> serde_json::Value {
+        let out = dir.join(name);
+        let result =
+            hapticgen(&["report", model.to_str().unwrap(), "--no-zwidth", "-o", out.to_str().unwrap()]);
+        assert!(result.status.success(), "{}", String::from_utf8_lossy(&result.stderr));
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+    };
+    let (a, b) = (summary(&short, "short"), summary(&long, "long"));
+    let at = |s: &serde_json::Value, key: &str| s.pointer(key).and_then(|v| v.as_f64()).expect(key);
+    let rows: [(&str, &str, f64, usize, &str); 5] = [
+        ("| inscribed square, edge |", "/workspace/inscribed_square/edge", 1e3, 1, " mm"),
+        ("| peak force in every direction, least over the square |", "/force/peak/min_over_cube", 1.0, 2, " N"),
+        ("| one encoder count, largest step over the square |", "/resolution/max_over_cube", 1e6, 1, " µm"),
+        ("| condition number of J, largest over the square |", "/isotropy/condition/max_over_cube", 1.0, 2, ""),
+        ("| apparent inertia, heaviest direction over the square |", "/inertia/max_over_cube", 1e3, 1, " g"),
+    ];
+    let page = std::fs::read_to_string(workspace().join("docs/design-your-device.md")).unwrap();
+    for (row, key, scale, digits, unit) in rows {
+        let expected = format!(
+            "{row} {:.digits$}{unit} | {:.digits$}{unit} |",
+            at(&a, key) * scale,
+            at(&b, key) * scale
+        );
+        assert!(page.contains(&expected), "docs/design-your-device.md should read\n{expected}");
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
