@@ -25,7 +25,7 @@ use std::path::Path;
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::quote;
 
-use crate::math::vector::cross;
+use crate::math::vector::{cross, norm, sub};
 use crate::Scalar;
 
 /// A triangle mesh with its normals and, once built, its BVH.
@@ -56,12 +56,8 @@ pub struct Node {
     pub count: u32,
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
 fn normalised(a: [f64; 3]) -> [f64; 3] {
-    let length = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    let length = norm(a);
     if length > 0.0 {
         [a[0] / length, a[1] / length, a[2] / length]
     } else {

@@ -64,7 +64,7 @@ fn every_untagged_enum_names_its_forms() {
     }
 }
 
-/// The issue's own example: an assembly angle written without the space before its unit.
+/// A reported case: an assembly angle written without the space before its unit.
 #[test]
 fn an_assembly_with_a_glued_unit_names_the_forms() {
     let model = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../models/falcon_delta.yaml"))

@@ -623,7 +623,7 @@ impl StateFrame {
     pub fn encode_sample(
         sample: &StateSample<'_>,
         scales: &ChannelScales,
-        out: &mut [u8; crate::MAX_FRAME_BYTES],
+        out: &mut [u8; crate::frame::MAX_FRAME_BYTES],
     ) -> Option<usize> {
         let (joints, task) = shape_of(sample)?;
         let channels = 4 * joints + 2 * task;

@@ -109,9 +109,7 @@ impl<S: Real, const N: usize> JointStateEstimator<S, N> {
     ) -> Self {
         let mut radians_per_count = [S::ZERO; N];
         for (slot, drive) in radians_per_count.iter_mut().zip(drives.iter()) {
-            let counts_per_joint_turn =
-                S::from_i64(i64::from(drive.encoder_counts_per_turn)) * drive.gear_ratio;
-            *slot = S::from_f64(2.0 * core::f64::consts::PI) / counts_per_joint_turn;
+            *slot = drive.count_size();
         }
         Self {
             radians_per_count,

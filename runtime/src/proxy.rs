@@ -62,9 +62,10 @@
 
 use crate::control::{ImpedanceParameters, TaskReference};
 use crate::effects::{Effect, EffectState};
+use crate::linalg::dot;
 use crate::render::ObjectKind;
 use crate::shape::{
-    add_scaled, direction_into_frame, direction_out_of_frame, dot, exceeds, finite, into_frame, norm,
+    add_scaled, direction_into_frame, direction_out_of_frame, exceeds, finite, into_frame, norm,
     segment_box_entry, sub, triangle_entry, unit, Mesh, Object, Plane, RigidMotion, Shape,
 };
 use crate::tick::ReferenceSource;

@@ -72,6 +72,14 @@ pub struct DriveTrain<S> {
     pub position_upper: S,
 }
 
+impl<S: Real> DriveTrain<S> {
+    /// The joint-side angle one encoder count stands for, rad: `2π / (counts_per_turn · N)`.
+    pub fn count_size(&self) -> S {
+        let counts_per_joint_turn = S::from_i64(i64::from(self.encoder_counts_per_turn)) * self.gear_ratio;
+        S::from_f64(core::f64::consts::TAU) / counts_per_joint_turn
+    }
+}
+
 /// A rig: the model-specific terms of the paper's eq. (1)–(2), implemented by generated code.
 ///
 /// `N` is the number of joints (generalised coordinates), `M` the task-space dimension.

@@ -24,18 +24,11 @@
 //!   with vertex normals the normal is interpolated from the barycentric coordinates of the
 //!   closest point (force shading). A mesh is a surface: it has no inside.
 
+use crate::linalg::dot;
 use crate::Real;
 
 /// Depth of the traversal stack of a mesh's BVH (a tree of up to 2⁶⁴ leaves).
 pub const BVH_STACK: usize = 64;
-
-pub(crate) fn dot<S: Real, const M: usize>(a: &[S; M], b: &[S; M]) -> S {
-    let mut sum = S::ZERO;
-    for (x, y) in a.iter().zip(b.iter()) {
-        sum += *x * *y;
-    }
-    sum
-}
 
 pub(crate) fn sub<S: Real, const M: usize>(a: &[S; M], b: &[S; M]) -> [S; M] {
     let mut out = *a;

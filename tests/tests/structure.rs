@@ -53,7 +53,7 @@ fn tick_quantities_need_two_sine_cosine_pairs() {
     }
 }
 
-/// Issue 7: D, C q̇, g, J and J̇ q̇ of the parallel link (vertical) together in at most 25
+/// D, C q̇, g, J and J̇ q̇ of the parallel link (vertical) together in at most 25
 /// arithmetic operations with 4 trigonometric evaluations, and, with fused multiply-adds (each
 /// one operation), fewer than 25 operations with the trigonometric ones counted (SymPy with
 /// `simplify` + `cse`: 19 + 6 = 25). The counts are deterministic.

@@ -26,6 +26,7 @@ use crate::diag::Diagnostic;
 use crate::dynamics::mechanics::Mechanics;
 use crate::eval::{Full, NominalAtoms};
 use crate::math::grid::box_grid;
+use crate::math::vector::norm;
 use crate::model::positions::{PositionIndex, Segment};
 use crate::model::Model;
 use crate::model::{Motion, TaskSpec};
@@ -307,10 +308,6 @@ impl FileNames {
     fn body(&self, name: &str) -> Option<usize> {
         self.bodies.iter().position(|b| b == name)
     }
-}
-
-fn norm(v: [f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 /// Each body's extent, m: the farthest of twice its centre of mass, its points, its

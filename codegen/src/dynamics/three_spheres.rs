@@ -57,7 +57,7 @@ use rustc_hash::FxHashMap as HashMap;
 use super::kinematics::{body_frames, constant_matrix, mat_mul, mat_vec, vec_add};
 use super::recursive::Builder;
 use crate::math::matrix::{mat3_vec, transpose3, Numbers};
-use crate::math::vector::{cross, dot};
+use crate::math::vector::{cross, dot, scaled, sub};
 use crate::model::{JointKind, Model, Motion, SpatialClosure};
 use crate::sym::dag::{Dag, NodeId};
 use crate::sym::poly::{Atom, Poly, State};
@@ -308,14 +308,6 @@ fn serial(model: &Model, body: usize) -> Option<SerialParts<'_>> {
     }
 }
 
-fn scaled3(k: f64, v: [f64; 3]) -> [f64; 3] {
-    v.map(|x| k * x)
-}
-
-fn minus3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
 /// `x`, or the value among 0, ±½, ±√2/2, ±√3/2 and ±1 within 10⁻⁹ of it.
 fn clean(x: f64) -> f64 {
     let magnitudes = [0.0, 0.5, std::f64::consts::FRAC_1_SQRT_2, 0.75_f64.sqrt(), 1.0];
@@ -494,12 +486,12 @@ impl ThreeSpheres {
         // O₄ R(O₄ᵀ… ): written with a₄ turned by O₄ (`second`), M = Fᵀ R_P O₄ᵀ.
         let first_axis = axis(platform_joints[0]);
         let second = mat3_vec(&mut Numbers, &platform_own_rotation, &axis(platform_joints[1]));
-        let across = minus3(second, scaled3(dot(first_axis, second), first_axis));
+        let across = sub(second, scaled(dot(first_axis, second), first_axis));
         let across_squared = dot(across, across);
         if across_squared < 1e-12 {
             return Err("the platform's universal joint has parallel axes".into());
         }
-        let normal = minus3(first_axis, scaled3(dot(first_axis, second), second));
+        let normal = sub(first_axis, scaled(dot(first_axis, second), second));
         // R_P O₄ᵀ applied to a₄ and to e.
         let platform_unturned: [[f64; 3]; 3] = std::array::from_fn(|i| {
             std::array::from_fn(|j| {
@@ -519,10 +511,10 @@ impl ThreeSpheres {
             joints: platform_joints,
             normal,
             normal_turned: cross(first_axis, normal),
-            normal_axial: scaled3(dot(first_axis, normal), first_axis),
+            normal_axial: scaled(dot(first_axis, normal), first_axis),
             normal_squared: dot(normal, normal),
-            first_cos: constant_dot(scaled3(1.0 / across_squared, across), &turned_axis),
-            first_sin: constant_dot(scaled3(1.0 / across_squared, cross(first_axis, across)), &turned_axis),
+            first_cos: constant_dot(scaled(1.0 / across_squared, across), &turned_axis),
+            first_sin: constant_dot(scaled(1.0 / across_squared, cross(first_axis, across)), &turned_axis),
             turned_axis,
             turned_normal,
         };
@@ -530,8 +522,8 @@ impl ThreeSpheres {
         // σ: the side of the spheres' plane of centres the assembly's platform is on.
         let centres = legs.clone().map(|l| l.sphere_centre.map(|p| value(&p)));
         let origin = frames[platform].origin.clone().map(|p| value(&p));
-        let normal_of_centres = cross(minus3(centres[1], centres[0]), minus3(centres[2], centres[0]));
-        let height = dot(minus3(origin, centres[0]), normal_of_centres);
+        let normal_of_centres = cross(sub(centres[1], centres[0]), sub(centres[2], centres[0]));
+        let height = dot(sub(origin, centres[0]), normal_of_centres);
         if !height.is_finite() || height == 0.0 {
             return Err("the platform lies in the plane of the spheres' centres at the assembly".into());
         }

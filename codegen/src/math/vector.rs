@@ -1,5 +1,6 @@
-//! Products of 3-vectors of numbers, once for the generator's numerical analyses (the closed
-//! chains' sphere intersection, compound joints' axes, mesh normals): `a · b` and `a × b`.
+//! Small operations on 3-vectors of numbers, once for the generator's numerical analyses (the
+//! closed chains' sphere intersection, compound joints' axes, mesh normals, the plausibility
+//! checks' extents): `a · b`, `a × b`, `a − b`, `k a` and `|a|`.
 
 /// The dot product `a · b`.
 pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -11,9 +12,31 @@ pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
+/// The difference `a − b`.
+pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// The multiple `k a`.
+pub fn scaled(k: f64, a: [f64; 3]) -> [f64; 3] {
+    a.map(|x| k * x)
+}
+
+/// The length `|a|`.
+pub fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+
 #[cfg(test)]
 mod tests {
-    use super::{cross, dot};
+    use super::{cross, dot, norm, scaled, sub};
+
+    #[test]
+    fn difference_multiple_and_length() {
+        assert_eq!(sub([3.0, 5.0, -1.0], [1.0, 1.0, 1.0]), [2.0, 4.0, -2.0]);
+        assert_eq!(scaled(-0.5, [2.0, 4.0, -2.0]), [-1.0, -2.0, 1.0]);
+        assert_eq!(norm([2.0, 3.0, 6.0]), 7.0);
+    }
 
     #[test]
     fn the_products_of_the_unit_axes() {

@@ -1,4 +1,4 @@
-//! `hapticgen connect` (issue 19): the host's end of a running device's link, the way an
+//! `hapticgen connect` (docs/link-device.md): the host's end of a running device's link, the way an
 //! application drives a haptic device (OpenHaptics' scheduler, Force Dimension's
 //! `dhdGet…`/`dhdSet…`): open the link, set the impedance, load a scene, enable the bridges
 //! and keep them enabled with heartbeats, read the 1 kHz state stream (a live status line, a
@@ -71,7 +71,7 @@ pub const RECOVERY_TIMEOUT: Duration = Duration::from_secs(60);
 /// ticks a step watches.
 pub const SYNC_TIMEOUT: Duration = Duration::from_secs(10);
 
-/// The safe-state bound of issue 19: the bridges are off within this long of the last
+/// The link's safe-state bound (docs/link.md): the bridges are off within this long of the last
 /// heartbeat.
 pub const SAFE_STATE_BOUND_MS: f64 = 10.0;
 

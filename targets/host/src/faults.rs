@@ -1,9 +1,9 @@
 //! Fault injection: the runtime's [`HapticLoop`] on a rig's generated code, in closed loop
 //! with the simulated [`Plant`], while a sensor, the schedule or the operator misbehaves.
 //!
-//! Every scenario checks the safety criteria of issue 9 on **everything that leaves the
-//! runtime** (the torque and current commands of every impedance tick, the armature voltages
-//! of every current tick):
+//! Every scenario checks these safety criteria on **everything that leaves the runtime** (the
+//! torque and current commands of every impedance tick, the armature voltages of every current
+//! tick):
 //!
 //! 1. the commanded torque never exceeds the joint's limit `min(torque_limit, N·η·k_t·i_max)`;
 //! 2. no NaN or infinity ever leaves the runtime;
@@ -119,7 +119,7 @@ pub struct FaultResult {
     pub note: String,
 }
 
-/// The scenarios of issue 9 on a 2-joint, 2-D-task rig (the parallel link).
+/// The fault scenarios on a 2-joint, 2-D-task rig (the parallel link).
 pub fn scenarios(sim: &Simulation) -> Vec<Fault> {
     let hold = |k: f64| Operator::Hand {
         stiffness: k,

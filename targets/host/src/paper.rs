@@ -1,4 +1,4 @@
-//! The experiments of the paper's section 6 (the table of `shared/spec/rigs.md`), each run in
+//! The experiments of the paper's section 6 (the table below), each run in
 //! simulation on the shipped models with the controllers running on their generated code, and
 //! the figures (in the style of Fig. 4–7) and `report.md` that state, for every experiment,
 //! the expectation, the measured figure and pass/fail.
@@ -50,11 +50,6 @@ impl Report {
             measured,
             pass,
         });
-    }
-
-    /// `true` when every check passed.
-    pub fn all_pass(&self) -> bool {
-        self.checks.iter().all(|c| c.pass)
     }
 }
 
@@ -295,8 +290,7 @@ fn figure4(sim: &Simulation, d: Durations, out: &Path, report: &mut Report) -> R
         .filter(|(ti, _)| **ti > STEP_AT + 1.0)
         .map(|(_, (a, b))| (a - b).abs())
         .fold(0.0, f64::max);
-    let resolution = std::f64::consts::TAU
-        / (f64::from(sim.nominal.drives[0].encoder_counts_per_turn) * sim.nominal.drives[0].gear_ratio);
+    let resolution = sim.nominal.drives[0].count_size();
     report.check(
         name,
         "friction on: deviation from the friction-free response after the first second",

@@ -1,4 +1,4 @@
-//! Processor in the loop (issue 19): the firmware image on the emulated Cortex-M4F (QEMU,
+//! Processor in the loop (docs/link-pil.md): the firmware image on the emulated Cortex-M4F (QEMU,
 //! MPS2-AN386) closes the loop around the host's plant, lock-step over the board's UART.
 //!
 //! [`Pil::start`] binds a TCP socket on the loopback interface, starts QEMU with the image's

@@ -83,11 +83,7 @@ impl Simulation {
     /// at rest stays inside it, where the compensation is a ramp, not `±F_c`.
     pub fn friction_compensation_band(&self) -> f64 {
         let rate = f64::from(self.model.rates.impedance_loop_hz);
-        self.nominal
-            .drives
-            .iter()
-            .map(|d| std::f64::consts::TAU / (f64::from(d.encoder_counts_per_turn) * d.gear_ratio) * rate)
-            .fold(0.0, f64::max)
+        self.nominal.drives.iter().map(|d| d.count_size() * rate).fold(0.0, f64::max)
     }
 }
 

@@ -191,7 +191,7 @@ struct Bounds {
     coulomb: f64,
 }
 
-/// The targets.
+/// The relative errors an identified model must stay within, per term.
 const TARGETS: Bounds = Bounds { inertia: 0.02, coriolis: 0.02, gravity: 0.02, viscous: 0.10, coulomb: 0.10 };
 
 fn identifies_the_true_device(

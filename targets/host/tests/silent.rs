@@ -1,4 +1,4 @@
-//! No silent successes (issue 41): `eval` refuses a state outside the joints' limits, where a
+//! No silent successes: `eval` refuses a state outside the joints' limits, where a
 //! closed chain's loops cannot close on the file's branch, or where a value is not finite; a
 //! scene nothing touched fails its check; every trace column is documented next to the trace;
 //! `scripts/firmware.sh --plan` says what `--only` runs.

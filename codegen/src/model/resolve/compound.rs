@@ -22,7 +22,7 @@
 use std::collections::{HashMap, HashSet};
 
 use super::{key, Resolver};
-use crate::math::vector::{cross, dot};
+use crate::math::vector::{cross, dot, norm};
 use crate::model::positions::{KeyPath, Segment};
 use crate::model::schema::{Assembly, Body, Inertia, InertiaTensor, Joint, JointType, ModelFile, Value};
 
@@ -139,8 +139,8 @@ fn compound(kind: JointType) -> Option<(usize, &'static str)> {
 
 fn unit(v: &[f64]) -> Option<[f64; 3]> {
     let [x, y, z] = <[f64; 3]>::try_from(v).ok()?;
-    let norm = (x * x + y * y + z * z).sqrt();
-    (norm.is_finite() && norm > 1e-9).then(|| [x / norm, y / norm, z / norm])
+    let length = norm([x, y, z]);
+    (length.is_finite() && length > 1e-9).then(|| [x / length, y / length, z / length])
 }
 
 /// Below this, the axes' cross product (universal) or triple product (spherical) makes the

@@ -1,4 +1,4 @@
-//! Device mode (issue 19, docs/link-device.md): what every board does the same when a host drives it
+//! Device mode (docs/link-device.md): what every board does the same when a host drives it
 //! over the link. The board image owns the transport (a UART, polled or by interrupt) and its
 //! clock; this module applies what the host sends to the controller ([`DeviceMode::on_event`]:
 //! the answer to `Hello`, new impedance settings, scene objects) and frames the state stream

@@ -1,4 +1,4 @@
-//! The device's end of the host link (issue 19; the protocol is `hapticgen-protocol`, see
+//! The device's end of the host link (the protocol is `hapticgen-protocol`, see
 //! docs/link.md): received bytes in, commands applied, state frames out, and the link's
 //! safety rules.
 //!

@@ -1,4 +1,4 @@
-//! What a device renders of the scene the host sends (issue 41): the answer to each object by
+//! What a device renders of the scene the host sends (docs/link-device.md): the answer to each object by
 //! the task's dimension and the object's values (`object_outcome`), and on a 3-D task the
 //! god object's reference for a half-space and a box, a spherical cavity, a device point already
 //! inside an object when the scene arrives, and the scene's free-space effect.

@@ -1,4 +1,4 @@
-//! Device mode on a 3-D task (issue 41), on the host with the f32 rig of the `falcon` image
+//! Device mode on a 3-D task (docs/link-device.md), on the host with the f32 rig of the `falcon` image
 //! (the Delta, the `device-3d` image's line): the scene's objects answered and rendered by the
 //! god object, a hand pushing the grip into a half-space held at the depth the wall spring
 //! predicts, and the unpowered plant resting on its end stops instead of sagging through its
@@ -91,7 +91,7 @@ impl Device {
 }
 
 /// Unpowered, the Delta rests on its end stops (seen failing without them: joint 0 at 1.48 rad
-/// after 0.5 s, through its 0.85 rad limit, as issue 41 found); every object kind of a 3-D scene is answered `Rendered` and drawn by the god
+/// after 0.5 s, through its 0.85 rad limit); every object kind of a 3-D scene is answered `Rendered` and drawn by the god
 /// object; enabled, a hand pushing up with 2 N into a half-space whose face is 5 mm above the
 /// start is held 2 N / 1000 N/m = 2 mm inside the face, within 2 %.
 #[test]

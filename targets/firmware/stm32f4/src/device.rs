@@ -1,4 +1,4 @@
-//! Device mode on the STM32F407 (issue 19, docs/link-device.md): the board's control cycle with the
+//! Device mode on the STM32F407 (docs/link-device.md): the board's control cycle with the
 //! host link of `hapticgen connect` on USART1 (PB6 TX, PB7 RX, 1 Mbit/s 8N1), polled.
 //!
 //! Two contexts share the [`DeviceState`] through a critical section:

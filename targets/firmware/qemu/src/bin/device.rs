@@ -1,4 +1,4 @@
-//! Device mode (issue 19): the image runs on its own clock like a device on a desk, and a host
+//! Device mode (docs/link-device.md): the image runs on its own clock like a device on a desk, and a host
 //! drives it over UART0 (`hapticgen connect`): impedance settings, scene objects, enable,
 //! disable, fault reset and heartbeats in; the 1 kHz state stream out.
 //!
@@ -80,8 +80,8 @@ const M: usize = image::TASK_DIM;
 type Rig = image::Rig;
 type Control = Controller<Rig, LinkSource<M>, N, M>;
 
-/// The heartbeat timeout, ms: the bridges are off within 10 ms of the last heartbeat (issue 19),
-/// with 4 ms to spare for the link's latency both ways and the tick in which the state frame
+/// The heartbeat timeout, ms: the bridges are off within 10 ms of the last heartbeat (the link's
+/// safe-state bound, docs/link.md), with 4 ms to spare for the link's latency both ways and the tick in which the state frame
 /// tells the host (`hapticgen connect --check-safety` measures the sum from the host).
 const LINK_TIMEOUT_MS: u32 = 6;
 

@@ -1,4 +1,4 @@
-//! The host link's cost on the Cortex-M4F (issue 19): for rigs of 1–6 joints, each
+//! The host link's cost on the Cortex-M4F (docs/link.md): for rigs of 1–6 joints, each
 //! impedance tick's state frame is quantised, framed and written to UART0 (the CMSDK UART of
 //! the MPS2-AN386, which QEMU connects to a file), and a command frame (a heartbeat, or new
 //! impedance settings) is fed to the device's [`DeviceLink`] byte by byte, as the UART would

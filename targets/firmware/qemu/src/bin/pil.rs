@@ -1,4 +1,4 @@
-//! Processor in the loop (issue 19): the image's rig and control path on the emulated
+//! Processor in the loop (docs/link-pil.md): the image's rig and control path on the emulated
 //! Cortex-M4F, the plant on the host (`hapticgen pil`), lock-step over UART0 (the CMSDK UART of
 //! the MPS2-AN386; QEMU connects it to a TCP socket the host listens on).
 //!
@@ -82,7 +82,8 @@ type Control = Controller<Rig, LinkSource<M>, N, M>;
 /// link's watchdog counts periods without a sensor frame.
 const WAIT_TICKS: u32 = 250_000_000;
 
-/// The heartbeat timeout of the link (the issue's 10 ms bound, with a margin), ms.
+/// The heartbeat timeout of the link (the link's 10 ms safe-state bound, docs/link.md, with a
+/// margin), ms.
 const LINK_TIMEOUT_MS: u32 = 5;
 
 /// The board of a PIL run: its sensors are the last sensor frame's, its voltages go back to

@@ -1,4 +1,4 @@
-//! The STM32F407 image in device mode (issue 19; the crate's documentation has the wiring,
+//! The STM32F407 image in device mode (docs/link-device.md; the crate's documentation has the wiring,
 //! [`hapticgen_fw_stm32f4::device`] the design): start-up, USART1 at 1 Mbit/s for the host
 //! link, SysTick at `CURRENT_LOOP_HZ` for the control cycle; the main loop moves the link's
 //! bytes. **Compiles; untested on hardware.**
@@ -20,8 +20,8 @@ use hapticgen_fw_stm32f4::{halt, image, loop_settings, rendering, start, Cycles,
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::serial::{Config, Serial};
 
-/// The heartbeat timeout, ms: the bridges are off within 10 ms of the last heartbeat
-/// (issue 19), as on the QEMU board's device image.
+/// The heartbeat timeout, ms: the bridges are off within 10 ms of the last heartbeat (the
+/// link's safe-state bound, docs/link.md), as on the QEMU board's device image.
 const LINK_TIMEOUT_MS: u32 = 6;
 
 /// The host link's speed, bit/s.
