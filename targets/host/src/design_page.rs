@@ -306,11 +306,12 @@ fn figures_table(summary: &Summary) -> String {
         rows.push((
             format!("stable wall stiffness (B = {} N·s/m; centre / least corner)", k.wall_damping),
             format!(
-                "{} / {} (analytic bound 2(b + B)/T = {:.0})",
+                "{} / {} (analytic bound 2(b + B)/T = {:.0} {force}/{})",
                 k.describe(force, summary.task_unit),
                 crate::design::StiffnessSummary { centre: k.min_over_corners, ..k.clone() }
                     .describe(force, summary.task_unit),
-                k.stability_bound
+                k.stability_bound,
+                summary.task_unit
             ),
         ));
     }

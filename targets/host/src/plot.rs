@@ -117,13 +117,30 @@ fn ranges(chart: &Chart, plot_pixels: (f64, f64)) -> ((f64, f64), (f64, f64)) {
     // Keep the legend clear of the data: extra room at the top.
     y.1 += 0.25 * (y.1 - y.0);
     if chart.equal_aspect {
-        let (width, height) = (plot_pixels.0.max(1.0), plot_pixels.1.max(1.0));
-        let per_pixel = ((x.1 - x.0) / width).max((y.1 - y.0) / height);
-        let (cx, cy) = (0.5 * (x.0 + x.1), 0.5 * (y.0 + y.1));
-        x = (cx - 0.5 * width * per_pixel, cx + 0.5 * width * per_pixel);
-        y = (cy - 0.5 * height * per_pixel, cy + 0.5 * height * per_pixel);
+        (x, y) = equal_scales(x, y, plot_pixels);
     }
     (x, y)
+}
+
+/// The ranges `x` and `y`, the narrower widened about its centre so that a unit is as many
+/// pixels along x as along y in a plot area of `plot_pixels` (width, height).
+fn equal_scales(x: (f64, f64), y: (f64, f64), plot_pixels: (f64, f64)) -> ((f64, f64), (f64, f64)) {
+    let (width, height) = (plot_pixels.0.max(1.0), plot_pixels.1.max(1.0));
+    let per_pixel = ((x.1 - x.0) / width).max((y.1 - y.0) / height);
+    let (cx, cy) = (0.5 * (x.0 + x.1), 0.5 * (y.0 + y.1));
+    (
+        (cx - 0.5 * width * per_pixel, cx + 0.5 * width * per_pixel),
+        (cy - 0.5 * height * per_pixel, cy + 0.5 * height * per_pixel),
+    )
+}
+
+/// The plot area's size in pixels inside an `area` of `(width, height)`: less the margins and
+/// the axis label areas.
+fn plot_pixels((width, height): (u32, u32)) -> (f64, f64) {
+    (
+        f64::from(width.saturating_sub(2 * MARGIN + Y_LABEL_AREA)),
+        f64::from(height.saturating_sub(2 * MARGIN + X_LABEL_AREA)),
+    )
 }
 
 /// Draws `chart`; returns the data units per pixel along x and along y.
@@ -134,12 +151,7 @@ where
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| format!("error: plotting failed: {e}");
     root.fill(&WHITE).map_err(err)?;
     let area = root.titled(&chart.title, ("sans-serif", 22)).map_err(err)?;
-    let (width, height) = area.dim_in_pixel();
-    let plot_pixels = (
-        f64::from(width.saturating_sub(2 * MARGIN + Y_LABEL_AREA)),
-        f64::from(height.saturating_sub(2 * MARGIN + X_LABEL_AREA)),
-    );
-    let ((x0, x1), (y0, y1)) = ranges(chart, plot_pixels);
+    let ((x0, x1), (y0, y1)) = ranges(chart, plot_pixels(area.dim_in_pixel()));
     let mut ctx = ChartBuilder::on(&area)
         .margin(MARGIN)
         .x_label_area_size(X_LABEL_AREA)
@@ -270,15 +282,7 @@ where
     let (mut y0, mut y1) =
         (map.y.first().copied().unwrap_or(0.0) - hy, map.y.last().copied().unwrap_or(0.0) + hy);
     // As many pixels per unit along x as along y: a cube's section stays square.
-    let (width, height) = plot_area.dim_in_pixel();
-    let (width, height) = (
-        f64::from(width.saturating_sub(2 * MARGIN + Y_LABEL_AREA).max(1)),
-        f64::from(height.saturating_sub(2 * MARGIN + X_LABEL_AREA).max(1)),
-    );
-    let per_pixel = ((x1 - x0) / width).max((y1 - y0) / height);
-    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    (x0, x1) = (cx - 0.5 * width * per_pixel, cx + 0.5 * width * per_pixel);
-    (y0, y1) = (cy - 0.5 * height * per_pixel, cy + 0.5 * height * per_pixel);
+    ((x0, x1), (y0, y1)) = equal_scales((x0, x1), (y0, y1), plot_pixels(plot_area.dim_in_pixel()));
     let mut ctx = ChartBuilder::on(&plot_area)
         .margin(MARGIN)
         .x_label_area_size(X_LABEL_AREA)

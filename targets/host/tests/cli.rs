@@ -720,9 +720,21 @@ fn the_design_walkthrough_quotes_what_the_reports_compute() {
     let at = |s: &serde_json::Value, key: &str| s.pointer(key).and_then(|v| v.as_f64()).expect(key);
     let rows: [(&str, &str, f64, usize, &str); 5] = [
         ("| inscribed square, edge |", "/workspace/inscribed_square/edge", 1e3, 1, " mm"),
-        ("| peak force in every direction, least over the square |", "/force/peak/min_over_cube", 1.0, 2, " N"),
+        (
+            "| peak force in every direction, least over the square |",
+            "/force/peak/min_over_cube",
+            1.0,
+            2,
+            " N",
+        ),
         ("| one encoder count, largest step over the square |", "/resolution/max_over_cube", 1e6, 1, " µm"),
-        ("| condition number of J, largest over the square |", "/isotropy/condition/max_over_cube", 1.0, 2, ""),
+        (
+            "| condition number of J, largest over the square |",
+            "/isotropy/condition/max_over_cube",
+            1.0,
+            2,
+            "",
+        ),
         ("| apparent inertia, heaviest direction over the square |", "/inertia/max_over_cube", 1e3, 1, " g"),
     ];
     let page = std::fs::read_to_string(workspace().join("docs/design-your-device.md")).unwrap();

@@ -125,6 +125,21 @@ fn apparent_inertia_bounds_every_rayleigh_quotient_of_the_mobility() {
     }
 }
 
+/// Brute force: the task points of a planar two-joint rig at a grid of 301 values per joint
+/// over `limits`, by the polynomial evaluator (≈ 0.4 mm apart for the five-bar).
+fn planar_cloud(
+    mech: &hapticgen_codegen::dynamics::mechanics::Mechanics,
+    limits: &[(f64, f64)],
+) -> Vec<[f64; 2]> {
+    joint_grid(limits, 301)
+        .iter()
+        .filter_map(|q| {
+            let p = evaluate(mech, &State { q, qd: &[0.0; 2], parameters: &[] }, None).p;
+            (p[0].is_finite() && p[1].is_finite()).then_some([p[0], p[1]])
+        })
+        .collect()
+}
+
 #[test]
 fn the_inscribed_square_is_reached_and_a_larger_one_is_not() {
     let m = model("pantograph_5bar.yaml");
@@ -142,13 +157,7 @@ fn the_inscribed_square_is_reached_and_a_larger_one_is_not() {
     }
     // Brute force: the task points of a fine grid over the joint box (spacing ≈ 0.4 mm). The
     // square's points all lie among them; a square 10 % larger reaches out of them.
-    let cloud: Vec<[f64; 2]> = joint_grid(&design.limits, 301)
-        .iter()
-        .filter_map(|q| {
-            let p = evaluate(&mech, &State { q, qd: &[0.0; 2], parameters: &[] }, None).p;
-            (p[0].is_finite() && p[1].is_finite()).then_some([p[0], p[1]])
-        })
-        .collect();
+    let cloud = planar_cloud(&mech, &design.limits);
     let farthest = |edge: f64| {
         cube_lattice(&ws.centre, edge, 11)
             .iter()
@@ -285,13 +294,7 @@ fn the_maps_cells_are_reached_where_the_joint_box_reaches() {
     assert!(reached > 24 * 24 / 5, "only {reached} cells reached");
     // An unreached cell: no pose of a fine grid over the joint box (≈ 0.4 mm apart) lands within
     // 0.2 mm of its centre, but for a few at the workspace's edge.
-    let cloud: Vec<[f64; 2]> = joint_grid(&design.limits, 301)
-        .iter()
-        .filter_map(|q| {
-            let p = evaluate(&mech, &State { q, qd: &[0.0; 2], parameters: &[] }, None).p;
-            (p[0].is_finite() && p[1].is_finite()).then_some([p[0], p[1]])
-        })
-        .collect();
+    let cloud = planar_cloud(&mech, &design.limits);
     let missed = slice
         .cells
         .iter()
