@@ -352,6 +352,8 @@ pub struct Workspace {
     pub edge: f64,
     /// The joint coordinates reaching each point of its test lattice.
     pub lattice: Vec<Vec<f64>>,
+    /// The inscribed ball's (sphere's, disc's) centre and radius, m ([`ball_probes`]).
+    pub ball: (Vec<f64>, f64),
 }
 
 /// The sample whose task point is nearest `x` (the start of inverse kinematics); `samples` is
@@ -382,23 +384,21 @@ fn sample_bounds(samples: &[Sample], m: usize) -> (Vec<f64>, Vec<f64>) {
 }
 
 impl Design {
-    /// The joint states reaching every lattice point of the cube, or `None` if one is out of reach.
-    fn cube_reached(&self, samples: &[Sample], centre: &[f64], edge: f64) -> Option<Vec<Vec<f64>>> {
-        cube_lattice(centre, edge, CUBE_PROBES)
-            .par_iter()
-            .map(|x| self.inverse_kinematics(x, &nearest(samples, x).q))
-            .collect()
+    /// The joint states reaching every point of `points`, or `None` if one is out of reach.
+    fn all_reached(&self, samples: &[Sample], points: Vec<Vec<f64>>) -> Option<Vec<Vec<f64>>> {
+        points.par_iter().map(|x| self.inverse_kinematics(x, &nearest(samples, x).q)).collect()
     }
 
-    /// The largest edge of a cube about `centre` that is reached, by bisection up to `upper`.
-    fn largest_edge(&self, samples: &[Sample], centre: &[f64], upper: f64) -> f64 {
+    /// The largest size (a cube's edge, a ball's radius) about `centre` whose `probes` are all
+    /// reached, by bisection up to `upper` (to `upper / 2¹⁶`).
+    fn largest_size(&self, samples: &[Sample], centre: &[f64], upper: f64, probes: Probes) -> f64 {
         let (mut lo, mut hi) = (0.0, upper);
-        if self.cube_reached(samples, centre, 1e-9).is_none() {
+        if self.all_reached(samples, probes(centre, 1e-9)).is_none() {
             return 0.0;
         }
         for _ in 0..16 {
             let mid = 0.5 * (lo + hi);
-            if self.cube_reached(samples, centre, mid).is_some() {
+            if self.all_reached(samples, probes(centre, mid)).is_some() {
                 lo = mid;
             } else {
                 hi = mid;
@@ -407,7 +407,40 @@ impl Design {
         lo
     }
 
-    /// Samples the joint box with `steps` per joint and finds the inscribed hypercube.
+    /// The centre and size of the largest shape `probes` describes inside the workspace: the
+    /// largest about `start`, its centre then moved by a pattern search where the shape grows.
+    fn largest_shape(
+        &self,
+        samples: &[Sample],
+        start: Vec<f64>,
+        span: f64,
+        probes: Probes,
+    ) -> (Vec<f64>, f64) {
+        let mut centre = start;
+        let mut size = self.largest_size(samples, &centre, span, probes);
+        let mut step = 0.25 * size.max(span / 20.0);
+        while step > 1e-3 * span {
+            let mut improved = false;
+            for k in 0..centre.len() {
+                for sign in [-1.0, 1.0] {
+                    let mut moved = centre.clone();
+                    moved[k] += sign * step;
+                    if self.all_reached(samples, probes(&moved, size)).is_some() {
+                        let grown = self.largest_size(samples, &moved, span, probes);
+                        if grown > size * (1.0 + 1e-6) {
+                            (centre, size, improved) = (moved, grown, true);
+                        }
+                    }
+                }
+            }
+            if !improved {
+                step *= 0.5;
+            }
+        }
+        (centre, size)
+    }
+
+    /// Samples the joint box with `steps` per joint and finds the inscribed hypercube and ball.
     pub fn workspace(&self, steps: usize) -> Result<Workspace, DesignError> {
         let grid = joint_grid(&self.limits, steps);
         let samples: Vec<Sample> = grid.par_iter().filter_map(|q| self.sample(q)).collect();
@@ -423,9 +456,9 @@ impl Design {
         let m = self.task_dim();
         let (lower, upper) = sample_bounds(&samples, m);
         let span = lower.iter().zip(&upper).map(|(a, b)| b - a).fold(f64::INFINITY, f64::min);
-        // Start at the middle of the joint box's image and walk the centre where the cube grows.
+        // Start at the middle of the joint box's image.
         let middle: Vec<f64> = self.limits.iter().map(|(lo, hi)| 0.5 * (lo + hi)).collect();
-        let mut centre = self.sample(&middle).map_or_else(
+        let start = self.sample(&middle).map_or_else(
             || {
                 (0..m)
                     .map(|k| samples.iter().map(|s| s.position[k]).sum::<f64>() / samples.len() as f64)
@@ -433,33 +466,77 @@ impl Design {
             },
             |s| s.position,
         );
-        let mut edge = self.largest_edge(&samples, &centre, span);
-        let mut step = 0.25 * edge.max(span / 20.0);
-        while step > 1e-3 * span {
-            let mut improved = false;
-            for k in 0..m {
-                for sign in [-1.0, 1.0] {
-                    let mut moved = centre.clone();
-                    moved[k] += sign * step;
-                    if self.cube_reached(&samples, &moved, edge).is_some() {
-                        let grown = self.largest_edge(&samples, &moved, span);
-                        if grown > edge * (1.0 + 1e-6) {
-                            (centre, edge, improved) = (moved, grown, true);
-                        }
-                    }
-                }
-            }
-            if !improved {
-                step *= 0.5;
-            }
-        }
+        let cube_probes: Probes = |centre, edge| cube_lattice(centre, edge, CUBE_PROBES);
+        let (centre, edge) = self.largest_shape(&samples, start.clone(), span, cube_probes);
         let name = ["interval", "square", "cube"].get(m.saturating_sub(1)).copied().unwrap_or("hypercube");
         let lattice = self
-            .cube_reached(&samples, &centre, edge)
+            .all_reached(&samples, cube_lattice(&centre, edge, CUBE_PROBES))
             .filter(|_| edge > 0.0)
             .ok_or_else(|| DesignError::NoCube(name, centre.clone()))?;
-        Ok(Workspace { samples, grid: (steps, grid.len()), centre, edge, lattice })
+        // The ball from the cube's centre: it holds the cube's inscribed ball already.
+        let (ball_centre, radius) = self.largest_shape(&samples, centre.clone(), 0.5 * span, ball_probes);
+        Ok(Workspace {
+            samples,
+            grid: (steps, grid.len()),
+            centre,
+            edge,
+            lattice,
+            ball: (ball_centre, radius),
+        })
     }
+}
+
+/// The points a shape of some size about a centre is tested on.
+type Probes = fn(&[f64], f64) -> Vec<Vec<f64>>;
+
+/// Directions a ball is probed along: 16 on a circle, 32 over a sphere (a Fibonacci lattice),
+/// both ways along each axis for other dimensions.
+pub const BALL_DIRECTIONS: (usize, usize) = (16, 32);
+
+/// The points a ball of `radius` about `centre` is tested on: its centre and, along each of
+/// [`BALL_DIRECTIONS`], the points at half and at the full radius.
+pub fn ball_probes(centre: &[f64], radius: f64) -> Vec<Vec<f64>> {
+    let m = centre.len();
+    let directions: Vec<Vec<f64>> = match m {
+        2 => (0..BALL_DIRECTIONS.0)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / BALL_DIRECTIONS.0 as f64;
+                vec![a.cos(), a.sin()]
+            })
+            .collect(),
+        3 => (0..BALL_DIRECTIONS.1)
+            .map(|i| {
+                let z = 1.0 - 2.0 * (i as f64 + 0.5) / BALL_DIRECTIONS.1 as f64;
+                let r = (1.0 - z * z).sqrt();
+                let a = i as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
+                vec![r * a.cos(), r * a.sin(), z]
+            })
+            .collect(),
+        _ => (0..2 * m)
+            .map(|i| {
+                (0..m)
+                    .map(|k| {
+                        if k == i / 2 {
+                            if i % 2 == 0 {
+                                1.0
+                            } else {
+                                -1.0
+                            }
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect()
+            })
+            .collect(),
+    };
+    let mut points = vec![centre.to_vec()];
+    for fraction in [0.5, 1.0] {
+        points.extend(
+            directions.iter().map(|d| centre.iter().zip(d).map(|(c, u)| c + fraction * radius * u).collect()),
+        );
+    }
+    points
 }
 
 /// `v` with `digits` decimals, never `-0.0` (a centre 0.03 µm left of an axis is at 0.0 mm).
@@ -565,6 +642,23 @@ pub struct WorkspaceSummary {
     /// The inscribed interval (1-D tasks).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub inscribed_interval: Option<CubeSummary>,
+    /// The inscribed sphere (3-D tasks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inscribed_sphere: Option<BallSummary>,
+    /// The inscribed disc (planar tasks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inscribed_disc: Option<BallSummary>,
+}
+
+/// The inscribed ball in `summary.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct BallSummary {
+    /// Radius, m.
+    pub radius: f64,
+    /// Centre, m, world frame of the model.
+    pub centre: Vec<f64>,
+    /// Directions it was tested along (at half and at the full radius, and its centre).
+    pub directions: usize,
 }
 
 /// Peak and continuous force capability.
@@ -651,6 +745,12 @@ impl StiffnessSummary {
 }
 
 impl Summary {
+    /// The inscribed ball's name (`sphere`, `disc`) and figures, for 3-D and planar tasks.
+    pub fn ball(&self) -> Option<(&'static str, &BallSummary)> {
+        let w = &self.workspace;
+        w.inscribed_sphere.as_ref().map(|b| ("sphere", b)).or(w.inscribed_disc.as_ref().map(|b| ("disc", b)))
+    }
+
     /// The inscribed hypercube's name and figures.
     pub fn cube(&self) -> (&'static str, Option<&CubeSummary>) {
         let w = &self.workspace;
@@ -673,6 +773,9 @@ impl Summary {
         let (name, cube) = self.cube();
         let Some(cube) = cube else { return format!("no inscribed {name}") };
         let centre: Vec<String> = cube.centre.iter().map(|c| fixed(c * scale, 1)).collect();
+        let ball = self.ball().map_or(String::new(), |(name, b)| {
+            format!("; inscribed {name} of radius {:.1} {length}", b.radius * scale)
+        });
         let wall = self.renderable_stiffness.as_ref().map_or(String::new(), |k| {
             format!(
                 "; stable wall {} at the centre, {} at the least corner",
@@ -684,7 +787,7 @@ impl Summary {
             )
         });
         format!(
-            "inscribed {name} {:.1} {length} at ({}) {length}; force in every direction over it {:.2}-{:.2} {force} \
+            "inscribed {name} {:.1} {length} at ({}) {length}{ball}; force in every direction over it {:.2}-{:.2} {force} \
              peak, {:.2} {force} continuous at least; apparent inertia {:.3}-{:.3} {mass}; resolution {:.1} {fine} at \
              worst; condition number of J {:.2}-{:.2}; gravity load {:.0} % of peak at most{wall}",
             cube.edge * scale,
@@ -703,14 +806,14 @@ impl Summary {
 }
 
 /// The Z-width search of the report for a rig whose analytic bound `2 (b + B) / T` is `bound`:
-/// a wall without damping, 5 bisection steps on a log scale from `bound / 16` to `2 bound`
-/// (the last step 11 % wide), runs of at least 1 s.
+/// a wall without damping, 4 bisection steps on a log scale from `bound / 16` to `2 bound`
+/// (the last step 24 % wide), runs of at least 0.75 s.
 pub fn report_sweep(bound: f64) -> crate::zwidth::Sweep {
     crate::zwidth::Sweep {
         damping: vec![0.0],
         stiffness_range: (bound / 16.0, 2.0 * bound),
-        steps: 5,
-        duration: 1.0,
+        steps: 4,
+        duration: 0.75,
     }
 }
 
@@ -747,7 +850,7 @@ pub fn renderable_stiffness(
                 .inverse_kinematics(x, &ws.nearest(x).q)
                 .ok_or_else(|| format!("no joint state reaches the cube's point {x:?}"))?;
             // The run lasts four periods of the device's heaviest direction on the hand's spring
-            // (at least 1 s, at most 6 s), so that a slow device's approach has settled.
+            // (at least 0.75 s, at most 6 s), so that a slow device's approach has settled.
             let heaviest =
                 design.sample(&start).and_then(|s| design.apparent_inertia(&s)).map_or(0.0, |l| l.1);
             let period = std::f64::consts::TAU * (heaviest / HAND_STIFFNESS).sqrt();
@@ -797,12 +900,19 @@ pub fn summarise(
     let m = design.task_dim();
     let (unit, scale) = if design.task_is_point() { ("mm", 1e3) } else { ("rad", 1.0) };
     eprintln!(
-        "report: the inscribed hypercube found ({:.1} {unit}); figures over its lattice",
-        ws.edge * scale
+        "report: the inscribed hypercube ({:.1} {unit} edge) and ball ({:.1} {unit} radius) found; figures over the \
+         hypercube's lattice",
+        ws.edge * scale,
+        ws.ball.1 * scale
     );
     let on_cube: Vec<Figures> =
         ws.lattice.iter().filter_map(|q| design.sample(q)).map(|s| design.figures(&s)).collect();
     let cube = CubeSummary { edge: ws.edge, centre: ws.centre.clone(), probes_per_edge: CUBE_PROBES };
+    let ball = BallSummary {
+        radius: ws.ball.1,
+        centre: ws.ball.0.clone(),
+        directions: if m == 2 { BALL_DIRECTIONS.0 } else { BALL_DIRECTIONS.1 },
+    };
     let (lower, upper) = ws.bounds();
     let over = |f: fn(&Figures) -> f64| spread(on_cube.iter().map(f).collect());
     let finite_inertia: Vec<&Figures> = on_cube.iter().filter(|f| f.inertia_max.is_finite()).collect();
@@ -823,6 +933,8 @@ pub fn summarise(
             inscribed_cube: (m == 3).then(|| cube.clone()),
             inscribed_square: (m == 2).then(|| cube.clone()),
             inscribed_interval: (m == 1).then_some(cube),
+            inscribed_sphere: (m == 3).then(|| ball.clone()),
+            inscribed_disc: (m == 2).then_some(ball),
         },
         force: ForceSummary { peak: over(|f| f.force_peak), continuous: over(|f| f.force_continuous) },
         inertia: InertiaSummary {

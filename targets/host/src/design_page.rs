@@ -261,6 +261,13 @@ fn figures_table(summary: &Summary) -> String {
             format!("{:.1} {length}, centred at ({}) {length}", cube.edge * scale, centre.join(", ")),
         ));
     }
+    if let Some((name, ball)) = summary.ball() {
+        let centre: Vec<String> = ball.centre.iter().map(|c| crate::design::fixed(c * scale, 1)).collect();
+        rows.push((
+            format!("inscribed {name}, radius"),
+            format!("{:.1} {length}, centred at ({}) {length}", ball.radius * scale, centre.join(", ")),
+        ));
+    }
     let spread = |s: &crate::design::Spread, f: f64, unit: &str, digits: usize| {
         format!(
             "{:.*} / {:.*} / {:.*} {unit}",

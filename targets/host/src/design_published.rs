@@ -23,6 +23,9 @@ pub struct Published {
     /// The edge of the published workspace cube, m.
     #[serde(default)]
     pub cube_edge: Option<f64>,
+    /// The radius of the published workspace sphere, m.
+    #[serde(default)]
+    pub sphere_radius: Option<f64>,
     /// The published workspace box, width × height × depth, m.
     #[serde(default, rename = "box")]
     pub workspace_box: Option<[f64; 3]>,
@@ -94,11 +97,24 @@ pub fn compare(summary: &Summary) -> Result<Option<Comparison>, String> {
             published: space,
         });
     }
+    if let (Some(r), Some((ball_name, ball))) = (device.sphere_radius, summary.ball()) {
+        rows.push(Row {
+            figure: "workspace sphere".into(),
+            model: format!("inscribed {ball_name}, radius {}", mm(ball.radius)),
+            published: format!("radius {}", mm(r)),
+        });
+    }
     if let Some(f) = device.peak_force {
+        // A device publishing one force: the model's continuous force beside it too.
+        let continuous = if device.continuous_force.is_none() {
+            format!(" ({} continuous)", newtons(summary.force.continuous.min_over_cube))
+        } else {
+            String::new()
+        };
         rows.push(Row {
             figure: "peak force".into(),
             model: format!(
-                "{} in every direction at worst over the {name}",
+                "{}{continuous} in every direction at worst over the {name}",
                 newtons(summary.force.peak.min_over_cube)
             ),
             published: newtons(f),

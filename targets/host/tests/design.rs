@@ -141,7 +141,7 @@ fn planar_cloud(
 }
 
 #[test]
-fn the_inscribed_square_is_reached_and_a_larger_one_is_not() {
+fn the_inscribed_square_and_disc_are_reached_and_larger_ones_are_not() {
     let m = model("pantograph_5bar.yaml");
     let mech = hapticgen_codegen::derive(&m);
     let design = Design::new(&m);
@@ -166,6 +166,21 @@ fn the_inscribed_square_is_reached_and_a_larger_one_is_not() {
     };
     assert!(farthest(ws.edge) < 0.6e-3, "{}", farthest(ws.edge));
     assert!(farthest(1.1 * ws.edge) > 1.0e-3, "{}", farthest(1.1 * ws.edge));
+    // The inscribed disc the same way, on 360 points of its circle: inside the cloud, and a disc
+    // 10 % larger about the same centre reaching out of it. It holds the square's inscribed disc.
+    let (centre, radius) = &ws.ball;
+    assert!(*radius >= 0.5 * ws.edge * (1.0 - 1e-3), "{radius} vs the square's {}", ws.edge);
+    let farthest_on_circle = |r: f64| {
+        (0..360)
+            .map(|i| {
+                let a = f64::from(i).to_radians();
+                let x = [centre[0] + r * a.cos(), centre[1] + r * a.sin()];
+                cloud.iter().map(|c| (c[0] - x[0]).hypot(c[1] - x[1])).fold(f64::INFINITY, f64::min)
+            })
+            .fold(0.0, f64::max)
+    };
+    assert!(farthest_on_circle(*radius) < 0.6e-3, "{}", farthest_on_circle(*radius));
+    assert!(farthest_on_circle(1.1 * radius) > 1.0e-3, "{}", farthest_on_circle(1.1 * radius));
 }
 
 #[test]
