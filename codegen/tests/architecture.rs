@@ -713,3 +713,23 @@ fn the_figure_check_sees_a_planted_disagreement() {
         vec![format!("\"0.17 encoder counts\" is stated in none of {:?}", docs.keys().collect::<Vec<_>>())]
     );
 }
+
+#[test]
+fn runtime_and_host_modules_import_no_cycle() {
+    // The runtime's and the host's modules, like codegen's, depend one way: a rig's code never
+    // needs the safety monitor that watches it, the design report's computations never the
+    // page or the maps drawn from them.
+    for (krate, least_files) in [("runtime/src", 15), ("targets/host/src", 30)] {
+        let graph = crate_dependency_graph(&repo_root().join(krate));
+        assert!(
+            graph.len() >= least_files,
+            "only {} source files found in {krate}: the scan is broken",
+            graph.len()
+        );
+        let edges: usize = graph.values().map(BTreeSet::len).sum();
+        assert!(edges >= least_files, "only {edges} dependencies found in {krate}: the scan is broken");
+        if let Some(cycle) = find_cycle(&graph) {
+            panic!("import cycle among {krate}'s files: {}", cycle.join(" → "));
+        }
+    }
+}

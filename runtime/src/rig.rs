@@ -249,9 +249,40 @@ macro_rules! impl_rig_model {
             $(
                 const HAS_LOOPS: bool = true;
                 fn loop_margin(&self, q: &[$s; $n]) -> $s {
-                    $crate::safety::least_loop_margin(&Self::$closure_margin(self, q))
+                    $crate::rig::least_loop_margin(&Self::$closure_margin(self, q))
                 }
             )?
         }
     };
+}
+
+/// The least of a closed chain's loop margins (`1` with none), for
+/// [`RigModel::loop_margin`]; `−1` (a loop that cannot close)
+/// as soon as one is not finite, so that NaN never reads as safe.
+pub fn least_loop_margin<S: Real>(margins: &[S]) -> S {
+    let mut least = S::ONE;
+    for &margin in margins {
+        if !margin.is_finite() {
+            return S::ZERO - S::ONE;
+        }
+        if margin < least {
+            least = margin;
+        }
+    }
+    least
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn least_loop_margin_is_the_minimum_and_never_reads_a_non_finite_margin_as_safe() {
+        assert_eq!(least_loop_margin::<f64>(&[]), 1.0);
+        assert_eq!(least_loop_margin(&[0.7, 0.2, 0.9]), 0.2);
+        assert_eq!(least_loop_margin(&[0.7, -0.3]), -0.3);
+        assert_eq!(least_loop_margin(&[0.7, f64::NAN, 0.9]), -1.0);
+        assert_eq!(least_loop_margin(&[f64::INFINITY]), -1.0);
+        assert_eq!(least_loop_margin(&[0.5_f32, f32::NAN]), -1.0);
+    }
 }

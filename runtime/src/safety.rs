@@ -64,22 +64,6 @@ impl FaultCode {
     }
 }
 
-/// The least of a closed chain's loop margins (`1` with none), for
-/// [`RigModel::loop_margin`](crate::RigModel::loop_margin); `−1` (a loop that cannot close)
-/// as soon as one is not finite, so that NaN never reads as safe.
-pub fn least_loop_margin<S: Real>(margins: &[S]) -> S {
-    let mut least = S::ONE;
-    for &margin in margins {
-        if !margin.is_finite() {
-            return S::ZERO - S::ONE;
-        }
-        if margin < least {
-            least = margin;
-        }
-    }
-    least
-}
-
 /// The default [`SafetyMonitor::min_loop_margin`]: a loop's squared sine of `10⁻³`, its links
 /// within about 1.8° of aligned.
 pub const DEFAULT_MIN_LOOP_MARGIN: f64 = 1e-3;
@@ -362,16 +346,6 @@ mod tests {
         let command = monitor.limit(&[1.0, -1.0]);
         assert_eq!(command.torque, [0.0, 0.0]);
         assert_eq!(command.clamped, [true, true]);
-    }
-
-    #[test]
-    fn least_loop_margin_is_the_minimum_and_never_reads_a_non_finite_margin_as_safe() {
-        assert_eq!(least_loop_margin::<f64>(&[]), 1.0);
-        assert_eq!(least_loop_margin(&[0.7, 0.2, 0.9]), 0.2);
-        assert_eq!(least_loop_margin(&[0.7, -0.3]), -0.3);
-        assert_eq!(least_loop_margin(&[0.7, f64::NAN, 0.9]), -1.0);
-        assert_eq!(least_loop_margin(&[f64::INFINITY]), -1.0);
-        assert_eq!(least_loop_margin(&[0.5_f32, f32::NAN]), -1.0);
     }
 
     #[test]

@@ -19,8 +19,6 @@
 //! - **Resolution**: the largest task-space step one encoder count of one drive makes,
 //!   `max_i |J C⁻¹ e_i| δ_i` with `δ_i = 2π / (counts per turn · N)`.
 
-use std::path::Path;
-
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -610,9 +608,10 @@ pub struct Summary {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub renderable_stiffness: Option<StiffnessSummary>,
     /// The published figures of the device the model resembles, beside the model's
-    /// ([`crate::design_published`]; shipped models only).
+    /// (`None` from [`summarise`]; [`crate::design_published::compare`] fills it for the
+    /// shipped models).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub published: Option<crate::design_published::Comparison>,
+    pub published: Option<Comparison>,
 }
 
 /// The grid the workspace was sampled on.
@@ -805,6 +804,30 @@ impl Summary {
     }
 }
 
+/// One figure of the model beside the device's.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Row {
+    /// The figure.
+    pub figure: String,
+    /// The model's, as `hapticgen report` computed it.
+    pub model: String,
+    /// The device's, as published.
+    pub published: String,
+}
+
+/// The model's figures beside a device's published ones.
+#[derive(Clone, Debug, Serialize)]
+pub struct Comparison {
+    /// The device.
+    pub device: String,
+    /// Where its figures were published.
+    pub sources: Vec<String>,
+    /// Figure by figure.
+    pub rows: Vec<Row>,
+    /// Why the model's figures may differ.
+    pub notes: Vec<String>,
+}
+
 /// The Z-width search of the report for a rig whose analytic bound `2 (b + B) / T` is `bound`:
 /// a wall without damping, 4 bisection steps on a log scale from `bound / 16` to `2 bound`
 /// (the last step 24 % wide), runs of at least 0.75 s.
@@ -957,78 +980,5 @@ pub fn summarise(
         renderable_stiffness,
         published: None,
     };
-    let published = crate::design_published::compare(&summary).map_err(DesignError::Map)?;
-    Ok((Summary { published, ..summary }, ws))
-}
-
-/// `hapticgen report`: writes `summary.json`, `workspace.csv` (every grid sample's joint
-/// coordinates, task point and figures), the maps ([`crate::design_maps`], `maps/`) and the
-/// page `index.html` ([`crate::design_page`], with `replay`'s run if given) to `dir`.
-pub fn write_report(
-    model: &CheckedModel,
-    steps: usize,
-    zwidth: bool,
-    replay: Option<&crate::replay::Replay>,
-    dir: &Path,
-) -> Result<Summary, DesignError> {
-    let (summary, ws) = summarise(model, steps, zwidth)?;
-    let write = |name: &str, text: String| {
-        let path = dir.join(name);
-        std::fs::create_dir_all(dir)
-            .and_then(|_| std::fs::write(&path, text))
-            .map_err(|e| DesignError::Write(path.display().to_string(), e))
-    };
-    write("summary.json", crate::output::to_json(&summary, true).unwrap_or_default() + "\n")?;
-    let design = Design::new(model);
-    let (n, m) = (design.joints(), design.task_dim());
-    let mut csv = String::new();
-    let names: Vec<String> = (0..n)
-        .map(|j| format!("q{j}_rad"))
-        .chain((0..m).map(|k| format!("x{k}_m")))
-        .chain(
-            [
-                "force_peak_N",
-                "force_continuous_N",
-                "inertia_min_kg",
-                "inertia_max_kg",
-                "condition",
-                "gravity_load_percent",
-                "resolution_m",
-            ]
-            .map(String::from),
-        )
-        .collect();
-    csv.push_str(&names.join(","));
-    csv.push('\n');
-    for s in &ws.samples {
-        let f = design.figures(s);
-        let row: Vec<String> =
-            s.q.iter()
-                .chain(&s.position)
-                .copied()
-                .chain([
-                    f.force_peak,
-                    f.force_continuous,
-                    f.inertia_min,
-                    f.inertia_max,
-                    f.condition,
-                    f.gravity_load,
-                    f.resolution,
-                ])
-                .map(|v| format!("{}", crate::output::unsigned_zero(v)))
-                .collect();
-        csv.push_str(&row.join(","));
-        csv.push('\n');
-    }
-    write("workspace.csv", csv)?;
-    eprintln!(
-        "report: maps over {} slice(s), {} cells per side",
-        m.min(3).saturating_sub(1).max(1),
-        crate::design_maps::MAP_CELLS
-    );
-    let slices = crate::design_maps::slices(&design, &ws, crate::design_maps::MAP_CELLS);
-    let maps = crate::design_maps::write_maps(&design, &ws, &slices, dir).map_err(DesignError::Map)?;
-    let view = crate::design_page::pose_grid(model, crate::design_page::view_steps(n));
-    write("index.html", crate::design_page::page(&view, &ws, &summary, &maps, dir, replay))?;
-    Ok(summary)
+    Ok((summary, ws))
 }

@@ -24,7 +24,6 @@ use std::path::Path;
 
 use crate::design::{joint_grid, Summary, Workspace};
 use crate::design_maps::MapFile;
-use crate::replay::Replay;
 
 /// three.js's core module, rewritten to import nothing.
 const THREE_CORE: &str = include_str!("../assets/three/three.core.js");
@@ -356,14 +355,14 @@ fn figures_table(summary: &Summary) -> String {
 }
 
 /// The page: the figures as a table, the 3-D view, one slider per joint, the maps, and the
-/// replay of a run if one is given ([`crate::replay`]).
+/// replay of a run if one is given (its data, [`crate::replay::page_data`]).
 pub fn page(
     grid: &PoseGrid,
     workspace: &Workspace,
     summary: &Summary,
     maps: &[MapFile],
     dir: &Path,
-    replay: Option<&Replay>,
+    replay: Option<&str>,
 ) -> String {
     let core = format!("data:text/javascript;base64,{}", base64(THREE_CORE.as_bytes()));
     let module = format!("data:text/javascript;base64,{}", base64(THREE_MODULE.as_bytes()));
@@ -374,7 +373,7 @@ pub fn page(
     ));
     let figures = escape_html(&summary.describe());
     let data = page_data(grid, workspace, summary).replace("</", "<\\/");
-    let replay = replay.map_or_else(|| "null".to_string(), crate::replay::page_data).replace("</", "<\\/");
+    let replay = replay.unwrap_or("null").replace("</", "<\\/");
     // The template is plain HTML with `@@NAME@@` slots, so that its script needs no escaping.
     PAGE_TEMPLATE
         .replace("@@TITLE@@", &title)

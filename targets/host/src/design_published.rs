@@ -3,9 +3,9 @@
 //! the model's may differ), set beside the figures `hapticgen report` computed for the model,
 //! so that a designer sees the model's estimates against the real device's datasheet.
 
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 
-use crate::design::Summary;
+use crate::design::{Comparison, Row, Summary};
 
 /// The published figures, as shipped.
 const PUBLISHED: &str = include_str!("../assets/published-devices.yaml");
@@ -48,30 +48,6 @@ pub struct Published {
 /// Every device of `assets/published-devices.yaml`.
 pub fn all() -> Result<Vec<Published>, String> {
     serde_yaml::from_str(PUBLISHED).map_err(|e| format!("assets/published-devices.yaml: {e}"))
-}
-
-/// One figure of the model beside the device's.
-#[derive(Clone, Debug, Serialize, PartialEq)]
-pub struct Row {
-    /// The figure.
-    pub figure: String,
-    /// The model's, as `hapticgen report` computed it.
-    pub model: String,
-    /// The device's, as published.
-    pub published: String,
-}
-
-/// The model's figures beside a device's published ones.
-#[derive(Clone, Debug, Serialize)]
-pub struct Comparison {
-    /// The device.
-    pub device: String,
-    /// Where its figures were published.
-    pub sources: Vec<String>,
-    /// Figure by figure.
-    pub rows: Vec<Row>,
-    /// Why the model's figures may differ.
-    pub notes: Vec<String>,
 }
 
 /// The comparison for `summary`'s model, if a device is published for it and its task is a point.

@@ -18,6 +18,7 @@ pub mod design;
 pub mod design_maps;
 pub mod design_page;
 pub mod design_published;
+pub mod design_report;
 pub mod faults;
 pub mod generated;
 pub mod identify;

@@ -742,7 +742,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 );
             }
             let summary =
-                hapticgen_host::design::write_report(&m, steps, !no_zwidth, replay.as_ref(), &output)
+                hapticgen_host::design_report::write_report(&m, steps, !no_zwidth, replay.as_ref(), &output)
                     .map_err(|e| format!("error: {e}"))?;
             println!(
                 "{}: {}; wrote {}",
