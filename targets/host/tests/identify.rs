@@ -413,6 +413,28 @@ fn excite_simulate_identify_write_a_model_file_that_checks() {
     assert!(written.contains("# identified (was mass 0.020358)"), "{written}");
     let out = hapticgen(&["check", &path("identified.yaml")]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // Generated as any model file is, and its D and g (the simulated device is the model file
+    // itself, so the identified terms must come back within a few per cent of the file's:
+    // measured 0.6 % for D, 2.4 % for g from this 21 s run).
+    let out = hapticgen(&["generate", &path("identified.yaml")]);
+    let generated = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && generated.contains("@generated"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let terms = |file: &str| -> (f64, f64) {
+        let out = hapticgen(&["eval", file, "--q", "0.3"]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let value: serde_json::Value = serde_json::from_slice(&out.stdout).expect("eval's JSON");
+        (value["D"][0][0].as_f64().expect("D"), value["g"][0].as_f64().expect("g"))
+    };
+    let ((d_file, g_file), (d_identified, g_identified)) = (terms(model), terms(&path("identified.yaml")));
+    assert!(
+        (d_identified - d_file).abs() <= 0.05 * d_file
+            && (g_identified - g_file).abs() <= 0.05 * g_file.abs(),
+        "identified D {d_identified:e}, g {g_identified:e}; the file's D {d_file:e}, g {g_file:e}"
+    );
 
     // A non-numeric value: refused at its line, no model file written.
     let mut text = std::fs::read_to_string(&log).unwrap();
