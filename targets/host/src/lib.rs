@@ -7,10 +7,13 @@
 //! sensors), [`sim`] (the closed loop of Fig. 1 with an operator), [`simulate`] (scenarios
 //! and dispatch), [`analysis`] (fits of the responses), [`plot`] and [`output`] (figures;
 //! CSV with its columns' sidecar; printed numbers without negative zeros) and [`paper`] (the
-//! experiments of section 6 and the report).
+//! experiments of section 6 and the report). [`cli`] is the `hapticgen` command line's work:
+//! its arguments, a function per command and their error; the binary only parses and
+//! dispatches.
 #![deny(missing_docs)]
 
 pub mod analysis;
+pub mod cli;
 pub mod connect;
 pub mod contact;
 pub mod contact_report;
