@@ -1,7 +1,7 @@
 //! `hapticgen simulate`: a model in closed loop with one of the paper's controllers on the
 //! simulated plant, its trace, scene and figures written, a contact scenario's checks made;
 //! `--scenario excite` plays an identification trajectory instead. Also the run's set-up from
-//! the command line ([`configure`]), which `pil` shares.
+//! the command line (`configure`), which `pil` shares.
 
 use std::path::Path;
 
