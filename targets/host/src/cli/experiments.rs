@@ -8,7 +8,7 @@ use std::path::Path;
 use super::args::ContactArgs;
 use super::simulate::{friction, law};
 use super::{CliError, FileOp};
-use crate::simulate::Simulation;
+use crate::simulation::Simulation;
 
 /// `hapticgen contact`: runs the contact scenarios, writes their traces, figures and
 /// DIR/report.md, prints the summary; fails if a check fails.

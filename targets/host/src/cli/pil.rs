@@ -8,8 +8,8 @@ use std::path::Path;
 use super::args::PilArgs;
 use super::simulate::{configure, Configured};
 use super::{CliError, FileOp};
-use crate::sim::Trace;
-use crate::simulate::PilTarget;
+use crate::closed_loop::Trace;
+use crate::simulation::PilTarget;
 
 /// `hapticgen pil`: runs the image against the plant, writes DIR/trace.csv, the figures and
 /// DIR/qemu.out; fails with a `FAIL pil: …` line per failed fault test or bound.
@@ -123,7 +123,7 @@ pub fn pil(args: PilArgs) -> Result<(), CliError> {
         write_comparison(&comparison, &run.output.join("compare.csv"))?;
         if let Some(limit) = args.max_counts {
             let before = failures.len();
-            if let crate::sim::Reference::Scene { grid_spacing, .. } = &cfg.reference {
+            if let crate::closed_loop::Reference::Scene { grid_spacing, .. } = &cfg.reference {
                 // A rendered scene: the rule of the firmware check (docs/firmware.md, `TOL x`):
                 // the counts mapped to the task through |J(q0)|, plus two grid spacings (after
                 // a contact the proxies may rest on neighbouring grid nodes); joint angles are

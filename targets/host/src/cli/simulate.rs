@@ -10,11 +10,11 @@ use hapticgen_runtime::control::ImpedanceLaw;
 
 use super::args::{ControllerArg, ScenarioArg, SimulateArgs};
 use super::{load, CliError, FileOp};
+use crate::closed_loop::{SimConfig, Trace};
 use crate::contact::{Contact, ContactSetup};
 use crate::paper;
 use crate::plant::Effects;
-use crate::sim::{SimConfig, Trace};
-use crate::simulate::{Scenario, ScenarioSettings, Simulation};
+use crate::simulation::{Scenario, ScenarioSettings, Simulation};
 
 /// `|det J|` under this fraction of its largest value over the joint limits is singular.
 const SINGULAR: f64 = 0.02;
