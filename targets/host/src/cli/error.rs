@@ -93,6 +93,12 @@ impl CliError {
     pub fn exit_code(&self) -> u8 {
         1
     }
+
+    /// A [`CliError::File`] error of `op` on `path`, for `map_err`.
+    pub fn file(op: FileOp, path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> CliError {
+        let path = path.into();
+        move |source| CliError::File { op, path, source }
+    }
 }
 
 /// What was being done to a file when [`CliError::File`] happened.
@@ -116,13 +122,5 @@ impl fmt::Display for FileOp {
             FileOp::Write => "cannot write ",
             FileOp::Save => "",
         })
-    }
-}
-
-impl CliError {
-    /// A [`CliError::File`] error of `op` on `path`.
-    pub fn file(op: FileOp, path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> CliError {
-        let path = path.into();
-        move |source| CliError::File { op, path, source }
     }
 }
