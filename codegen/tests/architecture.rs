@@ -356,11 +356,12 @@ fn workspace_members() -> Vec<String> {
 }
 
 /// The CLI's commands as a user types them: the variants of `enum Command` in the host's
-/// `main.rs`, in clap's kebab case (`ImportUrdf` → `import-urdf`).
+/// `cli/args.rs` (the command line's grammar), in clap's kebab case (`ImportUrdf` →
+/// `import-urdf`).
 fn cli_commands() -> Vec<String> {
-    let main = std::fs::read_to_string(repo_root().join("targets/host/src/main.rs")).unwrap();
-    let start = main.find("enum Command {").expect("the CLI's Command enum");
-    let body = &main[start..start + main[start..].find("\n}").unwrap()];
+    let args = std::fs::read_to_string(repo_root().join("targets/host/src/cli/args.rs")).unwrap();
+    let start = args.find("pub enum Command {").expect("the CLI's Command enum");
+    let body = &args[start..start + args[start..].find("\n}").unwrap()];
     body.lines()
         .filter_map(|line| {
             // A variant starts at the enum's indentation: `    Name {`, `    Name(…)`, `    Name,`.

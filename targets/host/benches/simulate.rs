@@ -6,9 +6,9 @@
 use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use hapticgen_host::closed_loop::SimConfig;
 use hapticgen_host::generated;
-use hapticgen_host::sim::SimConfig;
-use hapticgen_host::simulate::{Scenario, ScenarioSettings, Simulation};
+use hapticgen_host::simulation::{Scenario, ScenarioSettings, Simulation};
 use hapticgen_runtime::control::ImpedanceLaw;
 
 fn setup() -> (Simulation, SimConfig) {

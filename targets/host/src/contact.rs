@@ -29,8 +29,8 @@ use std::sync::Arc;
 
 use hapticgen_codegen::mesh::TriangleMesh;
 
+use crate::closed_loop::{Trace, PROXY_SKIN};
 use crate::report::Check;
-use crate::sim::{Trace, PROXY_SKIN};
 use crate::solids::{Solid, SolidShape};
 
 /// One of the contact scenarios (module docs).

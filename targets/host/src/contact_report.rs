@@ -9,11 +9,11 @@ use std::time::Instant;
 
 use hapticgen_runtime::control::ImpedanceLaw;
 
+use crate::closed_loop::SimConfig;
 use crate::contact::{self, Contact};
 use crate::paper::trace_figures;
 use crate::report::{self, Check};
-use crate::sim::SimConfig;
-use crate::simulate::{Scenario, ScenarioSettings, Simulation};
+use crate::simulation::{Scenario, ScenarioSettings, Simulation};
 
 /// What `hapticgen contact` runs with.
 #[derive(Clone, Debug)]

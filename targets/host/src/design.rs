@@ -851,7 +851,7 @@ pub fn renderable_stiffness(
     if !(2..=3).contains(&m) {
         return Ok(None);
     }
-    let sim = crate::simulate::Simulation::from_model(model.clone())?;
+    let sim = crate::simulation::Simulation::from_model(model.clone())?;
     let sample_period = 1.0 / f64::from(model.rates.impedance_loop_hz);
     let wall_damping = 0.0;
     let stability_bound =

@@ -29,11 +29,11 @@ use hapticgen_runtime::linalg;
 use hapticgen_runtime::tick::{HapticLoop, HapticLoopSettings, ImpedanceInputs};
 use hapticgen_runtime::RigModel;
 
+use crate::closed_loop::{Operator, Path as HandPath};
 use crate::generated::{self, RigVisitor};
 use crate::plant::{Effects, Plant};
 use crate::rig::{CompiledModel, TapeRig};
-use crate::sim::{Operator, Path as HandPath};
-use crate::simulate::Simulation;
+use crate::simulation::Simulation;
 
 /// What goes wrong in a scenario, from [`Fault::start`] on.
 #[derive(Clone, Debug, PartialEq)]
@@ -287,7 +287,8 @@ where
     let mut plant =
         Plant::<N, M>::new(plant_model, Effects::ALL, q0, counts_per_turn, data.filter_time_constant)?;
     let initial_counts = plant.encoder_counts();
-    let zero_offset = crate::sim::joint_angles_at_counts(&initial_counts, &drives, rig.coupling().as_ref());
+    let zero_offset =
+        crate::closed_loop::joint_angles_at_counts(&initial_counts, &drives, rig.coupling().as_ref());
     let start = plant.task();
     let sensor = data.sensors.first().copied();
     let (scale, offset) = sensor.map_or((1.0, 0.0), |s| (s.scale, s.offset));

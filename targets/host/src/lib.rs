@@ -4,13 +4,17 @@
 //! Layers, from the bottom: [`tape`] (the symbolic mechanics of eq. (1)–(2) compiled into flat
 //! evaluation tapes), [`rig`] (any model as a `RigModel`), [`generated`] (the shipped models'
 //! generated code), [`plant`] (the simulated device: rigid bodies, motors, friction, backlash,
-//! sensors), [`sim`] (the closed loop of Fig. 1 with an operator), [`simulate`] (scenarios
+//! sensors), [`closed_loop`] (the closed loop of Fig. 1 with an operator), [`simulation`] (scenarios
 //! and dispatch), [`analysis`] (fits of the responses), [`plot`] and [`output`] (figures;
 //! CSV with its columns' sidecar; printed numbers without negative zeros) and [`paper`] (the
-//! experiments of section 6 and the report).
+//! experiments of section 6 and the report). [`cli`] is the `hapticgen` command line's work:
+//! its arguments, a function per command and their error; the binary only parses and
+//! dispatches.
 #![deny(missing_docs)]
 
 pub mod analysis;
+pub mod cli;
+pub mod closed_loop;
 pub mod connect;
 pub mod contact;
 pub mod contact_report;
@@ -31,8 +35,7 @@ pub mod replay;
 pub mod report;
 pub mod rig;
 pub mod scene;
-pub mod sim;
-pub mod simulate;
+pub mod simulation;
 pub mod solids;
 pub mod tape;
 pub mod template;

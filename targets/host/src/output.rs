@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use crate::sim::Trace;
+use crate::closed_loop::Trace;
 
 /// What a trace column holds, with its unit, by its name (`t`, `q0`, `xp2`, `tr`…); `None` for a
 /// name no trace writes.

@@ -22,11 +22,11 @@ use std::time::Instant;
 use hapticgen_runtime::control::ImpedanceLaw;
 
 use crate::analysis::{self, fit_step_response, relative_error, StepFit};
+use crate::closed_loop::{SimConfig, Trace};
 use crate::generated;
 use crate::plant::Effects;
 use crate::plot::{self, Chart, Series};
-use crate::sim::{SimConfig, Trace};
-use crate::simulate::{Scenario, ScenarioSettings, Simulation};
+use crate::simulation::{Scenario, ScenarioSettings, Simulation};
 
 pub use crate::report::Check;
 

@@ -5,7 +5,7 @@
 //! UART0 connected to it (`-serial tcp:…`, `-icount shift=10`), and opens the link: `Hello`
 //! (protocol version and the image's shape are checked), then `SetImpedance`, `PilSetup`,
 //! `Heartbeat`, `Enable`. [`Pil`] is then a [`DeviceController`]: each current-loop period
-//! of [`crate::sim::run_with`] sends one `Sensors` frame (encoder counts, measured currents,
+//! of [`crate::closed_loop::run_with`] sends one `Sensors` frame (encoder counts, measured currents,
 //! force readings) and waits for the `Actuators` frame that answers it. The plant, the
 //! operator, the sensors and the trace are those of `hapticgen simulate`, the same code.
 //! [`Pil::finish`] sends `Disable`, waits for QEMU to exit and returns the image's report
@@ -26,7 +26,7 @@ use hapticgen_protocol::{
 use hapticgen_runtime::control::ImpedanceLaw;
 use hapticgen_runtime::tick::HapticLoopSettings;
 
-use crate::sim::{DeviceController, ImpedanceOutcome, PeriodCommand, PeriodSensors};
+use crate::closed_loop::{DeviceController, ImpedanceOutcome, PeriodCommand, PeriodSensors};
 
 /// How long the host waits for QEMU to connect, and for any one answer of the firmware.
 pub const ANSWER_TIMEOUT: Duration = Duration::from_secs(20);

@@ -23,8 +23,8 @@ use hapticgen_codegen::CheckedModel;
 use hapticgen_runtime::render::{ObjectKind, Shape};
 use serde::{Deserialize, Serialize};
 
+use crate::closed_loop::Reference;
 use crate::design_page::{json_number, RigDrawing};
-use crate::sim::Reference;
 
 /// The scene a run records beside its trace.
 pub const SCENE_FILE: &str = "scene.json";

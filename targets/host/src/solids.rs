@@ -28,7 +28,7 @@ pub struct Solid {
     /// Dynamic friction coefficient, at most the static one.
     pub dynamic_friction: f64,
     /// How it moves, if it does (`shape` is where it is at time 0); the simulator moves it
-    /// before every impedance tick ([`crate::sim::SimSource`]).
+    /// before every impedance tick ([`crate::closed_loop::SimSource`]).
     pub motion: Option<SceneMotion>,
 }
 

@@ -21,10 +21,10 @@ use hapticgen_runtime::control::ImpedanceLaw;
 use hapticgen_runtime::render::{ObjectKind, Shape, VirtualObject};
 use rayon::prelude::*;
 
+use crate::closed_loop::{Operator, Path as HandPath, Reference, SimConfig};
 use crate::plant::Effects;
 use crate::plot::{self, Chart, Series};
-use crate::sim::{Operator, Path as HandPath, Reference, SimConfig};
-use crate::simulate::Simulation;
+use crate::simulation::Simulation;
 use crate::solids::{Solid, SolidShape};
 
 /// Stiffness of the pressing hand, N/m.

@@ -5,9 +5,9 @@
 
 use std::path::Path;
 
+use hapticgen_host::closed_loop::SimConfig;
 use hapticgen_host::generated::{self, RigVisitor};
-use hapticgen_host::sim::SimConfig;
-use hapticgen_host::simulate::Simulation;
+use hapticgen_host::simulation::Simulation;
 use hapticgen_runtime::current_loop::CurrentLoopGains;
 use hapticgen_runtime::RigModel;
 

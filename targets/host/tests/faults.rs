@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use hapticgen_host::faults::{run, scenarios, table};
-use hapticgen_host::simulate::Simulation;
+use hapticgen_host::simulation::Simulation;
 
 #[test]
 fn every_fault_scenario_keeps_the_commands_limited_finite_and_bounded() {

@@ -203,8 +203,8 @@ fn identifies_the_true_device(
     bounds: Bounds,
     design_evaluations: usize,
 ) {
-    use hapticgen_host::sim::SimConfig;
-    use hapticgen_host::simulate::Simulation;
+    use hapticgen_host::closed_loop::SimConfig;
+    use hapticgen_host::simulation::Simulation;
     let model = load(file, variant);
     let truth = perturbed(&model, seed);
     let regressor = RegressorTape::new(&model);

@@ -59,11 +59,11 @@ fn every_experiment_meets_its_criteria() {
 /// report, whose window also holds 3 s more of the final stick, says 0.65×).
 #[test]
 fn friction_compensation_cuts_the_small_displacement_error() {
+    use hapticgen_host::closed_loop::SimConfig;
     use hapticgen_host::generated;
     use hapticgen_host::paper::small_displacement_error;
     use hapticgen_host::plant::Effects;
-    use hapticgen_host::sim::SimConfig;
-    use hapticgen_host::simulate::{Scenario, ScenarioSettings, Simulation};
+    use hapticgen_host::simulation::{Scenario, ScenarioSettings, Simulation};
     use hapticgen_runtime::control::ImpedanceLaw;
 
     let sim = Simulation::from_model(generated::load_shipped("joystick_1dof", None).expect("the joystick"))

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use hapticgen_host::simulate::Simulation;
+use hapticgen_host::simulation::Simulation;
 use hapticgen_host::zwidth::{is_stable, sweep, write, Sweep};
 
 #[test]

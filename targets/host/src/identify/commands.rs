@@ -12,8 +12,8 @@ use super::fit::{self, FitSettings, Segment};
 use super::log::IdentificationLog;
 use super::regressor::RegressorTape;
 use super::trajectory::TrajectoryFile;
-use crate::sim::SimConfig;
-use crate::simulate::Simulation;
+use crate::closed_loop::SimConfig;
+use crate::simulation::Simulation;
 
 fn load(path: &Path, variant: Option<&str>) -> Result<CheckedModel, String> {
     hapticgen_codegen::load_file(path, &path.display().to_string(), variant).map_err(|d| d.to_string())
@@ -178,7 +178,7 @@ pub fn excite_run(
 /// torque takes effect from the next current-loop period and reaches the motor through the
 /// loop's mean delay; a measured one trails the motor by the current sensor's filter lag.
 pub fn torque_leads(model: &CheckedModel, source: fit::TorqueSource) -> Result<Vec<f64>, String> {
-    let designs = crate::simulate::current_loop_designs(model)?;
+    let designs = crate::simulation::current_loop_designs(model)?;
     let period = 1.0 / f64::from(model.rates.current_loop_hz);
     Ok(designs
         .iter()

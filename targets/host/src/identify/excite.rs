@@ -422,7 +422,7 @@ pub fn design(
         let candidate: Vec<f64> = x
             .iter()
             .enumerate()
-            .map(|(i, &v)| v + step * scale[i] * crate::sim::gaussian(&mut rng))
+            .map(|(i, &v)| v + step * scale[i] * crate::closed_loop::gaussian(&mut rng))
             .collect();
         let assessment = assessor.assess(&from_vector(&template, &candidate), settings.samples, settings);
         evaluations += 1;

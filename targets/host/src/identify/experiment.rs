@@ -15,12 +15,12 @@ use hapticgen_runtime::{linalg, Coupling, RigModel};
 
 use super::log::IdentificationLog;
 use super::trajectory::{Series, TrajectoryFile};
-use crate::generated::RigVisitor;
-use crate::rig::{CompiledModel, SimRig};
-use crate::sim::{
+use crate::closed_loop::{
     self, DeviceController, ImpedanceOutcome, PeriodCommand, PeriodSensors, SimConfig, SimSource, Trace,
 };
-use crate::simulate::Simulation;
+use crate::generated::RigVisitor;
+use crate::rig::{CompiledModel, SimRig};
+use crate::simulation::Simulation;
 
 /// The tracking bandwidth of excitation runs, Hz: critically damped error dynamics, well under
 /// the 1 kHz impedance loop and its velocity filter.
@@ -105,7 +105,7 @@ impl RigVisitor for ExciteVisitor<'_> {
     fn visit<R: RigModel<N, M, Scalar = f64>, const N: usize, const M: usize>(self, rig: R) -> Self::Output {
         let joints: Vec<String> = self.simulation.model.joints.iter().map(|j| j.name.clone()).collect();
         let series = self.series;
-        let (trace, controller) = sim::run_with::<R, ExcitationController<R, N, M>, _, N, M>(
+        let (trace, controller) = closed_loop::run_with::<R, ExcitationController<R, N, M>, _, N, M>(
             rig,
             self.plant,
             &self.simulation.data,

@@ -1,5 +1,5 @@
 //! Loading a model for simulation, the named scenarios of `hapticgen simulate`, and the
-//! dispatch from a run-time model to the const-generic closed loop of [`crate::sim::run`].
+//! dispatch from a run-time model to the const-generic closed loop of [`crate::closed_loop::run`].
 //!
 //! The controller's rig is the **generated code** compiled into this binary when the model
 //! file generates exactly that code (the shipped `models/*.yaml`, see [`crate::generated`]),
@@ -19,12 +19,14 @@ use hapticgen_runtime::current_loop::CurrentLoopGains;
 use hapticgen_runtime::render::{ObjectKind, Shape, VirtualObject};
 use hapticgen_runtime::RigModel;
 
+use crate::closed_loop::SCENE_VERTICES;
+use crate::closed_loop::{
+    self, LoopData, Operator, Path as HandPath, Reference, SensorSpec, SimConfig, Trace,
+};
 use crate::contact::{Contact, ContactSettings, ContactSetup};
 use crate::generated::{self, RigVisitor};
 use crate::pil::{Pil, PilReport, PilScene};
 use crate::rig::{CompiledModel, TapeRig};
-use crate::sim::SCENE_VERTICES;
-use crate::sim::{self, LoopData, Operator, Path as HandPath, Reference, SensorSpec, SimConfig, Trace};
 use crate::solids::Solid;
 use crate::tape::Tape;
 use hapticgen_protocol::SceneObject;
@@ -189,7 +191,7 @@ struct RunVisitor<'a> {
 impl RigVisitor for RunVisitor<'_> {
     type Output = Result<Trace, String>;
     fn visit<R: RigModel<N, M, Scalar = f64>, const N: usize, const M: usize>(self, rig: R) -> Self::Output {
-        sim::run::<R, N, M>(rig, self.plant, self.data, self.cfg)
+        closed_loop::run::<R, N, M>(rig, self.plant, self.data, self.cfg)
     }
 }
 
@@ -224,7 +226,7 @@ impl RigVisitor for PilVisitor<'_> {
     type Output = Result<(Trace, PilReport), String>;
     fn visit<R: RigModel<N, M, Scalar = f64>, const N: usize, const M: usize>(self, rig: R) -> Self::Output {
         let target = self.target;
-        let (trace, pil) = sim::run_with::<R, Pil<N, M>, _, N, M>(
+        let (trace, pil) = closed_loop::run_with::<R, Pil<N, M>, _, N, M>(
             rig,
             self.plant,
             self.data,

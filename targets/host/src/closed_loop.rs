@@ -184,7 +184,7 @@ pub struct SimConfig {
     pub plant_mass_scale: f64,
     /// The simulated device, if it is another model file than the controller's (`--plant`:
     /// the same joints and task, other masses and frictions; see
-    /// [`crate::simulate::Simulation::device`]). Takes precedence over `plant_mass_scale`.
+    /// [`crate::simulation::Simulation::device`]). Takes precedence over `plant_mass_scale`.
     pub plant_model: Option<Arc<CompiledModel>>,
     /// Seed of the sensor noise.
     pub seed: u64,
