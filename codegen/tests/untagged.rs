@@ -1,6 +1,6 @@
 //! serde's "data did not match any variant of untagged enum …" never reaches a model author:
 //! every untagged enum of the model schema (`src/model/schema.rs`) and of the scene schema
-//! (`src/scene.rs`), given a value of the wrong type in a shipped model, gets a message that
+//! (`src/scene/file.rs`), given a value of the wrong type in a shipped model, gets a message that
 //! names the forms it accepts, at the value's line and column.
 
 use hapticgen_codegen::model::{load, Source};
@@ -33,7 +33,7 @@ const CASES: &[(&str, &str, &str)] = &[
 #[test]
 fn every_untagged_enum_names_its_forms() {
     let schema = include_str!("../src/model/schema.rs");
-    let scene = include_str!("../src/scene.rs");
+    let scene = include_str!("../src/scene/file.rs");
     let mut enums = untagged_enums(schema);
     enums.extend(untagged_enums(scene));
     assert!(enums.len() >= 4, "the scan found {enums:?}");
