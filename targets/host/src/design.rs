@@ -512,19 +512,9 @@ pub fn ball_probes(centre: &[f64], radius: f64) -> Vec<Vec<f64>> {
             .collect(),
         _ => (0..2 * m)
             .map(|i| {
-                (0..m)
-                    .map(|k| {
-                        if k == i / 2 {
-                            if i % 2 == 0 {
-                                1.0
-                            } else {
-                                -1.0
-                            }
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect()
+                let mut axis = vec![0.0; m];
+                axis[i / 2] = if i % 2 == 0 { 1.0 } else { -1.0 };
+                axis
             })
             .collect(),
     };
