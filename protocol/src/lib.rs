@@ -28,8 +28,8 @@ pub use frame::{
 };
 pub use message::rig_name_hash;
 pub use message::{
-    ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, HostKind, HostMessage,
-    ImpedanceSettings, LinkEffect, PilLaw, PilSetup, SceneAnswer, SceneObject, SceneOutcome, SensorFrame,
-    StateFrame, StateSample, CHANNEL_CODES, CHANNEL_LIMIT, MAX_JOINTS, MAX_TASK, PROTOCOL_VERSION,
-    SCENE_SLOTS,
+    ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, ExcitationJoint, HostKind,
+    HostMessage, ImpedanceSettings, LinkEffect, PilLaw, PilSetup, SceneAnswer, SceneObject, SceneOutcome,
+    SensorFrame, StateFrame, StateSample, CHANNEL_CODES, CHANNEL_LIMIT, EXCITATION_HARMONICS, MAX_JOINTS,
+    MAX_TASK, PROTOCOL_VERSION, SCENE_SLOTS,
 };

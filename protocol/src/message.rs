@@ -13,7 +13,9 @@
 use crate::frame::Received;
 use serde::{Deserialize, Serialize};
 
-/// The protocol version both sides must speak (exchanged in the handshake). Version 5 adds
+/// The protocol version both sides must speak (exchanged in the handshake). Version 6 adds
+/// [`HostMessage::SetExcitation`] and [`PilLaw::Excitation`] (a processor-in-the-loop run
+/// playing an identification excitation on the device). Version 5 adds
 /// [`DeviceMessage::Scene`] (the device answers every `SetObject` with what it did with the
 /// object: [`SceneAnswer`]). Version 4 adds
 /// [`HostMessage::SetEffect`] (a free-space effect for the device's scene). Version 3 sends
@@ -21,7 +23,7 @@ use serde::{Deserialize, Serialize};
 /// them as `i16`, and the encoder counts modulo 2¹⁶); version 2 added [`HostMessage::PilSetup`]
 /// and made [`DeviceMessage::Actuators`] an [`ActuatorFrame`] (processor in the loop);
 /// version 1 had neither.
-pub const PROTOCOL_VERSION: u16 = 5;
+pub const PROTOCOL_VERSION: u16 = 6;
 
 /// The values a state frame's channel can take: its two bytes on the wire are each from 1 to
 /// 255, the base-255 digits (low first) of the value plus [`CHANNEL_LIMIT`], each plus one.
@@ -40,6 +42,10 @@ pub const MAX_JOINTS: usize = 6;
 
 /// The most task coordinates a rig on the link may have.
 pub const MAX_TASK: usize = 3;
+
+/// Harmonics per joint of an excitation trajectory on the link ([`ExcitationJoint`]): the
+/// most a trajectory file may have, and what fits one message.
+pub const EXCITATION_HARMONICS: usize = 12;
 
 /// Scene slots a device holds: `SetObject` names slots `0..SCENE_SLOTS`; a device counts a
 /// higher slot as refused and ignores it.
@@ -215,6 +221,34 @@ pub enum PilLaw {
     NaturalInertia,
     /// Controller 3: Jacobian transpose.
     JacobianTranspose,
+    /// No impedance law: the device plays the identification excitation it was sent
+    /// ([`HostMessage::SetExcitation`], one message per joint) with the joint-space tracking
+    /// law of the runtime's `excitation` module.
+    Excitation,
+}
+
+/// Processor in the loop: one joint's share of an identification excitation, a finite Fourier
+/// series `q_j(t) = offset + Σ_k sine[k] sin((k+1) ω t) + cosine[k] cos((k+1) ω t)`,
+/// `ω = 2π / period`, entered from rest over `ramp` seconds (the runtime's
+/// `FourierTrajectory`). Every joint's message carries the same period, ramp and tracking
+/// bandwidth; the device plays the trajectory once it has one message per joint, all
+/// agreeing, and a [`PilSetup`] with [`PilLaw::Excitation`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ExcitationJoint {
+    /// The joint (0-based).
+    pub joint: u8,
+    /// The series' period `T`, s.
+    pub period: f32,
+    /// The blend from rest into the series, s.
+    pub ramp: f32,
+    /// The tracking law's bandwidth (critically damped error dynamics), Hz.
+    pub tracking_hz: f32,
+    /// The series' mean, rad (or m).
+    pub offset: f32,
+    /// The sine coefficients, harmonics 1 to [`EXCITATION_HARMONICS`] (unused: zero).
+    pub sine: [f32; EXCITATION_HARMONICS],
+    /// The cosine coefficients.
+    pub cosine: [f32; EXCITATION_HARMONICS],
 }
 
 /// Processor in the loop: how the device's controller is configured for the run, besides the
@@ -325,6 +359,8 @@ pub enum HostMessage {
     /// The free-space effect of the device's scene (rendered while the point touches none of
     /// the scene's objects).
     SetEffect(LinkEffect),
+    /// Processor-in-the-loop: one joint of the excitation to play ([`PilLaw::Excitation`]).
+    SetExcitation(ExcitationJoint),
 }
 
 /// The kind of a [`HostMessage`]: the first byte of its serialisation (postcard writes an
@@ -337,7 +373,8 @@ pub enum HostMessage {
 /// The fields of each kind, as [`crate::Received::payload`] decodes them: `Hello`: the version
 /// (`u16`); `Heartbeat`: the sequence (`u16`); `Enable`, `Disable`, `ResetFault`: nothing
 /// (`()`); `SetImpedance`: [`ImpedanceSettings`]; `SetObject`: `(u8, SceneObject)`;
-/// `Sensors`: [`SensorFrame`]; `PilSetup`: [`PilSetup`]; `SetEffect`: [`LinkEffect`] (checked for every message by
+/// `Sensors`: [`SensorFrame`]; `PilSetup`: [`PilSetup`]; `SetEffect`: [`LinkEffect`];
+/// `SetExcitation`: [`ExcitationJoint`] (checked for every message by
 /// `host_kinds_decode_as_host_messages` in `tests/frames.rs`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum HostKind {
@@ -361,6 +398,8 @@ pub enum HostKind {
     PilSetup,
     /// [`HostMessage::SetEffect`].
     SetEffect,
+    /// [`HostMessage::SetExcitation`].
+    SetExcitation,
 }
 
 impl HostKind {
@@ -377,6 +416,7 @@ impl HostKind {
             7 => Self::Sensors,
             8 => Self::PilSetup,
             9 => Self::SetEffect,
+            10 => Self::SetExcitation,
             _ => return None,
         })
     }

@@ -4,9 +4,9 @@
 
 use hapticgen_protocol::message::Channels;
 use hapticgen_protocol::{
-    encode, ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, FrameDecoder, HostKind,
-    HostMessage, ImpedanceSettings, LinkCounters, LinkEffect, PilLaw, PilSetup, SceneAnswer, SceneObject,
-    SceneOutcome, SensorFrame, StateFrame, StateSample, MAX_FRAME_BYTES,
+    encode, ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, ExcitationJoint,
+    FrameDecoder, HostKind, HostMessage, ImpedanceSettings, LinkCounters, LinkEffect, PilLaw, PilSetup,
+    SceneAnswer, SceneObject, SceneOutcome, SensorFrame, StateFrame, StateSample, MAX_FRAME_BYTES,
 };
 use proptest::prelude::*;
 
@@ -77,7 +77,26 @@ fn host_message() -> impl Strategy<Value = HostMessage> {
             }),
         pil_setup().prop_map(HostMessage::PilSetup),
         link_effect().prop_map(HostMessage::SetEffect),
+        excitation_joint().prop_map(HostMessage::SetExcitation),
     ]
+}
+
+fn excitation_joint() -> impl Strategy<Value = ExcitationJoint> {
+    (
+        any::<u8>(),
+        [finite(), finite(), finite(), finite()],
+        proptest::array::uniform12(finite()),
+        proptest::array::uniform12(finite()),
+    )
+        .prop_map(|(joint, [period, ramp, tracking_hz, offset], sine, cosine)| ExcitationJoint {
+            joint,
+            period,
+            ramp,
+            tracking_hz,
+            offset,
+            sine,
+            cosine,
+        })
 }
 
 fn link_effect() -> impl Strategy<Value = LinkEffect> {
@@ -102,7 +121,8 @@ fn pil_setup() -> impl Strategy<Value = PilSetup> {
             Just(PilLaw::ForceFeedback),
             Just(PilLaw::AccelerationFeedback),
             Just(PilLaw::NaturalInertia),
-            Just(PilLaw::JacobianTranspose)
+            Just(PilLaw::JacobianTranspose),
+            Just(PilLaw::Excitation)
         ],
         [finite(), finite(), finite(), finite()],
         joint_vector(),
@@ -274,6 +294,7 @@ fn by_kind(frame: &[u8]) -> Option<HostMessage> {
         HostKind::Sensors => HostMessage::Sensors(received.payload()?),
         HostKind::PilSetup => HostMessage::PilSetup(received.payload()?),
         HostKind::SetEffect => HostMessage::SetEffect(received.payload()?),
+        HostKind::SetExcitation => HostMessage::SetExcitation(received.payload()?),
     })
 }
 

@@ -20,8 +20,8 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use hapticgen_protocol::{
-    encode, ActuatorFrame, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, PilLaw, PilSetup,
-    SceneObject, SensorFrame, MAX_FRAME_BYTES, MAX_JOINTS, MAX_TASK, PROTOCOL_VERSION,
+    encode, ActuatorFrame, DeviceMessage, ExcitationJoint, FrameDecoder, HostMessage, ImpedanceSettings,
+    PilLaw, PilSetup, SceneObject, SensorFrame, MAX_FRAME_BYTES, MAX_JOINTS, MAX_TASK, PROTOCOL_VERSION,
 };
 use hapticgen_runtime::control::ImpedanceLaw;
 use hapticgen_runtime::tick::HapticLoopSettings;
@@ -137,6 +137,22 @@ pub struct PilScene {
     pub grid_spacing: f64,
 }
 
+/// What the image plays in a PIL run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PilPlay<'a> {
+    /// The impedance law of the settings, with a fixed reference or a planar scene the device
+    /// renders.
+    Impedance {
+        /// The fixed task-space reference (a scene's starts there too).
+        reference: [f64; MAX_TASK],
+        /// The scene, if any.
+        scene: Option<&'a PilScene>,
+    },
+    /// An identification excitation, one message per joint, played with the runtime's
+    /// joint-space tracking law instead of an impedance law (`PilLaw::Excitation`).
+    Excitation(&'a [ExcitationJoint]),
+}
+
 /// What the image reported at the end of a run.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PilReport {
@@ -214,17 +230,16 @@ fn padded<const K: usize, T: Copy + Default, U: Copy>(values: &[U], f: impl Fn(U
 
 impl<const N: usize, const M: usize> Pil<N, M> {
     /// Starts QEMU with `image`, its semihosting output to `output`, and opens the link with
-    /// the controller `settings` and the fixed `reference` of a run (the same settings
-    /// `hapticgen simulate` gives the runtime). `name` is the image's name (its hash is
-    /// checked against the image's `DeviceInfo`).
+    /// the controller `settings` (the same settings `hapticgen simulate` gives the runtime) and
+    /// what the run plays. `name` is the image's name (its hash is checked against the image's
+    /// `DeviceInfo`).
     pub fn start(
         qemu: &Path,
         image: &Path,
         name: &str,
         output: &Path,
         settings: &HapticLoopSettings<f64, N, M>,
-        reference: [f64; M],
-        scene: Option<&PilScene>,
+        play: PilPlay,
     ) -> Result<Self, String> {
         if N > MAX_JOINTS || M > MAX_TASK {
             return Err(format!(
@@ -295,7 +310,10 @@ impl<const N: usize, const M: usize> Pil<N, M> {
             decoder: FrameDecoder::new(),
             pending: Vec::new(),
             output: output.to_path_buf(),
-            reference,
+            reference: match play {
+                PilPlay::Impedance { reference, .. } => std::array::from_fn(|k| reference[k]),
+                PilPlay::Excitation(_) => [f64::NAN; M],
+            },
             torque: [0.0; N],
             tick: 0,
             period: 0,
@@ -306,7 +324,7 @@ impl<const N: usize, const M: usize> Pil<N, M> {
             garbage_frames: 0,
             garbage_state: 0x9e37_79b9_7f4a_7c15,
         };
-        if let Err(e) = pil.open(name, settings, reference, scene) {
+        if let Err(e) = pil.open(name, settings, play) {
             pil.abort();
             return Err(e);
         }
@@ -317,8 +335,7 @@ impl<const N: usize, const M: usize> Pil<N, M> {
         &mut self,
         name: &str,
         settings: &HapticLoopSettings<f64, N, M>,
-        reference: [f64; M],
-        scene: Option<&PilScene>,
+        play: PilPlay,
     ) -> Result<(), String> {
         self.send(&HostMessage::Hello { version: PROTOCOL_VERSION })?;
         let info = loop {
@@ -340,6 +357,18 @@ impl<const N: usize, const M: usize> Pil<N, M> {
                 info.joints, info.task_dim, info.rig_name_hash
             ));
         }
+        let (reference, scene) = match play {
+            PilPlay::Impedance { reference, scene } => (reference, scene),
+            PilPlay::Excitation(joints) => {
+                if joints.len() != N {
+                    return Err(format!("error: an excitation of {} joints for a rig of {N}", joints.len()));
+                }
+                for joint in joints {
+                    self.send(&HostMessage::SetExcitation(*joint))?;
+                }
+                ([0.0; MAX_TASK], None)
+            }
+        };
         if let Some(scene) = scene {
             if M != 2 {
                 return Err("error: a scene needs a 2-D task".into());
@@ -375,12 +404,15 @@ impl<const N: usize, const M: usize> Pil<N, M> {
         }))?;
         let options = &settings.controller.options;
         self.send(&HostMessage::PilSetup(PilSetup {
-            law: law_of(settings.controller.law),
+            law: match play {
+                PilPlay::Impedance { .. } => law_of(settings.controller.law),
+                PilPlay::Excitation(_) => PilLaw::Excitation,
+            },
             velocity_cutoff_hz: settings.estimator.velocity_cutoff_hz as f32,
             acceleration_cutoff_hz: settings.estimator.acceleration_cutoff_hz as f32,
             zero_offset: padded(&settings.zero_offset, to_f32),
             initial_counts: padded(&settings.initial_counts, |c| c),
-            reference: padded(&reference, to_f32),
+            reference: reference.map(to_f32),
             force_scale: padded(&settings.force_calibration.scale, to_f32),
             force_offset: padded(&settings.force_calibration.offset, to_f32),
             min_abs_jacobian_determinant: options.min_abs_jacobian_determinant as f32,

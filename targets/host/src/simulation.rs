@@ -25,7 +25,7 @@ use crate::closed_loop::{
 };
 use crate::contact::{Contact, ContactSettings, ContactSetup};
 use crate::generated::{self, RigVisitor};
-use crate::pil::{Pil, PilReport, PilScene};
+use crate::pil::{Pil, PilPlay, PilReport, PilScene};
 use crate::rig::{CompiledModel, TapeRig};
 use crate::solids::Solid;
 use crate::tape::Tape;
@@ -252,15 +252,13 @@ impl RigVisitor for PilVisitor<'_> {
                 };
                 // A scene's reference starts at the device's start position, as on the host.
                 let reference = source.fixed_position().unwrap_or(source.last);
-                let mut pil = Pil::start(
-                    &target.qemu,
-                    &target.image,
-                    &target.name,
-                    &target.log,
-                    settings,
-                    reference,
-                    scene.as_ref(),
-                )?;
+                let mut padded = [0.0; hapticgen_protocol::MAX_TASK];
+                for (slot, value) in padded.iter_mut().zip(reference) {
+                    *slot = value;
+                }
+                let play = PilPlay::Impedance { reference: padded, scene: scene.as_ref() };
+                let mut pil =
+                    Pil::start(&target.qemu, &target.image, &target.name, &target.log, settings, play)?;
                 pil.stop_after = target.stop_after;
                 pil.corrupt_every = target.corrupt_every;
                 pil.garbage_every = target.garbage_every;

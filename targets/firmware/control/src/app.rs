@@ -162,6 +162,62 @@ where
         B: Board<R::Scalar, N, M>,
         C: CycleCounter,
     {
+        let (volts, due) = self.current_half(board, clock);
+        let mut impedance = None;
+        if due {
+            let inputs = self.impedance_inputs(board);
+            if self.profile.is_some() {
+                self.profile_impedance(&inputs, clock);
+            }
+            let t2 = clock.now();
+            let report = self.haptic.impedance_tick_fused(&inputs);
+            let t3 = clock.now();
+            impedance = Some(self.record_impedance(report, t2, t3));
+        }
+        TickOutcome { volts, impedance }
+    }
+
+    /// [`Self::on_current_tick`] with a joint-space law in place of the impedance law when the
+    /// impedance tick is due ([`HapticLoop::joint_tick`]: the same estimation and safety
+    /// rules): `law(tick)` receives the impedance tick's number (1 for the first) and returns
+    /// the closure the tick calls, e.g. playing an identification excitation at time
+    /// `tick / impedance rate`.
+    pub fn on_current_tick_joint<B, C, L, F>(
+        &mut self,
+        board: &mut B,
+        clock: &C,
+        law: L,
+    ) -> TickOutcome<R::Scalar, N>
+    where
+        B: Board<R::Scalar, N, M>,
+        C: CycleCounter,
+        L: FnOnce(u32) -> F,
+        F: FnOnce(
+            &R,
+            &hapticgen_runtime::RigTerms<R::Scalar, N, M>,
+            &hapticgen_runtime::estimation::JointState<R::Scalar, N>,
+        ) -> Option<[R::Scalar; N]>,
+    {
+        let (volts, due) = self.current_half(board, clock);
+        let mut impedance = None;
+        if due {
+            let inputs = self.impedance_inputs(board);
+            let t2 = clock.now();
+            let report = self.haptic.joint_tick(&inputs, law(inputs.tick));
+            let t3 = clock.now();
+            impedance = Some(self.record_impedance(report, t2, t3));
+        }
+        TickOutcome { volts, impedance }
+    }
+
+    /// The current loops of one period: currents read, voltages written; returns the
+    /// voltages and whether the impedance tick is due.
+    #[inline(always)]
+    fn current_half<B, C>(&mut self, board: &mut B, clock: &C) -> ([R::Scalar; N], bool)
+    where
+        B: Board<R::Scalar, N, M>,
+        C: CycleCounter,
+    {
         let measured = board.currents();
         let t0 = clock.now();
         let (outputs, due) = self.haptic.current_tick(&measured);
@@ -172,27 +228,36 @@ where
         }
         board.set_voltages(&volts);
         self.current_cost.record(self.elapsed(t0, t1));
-        let mut impedance = None;
-        if due {
-            self.impedance_ticks = self.impedance_ticks.wrapping_add(1);
-            let inputs = ImpedanceInputs {
-                encoder_counts: board.counts(),
-                force_readings: board.force_readings(),
-                tick: self.impedance_ticks,
-            };
-            if self.profile.is_some() {
-                self.profile_impedance(&inputs, clock);
-            }
-            let t2 = clock.now();
-            let report = self.haptic.impedance_tick_fused(&inputs);
-            let t3 = clock.now();
-            self.impedance_cost.record(self.elapsed(t2, t3));
-            if let (None, Some(fault)) = (self.first_fault, report.command.fault) {
-                self.first_fault = Some((self.impedance_ticks, fault));
-            }
-            impedance = Some(report);
+        (volts, due)
+    }
+
+    /// The next impedance tick's inputs: its number, the encoders and the force sensors.
+    #[inline(always)]
+    fn impedance_inputs<B: Board<R::Scalar, N, M>>(
+        &mut self,
+        board: &mut B,
+    ) -> ImpedanceInputs<R::Scalar, N, M> {
+        self.impedance_ticks = self.impedance_ticks.wrapping_add(1);
+        ImpedanceInputs {
+            encoder_counts: board.counts(),
+            force_readings: board.force_readings(),
+            tick: self.impedance_ticks,
         }
-        TickOutcome { volts, impedance }
+    }
+
+    /// Records an impedance tick's cost (counter ticks `start` to `end`) and its first fault.
+    #[inline(always)]
+    fn record_impedance(
+        &mut self,
+        report: ImpedanceReport<R::Scalar, N>,
+        start: u32,
+        end: u32,
+    ) -> ImpedanceReport<R::Scalar, N> {
+        self.impedance_cost.record(self.elapsed(start, end));
+        if let (None, Some(fault)) = (self.first_fault, report.command.fault) {
+            self.first_fault = Some((self.impedance_ticks, fault));
+        }
+        report
     }
 
     /// Runs the sub-steps of [`HapticLoop::impedance_tick_fused`] on copies of its state, timing

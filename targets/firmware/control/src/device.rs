@@ -112,7 +112,9 @@ impl<const M: usize> DeviceMode<M> {
             LinkEvent::Effect(effect) => self.effect = effect,
             // Enable, disable, heartbeats and resets are the link's own; sensor frames and
             // PIL setups are for the PIL image.
-            LinkEvent::Sensors | LinkEvent::PilSetup | LinkEvent::Disabled => return None,
+            LinkEvent::Sensors | LinkEvent::PilSetup | LinkEvent::ExcitationJoint | LinkEvent::Disabled => {
+                return None
+            }
         }
         if !self.apply(control) {
             self.refused_changes = self.refused_changes.saturating_add(1);

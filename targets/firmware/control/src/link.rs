@@ -13,7 +13,10 @@
 //!   ([`DeviceLink::sensors`], announced by [`LinkEvent::Sensors`]) and counts as a heartbeat
 //!   (the host that computes the plant is alive); so is
 //!   [`HostMessage::PilSetup`](hapticgen_protocol::HostMessage::PilSetup)
-//!   ([`DeviceLink::pil_setup`], [`LinkEvent::PilSetup`]); `Disable` is reported
+//!   ([`DeviceLink::pil_setup`], [`LinkEvent::PilSetup`]), and so is each joint of an
+//!   identification excitation
+//!   ([`HostMessage::SetExcitation`](hapticgen_protocol::HostMessage::SetExcitation),
+//!   [`DeviceLink::excitation_joint`], [`LinkEvent::ExcitationJoint`]); `Disable` is reported
 //!   ([`LinkEvent::Disabled`]) so that a PIL image can end its run. The events carry no
 //!   payload of their own: an event is returned for every byte, so it is kept small.
 //! * **Bounded work**: [`DeviceLink::receive`] takes one byte (the frame decoder's constant
@@ -21,8 +24,9 @@
 //!   counted and dropped.
 
 use hapticgen_protocol::{
-    encode, DeviceInfo, DeviceMessage, EncodeError, FrameDecoder, HostKind, ImpedanceSettings, LinkCounters,
-    LinkEffect, PilSetup, SceneObject, SensorFrame, MAX_FRAME_BYTES, MAX_TASK, PROTOCOL_VERSION,
+    encode, DeviceInfo, DeviceMessage, EncodeError, ExcitationJoint, FrameDecoder, HostKind,
+    ImpedanceSettings, LinkCounters, LinkEffect, PilSetup, SceneObject, SensorFrame, MAX_FRAME_BYTES,
+    MAX_TASK, PROTOCOL_VERSION,
 };
 use hapticgen_runtime::control::ImpedanceParameters;
 use hapticgen_runtime::Real;
@@ -72,6 +76,9 @@ pub enum LinkEvent<S> {
     Sensors,
     /// Processor in the loop: the controller's configuration arrived ([`DeviceLink::pil_setup`]).
     PilSetup,
+    /// Processor in the loop: one joint of an excitation arrived
+    /// ([`DeviceLink::excitation_joint`]).
+    ExcitationJoint,
     /// The host disabled the bridges (honoured before and after the handshake).
     Disabled,
     /// The scene's new free-space effect (checked: finite, stiffness, damping, amplitude and
@@ -103,6 +110,7 @@ pub struct DeviceLink {
     refused: RefusedCounters,
     sensors: Option<SensorFrame>,
     pil_setup: Option<PilSetup>,
+    excitation_joint: Option<ExcitationJoint>,
 }
 
 impl DeviceLink {
@@ -120,6 +128,7 @@ impl DeviceLink {
             refused: RefusedCounters::default(),
             sensors: None,
             pil_setup: None,
+            excitation_joint: None,
         }
     }
 
@@ -214,6 +223,12 @@ impl DeviceLink {
                 self.pil_setup = Some(setup);
                 Some(LinkEvent::PilSetup)
             }
+            HostKind::SetExcitation => {
+                let joint: ExcitationJoint = frame.payload()?;
+                self.after_handshake()?;
+                self.excitation_joint = Some(joint);
+                Some(LinkEvent::ExcitationJoint)
+            }
             HostKind::SetEffect => {
                 let effect: LinkEffect = frame.payload()?;
                 self.after_handshake()?;
@@ -268,6 +283,11 @@ impl DeviceLink {
     /// The last processor-in-the-loop setup received.
     pub fn pil_setup(&self) -> Option<&PilSetup> {
         self.pil_setup.as_ref()
+    }
+
+    /// The last joint of an excitation received (processor in the loop).
+    pub fn excitation_joint(&self) -> Option<&ExcitationJoint> {
+        self.excitation_joint.as_ref()
     }
 
     /// The frame decoder's counts.

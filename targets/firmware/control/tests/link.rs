@@ -9,8 +9,9 @@ use std::collections::VecDeque;
 use hapticgen_fw_control::board::VoltageOutput;
 use hapticgen_fw_control::link::{DeviceLink, Gated, LinkEvent, LinkFault, LinkSettings};
 use hapticgen_protocol::{
-    encode, ChannelScales, DeviceInfo, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, PilLaw,
-    PilSetup, SensorFrame, MAX_FRAME_BYTES, PROTOCOL_VERSION,
+    encode, ChannelScales, DeviceInfo, DeviceMessage, ExcitationJoint, FrameDecoder, HostMessage,
+    ImpedanceSettings, PilLaw, PilSetup, SensorFrame, EXCITATION_HARMONICS, MAX_FRAME_BYTES,
+    PROTOCOL_VERSION,
 };
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
@@ -281,6 +282,17 @@ fn sensor_frames_feed_the_watchdog_and_are_handed_on_after_the_handshake() {
     };
     assert_eq!(feed(&mut link, &HostMessage::PilSetup(setup)), vec![LinkEvent::PilSetup]);
     assert_eq!(link.pil_setup(), Some(&setup));
+    let joint = ExcitationJoint {
+        joint: 0,
+        period: 5.0,
+        ramp: 1.0,
+        tracking_hz: 8.0,
+        offset: 0.1,
+        sine: [0.2; EXCITATION_HARMONICS],
+        cosine: [-0.1; EXCITATION_HARMONICS],
+    };
+    assert_eq!(feed(&mut link, &HostMessage::SetExcitation(joint)), vec![LinkEvent::ExcitationJoint]);
+    assert_eq!(link.excitation_joint(), Some(&joint));
     assert!(feed(&mut link, &HostMessage::Heartbeat { sequence: 1 }).is_empty());
     assert!(feed(&mut link, &HostMessage::Enable).is_empty());
     // One sensor frame per period, no heartbeat: the bridges stay on for a second.

@@ -520,6 +520,12 @@ pub struct IdentifyArgs {
     /// masses, centres of mass, inertias and frictions, every changed value marked.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    /// The device's true model file, where it is known (a simulated device, `simulate --plant`):
+    /// print how far the identification is from it (D, C q̇, g at 100 random states, each
+    /// friction parameter, the validation torque) and fail if a figure is over its bound
+    /// (2 % of the norm, 10 %, 5 %).
+    #[arg(long, value_name = "TRUE.yaml")]
+    pub truth: Option<PathBuf>,
 }
 
 /// The arguments of `eval`.

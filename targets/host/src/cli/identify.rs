@@ -41,13 +41,21 @@ pub fn excite(args: ExciteArgs) -> Result<(), CliError> {
 /// `hapticgen identify`: fits the base parameters to the logs and prints them; writes the
 /// report and the identified model file if asked, once everything is computed.
 pub fn identify(args: IdentifyArgs) -> Result<(), CliError> {
-    let IdentifyArgs { model, variant, logs, validate, cutoff, measured_torque, report, output } = args;
+    let IdentifyArgs { model, variant, logs, validate, cutoff, measured_torque, report, output, truth } =
+        args;
     let torque = if measured_torque { TorqueSource::Measured } else { TorqueSource::Commanded };
     let settings = FitSettings { cutoff_hz: cutoff, torque, ..Default::default() };
     let identified = commands::identify(&model, variant.as_deref(), &logs, validate.as_deref(), &settings)
         .map_err(CliError::Identification)?;
     let text = identified.describe();
     print!("{text}");
+    let verdict = truth
+        .as_deref()
+        .map(|truth| commands::against_truth(&identified, truth).map_err(CliError::Identification))
+        .transpose()?;
+    if let Some((text, _)) = &verdict {
+        print!("{text}");
+    }
     // Everything is computed before anything is written.
     let written = output
         .as_ref()
@@ -67,5 +75,10 @@ pub fn identify(args: IdentifyArgs) -> Result<(), CliError> {
             residual
         );
     }
-    Ok(())
+    match verdict {
+        Some((_, failures)) if !failures.is_empty() => Err(CliError::Verdict(
+            failures.iter().map(|f| format!("FAIL identify: {f}")).collect::<Vec<_>>().join("\n"),
+        )),
+        _ => Ok(()),
+    }
 }

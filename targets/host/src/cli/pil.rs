@@ -5,8 +5,8 @@
 
 use std::path::Path;
 
-use super::args::PilArgs;
-use super::simulate::{configure, Configured};
+use super::args::{PilArgs, ScenarioArg};
+use super::simulate::{configure, excite_run, Configured};
 use super::{CliError, FileOp};
 use crate::closed_loop::Trace;
 use crate::simulation::PilTarget;
@@ -14,6 +14,9 @@ use crate::simulation::PilTarget;
 /// `hapticgen pil`: runs the image against the plant, writes DIR/trace.csv, the figures and
 /// DIR/qemu.out; fails with a `FAIL pil: …` line per failed fault test or bound.
 pub fn pil(args: PilArgs) -> Result<(), CliError> {
+    if matches!(args.run.scenario, ScenarioArg::Excite) || args.run.trajectory.is_some() {
+        return excite(&args);
+    }
     let Configured { sim, cfg, scenario: _, singular_start: _, contact: _ } = configure(&args.run)?;
     let run = &args.run;
     // The variant applied: the one asked for, else the model's default.
@@ -177,6 +180,23 @@ pub fn pil(args: PilArgs) -> Result<(), CliError> {
             failures.iter().map(|f| format!("FAIL pil: {f}")).collect::<Vec<_>>().join("\n"),
         ))
     }
+}
+
+/// `hapticgen pil --scenario excite`: the image plays the identification trajectory against
+/// the simulated device and the host writes `DIR/log.csv` as `simulate --scenario excite` does.
+/// The fault tests and the comparison belong to the impedance scenarios.
+fn excite(args: &PilArgs) -> Result<(), CliError> {
+    if args.compare
+        || args.stop_after.is_some()
+        || args.corrupt_every.is_some()
+        || args.garbage_every.is_some()
+    {
+        return Err(CliError::Usage(
+            "the excite scenario takes none of --compare, --stop-after, --corrupt-every, --garbage-every"
+                .into(),
+        ));
+    }
+    excite_run(&args.run, Some(args))
 }
 
 /// The largest absolute difference per column of two traces of the same run, and when.

@@ -216,7 +216,7 @@ pub fn simulate(args: SimulateArgs) -> Result<(), CliError> {
         eprintln!("{line}");
     }
     if matches!(args.scenario, ScenarioArg::Excite) || args.trajectory.is_some() {
-        return excite_run(&args);
+        return excite_run(&args, None);
     }
     let Configured { sim, cfg, scenario, singular_start, contact } = configure(&args)?;
     let largest_det = sim.largest_jacobian_determinant();
@@ -280,8 +280,9 @@ pub fn simulate(args: SimulateArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-/// `simulate --scenario excite`: the identification run (crate::identify).
-fn excite_run(args: &SimulateArgs) -> Result<(), CliError> {
+/// `simulate --scenario excite`: the identification run (crate::identify); with `pil`, the
+/// firmware image under QEMU plays it (`hapticgen pil --scenario excite`).
+pub(super) fn excite_run(args: &SimulateArgs, pil: Option<&super::args::PilArgs>) -> Result<(), CliError> {
     if !matches!(args.scenario, ScenarioArg::Excite) {
         return Err(CliError::Usage(
             "--trajectory belongs to the excite scenario (--scenario excite)".into(),
@@ -292,6 +293,28 @@ fn excite_run(args: &SimulateArgs) -> Result<(), CliError> {
         .as_deref()
         .ok_or_else(|| CliError::Usage("the excite scenario needs --trajectory TRAJ.yaml".into()))?;
     let sim = Simulation::load(&args.model, args.variant.as_deref()).map_err(CliError::Simulation)?;
+    let target = match pil {
+        None => None,
+        Some(pil) => {
+            // The variant applied: the one asked for, else the model's default.
+            let name = crate::pil::image_name(&args.model, sim.model.variant.as_deref())
+                .map_err(CliError::Simulation)?;
+            let image =
+                crate::pil::locate_image(&name, pil.image.as_deref()).map_err(CliError::Simulation)?;
+            let qemu = crate::pil::locate_qemu(pil.qemu.as_deref()).map_err(CliError::Simulation)?;
+            std::fs::create_dir_all(&args.output).map_err(CliError::file(FileOp::Create, &args.output))?;
+            eprintln!("pil: image {} ({name}) under {}", image.display(), qemu.display());
+            Some(crate::simulation::PilTarget {
+                qemu,
+                image,
+                name,
+                log: args.output.join("qemu.out"),
+                stop_after: None,
+                corrupt_every: None,
+                garbage_every: None,
+            })
+        }
+    };
     let mut cfg = SimConfig::new(sim.home());
     cfg.effects = effects(&args.without)?;
     cfg.seed = args.seed;
@@ -308,6 +331,7 @@ fn excite_run(args: &SimulateArgs) -> Result<(), CliError> {
         cfg,
         duration: args.duration,
         output: &args.output,
+        pil: target.as_ref(),
     };
     let text = crate::identify::commands::excite_run(&sim, &args.model, args.variant.as_deref(), run)
         .map_err(CliError::Identification)?;

@@ -100,6 +100,9 @@ pub struct ExciteRun<'a> {
     pub duration: Option<f64>,
     /// Where `log.csv` goes.
     pub output: &'a Path,
+    /// `Some`: the rig's firmware image under QEMU plays the trajectory (`hapticgen pil`);
+    /// `None`: the runtime on the host.
+    pub pil: Option<&'a crate::simulation::PilTarget>,
 }
 
 /// `hapticgen simulate --scenario excite`: plays the trajectory, writes `DIR/log.csv` (and
@@ -127,7 +130,16 @@ pub fn excite_run(
     let mut cfg = run.cfg;
     cfg.duration = run.duration.unwrap_or(trajectory.ramp + 4.0 * trajectory.period);
     cfg.progress = true;
-    let (trace, log) = sim.run_excitation(&trajectory, plant.as_ref(), &cfg)?;
+    let (trace, log, report) = match run.pil {
+        None => {
+            let (trace, log) = sim.run_excitation(&trajectory, plant.as_ref(), &cfg)?;
+            (trace, log, None)
+        }
+        Some(target) => {
+            let (trace, log, report) = sim.run_pil_excitation(&trajectory, plant.as_ref(), &cfg, target)?;
+            (trace, log, Some(report))
+        }
+    };
     std::fs::create_dir_all(run.output).map_err(|e| format!("error: {}: {e}", run.output.display()))?;
     let log_path = run.output.join("log.csv");
     log.write(&log_path)?;
@@ -150,13 +162,20 @@ pub fn excite_run(
         model_path.display(),
         run.trajectory.display(),
         trace.wall_seconds,
-        if sim.uses_generated_code() { "generated code" } else { "the model's tapes" },
+        match (run.pil, sim.uses_generated_code()) {
+            (Some(target), _) => format!("firmware `{}` under QEMU", target.name),
+            (None, true) => "generated code".to_string(),
+            (None, false) => "the model's tapes".to_string(),
+        },
         run.plant.map_or_else(|| "the same model".to_string(), |p| p.display().to_string()),
         log_path.display(),
         log.len()
     );
     for (joint, error) in sim.model.joints.iter().zip(&worst) {
         text.push_str(&format!("  joint {}: largest tracking error {:.3e}\n", joint.name, error));
+    }
+    for line in report.iter().flat_map(|report| &report.lines) {
+        text.push_str(&format!("  {line}\n"));
     }
     if let Some((t, fault)) = &trace.fault {
         return Err(format!(
@@ -187,6 +206,25 @@ pub fn torque_leads(model: &CheckedModel, source: fit::TorqueSource) -> Result<V
             fit::TorqueSource::Measured => -design.filter_time_constant,
         })
         .collect())
+}
+
+/// `hapticgen identify --truth`: the identified model against the true device's model file
+/// ([`super::truth`], 100 states); returns the markdown section and every figure over its bound.
+pub fn against_truth(identified: &Identified, truth_path: &Path) -> Result<(String, Vec<String>), String> {
+    let truth = load(truth_path, identified.model.variant.as_deref())?;
+    let comparison = super::truth::compare(
+        &identified.regressor,
+        &identified.model,
+        &identified.fit.beta,
+        &truth,
+        100,
+        1,
+    )?;
+    let validation = identified.validation.as_ref().map(|(error, torque)| {
+        let total = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        total(error) / total(torque).max(1e-300)
+    });
+    Ok((comparison.describe(&truth_path.display().to_string(), validation), comparison.failures(validation)))
 }
 
 /// What `hapticgen identify` found.

@@ -6,12 +6,19 @@
 //! effect of the simulator stays on (encoder quantisation, the current loop through its
 //! anti-aliasing filter, friction, backlash, saturation), and the log holds only what a device
 //! measures ([`super::log`]).
+//!
+//! The same run under QEMU (`hapticgen pil --scenario excite`, [`PilExcitation`]): the rig's
+//! firmware image plays the trajectory with the same law in `f32` (`PilLaw::Excitation`), the
+//! host's plant and sensors are the simulator's, and the host logs what the device measured
+//! (the encoder angles, the measured currents as joint torques) and the torques the firmware
+//! commanded: the log `hapticgen identify` reads, from the firmware's control path.
 
 use std::sync::Arc;
 
+use hapticgen_protocol::{ExcitationJoint, EXCITATION_HARMONICS};
 use hapticgen_runtime::excitation::{JointReference, JointTracking};
 use hapticgen_runtime::tick::{HapticLoop, ImpedanceInputs};
-use hapticgen_runtime::{linalg, Coupling, RigModel};
+use hapticgen_runtime::{linalg, Coupling, DriveTrain, RigModel};
 
 use super::log::IdentificationLog;
 use super::trajectory::{Series, TrajectoryFile};
@@ -19,8 +26,9 @@ use crate::closed_loop::{
     self, DeviceController, ImpedanceOutcome, PeriodCommand, PeriodSensors, SimConfig, SimSource, Trace,
 };
 use crate::generated::RigVisitor;
+use crate::pil::{Pil, PilPlay, PilReport};
 use crate::rig::{CompiledModel, SimRig};
-use crate::simulation::Simulation;
+use crate::simulation::{PilTarget, Simulation};
 
 /// The tracking bandwidth of excitation runs, Hz: critically damped error dynamics, well under
 /// the 1 kHz impedance loop and its velocity filter.
@@ -35,12 +43,32 @@ where
     series: Series,
     tracking: JointTracking<f64, N>,
     tick: u32,
-    /// Each drive's torque per ampere, `k_t N η`.
-    torque_per_amp: [f64; N],
-    /// The rig's transmission, if any (joint torques `Cᵀ τ_a`).
-    coupling: Option<Coupling<f64, N>>,
+    meter: TorqueMeter<N>,
     /// What the run measured.
     pub log: IdentificationLog,
+}
+
+/// The joint torques a device's measured motor currents stand for: each drive's torque per
+/// ampere `k_t N η`, then the rig's transmission, if any (`Cᵀ τ_a`).
+struct TorqueMeter<const N: usize> {
+    torque_per_amp: [f64; N],
+    coupling: Option<Coupling<f64, N>>,
+}
+
+impl<const N: usize> TorqueMeter<N> {
+    fn new(drives: &[DriveTrain<f64>; N], coupling: Option<Coupling<f64, N>>) -> Self {
+        let torque_per_amp =
+            std::array::from_fn(|k| drives[k].torque_constant * drives[k].gear_ratio * drives[k].efficiency);
+        Self { torque_per_amp, coupling }
+    }
+
+    fn joint_torques(&self, measured_current: &[f64; N]) -> [f64; N] {
+        let drive_torque: [f64; N] = std::array::from_fn(|k| self.torque_per_amp[k] * measured_current[k]);
+        match &self.coupling {
+            Some(coupling) => linalg::transpose_mul_vec(&coupling.drive_from_joint, &drive_torque),
+            None => drive_torque,
+        }
+    }
 }
 
 impl<R, const N: usize, const M: usize> DeviceController<N, M> for ExcitationController<R, N, M>
@@ -68,12 +96,7 @@ where
             let report = haptic.joint_tick(&inputs, |rig, terms, state| {
                 tracking.torque(rig, terms, &state.position, &state.velocity, &reference)
             });
-            let drive_torque: [f64; N] =
-                std::array::from_fn(|k| self.torque_per_amp[k] * sensors.measured_current[k]);
-            let measured = match &self.coupling {
-                Some(coupling) => linalg::transpose_mul_vec(&coupling.drive_from_joint, &drive_torque),
-                None => drive_torque,
-            };
+            let measured = self.meter.joint_torques(&sensors.measured_current);
             self.log.push(sensors.time, &haptic.joint_state().position, &measured, &report.command.torque);
             impedance = Some(ImpedanceOutcome {
                 torque: report.command.torque,
@@ -111,11 +134,7 @@ impl RigVisitor for ExciteVisitor<'_> {
             &self.simulation.data,
             self.cfg,
             |rig, source, settings| {
-                let drives = rig.drives();
-                let torque_per_amp = std::array::from_fn(|k| {
-                    drives[k].torque_constant * drives[k].gear_ratio * drives[k].efficiency
-                });
-                let coupling = rig.coupling();
+                let meter = TorqueMeter::new(&rig.drives(), rig.coupling());
                 let haptic = HapticLoop::new(rig, source, settings)
                     .ok_or_else(|| "error: unusable loop rates in the generated rig".to_string())?;
                 Ok(ExcitationController {
@@ -123,13 +142,131 @@ impl RigVisitor for ExciteVisitor<'_> {
                     series,
                     tracking: JointTracking::critically_damped(TRACKING_HZ),
                     tick: 0,
-                    torque_per_amp,
-                    coupling,
+                    meter,
                     log: IdentificationLog::new(joints),
                 })
             },
         )?;
         Ok((trace, controller.log))
+    }
+}
+
+/// The firmware under QEMU playing an excitation, the host logging what the device measured
+/// and the torques the firmware commanded (module documentation).
+pub struct PilExcitation<const N: usize, const M: usize> {
+    pil: Pil<N, M>,
+    meter: TorqueMeter<N>,
+    drives: [DriveTrain<f64>; N],
+    coupling: Option<Coupling<f64, N>>,
+    /// The joint angles at the start, and the counts there.
+    zero_offset: [f64; N],
+    initial_counts: [i32; N],
+    /// What the run measured.
+    pub log: IdentificationLog,
+}
+
+impl<const N: usize, const M: usize> PilExcitation<N, M> {
+    /// The joint angles at `counts`: the start's angles plus the counts since, through the
+    /// gears and the transmission (as the firmware's estimator computes them).
+    fn joint_angles(&self, counts: &[i32; N]) -> [f64; N] {
+        let moved: [i32; N] = std::array::from_fn(|j| counts[j].wrapping_sub(self.initial_counts[j]));
+        let angles = closed_loop::joint_angles_at_counts(&moved, &self.drives, self.coupling.as_ref());
+        std::array::from_fn(|j| self.zero_offset[j] + angles[j])
+    }
+}
+
+impl<const N: usize, const M: usize> DeviceController<N, M> for PilExcitation<N, M> {
+    fn period(&mut self, sensors: &PeriodSensors<N, M>) -> Result<PeriodCommand<N, M>, String> {
+        let command = self.pil.period(sensors)?;
+        if let Some(outcome) = &command.impedance {
+            let q = self.joint_angles(&sensors.encoder_counts);
+            let measured = self.meter.joint_torques(&sensors.measured_current);
+            self.log.push(sensors.time, &q, &measured, &outcome.torque);
+        }
+        Ok(command)
+    }
+}
+
+/// The trajectory as the link carries it: one message per joint. Refused: more harmonics than
+/// a message holds, or a period that is not a whole number of impedance ticks (the firmware
+/// wraps the series' time in whole ticks).
+pub fn excitation_messages(
+    series: &Series,
+    joints: usize,
+    impedance_loop_hz: u32,
+    tracking_hz: f64,
+) -> Result<Vec<ExcitationJoint>, String> {
+    let trajectory = series;
+    let ticks = trajectory.period * f64::from(impedance_loop_hz);
+    if (ticks - ticks.round()).abs() > 1e-6 * ticks.max(1.0) || ticks < 1.0 {
+        return Err(format!(
+            "error: the trajectory's period of {} s is not a whole number of the firmware's impedance ticks              ({impedance_loop_hz} Hz); design it with such a period (hapticgen excite --period)",
+            trajectory.period
+        ));
+    }
+    if joints > trajectory.offset.len() || joints > hapticgen_protocol::MAX_JOINTS {
+        return Err(format!("error: {joints} joints: more than a trajectory or the link carries"));
+    }
+    (0..joints)
+        .map(|j| {
+            let used = |row: &[f64]| row.iter().rposition(|&c| c != 0.0).map_or(0, |last| last + 1);
+            let harmonics = used(&trajectory.sine[j]).max(used(&trajectory.cosine[j]));
+            if harmonics > EXCITATION_HARMONICS {
+                return Err(format!(
+                    "error: the trajectory has {harmonics} harmonics on joint {j}; the link carries at most                      {EXCITATION_HARMONICS}"
+                ));
+            }
+            let coefficients = |row: &[f64]| -> [f32; EXCITATION_HARMONICS] {
+                std::array::from_fn(|k| row.get(k).map_or(0.0, |&c| c as f32))
+            };
+            Ok(ExcitationJoint {
+                joint: u8::try_from(j).map_err(|_| "error: too many joints for the link".to_string())?,
+                period: trajectory.period as f32,
+                ramp: trajectory.ramp as f32,
+                tracking_hz: tracking_hz as f32,
+                offset: trajectory.offset[j] as f32,
+                sine: coefficients(&trajectory.sine[j]),
+                cosine: coefficients(&trajectory.cosine[j]),
+            })
+        })
+        .collect()
+}
+
+struct ExcitePilVisitor<'a> {
+    plant: Arc<CompiledModel>,
+    simulation: &'a Simulation,
+    cfg: &'a SimConfig,
+    target: &'a PilTarget,
+    messages: Vec<ExcitationJoint>,
+}
+
+impl RigVisitor for ExcitePilVisitor<'_> {
+    type Output = Result<(Trace, IdentificationLog, PilReport), String>;
+    fn visit<R: RigModel<N, M, Scalar = f64>, const N: usize, const M: usize>(self, rig: R) -> Self::Output {
+        let joints: Vec<String> = self.simulation.model.joints.iter().map(|j| j.name.clone()).collect();
+        let target = self.target;
+        let messages = &self.messages;
+        let (trace, controller) = closed_loop::run_with::<R, PilExcitation<N, M>, _, N, M>(
+            rig,
+            self.plant,
+            &self.simulation.data,
+            self.cfg,
+            |rig, _, settings| {
+                let play = PilPlay::Excitation(messages);
+                let pil = Pil::start(&target.qemu, &target.image, &target.name, &target.log, settings, play)?;
+                Ok(PilExcitation {
+                    pil,
+                    meter: TorqueMeter::new(&rig.drives(), rig.coupling()),
+                    drives: rig.drives(),
+                    coupling: rig.coupling(),
+                    zero_offset: settings.zero_offset,
+                    initial_counts: settings.initial_counts,
+                    log: IdentificationLog::new(joints),
+                })
+            },
+        )?;
+        let report = controller.pil.finish()?;
+        Ok((trace, controller.log, report))
     }
 }
 
@@ -155,5 +292,27 @@ impl Simulation {
         let mut cfg = cfg.clone();
         cfg.initial_q = start;
         self.dispatch(ExciteVisitor { plant, simulation: self, cfg: &cfg, series })
+    }
+
+    /// [`Self::run_excitation`] with the rig's firmware image under QEMU as the controller
+    /// ([`PilExcitation`]); also returns the image's report.
+    pub fn run_pil_excitation(
+        &self,
+        trajectory: &TrajectoryFile,
+        plant: Option<&hapticgen_codegen::CheckedModel>,
+        cfg: &SimConfig,
+        target: &PilTarget,
+    ) -> Result<(Trace, IdentificationLog, PilReport), String> {
+        trajectory.check(&self.model).map_err(|e| format!("error: the trajectory: {e}"))?;
+        let plant = match plant {
+            None => self.nominal.clone(),
+            Some(device) => self.device(device)?,
+        };
+        let series = trajectory.series();
+        let n = self.joints();
+        let messages = excitation_messages(&series, n, self.model.rates.impedance_loop_hz, TRACKING_HZ)?;
+        let mut cfg = cfg.clone();
+        cfg.initial_q = series.reference(0.0).position[..n].to_vec();
+        self.dispatch(ExcitePilVisitor { plant, simulation: self, cfg: &cfg, target, messages })
     }
 }
