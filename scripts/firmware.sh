@@ -108,7 +108,7 @@ plan_image() {
         "$PIL_FIG7") echo "image $1 ($PIL_FIG7_VARIANT): lint, build, build hapticgen, hapticgen pil (Fig. 7 circle) vs simulate, in the background" ;;
         "$DEVICE") echo "image $1 ($DEVICE_VARIANT): lint, build, build hapticgen, scripts/device-run.sh (hapticgen connect under QEMU)" ;;
         "$DEVICE3D") echo "image $1 (the Falcon-like Delta): lint, build, build hapticgen, scripts/device-run-3d.sh (a hand pushed into a half-space and a box, held at F/K)" ;;
-        "$PIL") echo "image $1 ($PIL_VARIANT): lint, build (image and probe), panic check, build hapticgen, hapticgen pil (Fig. 4 and fault tests) vs simulate, in the background" ;;
+        "$PIL") echo "image $1 ($PIL_VARIANT): lint, build (image and probe), panic check, build hapticgen, hapticgen pil (Fig. 4 and fault tests) vs simulate, identification under QEMU (scripts/pil-identify.sh), in the background" ;;
         "$BOARD") echo "image $1 ($BOARD_VARIANT): lint, layering (cargo tree), build (image, device image, probes), panic checks" ;;
         *) echo "image $1: lint, build (image and control-path probe), panic check, run under QEMU, compare with the host reference and check limits" ;;
     esac
@@ -385,11 +385,12 @@ for NAME in "${SELECTED[@]}"; do
         panic_check "$PIL" "$OUT/$PIL_VARIANT.pil-path.elf"
         step "PIL: the host side (hapticgen, root workspace)"
         build_hapticgen
-        step "PIL: Fig. 4 on the joystick under QEMU vs hapticgen simulate (bound: $PIL_MAX_COUNTS encoder counts), then the fault tests (one sensor frame in 100 corrupted and a burst of 96 random bytes before one in 37, every bad frame dropped; the host goes silent at 0.25 s: safe state within 10 ms)"
+        step "PIL: Fig. 4 on the joystick under QEMU vs hapticgen simulate (bound: $PIL_MAX_COUNTS encoder counts), then the fault tests (one sensor frame in 100 corrupted and a burst of 96 random bytes before one in 37, every bad frame dropped; the host goes silent at 0.25 s: safe state within 10 ms), then identification under QEMU (scripts/pil-identify.sh: D, C q̇, g within 2 %, friction 10 %, validation torque 5 %)"
         background "$PIL" bash -c '"$1" pil "$2/models/joystick_1dof.yaml" --controller natural-inertia --scenario step \
             --duration 2 --compare --max-counts "$3" --image "$4" -o "$5/pil-fig4" \
             && "$1" pil "$2/models/joystick_1dof.yaml" --controller natural-inertia --scenario step \
-            --duration 0.3 --stop-after 0.25 --corrupt-every 100 --garbage-every 37 --image "$4" -o "$5/pil-fault"' \
+            --duration 0.3 --stop-after 0.25 --corrupt-every 100 --garbage-every 37 --image "$4" -o "$5/pil-fault" \
+            && "$2/scripts/pil-identify.sh" "$1" "$4" "$5/pil-identify"' \
             pil "$HAPTICGEN" "$ROOT" "$PIL_MAX_COUNTS" "$OUT/$PIL_VARIANT.pil.elf" "$OUT"
         continue
     fi

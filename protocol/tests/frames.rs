@@ -6,7 +6,8 @@ use hapticgen_protocol::message::Channels;
 use hapticgen_protocol::{
     encode, ActuatorFrame, ChannelScales, CountUnwrapper, DeviceInfo, DeviceMessage, ExcitationJoint,
     FrameDecoder, HostKind, HostMessage, ImpedanceSettings, LinkCounters, LinkEffect, PilLaw, PilSetup,
-    SceneAnswer, SceneObject, SceneOutcome, SensorFrame, StateFrame, StateSample, MAX_FRAME_BYTES,
+    SceneAnswer, SceneObject, SceneOutcome, SensorFrame, StateFrame, StateSample, EXCITATION_HARMONICS,
+    MAX_FRAME_BYTES,
 };
 use proptest::prelude::*;
 
@@ -530,10 +531,24 @@ fn pil_frames_fit_at_their_widest() {
         fault: u8::MAX,
         missed: u32::MAX,
     });
-    let sizes = [frame_of(&sensors).len(), frame_of(&setup).len(), frame_of(&actuators).len()];
+    let excitation = HostMessage::SetExcitation(ExcitationJoint {
+        joint: u8::MAX,
+        period: 1e9,
+        ramp: 1e9,
+        tracking_hz: 1e9,
+        offset: 1e9,
+        sine: [1e9; EXCITATION_HARMONICS],
+        cosine: [1e9; EXCITATION_HARMONICS],
+    });
+    let sizes = [
+        frame_of(&sensors).len(),
+        frame_of(&setup).len(),
+        frame_of(&actuators).len(),
+        frame_of(&excitation).len(),
+    ];
     println!(
-        "PIL frames at their widest: sensors {} B, setup {} B, actuators {} B",
-        sizes[0], sizes[1], sizes[2]
+        "PIL frames at their widest: sensors {} B, setup {} B, actuators {} B, excitation {} B",
+        sizes[0], sizes[1], sizes[2], sizes[3]
     );
     assert!(sizes.iter().all(|&n| n <= MAX_FRAME_BYTES));
     // A version-1 peer's actuator frame (tick and voltages only) is not a message of this
@@ -726,14 +741,14 @@ fn a_zero_byte_in_the_channels_is_not_a_message() {
     assert!(postcard::from_bytes::<DeviceMessage>(&body).is_err());
 }
 
-/// Protocol version 5: the device's answer to a `SetObject` is `Scene { slot, outcome }`, four
+/// Since protocol version 5: the device's answer to a `SetObject` is `Scene { slot, outcome }`, four
 /// bytes of postcard (the kind 4, the slot, the outcome's index); every outcome and the
 /// highest slot come back equal through the framing, and an outcome this version does not know
 /// is refused, not misread.
 #[test]
 fn scene_answers_round_trip() {
     use hapticgen_protocol::PROTOCOL_VERSION;
-    assert_eq!(PROTOCOL_VERSION, 5);
+    const { assert!(PROTOCOL_VERSION >= 5) };
     let outcomes =
         [SceneOutcome::Rendered, SceneOutcome::NotRendered, SceneOutcome::BadValues, SceneOutcome::NoSlot];
     for (index, outcome) in outcomes.into_iter().enumerate() {

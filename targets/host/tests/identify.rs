@@ -323,6 +323,21 @@ fn excite_simulate_identify_write_a_model_file_that_checks() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{}{}", stdout, String::from_utf8_lossy(&out.stderr));
     assert!(stdout.contains("| fc_q |") && stdout.contains("Condition number"), "{stdout}");
+    // `--truth`: the run's device was the model file; a device with a 40 % heavier grip is not
+    // what was identified: its g and D are named, over their bound, and the command fails.
+    let heavier =
+        std::fs::read_to_string(workspace().join(model)).unwrap().replace("mass: 0.05\n", "mass: 0.07\n");
+    std::fs::write(path("heavier.yaml"), heavier).unwrap();
+    let out = hapticgen(&["identify", model, "--log", &log, "--truth", &path("heavier.yaml")]);
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(
+        !out.status.success()
+            && stdout.contains("Against the true device")
+            && stderr.contains("FAIL identify: D is")
+            && stderr.contains("FAIL identify: g is")
+            && !stderr.contains("FAIL identify: fc_q"),
+        "{stdout}{stderr}"
+    );
     // The report: the table, the torque comparison, the figure it links.
     let report = std::fs::read_to_string(path("report/identification.md")).unwrap();
     assert!(report.contains("| fc_q |") && report.contains("![joint q](torque_q.svg)"), "{report}");

@@ -235,7 +235,7 @@ impl Comparison {
         for (name, error) in
             [("D", self.terms.inertia), ("C q̇", self.terms.coriolis), ("g", self.terms.gravity)]
         {
-            if !(error <= RIGID_BODY_BOUND) {
+            if !within(error, RIGID_BODY_BOUND) {
                 failures.push(format!(
                     "{name} is {:.2} % off the true device's, over {:.0} %",
                     100.0 * error,
@@ -244,7 +244,7 @@ impl Comparison {
             }
         }
         for f in &self.friction {
-            if !(f.relative() <= FRICTION_BOUND) {
+            if !within(f.relative(), FRICTION_BOUND) {
                 failures.push(format!(
                     "{} is {:.2} % off the true device's, over {:.0} %",
                     f.name,
@@ -254,7 +254,7 @@ impl Comparison {
             }
         }
         if let Some(error) = validation {
-            if !(error <= VALIDATION_BOUND) {
+            if !within(error, VALIDATION_BOUND) {
                 failures.push(format!(
                     "the validation torque is predicted {:.2} % RMS off, over {:.0} %",
                     100.0 * error,
@@ -264,4 +264,9 @@ impl Comparison {
         }
         failures
     }
+}
+
+/// `error` is a number at most `bound` (a NaN is not).
+fn within(error: f64, bound: f64) -> bool {
+    error <= bound
 }
