@@ -32,6 +32,7 @@ use hapticgen_codegen::mesh::TriangleMesh;
 use crate::closed_loop::{Trace, PROXY_SKIN};
 use crate::report::Check;
 use crate::solids::{Solid, SolidShape};
+use crate::vector::{dot, norm};
 
 /// One of the contact scenarios (module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -261,7 +262,7 @@ pub fn setup(contact: Contact, x0: &[f64], settings: &ContactSettings) -> Result
                     vec![centre[0] + circle * angle.cos(), centre[1] + circle * angle.sin(), top]
                 };
                 let towards: Vec<f64> = centre.iter().zip(&surface).map(|(c, s)| c - s).collect();
-                let length = towards.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-12);
+                let length = norm(&towards).max(1e-12);
                 let direction: Vec<f64> = if contact == Contact::Sphere {
                     towards.iter().map(|v| v / length).collect()
                 } else {
@@ -393,12 +394,8 @@ struct Sample {
     rendered_at: f64,
 }
 
-fn norm(v: &[f64]) -> f64 {
-    v.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
-
 fn degrees_between(a: &[f64], b: &[f64]) -> f64 {
-    let cosine = a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>() / (norm(a) * norm(b)).max(1e-300);
+    let cosine = dot(a, b) / (norm(a) * norm(b)).max(1e-300);
     cosine.clamp(-1.0, 1.0).acos().to_degrees()
 }
 

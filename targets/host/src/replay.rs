@@ -25,6 +25,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::closed_loop::Reference;
 use crate::design_page::{json_number, RigDrawing};
+use crate::vector::{distance, dot};
 
 /// The scene a run records beside its trace.
 pub const SCENE_FILE: &str = "scene.json";
@@ -218,9 +219,7 @@ fn polytope_edges(planes: &[(Vec<f64>, f64)]) -> Vec<[Vec<f64>; 2]> {
             })
             .collect();
     }
-    let inside = |x: &nalgebra::DVector<f64>| {
-        planes.iter().all(|(n, d)| n.iter().zip(x.iter()).map(|(a, b)| a * b).sum::<f64>() <= d + 1e-9)
-    };
+    let inside = |x: &nalgebra::DVector<f64>| planes.iter().all(|(n, d)| dot(n, x.as_slice()) <= d + 1e-9);
     let vertices: Vec<(Vec<usize>, Vec<f64>)> = subsets
         .into_iter()
         .filter_map(|subset| {
@@ -231,7 +230,7 @@ fn polytope_edges(planes: &[(Vec<f64>, f64)]) -> Vec<[Vec<f64>; 2]> {
                 let on: Vec<usize> = (0..planes.len())
                     .filter(|&i| {
                         let (n, d) = &planes[i];
-                        (n.iter().zip(x.iter()).map(|(a, b)| a * b).sum::<f64>() - d).abs() < 1e-9
+                        (dot(n, x.as_slice()) - d).abs() < 1e-9
                     })
                     .collect();
                 (on, x.iter().copied().collect())
@@ -476,7 +475,7 @@ pub fn load(model: &CheckedModel, run: &Path) -> Result<Replay, String> {
         if let Some(node) = drawing.task_node {
             let recorded: Vec<f64> = task.iter().map(|&c| values[c]).collect();
             let drawn = &pose[node][..m.min(3)];
-            let off = drawn.iter().zip(&recorded).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+            let off = distance(drawn, &recorded);
             // NaN too: the model's loops do not close at the trace's joint angles.
             if off.is_nan() || off > TASK_TOLERANCE {
                 return Err(format!(
@@ -587,8 +586,7 @@ mod tests {
         let edges = polytope_edges(&planes);
         assert_eq!(edges.len(), 12);
         for [a, b] in &edges {
-            let length = a.iter().zip(b).map(|(p, q)| (p - q).powi(2)).sum::<f64>().sqrt();
-            assert!((length - 1.0).abs() < 1e-12, "{a:?} {b:?}");
+            assert!((distance(a, b) - 1.0).abs() < 1e-12, "{a:?} {b:?}");
         }
         assert!(polytope_edges(&planes[..2]).is_empty());
         // A triangle in the plane: 3 vertices, 3 edges.

@@ -12,6 +12,8 @@ pub use hapticgen_codegen::scene::SceneShape as SolidShape;
 
 use hapticgen_codegen::scene::SceneMotion;
 
+use crate::vector::{cross, dot, norm, sub};
+
 /// A solid with its surface's material.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Solid {
@@ -189,7 +191,7 @@ impl Solid {
     /// The solid's outward unit normal at (or nearest to) surface point `p`; `None` for a mesh.
     pub fn normal(&self, p: &[f64]) -> Option<Vec<f64>> {
         let unit = |v: Vec<f64>| {
-            let length = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let length = norm(&v);
             (length > 0.0).then(|| v.iter().map(|x| x / length).collect())
         };
         match &self.shape {
@@ -199,8 +201,7 @@ impl Solid {
                 // In the box's axes: outside, towards the point from its closest point; on a
                 // face, that face's normal. Then back to task coordinates.
                 let world: Vec<f64> = p.iter().zip(center).map(|(p, c)| p - c).collect();
-                let offsets: Vec<f64> =
-                    axes.iter().map(|axis| axis.iter().zip(&world).map(|(a, w)| a * w).sum()).collect();
+                let offsets: Vec<f64> = axes.iter().map(|axis| dot(axis, &world)).collect();
                 let beyond: Vec<f64> = offsets
                     .iter()
                     .zip(half_extents)
@@ -228,27 +229,14 @@ impl Solid {
             SolidShape::Polytope { planes } => planes
                 .iter()
                 .max_by(|a, b| {
-                    let beyond = |plane: &hapticgen_codegen::scene::ScenePlane| {
-                        plane.normal.iter().zip(p).map(|(n, x)| n * x).sum::<f64>() - plane.offset
-                    };
+                    let beyond =
+                        |plane: &hapticgen_codegen::scene::ScenePlane| dot(&plane.normal, p) - plane.offset;
                     beyond(a).total_cmp(&beyond(b))
                 })
                 .map(|plane| plane.normal.clone()),
             SolidShape::Capsule { .. } | SolidShape::Cylinder { .. } | SolidShape::Mesh { .. } => None,
         }
     }
-}
-
-fn sub(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
 fn triangle(mesh: &TriangleMesh, face: &[u32; 3]) -> Option<[[f64; 3]; 3]> {
@@ -289,8 +277,7 @@ fn mesh_distance(mesh: &TriangleMesh, p: &[f64; 3]) -> f64 {
         .filter_map(|face| triangle(mesh, face))
         .map(|[a, b, c]| {
             let closest = closest_point_on_triangle(p, &a, &b, &c);
-            let d = sub(p, &closest);
-            dot(&d, &d).sqrt()
+            norm(&sub(p, &closest))
         })
         .fold(f64::INFINITY, f64::min)
 }
