@@ -41,7 +41,8 @@ use rand::{Rng, SeedableRng};
 
 use crate::plant::{Effects, Plant};
 use crate::rig::{CompiledModel, SimRig};
-use crate::solids::Solid;
+use crate::scene::SceneObject;
+use crate::solids::ContactGeometry;
 
 /// Encoder resolution used when quantisation is switched off, counts per motor turn.
 pub const FINE_ENCODER_COUNTS: u32 = 1 << 22;
@@ -155,8 +156,8 @@ pub enum Reference {
     /// Solids rendered by [`GodObject`] (a point proxy that never enters them, with history);
     /// free space with the law's gains, or the scene's free-space effect.
     Solids {
-        /// The solids.
-        solids: Vec<Solid>,
+        /// The solids: a scene file's objects or a contact scenario's.
+        solids: Vec<SceneObject>,
         /// The free-space effect (`None`: none).
         effect: Option<SceneEffect>,
     },
@@ -682,7 +683,7 @@ where
             }
             let mut motions = Vec::new();
             for solid in solids {
-                let slot = god_object.add(solid.object::<M>()?).ok_or_else(|| {
+                let slot = god_object.add(solid.runtime_object::<M>()?).ok_or_else(|| {
                     format!("error: a scene holds at most {MAX_SOLIDS} solids, this one has {}", solids.len())
                 })?;
                 if let Some(motion) = &solid.motion {
