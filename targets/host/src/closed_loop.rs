@@ -39,7 +39,7 @@ use hapticgen_runtime::{Coupling, DriveTrain, RigModel};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
-use crate::plant::{Effects, Plant};
+use crate::plant::{output_angle_at_counts, Effects, Plant};
 use crate::rig::{CompiledModel, SimRig};
 use crate::scene::SceneObject;
 use crate::solids::ContactGeometry;
@@ -861,7 +861,7 @@ where
 }
 
 /// The joint angles a controller with `drives` (and a transmission's `coupling`) reads from
-/// encoder `counts`: each drive's output angle `a = counts · 2π / (counts per turn · N)`, and
+/// encoder `counts`: each drive's output angle `a` ([`output_angle_at_counts`]), and
 /// the joints `q = C⁻¹ a`. Where the haptic loop is homed when it starts at those counts.
 pub(crate) fn joint_angles_at_counts<const N: usize>(
     counts: &[i32; N],
@@ -869,9 +869,7 @@ pub(crate) fn joint_angles_at_counts<const N: usize>(
     coupling: Option<&Coupling<f64, N>>,
 ) -> [f64; N] {
     let output_angle: [f64; N] = std::array::from_fn(|j| {
-        let per_radian =
-            f64::from(drives[j].encoder_counts_per_turn) * drives[j].gear_ratio / std::f64::consts::TAU;
-        f64::from(counts[j]) / per_radian
+        output_angle_at_counts(counts[j], drives[j].encoder_counts_per_turn, drives[j].gear_ratio)
     });
     match coupling {
         Some(coupling) => linalg::mat_vec(&coupling.joint_from_drive, &output_angle),
