@@ -3,6 +3,8 @@
 
 use std::sync::Arc;
 
+use serde::{Deserialize, Serialize};
+
 use crate::mesh::TriangleMesh;
 
 /// A scene file's objects.
@@ -248,7 +250,12 @@ impl SceneObject {
 /// How a scene object moves: it turns at the constant `angular_velocity` about `pivot` while
 /// the pivot moves at the constant `velocity`, so that at time `t` a point `x` of the object
 /// (where it is at time 0) is at `P(t) x = R(ω t) (x − c) + c + v t`.
-#[derive(Clone, Debug, PartialEq)]
+///
+/// Serialized with the scene file's names (`velocity`, `angular_velocity`, `pivot`, every one
+/// present): the host records it beside a run for the report's replay (`scene.json`). Scene
+/// files themselves are read by [`super::parse`], which fills in the absent rates.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SceneMotion {
     /// `v`, m/s; one coordinate per task axis.
     pub velocity: Vec<f64>,

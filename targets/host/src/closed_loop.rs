@@ -39,9 +39,10 @@ use hapticgen_runtime::{Coupling, DriveTrain, RigModel};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
-use crate::plant::{Effects, Plant};
+use crate::plant::{output_angle_at_counts, Effects, Plant};
 use crate::rig::{CompiledModel, SimRig};
-use crate::solids::Solid;
+use crate::scene::SceneObject;
+use crate::solids::ContactGeometry;
 
 /// Encoder resolution used when quantisation is switched off, counts per motor turn.
 pub const FINE_ENCODER_COUNTS: u32 = 1 << 22;
@@ -155,8 +156,8 @@ pub enum Reference {
     /// Solids rendered by [`GodObject`] (a point proxy that never enters them, with history);
     /// free space with the law's gains, or the scene's free-space effect.
     Solids {
-        /// The solids.
-        solids: Vec<Solid>,
+        /// The solids: a scene file's objects or a contact scenario's.
+        solids: Vec<SceneObject>,
         /// The free-space effect (`None`: none).
         effect: Option<SceneEffect>,
     },
@@ -682,7 +683,7 @@ where
             }
             let mut motions = Vec::new();
             for solid in solids {
-                let slot = god_object.add(solid.object::<M>()?).ok_or_else(|| {
+                let slot = god_object.add(solid.runtime_object::<M>()?).ok_or_else(|| {
                     format!("error: a scene holds at most {MAX_SOLIDS} solids, this one has {}", solids.len())
                 })?;
                 if let Some(motion) = &solid.motion {
@@ -860,7 +861,7 @@ where
 }
 
 /// The joint angles a controller with `drives` (and a transmission's `coupling`) reads from
-/// encoder `counts`: each drive's output angle `a = counts · 2π / (counts per turn · N)`, and
+/// encoder `counts`: each drive's output angle `a` ([`output_angle_at_counts`]), and
 /// the joints `q = C⁻¹ a`. Where the haptic loop is homed when it starts at those counts.
 pub(crate) fn joint_angles_at_counts<const N: usize>(
     counts: &[i32; N],
@@ -868,9 +869,7 @@ pub(crate) fn joint_angles_at_counts<const N: usize>(
     coupling: Option<&Coupling<f64, N>>,
 ) -> [f64; N] {
     let output_angle: [f64; N] = std::array::from_fn(|j| {
-        let per_radian =
-            f64::from(drives[j].encoder_counts_per_turn) * drives[j].gear_ratio / std::f64::consts::TAU;
-        f64::from(counts[j]) / per_radian
+        output_angle_at_counts(counts[j], drives[j].encoder_counts_per_turn, drives[j].gear_ratio)
     });
     match coupling {
         Some(coupling) => linalg::mat_vec(&coupling.joint_from_drive, &output_angle),

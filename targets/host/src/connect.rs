@@ -34,13 +34,13 @@ use std::time::{Duration, Instant};
 
 use hapticgen_protocol::{
     encode, DeviceInfo, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, LinkCounters,
-    LinkEffect, SceneAnswer, SceneObject, SceneOutcome, StateFrame, MAX_FRAME_BYTES, MAX_TASK,
+    LinkEffect, SceneAnswer, SceneObject as LinkObject, SceneOutcome, StateFrame, MAX_FRAME_BYTES, MAX_TASK,
     PROTOCOL_VERSION, SCENE_SLOTS,
 };
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
-use crate::solids::SolidShape;
+use crate::scene::SceneShape;
 
 /// How often the heartbeat thread sends a heartbeat: three to a device timeout of 6 ms, and few
 /// enough bytes (3.5 kB/s) that QEMU's emulated UART, which takes about 12 kB/s and less on a
@@ -114,7 +114,7 @@ impl std::str::FromStr for Port {
 #[derive(Clone, Debug, PartialEq)]
 pub struct DeviceScene {
     /// The objects, in the file's order (`SetObject`), where they are at time 0.
-    pub objects: Vec<SceneObject>,
+    pub objects: Vec<LinkObject>,
     /// The effect (`SetEffect`; [`LinkEffect::None`] when the file names none).
     pub effect: LinkEffect,
     /// The objects with a `motion`: the device's slots hold still objects, so the host sends
@@ -131,13 +131,13 @@ pub const SCENE_ANSWER_TIMEOUT: Duration = Duration::from_secs(10);
 /// object's line and column; `None` when the device renders it.
 pub fn refusal(scene: &DeviceScene, answer: &SceneAnswer) -> Option<String> {
     let slot = usize::from(answer.slot);
-    let object = scene.objects.get(slot).copied().unwrap_or(SceneObject::Empty);
+    let object = scene.objects.get(slot).copied().unwrap_or(LinkObject::Empty);
     let kind = match object {
-        SceneObject::Empty => "empty slot",
-        SceneObject::Sphere { cavity: true, .. } => "spherical cavity",
-        SceneObject::Sphere { .. } => "sphere",
-        SceneObject::HalfSpace { .. } => "half-space",
-        SceneObject::Box { .. } => "box",
+        LinkObject::Empty => "empty slot",
+        LinkObject::Sphere { cavity: true, .. } => "spherical cavity",
+        LinkObject::Sphere { .. } => "sphere",
+        LinkObject::HalfSpace { .. } => "half-space",
+        LinkObject::Box { .. } => "box",
     };
     let why = match answer.outcome {
         SceneOutcome::Rendered => return None,
@@ -182,7 +182,7 @@ impl DeviceScene {
     /// The moving objects where they are `time` seconds after the scene was loaded, as the
     /// link's `SetObject` carries them: a sphere's centre and a box's centre carried along, a
     /// half-space's point carried and its normal turned.
-    pub fn moved_objects(&self, time: f64) -> Vec<(u8, SceneObject)> {
+    pub fn moved_objects(&self, time: f64) -> Vec<(u8, LinkObject)> {
         self.moving
             .iter()
             .map(|moving| {
@@ -190,7 +190,7 @@ impl DeviceScene {
                 object.shape = moved_shape(&object.shape, &moving.motion, time);
                 // Checked when the scene was loaded: what moves is a sphere, a box or a
                 // half-space, which `link_object` takes.
-                (moving.slot, link_object(&object).unwrap_or(SceneObject::Empty))
+                (moving.slot, link_object(&object).unwrap_or(LinkObject::Empty))
             })
             .collect()
     }
@@ -198,17 +198,13 @@ impl DeviceScene {
 
 /// `shape` moved by `motion` at `time` (spheres, boxes without a turn, half-spaces: what a
 /// device's slot holds; any other shape as it is).
-fn moved_shape(
-    shape: &crate::solids::SolidShape,
-    motion: &crate::scene::SceneMotion,
-    time: f64,
-) -> crate::solids::SolidShape {
+fn moved_shape(shape: &SceneShape, motion: &crate::scene::SceneMotion, time: f64) -> SceneShape {
     let mut moved = shape.clone();
     match &mut moved {
-        SolidShape::Sphere { center, .. } | SolidShape::Box { center, .. } => {
+        SceneShape::Sphere { center, .. } | SceneShape::Box { center, .. } => {
             *center = motion.carried(time, center);
         }
-        SolidShape::HalfSpace { point, normal } => {
+        SceneShape::HalfSpace { point, normal } => {
             *point = motion.carried(time, point);
             *normal = motion.turned(time, normal);
         }
@@ -236,7 +232,7 @@ fn device_scene(scene: &crate::scene::Scene) -> Result<DeviceScene, String> {
     let mut moving = Vec::new();
     for (slot, object) in scene.objects.iter().enumerate() {
         let Some(motion) = &object.motion else { continue };
-        if matches!(object.shape, SolidShape::Box { .. }) && motion.turns() {
+        if matches!(object.shape, SceneShape::Box { .. }) && motion.turns() {
             return Err(format!(
                 "error: {}: a device's scene slots hold axis-aligned boxes; a turning box (`motion.angular_velocity`) \
                  is rendered by `hapticgen simulate --scene`",
@@ -278,7 +274,7 @@ fn padded(values: &[f64]) -> [f32; MAX_TASK] {
 }
 
 /// A scene's objects as the link carries them.
-fn device_objects(scene: &crate::scene::Scene) -> Result<Vec<SceneObject>, String> {
+fn device_objects(scene: &crate::scene::Scene) -> Result<Vec<LinkObject>, String> {
     if scene.objects.len() > SCENE_SLOTS {
         let extra = &scene.objects[SCENE_SLOTS];
         return Err(format!(
@@ -291,7 +287,7 @@ fn device_objects(scene: &crate::scene::Scene) -> Result<Vec<SceneObject>, Strin
 }
 
 /// One scene object as the link carries it (where it is at time 0).
-fn link_object(object: &crate::scene::SceneObject) -> Result<SceneObject, String> {
+fn link_object(object: &crate::scene::SceneObject) -> Result<LinkObject, String> {
     if object.static_friction != 0.0 || object.dynamic_friction != 0.0 {
         return Err(format!(
             "error: {}: the link carries no friction (a device's scene slots are frictionless); remove `friction`",
@@ -300,27 +296,27 @@ fn link_object(object: &crate::scene::SceneObject) -> Result<SceneObject, String
     }
     let (stiffness, damping) = (object.stiffness as f32, object.damping as f32);
     Ok(match &object.shape {
-        SolidShape::Sphere { center, radius } => SceneObject::Sphere {
+        SceneShape::Sphere { center, radius } => LinkObject::Sphere {
             centre: padded(center),
             radius: *radius as f32,
             cavity: object.cavity,
             stiffness,
             damping,
         },
-        SolidShape::Box { center, half_extents, .. } if object.shape.is_axis_aligned() => {
-            SceneObject::Box { centre: padded(center), half_extents: padded(half_extents), stiffness, damping }
+        SceneShape::Box { center, half_extents, .. } if object.shape.is_axis_aligned() => {
+            LinkObject::Box { centre: padded(center), half_extents: padded(half_extents), stiffness, damping }
         }
-        SolidShape::Box { .. } => {
+        SceneShape::Box { .. } => {
             return Err(format!(
                 "error: {}: a device's scene slots hold axis-aligned boxes; a turned box (`rotation`) is rendered \
                  by `hapticgen simulate --scene` and by firmware images built with the scene",
                 object.location
             ))
         }
-        SolidShape::HalfSpace { point, normal } => {
-            SceneObject::HalfSpace { point: padded(point), normal: padded(normal), stiffness, damping }
+        SceneShape::HalfSpace { point, normal } => {
+            LinkObject::HalfSpace { point: padded(point), normal: padded(normal), stiffness, damping }
         }
-        SolidShape::Capsule { .. } | SolidShape::Cylinder { .. } | SolidShape::Polytope { .. } | SolidShape::Mesh { .. } => {
+        SceneShape::Capsule { .. } | SceneShape::Cylinder { .. } | SceneShape::Polytope { .. } | SceneShape::Mesh { .. } => {
             return Err(format!(
                 "error: {}: a device's scene slots hold spheres, boxes and half-spaces; capsules, cylinders, \
                  polytopes and meshes are rendered by `hapticgen simulate --scene` and by firmware images built \
@@ -658,7 +654,7 @@ impl Session {
     /// [`SCENE_ANSWER_TIMEOUT`]. Returns the state frames that arrived meanwhile.
     pub fn send_scene(&mut self, scene: &DeviceScene) -> Result<Vec<ArrivedState>, String> {
         for slot in 0..SCENE_SLOTS {
-            let object = scene.objects.get(slot).copied().unwrap_or(SceneObject::Empty);
+            let object = scene.objects.get(slot).copied().unwrap_or(LinkObject::Empty);
             self.send(&HostMessage::SetObject { slot: slot as u8, object })?;
         }
         self.send(&HostMessage::SetEffect(scene.effect))?;
@@ -1066,9 +1062,9 @@ mod tests {
         let objects = parse_scene("s.yaml", text).unwrap().objects;
         assert_eq!(objects.len(), 2);
         assert!(
-            matches!(objects[0], SceneObject::Sphere { centre: [0.01, 0.2, 0.0], radius, cavity: false, .. } if radius == 0.02)
+            matches!(objects[0], LinkObject::Sphere { centre: [0.01, 0.2, 0.0], radius, cavity: false, .. } if radius == 0.02)
         );
-        assert!(matches!(objects[1], SceneObject::HalfSpace { normal: [0.0, 0.0, 1.0], .. }));
+        assert!(matches!(objects[1], LinkObject::HalfSpace { normal: [0.0, 0.0, 1.0], .. }));
         let bad = "objects:\n  - sphere: {centre: [0, 0], radius: -1, stiffness: 1, damping: 0}\n";
         let error = parse_scene("s.yaml", bad).unwrap_err();
         assert!(error.starts_with("error: s.yaml:2:"), "{error}");
@@ -1091,7 +1087,7 @@ mod tests {
         let error = parse_scene("s.yaml", turned).unwrap_err();
         assert!(error.starts_with("error: s.yaml:2:") && error.contains("axis-aligned boxes"), "{error}");
         let level = "objects:\n  - box: {centre: [0, 0], half_extents: [1, 1], stiffness: 1, damping: 0}\n";
-        assert!(matches!(parse_scene("s.yaml", level).unwrap().objects[0], SceneObject::Box { .. }));
+        assert!(matches!(parse_scene("s.yaml", level).unwrap().objects[0], LinkObject::Box { .. }));
     }
 
     /// A scene's moving objects are sent where they are at the time asked: a sphere carried
@@ -1118,11 +1114,11 @@ mod tests {
         let close = |a: [f32; 3], b: [f32; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
         let quarter = std::f64::consts::FRAC_PI_4; // 2 rad/s: a quarter turn
         let moved = scene.moved_objects(quarter);
-        let SceneObject::Sphere { centre, .. } = moved[0].1 else { panic!("{:?}", moved[0]) };
+        let LinkObject::Sphere { centre, .. } = moved[0].1 else { panic!("{:?}", moved[0]) };
         assert!(close(centre, [0.01 + 0.1 * quarter as f32, 0.2, 0.0]), "{centre:?}");
-        let SceneObject::HalfSpace { point, normal, .. } = moved[1].1 else { panic!("{:?}", moved[1]) };
+        let LinkObject::HalfSpace { point, normal, .. } = moved[1].1 else { panic!("{:?}", moved[1]) };
         assert!(close(point, [-0.1, 0.0, 0.0]) && close(normal, [-1.0, 0.0, 0.0]), "{point:?} {normal:?}");
-        let SceneObject::Box { centre, .. } = moved[2].1 else { panic!("{:?}", moved[2]) };
+        let LinkObject::Box { centre, .. } = moved[2].1 else { panic!("{:?}", moved[2]) };
         assert!(close(centre, [0.0, -0.05 * quarter as f32, 0.0]), "{centre:?}");
         let turning =
             "objects:\n  - box: {centre: [0, 0], half_extents: [1, 1], stiffness: 1, damping: 0,\n      \

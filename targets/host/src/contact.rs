@@ -19,7 +19,8 @@
 //! | `thin-plate` | a plate 1 mm thick, its top 1 cm below `x₀` | pushes `3 push` below the top, through the plate's thickness | never below the top (no pop-through); the force stays up |
 //! | `mesh` | a closed triangle mesh (a UV sphere, or an OBJ or STL file) its top 1 cm below `x₀` | presses on the top, circles pressed in | never inside (ray parity, every face) |
 //!
-//! The inside tests are the solids' own ([`Solid::depth`]), written apart from the runtime's
+//! The solids are scene objects (codegen's, as a scene file's are). The inside tests are
+//! their own ([`ContactGeometry::reference_depth`]), written apart from the runtime's
 //! closest-point code; the force is the renderer's spring, `K (proxy − x_h)`, whose direction
 //! the proxy's offset from the HIP `x_h` gives (the device's position as its encoders measured
 //! it, which the proxy was rendered for: up to a few encoder steps from where it is).
@@ -31,7 +32,9 @@ use hapticgen_codegen::mesh::TriangleMesh;
 
 use crate::closed_loop::{Trace, PROXY_SKIN};
 use crate::report::Check;
-use crate::solids::{Solid, SolidShape};
+use crate::scene::{SceneObject, SceneShape};
+use crate::solids::ContactGeometry;
+use crate::vector::{dot, norm};
 
 /// One of the contact scenarios (module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -96,7 +99,7 @@ pub struct ContactSetup {
     /// The kind.
     pub contact: Contact,
     /// The solids.
-    pub solids: Vec<Solid>,
+    pub solids: Vec<SceneObject>,
     /// The hand's path: `(time s, position)` keys.
     pub keys: Vec<(f64, Vec<f64>)>,
     /// Simulated time, s.
@@ -117,7 +120,7 @@ impl ContactSetup {
     /// The scenario's hand path and timing with `solids` (a scene file's) rendered instead of
     /// its own; its checks are then only those that hold for any scene (no fault, no torque
     /// clamped, the proxy never inside a solid).
-    pub fn with_scene(self, solids: Vec<Solid>) -> Self {
+    pub fn with_scene(self, solids: Vec<SceneObject>) -> Self {
         ContactSetup { solids, from_scene: true, ..self }
     }
 }
@@ -153,7 +156,7 @@ pub fn setup(contact: Contact, x0: &[f64], settings: &ContactSettings) -> Result
     if !(push.is_finite() && push > 0.0 && push <= 2.0 * CM) {
         return Err(format!("error: the push depth must be in (0, 2 cm], got {push} m"));
     }
-    let solid = |shape| Solid {
+    let solid = |shape| SceneObject {
         cavity: false,
         shape,
         stiffness,
@@ -161,6 +164,7 @@ pub fn setup(contact: Contact, x0: &[f64], settings: &ContactSettings) -> Result
         static_friction: settings.friction.0,
         dynamic_friction: settings.friction.1,
         motion: None,
+        location: format!("the {} scenario's solid", contact.name()),
     };
     let at = |offset: &[f64]| -> Vec<f64> { x0.iter().zip(offset).map(|(x, d)| x + d).collect() };
     let down = |depth: f64| -> Vec<f64> {
@@ -171,7 +175,7 @@ pub fn setup(contact: Contact, x0: &[f64], settings: &ContactSettings) -> Result
     let floor = || {
         let mut normal = vec![0.0; m];
         normal[last] = 1.0;
-        solid(SolidShape::HalfSpace { point: at(&down(2.0 * CM)), normal })
+        solid(SceneShape::HalfSpace { point: at(&down(2.0 * CM)), normal })
     };
     let start = x0.to_vec();
     let mut setup = ContactSetup {
@@ -225,12 +229,12 @@ pub fn setup(contact: Contact, x0: &[f64], settings: &ContactSettings) -> Result
                     ];
                     let half_width = 0.5 * (high[0] - low[0]).min(high[1] - low[1]);
                     let centre = vec![x0[0], x0[1], x0[2] - CM - 0.5 * (high[2] - low[2])];
-                    (SolidShape::Mesh { mesh: mesh.clone(), offset }, x0[2] - CM, centre, 0.4 * half_width)
+                    (SceneShape::Mesh { mesh: mesh.clone(), offset }, x0[2] - CM, centre, 0.4 * half_width)
                 }
                 (Contact::Mesh, None) => {
                     let centre = at(&down(radius + CM));
                     (
-                        SolidShape::Mesh { mesh: uv_sphere_mesh(radius)?, offset: centre.clone() },
+                        SceneShape::Mesh { mesh: uv_sphere_mesh(radius)?, offset: centre.clone() },
                         x0[2] - CM,
                         centre,
                         radius * 35f64.to_radians().sin(),
@@ -239,7 +243,7 @@ pub fn setup(contact: Contact, x0: &[f64], settings: &ContactSettings) -> Result
                 _ => {
                     let centre = at(&down(radius + CM));
                     (
-                        SolidShape::Sphere { center: centre.clone(), radius },
+                        SceneShape::Sphere { center: centre.clone(), radius },
                         x0[2] - CM,
                         centre,
                         radius * 35f64.to_radians().sin(),
@@ -261,7 +265,7 @@ pub fn setup(contact: Contact, x0: &[f64], settings: &ContactSettings) -> Result
                     vec![centre[0] + circle * angle.cos(), centre[1] + circle * angle.sin(), top]
                 };
                 let towards: Vec<f64> = centre.iter().zip(&surface).map(|(c, s)| c - s).collect();
-                let length = towards.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-12);
+                let length = norm(&towards).max(1e-12);
                 let direction: Vec<f64> = if contact == Contact::Sphere {
                     towards.iter().map(|v| v / length).collect()
                 } else {
@@ -291,7 +295,7 @@ pub fn setup(contact: Contact, x0: &[f64], settings: &ContactSettings) -> Result
             let half = [2.0 * CM, 2.0 * CM, CM];
             let (edge_x, edge_y, top) = (x0[0] + 0.5 * CM, x0[1] + 0.5 * CM, x0[2] - CM);
             let centre = vec![edge_x - half[0], edge_y - half[1], top - half[2]];
-            setup.solids = vec![solid(SolidShape::axis_aligned_box(centre, half.to_vec()))];
+            setup.solids = vec![solid(SceneShape::axis_aligned_box(centre, half.to_vec()))];
             let depth = 2.0 * push * settings.hand.0 / (stiffness + settings.hand.0);
             let gap = 0.6 * depth;
             let pressed = top - 2.0 * push;
@@ -317,7 +321,7 @@ pub fn setup(contact: Contact, x0: &[f64], settings: &ContactSettings) -> Result
             let half = [5.0 * CM, 5.0 * CM, 0.05 * CM];
             let top = x0[2] - CM;
             let centre = vec![x0[0], x0[1], top - half[2]];
-            setup.solids = vec![solid(SolidShape::axis_aligned_box(centre, half.to_vec()))];
+            setup.solids = vec![solid(SceneShape::axis_aligned_box(centre, half.to_vec()))];
             let through = at(&down(CM + 3.0 * push));
             setup.keys = press_and_hold(start, through, 2.3);
             setup.duration = 3.8;
@@ -393,12 +397,8 @@ struct Sample {
     rendered_at: f64,
 }
 
-fn norm(v: &[f64]) -> f64 {
-    v.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
-
 fn degrees_between(a: &[f64], b: &[f64]) -> f64 {
-    let cosine = a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>() / (norm(a) * norm(b)).max(1e-300);
+    let cosine = dot(a, b) / (norm(a) * norm(b)).max(1e-300);
     cosine.clamp(-1.0, 1.0).acos().to_degrees()
 }
 
@@ -441,7 +441,11 @@ pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Chec
         .rows()
         .filter(|sample| sample.rendered_at.is_finite())
         .flat_map(|sample| {
-            setup.solids.iter().map(|s| s.depth_at(&sample.proxy, sample.rendered_at)).collect::<Vec<_>>()
+            setup
+                .solids
+                .iter()
+                .map(|s| s.reference_depth_at(&sample.proxy, sample.rendered_at))
+                .collect::<Vec<_>>()
         })
         .fold(f64::NEG_INFINITY, f64::max);
     check(
@@ -466,7 +470,10 @@ pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Chec
             .rows()
             .filter(|sample| {
                 sample.rendered_at.is_finite()
-                    && setup.solids.iter().any(|s| s.depth_at(&sample.hip, sample.rendered_at) > 0.0)
+                    && setup
+                        .solids
+                        .iter()
+                        .any(|s| s.reference_depth_at(&sample.hip, sample.rendered_at) > 0.0)
             })
             .count();
         check(
@@ -499,7 +506,8 @@ pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Chec
         Contact::Wall => {
             let (stiffness, hand) = (setup.solids[0].stiffness, setup.hand_stiffness);
             let expected = hand * setup.push / (stiffness + hand);
-            let depths: Vec<f64> = window.iter().map(|s| setup.solids[0].depth(&s.device)).collect();
+            let depths: Vec<f64> =
+                window.iter().map(|s| setup.solids[0].reference_depth(&s.device)).collect();
             let mean = depths.iter().sum::<f64>() / depths.len() as f64;
             check(
                 "held depth: wall spring balances the hand's, K_w d = k_h (push − d)",
@@ -565,7 +573,9 @@ pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Chec
                     .iter()
                     .zip(&offsets)
                     .filter(|(_, o)| norm(o) > CONTACT)
-                    .filter_map(|(s, o)| setup.solids[0].normal(&s.proxy).map(|n| degrees_between(o, &n)))
+                    .filter_map(|(s, o)| {
+                        setup.solids[0].outward_normal(&s.proxy).map(|n| degrees_between(o, &n))
+                    })
                     .collect();
                 let worst = angles.iter().copied().fold(0.0, f64::max);
                 check(
@@ -583,10 +593,10 @@ pub fn checks(setup: &ContactSetup, trace: &Trace, experiment: &str) -> Vec<Chec
             up[last] = 1.0;
             // The plate is thinner than the device sinks: below its top is what counts there.
             let pushed_in = |x: &[f64]| match (&setup.solids[0].shape, setup.contact) {
-                (SolidShape::Box { center, half_extents, .. }, Contact::ThinPlate) => {
+                (SceneShape::Box { center, half_extents, .. }, Contact::ThinPlate) => {
                     x[last] < center[last] + half_extents[last]
                 }
-                _ => setup.solids[0].depth(x) > 0.0,
+                _ => setup.solids[0].reference_depth(x) > 0.0,
             };
             let pressed: Vec<f64> = window
                 .iter()

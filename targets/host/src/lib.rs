@@ -39,4 +39,5 @@ pub mod simulation;
 pub mod solids;
 pub mod tape;
 pub mod template;
+pub mod vector;
 pub mod zwidth;

@@ -45,6 +45,21 @@ pub const STICK_VELOCITY: f64 = 0.01;
 /// Time constant with which a sticking joint's residual velocity is nulled, s.
 pub const STICK_TIME: f64 = 2e-3;
 
+/// Encoder counts per radian at a drive's output: `cpt N / 2π` for `counts_per_turn` counts per
+/// motor turn through a gear of ratio `N`. The host's one scale between encoder counts and
+/// angles: the plant counts with it ([`Plant::encoder_counts`]) and reads counts back as
+/// angles with it ([`output_angle_at_counts`]).
+pub fn counts_per_radian(counts_per_turn: u32, gear_ratio: f64) -> f64 {
+    f64::from(counts_per_turn) * gear_ratio / std::f64::consts::TAU
+}
+
+/// The drive's output angle, rad, that encoder `counts` stand for: `counts / (cpt N / 2π)`
+/// ([`counts_per_radian`]); the joint angle itself without a transmission. What a controller
+/// decoding the counts reads, before its own zero offset.
+pub fn output_angle_at_counts(counts: i32, counts_per_turn: u32, gear_ratio: f64) -> f64 {
+    f64::from(counts) / counts_per_radian(counts_per_turn, gear_ratio)
+}
+
 /// Which non-idealities the simulation includes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Effects {
@@ -236,7 +251,7 @@ impl<const N: usize, const M: usize> Plant<N, M> {
                 gear_damping: 2.0 * GEAR_DAMPING_RATIO * (GEAR_STIFFNESS * rotor).sqrt(),
                 coulomb,
                 stiction,
-                counts_per_radian: f64::from(counts_per_turn[j]) * d.gear_ratio / std::f64::consts::TAU,
+                counts_per_radian: counts_per_radian(counts_per_turn[j], d.gear_ratio),
             }
         });
         // At rest the links lean on the gear teeth: the gear carries the gravity load.
@@ -490,6 +505,19 @@ mod tests {
             .unwrap_or_else(|d| panic!("{d}"));
         let compiled = Arc::new(CompiledModel::new(&model, 1.0));
         Plant::new(compiled, Effects::IDEAL, [0.3, -0.2], [1280; 2], 0.0).unwrap()
+    }
+
+    /// Counts read back as angles land within half a count of the angle counted: the plant's
+    /// encoder and the controller's decoding share one scale.
+    #[test]
+    fn counts_read_back_within_half_a_count() {
+        let (counts_per_turn, gear_ratio) = (1280, 5.0);
+        let half_count = 0.5 / counts_per_radian(counts_per_turn, gear_ratio);
+        for angle in [-1.3, 0.0, 0.1, 0.3, 2.9] {
+            let counts = (angle * counts_per_radian(counts_per_turn, gear_ratio)).round() as i32;
+            let read = output_angle_at_counts(counts, counts_per_turn, gear_ratio);
+            assert!((read - angle).abs() <= half_count, "{angle} rad read back as {read} rad");
+        }
     }
 
     #[test]

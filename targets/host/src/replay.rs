@@ -7,6 +7,13 @@
 //! their motion. The trace alone cannot tell them: a contact scenario places its solids from
 //! the start pose, and `--scene` may replace them.
 //!
+//! [`DrawnShape`] is not another scene shape but what the page draws, and the file's format:
+//! it holds data a scene object does not (a polytope's edges, a mesh's placed triangles, the
+//! points of a planar contour, which is no scene file's shape), it spells `centre` as the
+//! page's script reads it, and runs recorded earlier must still load; `drawn_shapes` makes
+//! it from codegen's [`SceneShape`], in one place. A motion is recorded as codegen's
+//! [`SceneMotion`] itself, with the scene file's names.
+//!
 //! [`load`] reads a run back against the model the report is for: the trace's joint columns
 //! must be the model's actuated joints (`q0`…`q{N−1}`), and the model's task point at the
 //! trace's joint angles must be where the trace recorded it (`x*`), else the trace was written
@@ -18,13 +25,14 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use hapticgen_codegen::scene::{SceneMotion, SceneShape};
 use hapticgen_codegen::CheckedModel;
 use hapticgen_runtime::render::{ObjectKind, Shape};
 use serde::{Deserialize, Serialize};
 
 use crate::closed_loop::Reference;
 use crate::design_page::{json_number, RigDrawing};
+use crate::scene::{SceneMotion, ScenePlane, SceneShape};
+use crate::vector::{distance, dot};
 
 /// The scene a run records beside its trace.
 pub const SCENE_FILE: &str = "scene.json";
@@ -108,29 +116,6 @@ pub enum DrawnShape {
     },
 }
 
-/// How an object moves: at time `t` its point `x` is at `R(ω t) (x − c) + c + v t`
-/// (a scene file's `motion`, docs/scenes.md).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DrawnMotion {
-    /// `v`, m/s.
-    pub velocity: Vec<f64>,
-    /// `ω`, rad/s (`[ω]` in a planar task).
-    pub angular_velocity: Vec<f64>,
-    /// `c`, m.
-    pub pivot: Vec<f64>,
-}
-
-impl DrawnMotion {
-    fn scene_motion(&self) -> SceneMotion {
-        SceneMotion {
-            velocity: self.velocity.clone(),
-            angular_velocity: self.angular_velocity.clone(),
-            pivot: self.pivot.clone(),
-        }
-    }
-}
-
 /// One object of a recorded scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -140,7 +125,7 @@ pub struct DrawnObject {
     /// `true` for a cavity (the point is kept inside).
     pub cavity: bool,
     /// How it moves, if it does.
-    pub motion: Option<DrawnMotion>,
+    pub motion: Option<SceneMotion>,
 }
 
 /// The scene a run rendered, as [`SCENE_FILE`] holds it.
@@ -153,8 +138,9 @@ pub struct RecordedScene {
     pub objects: Vec<DrawnObject>,
 }
 
-/// The drawn form of a scene file's (or contact scenario's) shape.
-fn drawn_solid(shape: &SceneShape) -> Vec<DrawnShape> {
+/// The drawn form of a scene file's (or contact scenario's) shape: one drawn shape, or an
+/// unbounded polytope's bounding planes.
+fn drawn_shapes(shape: &SceneShape) -> Vec<DrawnShape> {
     match shape {
         SceneShape::HalfSpace { point, normal } => {
             vec![DrawnShape::HalfSpace { point: point.clone(), normal: normal.clone() }]
@@ -174,15 +160,14 @@ fn drawn_solid(shape: &SceneShape) -> Vec<DrawnShape> {
             vec![DrawnShape::Cylinder { a: a.clone(), b: b.clone(), radius: *radius }]
         }
         SceneShape::Polytope { planes } => {
-            let planes: Vec<(Vec<f64>, f64)> = planes.iter().map(|p| (p.normal.clone(), p.offset)).collect();
-            let segments = polytope_edges(&planes);
+            let segments = polytope_edges(planes);
             if segments.is_empty() {
                 // Unbounded: drawn as its bounding planes.
                 planes
                     .iter()
-                    .map(|(normal, offset)| DrawnShape::HalfSpace {
-                        point: normal.iter().map(|n| n * offset).collect(),
-                        normal: normal.clone(),
+                    .map(|plane| DrawnShape::HalfSpace {
+                        point: plane.normal.iter().map(|n| n * plane.offset).collect(),
+                        normal: plane.normal.clone(),
                     })
                     .collect()
             } else {
@@ -203,8 +188,8 @@ fn drawn_solid(shape: &SceneShape) -> Vec<DrawnShape> {
 /// The edges of the bounded polytope `{x : n_i · x ≤ d_i}` (unit normals `n_i`, 2 or 3
 /// coordinates): its vertices are where `dim` planes meet inside every other, and two vertices
 /// sharing `dim − 1` planes are joined. Empty when no vertex is found.
-fn polytope_edges(planes: &[(Vec<f64>, f64)]) -> Vec<[Vec<f64>; 2]> {
-    let dim = planes.first().map_or(0, |p| p.0.len());
+fn polytope_edges(planes: &[ScenePlane]) -> Vec<[Vec<f64>; 2]> {
+    let dim = planes.first().map_or(0, |p| p.normal.len());
     if !(2..=3).contains(&dim) {
         return Vec::new();
     }
@@ -219,20 +204,17 @@ fn polytope_edges(planes: &[(Vec<f64>, f64)]) -> Vec<[Vec<f64>; 2]> {
             .collect();
     }
     let inside = |x: &nalgebra::DVector<f64>| {
-        planes.iter().all(|(n, d)| n.iter().zip(x.iter()).map(|(a, b)| a * b).sum::<f64>() <= d + 1e-9)
+        planes.iter().all(|plane| dot(&plane.normal, x.as_slice()) <= plane.offset + 1e-9)
     };
     let vertices: Vec<(Vec<usize>, Vec<f64>)> = subsets
         .into_iter()
         .filter_map(|subset| {
-            let a = nalgebra::DMatrix::from_fn(dim, dim, |r, c| planes[subset[r]].0[c]);
-            let d = nalgebra::DVector::from_fn(dim, |r, _| planes[subset[r]].1);
+            let a = nalgebra::DMatrix::from_fn(dim, dim, |r, c| planes[subset[r]].normal[c]);
+            let d = nalgebra::DVector::from_fn(dim, |r, _| planes[subset[r]].offset);
             let x = a.lu().solve(&d)?;
             (x.iter().all(|v| v.is_finite()) && inside(&x)).then(|| {
                 let on: Vec<usize> = (0..planes.len())
-                    .filter(|&i| {
-                        let (n, d) = &planes[i];
-                        (n.iter().zip(x.iter()).map(|(a, b)| a * b).sum::<f64>() - d).abs() < 1e-9
-                    })
+                    .filter(|&i| (dot(&planes[i].normal, x.as_slice()) - planes[i].offset).abs() < 1e-9)
                     .collect();
                 (on, x.iter().copied().collect())
             })
@@ -299,15 +281,10 @@ pub fn recorded_scene(reference: &Reference, task_dim: usize) -> RecordedScene {
         Reference::Solids { solids, .. } => solids
             .iter()
             .flat_map(|solid| {
-                let motion = solid.motion.as_ref().map(|m| DrawnMotion {
-                    velocity: m.velocity.clone(),
-                    angular_velocity: m.angular_velocity.clone(),
-                    pivot: m.pivot.clone(),
-                });
-                drawn_solid(&solid.shape).into_iter().map(move |shape| DrawnObject {
+                drawn_shapes(&solid.shape).into_iter().map(|shape| DrawnObject {
                     shape,
                     cavity: solid.cavity,
-                    motion: motion.clone(),
+                    motion: solid.motion.clone(),
                 })
             })
             .collect(),
@@ -462,11 +439,8 @@ pub fn load(model: &CheckedModel, run: &Path) -> Result<Replay, String> {
         (0..count).map(|k| ((k * (rows.len() - 1)) as f64 / (count - 1) as f64).round() as usize).collect()
     };
     let scene = read_scene(&path, m)?;
-    let moving: Vec<SceneMotion> = scene
-        .iter()
-        .flat_map(|s| &s.objects)
-        .filter_map(|o| o.motion.as_ref().map(DrawnMotion::scene_motion))
-        .collect();
+    let moving: Vec<SceneMotion> =
+        scene.iter().flat_map(|s| &s.objects).filter_map(|o| o.motion.clone()).collect();
     let drawing = RigDrawing::new(model);
     let mut frames = Vec::with_capacity(picked.len());
     for index in picked {
@@ -476,7 +450,7 @@ pub fn load(model: &CheckedModel, run: &Path) -> Result<Replay, String> {
         if let Some(node) = drawing.task_node {
             let recorded: Vec<f64> = task.iter().map(|&c| values[c]).collect();
             let drawn = &pose[node][..m.min(3)];
-            let off = drawn.iter().zip(&recorded).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+            let off = distance(drawn, &recorded);
             // NaN too: the model's loops do not close at the trace's joint angles.
             if off.is_nan() || off > TASK_TOLERANCE {
                 return Err(format!(
@@ -581,22 +555,35 @@ mod tests {
             for sign in [-1.0, 1.0] {
                 let mut normal = vec![0.0; 3];
                 normal[k] = sign;
-                planes.push((normal, 0.5));
+                planes.push(ScenePlane { normal, offset: 0.5 });
             }
         }
         let edges = polytope_edges(&planes);
         assert_eq!(edges.len(), 12);
         for [a, b] in &edges {
-            let length = a.iter().zip(b).map(|(p, q)| (p - q).powi(2)).sum::<f64>().sqrt();
-            assert!((length - 1.0).abs() < 1e-12, "{a:?} {b:?}");
+            assert!((distance(a, b) - 1.0).abs() < 1e-12, "{a:?} {b:?}");
         }
         assert!(polytope_edges(&planes[..2]).is_empty());
         // A triangle in the plane: 3 vertices, 3 edges.
+        let plane = |normal: Vec<f64>, offset: f64| ScenePlane { normal, offset };
         let triangle = [
-            (vec![0.0, -1.0], 0.0),
-            (vec![-1.0, 0.0], 0.0),
-            (vec![0.5f64.sqrt(), 0.5f64.sqrt()], 0.5f64.sqrt()),
+            plane(vec![0.0, -1.0], 0.0),
+            plane(vec![-1.0, 0.0], 0.0),
+            plane(vec![0.5f64.sqrt(), 0.5f64.sqrt()], 0.5f64.sqrt()),
         ];
         assert_eq!(polytope_edges(&triangle).len(), 3);
+    }
+
+    /// A motion is recorded with the scene file's names, as runs recorded it before the
+    /// recorded scene held codegen's motion itself: such a file reads back and is written the
+    /// same; a motion with a field of another name is refused.
+    #[test]
+    fn a_motion_is_recorded_with_the_scene_file_s_names() {
+        let text = r#"{"task_dim":3,"objects":[{"shape":{"kind":"sphere","centre":[0.0,0.0,0.0],"radius":0.01},"cavity":false,"motion":{"velocity":[0.0,0.0,0.01],"angular_velocity":[0.0,0.0,2.0],"pivot":[0.1,0.0,0.0]}}]}"#;
+        let scene: RecordedScene = serde_json::from_str(text).unwrap();
+        let motion = scene.objects[0].motion.as_ref().unwrap();
+        assert_eq!((motion.velocity[2], motion.angular_velocity[2], motion.pivot[0]), (0.01, 2.0, 0.1));
+        assert_eq!(serde_json::to_string(&scene).unwrap(), text);
+        assert!(serde_json::from_str::<RecordedScene>(&text.replace("\"pivot\"", "\"centre\"")).is_err());
     }
 }

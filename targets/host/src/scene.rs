@@ -1,21 +1,22 @@
 //! Scene files on the host (docs/scenes.md): read by `hapticgen_codegen::scene`, the one
-//! reader that the firmware's build scripts use too, and turned here into the simulator's
-//! [`Solid`]s.
+//! reader that the firmware's build scripts use too, into its types, which the host uses as
+//! they are (the simulator's geometry on them is `crate::solids`, above this module: nothing
+//! here uses it).
 
-pub use hapticgen_codegen::scene::{load, parse, Scene, SceneEffect, SceneMotion, SceneObject, SceneShape};
+pub use hapticgen_codegen::scene::{
+    load, parse, Scene, SceneEffect, SceneMotion, SceneObject, ScenePlane, SceneShape,
+};
 
-use crate::solids::Solid;
-
-/// The scene's objects as the simulator's solids, after checking that every vector has
-/// `task_dim` coordinates (the error names the object in the file).
-pub fn solids(scene: &Scene, task_dim: usize) -> Result<Vec<Solid>, String> {
+/// The scene's objects for a task of `task_dim` coordinates, after checking that every
+/// vector has that many (the error names the object in the file).
+pub fn objects_for_task(scene: &Scene, task_dim: usize) -> Result<Vec<SceneObject>, String> {
     scene.check_task_dim(task_dim)?;
-    Ok(scene.objects.iter().map(Solid::from).collect())
+    Ok(scene.objects.clone())
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{load, parse, solids, SceneShape};
+    use super::{load, objects_for_task, parse, SceneShape};
     use std::path::Path;
 
     fn parsed(text: &str) -> Result<super::Scene, String> {
@@ -39,14 +40,14 @@ mod tests {
         assert!(matches!(&floor.shape, SceneShape::HalfSpace { normal, .. } if normal == &[0.0, 0.0, 1.0]));
         assert_eq!((floor.static_friction, floor.dynamic_friction), (0.4, 0.3));
         assert_eq!((floor.stiffness, floor.damping), (800.0, 2.0));
-        let ball = &solids(&scene, 3).unwrap()[1];
+        let ball = &objects_for_task(&scene, 3).unwrap()[1];
         assert!(ball.cavity);
         // A cavity's wall is beyond its sphere: the centre is free, a point outside is inside the wall.
-        assert!(ball.depth(&[0.03, 0.0, 0.0]) < 0.0);
-        assert!((ball.depth(&[0.03, 0.02, 0.0]) - 0.005).abs() < 1e-12);
+        assert!(ball.depth(&[0.03, 0.0, 0.0]).unwrap() < 0.0);
+        assert!((ball.depth(&[0.03, 0.02, 0.0]).unwrap() - 0.005).abs() < 1e-12);
         assert!(scene.objects[1].location.starts_with("s.yaml:4:"), "{}", scene.objects[1].location);
-        assert_eq!(solids(&scene, 3).unwrap().len(), 5);
-        let error = solids(&scene, 2).unwrap_err();
+        assert_eq!(objects_for_task(&scene, 3).unwrap().len(), 5);
+        let error = objects_for_task(&scene, 2).unwrap_err();
         assert!(
             error.starts_with("error: s.yaml:2:") && error.contains("objects[0].half_space: point has 3"),
             "{error}"
@@ -103,9 +104,9 @@ mod tests {
         // Carried along a lift of 1 cm/s for 2 s, a point rises 2 cm.
         let lifted = lift.carried(2.0, &[0.1, 0.2, 0.3]);
         assert!(lifted.iter().zip([0.1, 0.2, 0.32]).all(|(a, b)| (a - b).abs() < 1e-15), "{lifted:?}");
-        assert!(solids(&scene, 3).is_ok());
+        assert!(objects_for_task(&scene, 3).is_ok());
         let planar = "objects:\n  - sphere: {centre: [0, 0], radius: 1, stiffness: 1, damping: 0,\n      motion: {angular_velocity: [1, 0, 0], pivot: [0, 0]}}\n";
-        let error = solids(&parsed(planar).unwrap(), 2).unwrap_err();
+        let error = objects_for_task(&parsed(planar).unwrap(), 2).unwrap_err();
         assert!(
             error.contains("objects[0].sphere: motion.angular_velocity has 3 values; a 2-D task needs 1"),
             "{error}"

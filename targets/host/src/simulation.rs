@@ -27,7 +27,6 @@ use crate::contact::{Contact, ContactSettings, ContactSetup};
 use crate::generated::{self, RigVisitor};
 use crate::pil::{Pil, PilPlay, PilReport, PilScene};
 use crate::rig::{CompiledModel, TapeRig};
-use crate::solids::Solid;
 use crate::tape::Tape;
 use hapticgen_protocol::SceneObject;
 
@@ -157,7 +156,7 @@ pub struct ScenarioSettings {
     pub mesh: Option<Arc<TriangleMesh>>,
     /// Contact scenarios: the solids to render instead of the scenario's own (a scene file's,
     /// [`crate::scene`]); the scenario still gives the hand's path.
-    pub scene: Option<Vec<Solid>>,
+    pub scene: Option<Vec<crate::scene::SceneObject>>,
     /// Contact scenarios: the scene file's free-space effect, if it names one.
     pub effect: Option<SceneEffect>,
 }

@@ -1,50 +1,23 @@
-//! The solids of the simulator's contact scenarios, owned (the runtime's shapes borrow their
-//! planes and meshes), their conversion into the runtime's [`Object`]s for the god object, and
-//! an inside test of their own that shares no code with the runtime's renderer (the contact
-//! scenarios' checks use it: the proxy must never be inside a solid).
+//! What the simulator needs of a scene's objects beyond their definition: [`ContactGeometry`],
+//! implemented for codegen's [`SceneObject`] (the one definition of a scene object; a contact
+//! scenario's solids and a scene file's are both such objects), gives
+//!
+//! * the runtime's [`Object`] for the god object, which owns what the runtime's shapes borrow
+//!   (a polytope's planes, a mesh's arrays);
+//! * an inside test of its own that shares no code with the runtime's renderer, for the
+//!   contact scenarios' checks (the proxy must never be inside a solid): codegen's closed
+//!   forms for the analytic shapes, and for a mesh ray parity over every face with the
+//!   distance to the nearest one, written here;
+//! * the outward normal at a surface point, for the checks on the rendered force's direction.
+//!
+//! A trait on codegen's type, not a host copy of it: the host adds behaviour, no data.
 
 use hapticgen_codegen::mesh::TriangleMesh;
 use hapticgen_runtime::render::ObjectKind;
 use hapticgen_runtime::shape::{BvhNode, Material, Mesh, Object, Plane, RigidMotion, Shape};
 
-/// The geometry of a solid, in task coordinates: a scene file's (`hapticgen_codegen::scene`).
-pub use hapticgen_codegen::scene::SceneShape as SolidShape;
-
-use hapticgen_codegen::scene::SceneMotion;
-
-/// A solid with its surface's material.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Solid {
-    /// Geometry.
-    pub shape: SolidShape,
-    /// `true`: a cavity, which keeps the point inside the shape instead of outside.
-    pub cavity: bool,
-    /// Surface stiffness, N/m.
-    pub stiffness: f64,
-    /// Surface damping, N·s/m.
-    pub damping: f64,
-    /// Static friction coefficient (0: none).
-    pub static_friction: f64,
-    /// Dynamic friction coefficient, at most the static one.
-    pub dynamic_friction: f64,
-    /// How it moves, if it does (`shape` is where it is at time 0); the simulator moves it
-    /// before every impedance tick ([`crate::closed_loop::SimSource`]).
-    pub motion: Option<SceneMotion>,
-}
-
-impl From<&hapticgen_codegen::scene::SceneObject> for Solid {
-    fn from(object: &hapticgen_codegen::scene::SceneObject) -> Self {
-        Solid {
-            shape: object.shape.clone(),
-            cavity: object.cavity,
-            stiffness: object.stiffness,
-            damping: object.damping,
-            static_friction: object.static_friction,
-            dynamic_friction: object.dynamic_friction,
-            motion: object.motion.clone(),
-        }
-    }
-}
+use crate::scene::{SceneObject, ScenePlane, SceneShape};
+use crate::vector::{cross, dot, norm, sub};
 
 fn array<const M: usize>(values: &[f64], what: &str) -> Result<[f64; M], String> {
     if values.len() != M {
@@ -53,21 +26,42 @@ fn array<const M: usize>(values: &[f64], what: &str) -> Result<[f64; M], String>
     Ok(std::array::from_fn(|k| values[k]))
 }
 
-impl Solid {
+/// The simulator's geometry on a scene object (module docs).
+pub trait ContactGeometry {
     /// The runtime's object for an `M`-dimensional task. A mesh's arrays are leaked to give
     /// them the `'static` lifetime a long-lived scene needs: a few hundred kilobytes once per
     /// simulated run.
-    pub fn object<const M: usize>(&self) -> Result<Object<'static, f64, M>, String> {
+    fn runtime_object<const M: usize>(&self) -> Result<Object<'static, f64, M>, String>;
+
+    /// How deep `p` is inside the object, m: positive inside, negative outside (for a mesh: its
+    /// parity along a ray decides inside, and the depth is the distance to the nearest face;
+    /// for a cavity, inside its wall: beyond the shape's boundary). Apart from the runtime's
+    /// closest-point code, the reference the renderer is checked against; unlike
+    /// [`SceneObject::depth`], it measures meshes too. A moving object is taken where it is at
+    /// time 0.
+    fn reference_depth(&self, p: &[f64]) -> f64;
+
+    /// [`ContactGeometry::reference_depth`] of the object where its motion has taken it at
+    /// `time`, s (where it is at time 0 for an object that does not move).
+    fn reference_depth_at(&self, p: &[f64], time: f64) -> f64;
+
+    /// The object's outward unit normal at (or nearest to) surface point `p`; `None` for a
+    /// capsule, a cylinder or a mesh.
+    fn outward_normal(&self, p: &[f64]) -> Option<Vec<f64>>;
+}
+
+impl ContactGeometry for SceneObject {
+    fn runtime_object<const M: usize>(&self) -> Result<Object<'static, f64, M>, String> {
         let shape = match &self.shape {
-            SolidShape::HalfSpace { point, normal } => Shape::half_space(
+            SceneShape::HalfSpace { point, normal } => Shape::half_space(
                 array::<M>(point, "a wall's point")?,
                 array::<M>(normal, "a wall's normal")?,
             )
             .ok_or_else(|| "error: a wall's normal must be a finite, non-zero vector".to_string())?,
-            SolidShape::Sphere { center, radius } => {
+            SceneShape::Sphere { center, radius } => {
                 Shape::Sphere { center: array::<M>(center, "a sphere's centre")?, radius: *radius }
             }
-            SolidShape::Box { center, axes, half_extents } => {
+            SceneShape::Box { center, axes, half_extents } => {
                 if axes.len() != M {
                     return Err(format!("error: a box needs {M} axes, got {}", axes.len()));
                 }
@@ -81,17 +75,17 @@ impl Solid {
                     half_extents: array::<M>(half_extents, "a box's half extents")?,
                 }
             }
-            SolidShape::Capsule { a, b, radius } => Shape::Capsule {
+            SceneShape::Capsule { a, b, radius } => Shape::Capsule {
                 a: array::<M>(a, "a capsule's end")?,
                 b: array::<M>(b, "a capsule's end")?,
                 radius: *radius,
             },
-            SolidShape::Cylinder { a, b, radius } => Shape::Cylinder {
+            SceneShape::Cylinder { a, b, radius } => Shape::Cylinder {
                 a: array::<M>(a, "a cylinder's cap centre")?,
                 b: array::<M>(b, "a cylinder's cap centre")?,
                 radius: *radius,
             },
-            SolidShape::Polytope { planes } => {
+            SceneShape::Polytope { planes } => {
                 let mut bounding = Vec::with_capacity(planes.len());
                 for plane in planes {
                     bounding.push(Plane {
@@ -102,7 +96,7 @@ impl Solid {
                 // Leaked like a mesh's arrays: the runtime's shape borrows its planes.
                 Shape::Polytope { planes: Box::leak(bounding.into_boxed_slice()) }
             }
-            SolidShape::Mesh { mesh, offset } => {
+            SceneShape::Mesh { mesh, offset } => {
                 if M != 3 {
                     return Err(format!("error: a mesh needs a 3-D task; this one has {M} coordinates"));
                 }
@@ -145,12 +139,8 @@ impl Solid {
         })
     }
 
-    /// How deep `p` is inside the solid, m: positive inside, negative outside (for a mesh: its
-    /// parity along a ray decides inside, and the depth is the distance to the nearest face;
-    /// for a cavity, inside its wall: beyond the shape's boundary). Written here, apart from
-    /// the runtime's closest-point code, to check the renderer.
-    pub fn depth(&self, p: &[f64]) -> f64 {
-        let depth_in_shape = self.shape_depth(p);
+    fn reference_depth(&self, p: &[f64]) -> f64 {
+        let depth_in_shape = shape_depth(&self.shape, p);
         if self.cavity {
             -depth_in_shape
         } else {
@@ -158,49 +148,26 @@ impl Solid {
         }
     }
 
-    /// [`Solid::depth`] of the solid where its motion has taken it at `time`, s (where it is
-    /// at time 0 for a solid that does not move).
-    pub fn depth_at(&self, p: &[f64], time: f64) -> f64 {
+    fn reference_depth_at(&self, p: &[f64], time: f64) -> f64 {
         match &self.motion {
-            Some(motion) => self.depth(&motion.carried_back(time, p)),
-            None => self.depth(p),
+            Some(motion) => self.reference_depth(&motion.carried_back(time, p)),
+            None => self.reference_depth(p),
         }
     }
 
-    /// How deep `p` is inside the shape, m: positive inside, negative outside.
-    fn shape_depth(&self, p: &[f64]) -> f64 {
-        match &self.shape {
-            SolidShape::Mesh { mesh, offset } => {
-                if p.len() != 3 || offset.len() != 3 {
-                    return f64::NAN;
-                }
-                let local = [p[0] - offset[0], p[1] - offset[1], p[2] - offset[2]];
-                let distance = mesh_distance(mesh, &local);
-                if inside_by_parity(mesh, &local) {
-                    distance
-                } else {
-                    -distance
-                }
-            }
-            analytic => analytic.depth(p).unwrap_or(f64::NAN),
-        }
-    }
-
-    /// The solid's outward unit normal at (or nearest to) surface point `p`; `None` for a mesh.
-    pub fn normal(&self, p: &[f64]) -> Option<Vec<f64>> {
+    fn outward_normal(&self, p: &[f64]) -> Option<Vec<f64>> {
         let unit = |v: Vec<f64>| {
-            let length = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let length = norm(&v);
             (length > 0.0).then(|| v.iter().map(|x| x / length).collect())
         };
         match &self.shape {
-            SolidShape::HalfSpace { normal, .. } => unit(normal.clone()),
-            SolidShape::Sphere { center, .. } => unit(p.iter().zip(center).map(|(p, c)| p - c).collect()),
-            SolidShape::Box { center, axes, half_extents } => {
+            SceneShape::HalfSpace { normal, .. } => unit(normal.clone()),
+            SceneShape::Sphere { center, .. } => unit(p.iter().zip(center).map(|(p, c)| p - c).collect()),
+            SceneShape::Box { center, axes, half_extents } => {
                 // In the box's axes: outside, towards the point from its closest point; on a
                 // face, that face's normal. Then back to task coordinates.
                 let world: Vec<f64> = p.iter().zip(center).map(|(p, c)| p - c).collect();
-                let offsets: Vec<f64> =
-                    axes.iter().map(|axis| axis.iter().zip(&world).map(|(a, w)| a * w).sum()).collect();
+                let offsets: Vec<f64> = axes.iter().map(|axis| dot(axis, &world)).collect();
                 let beyond: Vec<f64> = offsets
                     .iter()
                     .zip(half_extents)
@@ -225,30 +192,36 @@ impl Solid {
                 )
             }
             // The plane the point is farthest beyond (on the surface: the face it is on).
-            SolidShape::Polytope { planes } => planes
+            SceneShape::Polytope { planes } => planes
                 .iter()
                 .max_by(|a, b| {
-                    let beyond = |plane: &hapticgen_codegen::scene::ScenePlane| {
-                        plane.normal.iter().zip(p).map(|(n, x)| n * x).sum::<f64>() - plane.offset
-                    };
+                    let beyond = |plane: &ScenePlane| dot(&plane.normal, p) - plane.offset;
                     beyond(a).total_cmp(&beyond(b))
                 })
                 .map(|plane| plane.normal.clone()),
-            SolidShape::Capsule { .. } | SolidShape::Cylinder { .. } | SolidShape::Mesh { .. } => None,
+            SceneShape::Capsule { .. } | SceneShape::Cylinder { .. } | SceneShape::Mesh { .. } => None,
         }
     }
 }
 
-fn sub(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+/// How deep `p` is inside `shape`, m: positive inside, negative outside; NaN for a mesh in a
+/// task other than 3-D.
+fn shape_depth(shape: &SceneShape, p: &[f64]) -> f64 {
+    match shape {
+        SceneShape::Mesh { mesh, offset } => {
+            if p.len() != 3 || offset.len() != 3 {
+                return f64::NAN;
+            }
+            let local = [p[0] - offset[0], p[1] - offset[1], p[2] - offset[2]];
+            let distance = mesh_distance(mesh, &local);
+            if inside_by_parity(mesh, &local) {
+                distance
+            } else {
+                -distance
+            }
+        }
+        analytic => analytic.depth(p).unwrap_or(f64::NAN),
+    }
 }
 
 fn triangle(mesh: &TriangleMesh, face: &[u32; 3]) -> Option<[[f64; 3]; 3]> {
@@ -289,8 +262,7 @@ fn mesh_distance(mesh: &TriangleMesh, p: &[f64; 3]) -> f64 {
         .filter_map(|face| triangle(mesh, face))
         .map(|[a, b, c]| {
             let closest = closest_point_on_triangle(p, &a, &b, &c);
-            let d = sub(p, &closest);
-            dot(&d, &d).sqrt()
+            norm(&sub(p, &closest))
         })
         .fold(f64::INFINITY, f64::min)
 }
@@ -337,8 +309,8 @@ mod tests {
     use super::*;
     use std::sync::Arc;
 
-    fn solid(shape: SolidShape) -> Solid {
-        Solid {
+    fn solid(shape: SceneShape) -> SceneObject {
+        SceneObject {
             shape,
             cavity: false,
             stiffness: 1.0,
@@ -346,6 +318,7 @@ mod tests {
             static_friction: 0.0,
             dynamic_friction: 0.0,
             motion: None,
+            location: "a test's solid".into(),
         }
     }
 
@@ -353,30 +326,34 @@ mod tests {
     /// exact sphere it approximates (inside the inscribed ball, outside the circumscribed one).
     #[test]
     fn depths_by_hand() {
-        let floor = solid(SolidShape::HalfSpace { point: vec![0.0, 0.0, 1.0], normal: vec![0.0, 0.0, 2.0] });
-        assert_eq!(floor.depth(&[5.0, -3.0, 0.25]), 0.75);
-        assert_eq!(floor.depth(&[0.0, 0.0, 1.5]), -0.5);
-        let ball = solid(SolidShape::Sphere { center: vec![1.0, 0.0, 0.0], radius: 2.0 });
-        assert_eq!(ball.depth(&[1.0, 0.0, 1.5]), 0.5);
-        assert_eq!(ball.depth(&[4.0, 0.0, 0.0]), -1.0);
-        let cube = solid(SolidShape::axis_aligned_box(vec![0.0; 3], vec![1.0, 2.0, 3.0]));
-        assert_eq!(cube.depth(&[0.5, 0.0, 0.0]), 0.5);
-        assert_eq!(cube.depth(&[0.0, 1.75, 0.0]), 0.25);
+        let floor = solid(SceneShape::HalfSpace { point: vec![0.0, 0.0, 1.0], normal: vec![0.0, 0.0, 2.0] });
+        assert_eq!(floor.reference_depth(&[5.0, -3.0, 0.25]), 0.75);
+        assert_eq!(floor.reference_depth(&[0.0, 0.0, 1.5]), -0.5);
+        let ball = solid(SceneShape::Sphere { center: vec![1.0, 0.0, 0.0], radius: 2.0 });
+        assert_eq!(ball.reference_depth(&[1.0, 0.0, 1.5]), 0.5);
+        assert_eq!(ball.reference_depth(&[4.0, 0.0, 0.0]), -1.0);
+        // A cavity's wall is beyond its sphere: the centre is free, a point outside is in it.
+        let cavity = SceneObject { cavity: true, ..ball.clone() };
+        assert_eq!(cavity.reference_depth(&[1.0, 0.0, 1.5]), -0.5);
+        assert_eq!(cavity.reference_depth(&[4.0, 0.0, 0.0]), 1.0);
+        let cube = solid(SceneShape::axis_aligned_box(vec![0.0; 3], vec![1.0, 2.0, 3.0]));
+        assert_eq!(cube.reference_depth(&[0.5, 0.0, 0.0]), 0.5);
+        assert_eq!(cube.reference_depth(&[0.0, 1.75, 0.0]), 0.25);
         // Outside beyond an edge: √(1² + 1²).
-        assert!((cube.depth(&[2.0, 3.0, 0.0]) + 2f64.sqrt()).abs() < 1e-15);
-        assert_eq!(cube.normal(&[2.0, 0.0, 0.0]), Some(vec![1.0, 0.0, 0.0]));
+        assert!((cube.reference_depth(&[2.0, 3.0, 0.0]) + 2f64.sqrt()).abs() < 1e-15);
+        assert_eq!(cube.outward_normal(&[2.0, 0.0, 0.0]), Some(vec![1.0, 0.0, 0.0]));
         let sphere = TriangleMesh::uv_sphere(1.0, 16, 32).expect("a sphere").with_bvh(4);
-        let mesh = solid(SolidShape::Mesh { mesh: Arc::new(sphere), offset: vec![0.0, 0.0, 2.0] });
+        let mesh = solid(SceneShape::Mesh { mesh: Arc::new(sphere), offset: vec![0.0, 0.0, 2.0] });
         for (p, inside) in [
             ([0.0, 0.0, 2.9], true),
             ([0.3, 0.2, 1.2], true),
             ([0.0, 0.0, 3.01], false),
             ([1.1, 0.0, 2.0], false),
         ] {
-            let depth = mesh.depth(&p);
+            let depth = mesh.reference_depth(&p);
             assert_eq!(depth > 0.0, inside, "{p:?}: depth {depth}");
         }
-        let depth = mesh.depth(&[0.0, 0.0, 2.0]);
+        let depth = mesh.reference_depth(&[0.0, 0.0, 2.0]);
         assert!(depth > 0.95 && depth <= 1.0, "the centre is about a radius deep: {depth}");
     }
 }

@@ -24,8 +24,8 @@ use rayon::prelude::*;
 use crate::closed_loop::{Operator, Path as HandPath, Reference, SimConfig};
 use crate::plant::Effects;
 use crate::plot::{self, Chart, Series};
+use crate::scene::{SceneObject, SceneShape};
 use crate::simulation::Simulation;
-use crate::solids::{Solid, SolidShape};
 
 /// Stiffness of the pressing hand, N/m.
 pub const HAND_STIFFNESS: f64 = 100.0;
@@ -151,14 +151,15 @@ pub fn is_stable_at(
             // The half-space's outward normal points back at the task point.
             let mut normal = vec![0.0; 3];
             normal[axis] = -side;
-            let wall = Solid {
-                shape: SolidShape::HalfSpace { point: face, normal },
+            let wall = SceneObject {
+                shape: SceneShape::HalfSpace { point: face, normal },
                 cavity: false,
                 stiffness,
                 damping,
                 static_friction: 0.0,
                 dynamic_friction: 0.0,
                 motion: None,
+                location: "zwidth's wall".into(),
             };
             Reference::Solids { solids: vec![wall], effect: None }
         }

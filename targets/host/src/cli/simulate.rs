@@ -129,7 +129,7 @@ pub(crate) fn configure(args: &SimulateArgs) -> Result<Configured, CliError> {
         mesh: args.mesh.as_deref().map(crate::contact::mesh_file).transpose().map_err(CliError::Input)?,
         scene: scene
             .as_ref()
-            .map(|scene| crate::scene::solids(scene, sim.task_dim()))
+            .map(|scene| crate::scene::objects_for_task(scene, sim.task_dim()))
             .transpose()
             .map_err(CliError::Input)?,
         effect: scene.and_then(|scene| scene.effect),
