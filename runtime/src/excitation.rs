@@ -59,20 +59,27 @@ pub struct FourierTrajectory<S, const N: usize, const H: usize> {
 }
 
 impl<S: Real, const N: usize, const H: usize> FourierTrajectory<S, N, H> {
-    /// The series itself at `t` (no blend).
+    /// The series itself at `t` (no blend). One sine and cosine per call: harmonic `k + 1`'s
+    /// come from harmonic `k`'s by the angle-addition formulas (`sin (k+1)x = sin kx cos x +
+    /// cos kx sin x`, likewise the cosine), whose rounding grows by about an ulp per harmonic:
+    /// a firmware tick computes one `sin_cos` instead of one per harmonic.
     pub fn series(&self, t: S) -> JointReference<S, N> {
         let omega = S::from_f64(core::f64::consts::TAU) / self.period;
         let mut out =
             JointReference { position: self.offset, velocity: [S::ZERO; N], acceleration: [S::ZERO; N] };
-        for j in 0..N {
-            for k in 0..H {
-                let rate = omega * S::from_i64(k as i64 + 1);
-                let (sin, cos) = (rate * t).sin_cos();
+        let (sin_first, cos_first) = (omega * t).sin_cos();
+        let (mut sin, mut cos) = (sin_first, cos_first);
+        for k in 0..H {
+            let rate = omega * S::from_i64(k as i64 + 1);
+            for j in 0..N {
                 let (a, b) = (self.sine[j][k], self.cosine[j][k]);
                 out.position[j] += a * sin + b * cos;
                 out.velocity[j] += rate * (a * cos - b * sin);
                 out.acceleration[j] -= rate * rate * (a * sin + b * cos);
             }
+            let next_sin = sin * cos_first + cos * sin_first;
+            cos = cos * cos_first - sin * sin_first;
+            sin = next_sin;
         }
         out
     }
@@ -191,6 +198,52 @@ mod tests {
                     (acceleration - now.acceleration[j]).abs() < 1e-6,
                     "t = {t}: {acceleration} vs {}",
                     now.acceleration[j]
+                );
+            }
+        }
+    }
+
+    /// The recurrence gives each harmonic's sine and cosine as evaluating them directly does,
+    /// to rounding, over many periods and twelve harmonics.
+    #[test]
+    fn the_harmonics_by_recurrence_are_the_harmonics() {
+        let mut trajectory = FourierTrajectory::<f64, 1, 12> {
+            period: 2.0,
+            ramp: 0.0,
+            offset: [0.1],
+            sine: [[0.0; 12]],
+            cosine: [[0.0; 12]],
+        };
+        for k in 0..12 {
+            trajectory.sine[0][k] = 0.3 / (k + 1) as f64;
+            trajectory.cosine[0][k] = -0.2 / (k + 1) as f64;
+        }
+        let omega = core::f64::consts::TAU / trajectory.period;
+        for step in 0..600 {
+            let t = 0.1 * step as f64 + 0.013;
+            let mut direct = [0.1, 0.0, 0.0];
+            // The size of the terms each sum adds up: its rounding is relative to that.
+            let mut size = [0.1, 0.0, 0.0];
+            for k in 0..12 {
+                let rate = omega * (k + 1) as f64;
+                let (sin, cos) = (rate * t).sin_cos();
+                let (a, b) = (trajectory.sine[0][k], trajectory.cosine[0][k]);
+                direct[0] += a * sin + b * cos;
+                direct[1] += rate * (a * cos - b * sin);
+                direct[2] -= rate * rate * (a * sin + b * cos);
+                let magnitude = a.abs() + b.abs();
+                size[0] += magnitude;
+                size[1] += rate * magnitude;
+                size[2] += rate * rate * magnitude;
+            }
+            let series = trajectory.series(t);
+            let got = [series.position[0], series.velocity[0], series.acceleration[0]];
+            // Both round the phase of the highest harmonic, `12 ω t`, to its ulp.
+            let phase_rounding = f64::EPSILON * (1.0 + 12.0 * omega * t);
+            for ((g, d), size) in got.iter().zip(direct).zip(size) {
+                assert!(
+                    (g - d).abs() <= 4.0 * phase_rounding * size,
+                    "t = {t}: {g} vs {d} (terms of size {size})"
                 );
             }
         }

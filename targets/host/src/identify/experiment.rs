@@ -281,17 +281,27 @@ impl Simulation {
         plant: Option<&hapticgen_codegen::CheckedModel>,
         cfg: &SimConfig,
     ) -> Result<(Trace, IdentificationLog), String> {
+        let (plant, series, cfg) = self.excitation_run(trajectory, plant, cfg)?;
+        self.dispatch(ExciteVisitor { plant, simulation: self, cfg: &cfg, series })
+    }
+
+    /// What both kinds of excitation run start from: the trajectory checked against the
+    /// model, the simulated device, the series, and `cfg` starting at the series' start.
+    fn excitation_run(
+        &self,
+        trajectory: &TrajectoryFile,
+        plant: Option<&hapticgen_codegen::CheckedModel>,
+        cfg: &SimConfig,
+    ) -> Result<(Arc<CompiledModel>, Series, SimConfig), String> {
         trajectory.check(&self.model).map_err(|e| format!("error: the trajectory: {e}"))?;
         let plant = match plant {
             None => self.nominal.clone(),
             Some(device) => self.device(device)?,
         };
         let series = trajectory.series();
-        let n = self.joints();
-        let start = series.reference(0.0).position[..n].to_vec();
         let mut cfg = cfg.clone();
-        cfg.initial_q = start;
-        self.dispatch(ExciteVisitor { plant, simulation: self, cfg: &cfg, series })
+        cfg.initial_q = series.reference(0.0).position[..self.joints()].to_vec();
+        Ok((plant, series, cfg))
     }
 
     /// [`Self::run_excitation`] with the rig's firmware image under QEMU as the controller
@@ -303,16 +313,45 @@ impl Simulation {
         cfg: &SimConfig,
         target: &PilTarget,
     ) -> Result<(Trace, IdentificationLog, PilReport), String> {
-        trajectory.check(&self.model).map_err(|e| format!("error: the trajectory: {e}"))?;
-        let plant = match plant {
-            None => self.nominal.clone(),
-            Some(device) => self.device(device)?,
-        };
-        let series = trajectory.series();
-        let n = self.joints();
-        let messages = excitation_messages(&series, n, self.model.rates.impedance_loop_hz, TRACKING_HZ)?;
-        let mut cfg = cfg.clone();
-        cfg.initial_q = series.reference(0.0).position[..n].to_vec();
+        let (plant, series, cfg) = self.excitation_run(trajectory, plant, cfg)?;
+        let messages =
+            excitation_messages(&series, self.joints(), self.model.rates.impedance_loop_hz, TRACKING_HZ)?;
         self.dispatch(ExcitePilVisitor { plant, simulation: self, cfg: &cfg, target, messages })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn series(period: f64, harmonics: usize) -> Series {
+        let mut series = Series {
+            period,
+            ramp: 1.0,
+            offset: [0.0; super::super::trajectory::MAX_JOINTS],
+            sine: [[0.0; super::super::trajectory::MAX_HARMONICS]; super::super::trajectory::MAX_JOINTS],
+            cosine: [[0.0; super::super::trajectory::MAX_HARMONICS]; super::super::trajectory::MAX_JOINTS],
+        };
+        series.offset[1] = 0.25;
+        for k in 0..harmonics {
+            series.sine[1][k] = 0.1 / (k + 1) as f64;
+            series.cosine[0][k] = -0.05;
+        }
+        series
+    }
+
+    /// One message per joint, carrying the series as `f32`; a period that is not a whole
+    /// number of impedance ticks is refused, as the firmware would.
+    #[test]
+    fn an_excitation_goes_over_the_link_joint_by_joint() {
+        let messages = excitation_messages(&series(2.0, 5), 2, 1000, 8.0).unwrap();
+        assert_eq!(messages.len(), 2);
+        assert_eq!((messages[1].joint, messages[1].offset, messages[1].sine[4]), (1, 0.25, 0.02));
+        assert_eq!((messages[0].period, messages[0].ramp, messages[0].tracking_hz), (2.0, 1.0, 8.0));
+        assert_eq!(messages[0].cosine[..5], [-0.05; 5]);
+        assert_eq!(messages[0].cosine[5..], [0.0; EXCITATION_HARMONICS - 5]);
+        let refused = excitation_messages(&series(2.0005, 5), 2, 1000, 8.0).unwrap_err();
+        assert!(refused.contains("not a whole number of the firmware's impedance ticks"), "{refused}");
+        assert!(excitation_messages(&series(2.0, 5), 7, 1000, 8.0).is_err());
     }
 }
