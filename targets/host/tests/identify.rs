@@ -496,8 +496,8 @@ fn identifies_the_phantom_premium_from_a_simulated_run() {
 fn identifies_the_falcon_delta_from_a_simulated_run() {
     // Short of the targets, measured and stated in docs/identification.md: the torque along a
     // new trajectory is predicted to 0.3 %, but some base parameters come out biased by several
-    // of their σ (mx_thigh1_r 10 % low at σ 1 %), which weigh at other states: D 5.4 %, g 6.5 %,
-    // C q̇ 29 %, viscous friction up to 17 %. Bounded here a little above what is measured.
+    // of their σ (mx_thigh1_r 10 % low at σ 1 %), which weigh at other states: D 5.7 %, g 6.2 %,
+    // C q̇ 30 %, viscous friction up to 16 %. Bounded here a little above what is measured.
     identifies_the_true_device(
         "models/falcon_delta.yaml",
         None,
