@@ -28,15 +28,24 @@ pub const FRICTION_BOUND: f64 = 0.10;
 pub const VALIDATION_BOUND: f64 = 0.05;
 
 /// The largest errors of the rigid-body terms over the compared states, each relative to the
-/// term's RMS norm over them (module documentation).
+/// term's RMS norm over them (module documentation). `None`: neither the true device nor the
+/// identified model has the term at any compared state (C q̇ of a single joint, g of a
+/// horizontal rig), so there was nothing to compare.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct TermErrors {
     /// `max ‖D̂ − D‖ / rms ‖D‖`.
-    pub inertia: f64,
+    pub inertia: Option<f64>,
     /// `max ‖Ĉq̇ − Cq̇‖ / rms ‖Cq̇‖`.
-    pub coriolis: f64,
+    pub coriolis: Option<f64>,
     /// `max ‖ĝ − g‖ / rms ‖g‖`.
-    pub gravity: f64,
+    pub gravity: Option<f64>,
+}
+
+impl TermErrors {
+    /// `(name in a table, short name, error)` of D, C q̇ and g, in that order.
+    fn named(&self) -> [(&'static str, &'static str, Option<f64>); 3] {
+        [("D(q)", "D", self.inertia), ("C(q, q̇) q̇", "C q̇", self.coriolis), ("g(q)", "g", self.gravity)]
+    }
 }
 
 /// One friction base parameter, identified and true.
@@ -139,13 +148,12 @@ pub fn compare(
     let relative = |k: usize| {
         let rms = (squared_norms[k] / states.max(1) as f64).sqrt();
         if rms > 0.0 {
-            largest_error[k] / rms
+            Some(largest_error[k] / rms)
         } else if largest_error[k] > 0.0 {
-            // A term the true device does not have (C q̇ of a single joint) that the
-            // identified model has.
-            f64::INFINITY
+            // A term the true device does not have that the identified model has.
+            Some(f64::INFINITY)
         } else {
-            0.0
+            None
         }
     };
     let terms = TermErrors { inertia: relative(0), coriolis: relative(1), gravity: relative(2) };
@@ -203,10 +211,10 @@ impl Comparison {
             percent(FRICTION_BOUND),
             percent(VALIDATION_BOUND)
         );
-        for (name, error) in
-            [("D(q)", self.terms.inertia), ("C(q, q̇) q̇", self.terms.coriolis), ("g(q)", self.terms.gravity)]
-        {
-            text.push_str(&format!("| {name} | {} | {} |\n", percent(error), percent(RIGID_BODY_BOUND)));
+        for (name, _, error) in self.terms.named() {
+            let error =
+                error.map_or_else(|| "— (zero in both at every state: not compared)".to_string(), percent);
+            text.push_str(&format!("| {name} | {error} | {} |\n", percent(RIGID_BODY_BOUND)));
         }
         for f in &self.friction {
             text.push_str(&format!(
@@ -232,9 +240,8 @@ impl Comparison {
     /// [`VALIDATION_BOUND`]), one line each; empty when all hold.
     pub fn failures(&self, validation: Option<f64>) -> Vec<String> {
         let mut failures = Vec::new();
-        for (name, error) in
-            [("D", self.terms.inertia), ("C q̇", self.terms.coriolis), ("g", self.terms.gravity)]
-        {
+        for (_, name, error) in self.terms.named() {
+            let Some(error) = error else { continue };
             if !within(error, RIGID_BODY_BOUND) {
                 failures.push(format!(
                     "{name} is {:.2} % off the true device's, over {:.0} %",
