@@ -44,7 +44,7 @@ pub fn identify(args: IdentifyArgs) -> Result<(), CliError> {
     let IdentifyArgs { model, variant, logs, validate, cutoff, measured_torque, report, output, truth } =
         args;
     let torque = if measured_torque { TorqueSource::Measured } else { TorqueSource::Commanded };
-    let settings = FitSettings { cutoff_hz: cutoff, torque, ..Default::default() };
+    let settings = FitSettings { torque, ..FitSettings::with_cutoff(cutoff) };
     let identified = commands::identify(&model, variant.as_deref(), &logs, validate.as_deref(), &settings)
         .map_err(CliError::Identification)?;
     let text = identified.describe();
