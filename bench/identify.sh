@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Identification's speed on the Falcon-like Delta (the costliest shipped model: 47 base
+# Identification's speed on the Falcon-like Delta (the costliest shipped model: 43 base
 # parameters plus friction, a closed chain): `hapticgen excite` with its default settings,
 # then `hapticgen identify` on a 60 s simulated excitation log, each timed side by side with
 # `hapticgen check` of the same model (loading and analysing it, which both commands do first)

@@ -39,3 +39,36 @@ fn planar_arm_base_parameters_are_khalils_grouping() {
     assert_eq!(horizontal[0], "zz_link1_r = zz_link1 + m_link2 + ia_shoulder");
     assert!(!horizontal.iter().any(|c| c.starts_with("mx_link1") || c.starts_with("my_link1")));
 }
+
+/// The Delta's universal joints each put a massless cross between thigh and shin (and shin and
+/// platform): the model makes them massless, so none of their parameters is a base parameter
+/// or part of one, and what a cross's column would have absorbed stays with the shins.
+#[test]
+fn a_massless_cross_has_no_base_parameter() {
+    let file = "models/falcon_delta.yaml";
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(file);
+    let model = hapticgen_codegen::load_file(&path, file, None).unwrap_or_else(|d| panic!("{d}"));
+    let crosses: Vec<&str> =
+        model.model.bodies.iter().map(|b| b.name.as_str()).filter(|name| name.ends_with("_cross")).collect();
+    assert_eq!(crosses.len(), 4, "{crosses:?}");
+    let regressor = Regressor::new(&model, model.analyses.closures.as_ref());
+    for base in &regressor.base {
+        for &(s, _) in &base.combination {
+            let name = &regressor.standard[s].name;
+            assert!(
+                !crosses.iter().any(|cross| name.ends_with(&format!("_{cross}"))),
+                "{} = {} involves a cross",
+                base.name,
+                base.describe(&regressor.standard)
+            );
+        }
+    }
+    // Three legs' shins keep their own rotational inertia about the knee's second axis.
+    for leg in 1..=3 {
+        assert!(
+            regressor.base.iter().any(|b| b.name.starts_with(&format!("yy_shin{leg}"))),
+            "{:#?}",
+            regressor.base.iter().map(|b| &b.name).collect::<Vec<_>>()
+        );
+    }
+}

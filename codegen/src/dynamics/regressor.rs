@@ -31,7 +31,9 @@
 //! Gram–Schmidt, relative residual below 1e-7) is not kept: its parameter is regrouped into
 //! the kept ones with the coefficients of that dependence, `Y₂ = Y₁ K`, `β = β₁ + K β₂`
 //! (Gautier 1990; the same grouping as Khalil's symbolic rules, e.g. `zz1 + l1²·m2`). Columns
-//! that are zero everywhere (parameters that no motion reveals) are dropped. Coefficients are
+//! that are zero everywhere (parameters that no motion reveals) are dropped, and so are the
+//! parameters of a body the model makes massless as an expression (a universal joint's cross,
+//! a frame carrying a point): zero by construction, not unknowns. Coefficients are
 //! numbers at the nominal values of the tunable parameters.
 
 // Matrix code reads best with explicit indices.
@@ -187,6 +189,21 @@ impl Regressor {
     pub fn new(model: &Model, closures: Option<&Closures>) -> Self {
         let joint_frames = recursive::applies(model);
         let params = model.nominal_parameters();
+        // Per body (ten standard parameters each, in order): whether the model makes it
+        // massless as an expression, whatever the tunable parameters (a universal joint's
+        // cross, a frame that only carries a point).
+        let massless: Vec<bool> = if joint_frames {
+            recursive::joint_frame_parameters(model)
+                .iter()
+                .map(|(_, values)| values.iter().all(Poly::is_zero))
+                .collect()
+        } else {
+            model
+                .bodies
+                .iter()
+                .map(|b| b.mass.is_zero() && b.inertia.iter().flatten().all(Poly::is_zero))
+                .collect()
+        };
         let mut standard = if joint_frames {
             let mut out = Vec::new();
             for (body, values) in recursive::joint_frame_parameters(model) {
@@ -205,7 +222,16 @@ impl Regressor {
         };
         standard.extend(drive_columns(model));
         let n = model.joints.len();
-        let samples = sample(model, closures, &standard, &params);
+        let mut samples = sample(model, closures, &standard, &params);
+        // A massless body's parameters are zero by the model's construction, not unknowns: the
+        // file has nowhere to write a cross's mass. Their columns are dropped as a column no
+        // motion reveals would be, so what they would have absorbed stays with the bodies
+        // that have mass (and a Delta's fit has ten fewer barely-seen combinations).
+        for (body, _) in massless.iter().enumerate().filter(|(_, &m)| m) {
+            for column in &mut samples[10 * body..10 * body + 10] {
+                column.fill(0.0);
+            }
+        }
         let base = reduce(&standard, &samples, n);
         Regressor { standard, base, joints: n, joint_frames }
     }

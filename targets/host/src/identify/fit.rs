@@ -645,9 +645,10 @@ mod tests {
             // Sample by sample against the definition: slow where some sample within the guard
             // (in time) is slower than the threshold.
             for (i, s) in segment.samples.iter().enumerate() {
-                let near_slow = segment.samples.iter().any(|o| {
-                    (o.time - s.time).abs() <= guard + 1e-9 && o.qd[0].abs() < settings.min_speed
-                });
+                let near_slow = segment
+                    .samples
+                    .iter()
+                    .any(|o| (o.time - s.time).abs() <= guard + 1e-9 && o.qd[0].abs() < settings.min_speed);
                 assert_eq!(slow[0][i], near_slow, "guard {guard} s, t = {} s", s.time);
                 assert!(!slow[1][i], "joint 1 never slows down");
             }
