@@ -120,7 +120,7 @@ done
 STATUS=0
 "$HAPTICGEN" identify "$MODEL" --variant horizontal --log "$OUT/excite-1.csv" --validate "$OUT/excite-2.csv" \
     --truth "$MODEL" >"$OUT/identify.out" 2>&1 || STATUS=$?
-sed -n '/^| figure/,$p' "$OUT/identify.out"
+awk '/^\| figure/ { table = 1 } table && /^\|/' "$OUT/identify.out"
 awk '
     function percent(field) { gsub(/[ %]/, "", field); return field + 0 }
     /^\| D\(q\) \|/ { d = percent($3); seen++ }
