@@ -313,7 +313,7 @@ fn connect_excite(args: &ConnectArgs, trajectory_path: &Path) -> Result<(), CliE
     pending.push(after);
     let mut unwrap = vec![CountUnwrapper::new(); n];
     let mut samples: Vec<DeviceSample> = Vec::new();
-    let (mut elapsed, mut missing, mut previous) = (0u64, 0u64, None::<u16>);
+    let (mut elapsed, mut missing, mut previous, mut saturated) = (0u64, 0u64, None::<u16>, 0u64);
     let scales = info.scales;
     let mut pending = pending.into_iter();
     loop {
@@ -340,6 +340,7 @@ fn connect_excite(args: &ConnectArgs, trajectory_path: &Path) -> Result<(), CliE
         if elapsed >= ticks {
             break;
         }
+        saturated += u64::from(frame.status & StateFrame::SATURATED != 0);
         let channel = |value: Option<f32>| value.map_or(f64::NAN, f64::from);
         samples.push(DeviceSample {
             time: elapsed as f64 / rate,
@@ -376,6 +377,13 @@ fn connect_excite(args: &ConnectArgs, trajectory_path: &Path) -> Result<(), CliE
     }
     for (joint, error) in sim.model.joints.iter().zip(&worst) {
         println!("  joint {}: largest tracking error after the blend {error:.3e}", joint.name);
+    }
+    if saturated > 0 {
+        println!(
+            "warning: {saturated} of {} frames had a channel at its limit (StateFrame::SATURATED): those samples \
+             hold the limit, not the value",
+            log.len()
+        );
     }
     Ok(())
 }
