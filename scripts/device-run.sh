@@ -21,8 +21,9 @@
 #    periods of the device's own ticks (a loaded machine slows QEMU's clock, not the log's
 #    time), each on a fresh QEMU with a 50 ms heartbeat timeout (the link's safety rules are
 #    step 1's; a late heartbeat on a loaded 2-core machine must not end an identification run).
-#    `connect` fails by itself if the device does not play the trajectory or stops. Checked: no
-#    tick missing from either log, tracking error after the blend under 0.02 rad, and
+#    `connect` fails by itself if the device does not play the trajectory or stops. Checked: at
+#    most 0.1 % of the ticks missing from either log and none two in a row (a frame lost on a
+#    loaded machine; the fit interpolates one), tracking error after the blend under 0.02 rad, and
 #    `identify --validate --truth MODEL` (the image's plant is the model's own mechanics): D(q)
 #    and C(q, q̇) q̇ within their 2 % bounds, the validation torque within 5 %. Friction is printed,
 #    not checked: the image's plant has no Coulomb friction (`SimBoard`), so the model file's is
@@ -104,11 +105,17 @@ for SEED in 1 2; do
     [ "$STATUS" -eq 0 ] || { echo "FAIL device: connect --excite (seed $SEED) exited with $STATUS" >&2; exit 1; }
     awk -F, -v seed="$SEED" '
         NR == 1 { next }
-        { rows++; if (rows > 1 && ($1 - last) > 0.0015) gaps++; last = $1 }
+        {
+            rows++
+            if (rows > 1) { step = $1 - last; if (step > 0.0015) missing += step / 0.001 - 1; if (step > 0.0025) long++ }
+            last = $1
+        }
         END {
             if (rows < 8000) { printf "FAIL device: excitation %s: %d rows (fewer than 8000)\n", seed, rows; exit 1 }
-            if (gaps) { printf "FAIL device: excitation %s: %d gaps in the log\n", seed, gaps; exit 1 }
-            printf "device: excitation %s: %d rows, no tick missing\n", seed, rows
+            if (long || missing > rows / 1000) {
+                printf "FAIL device: excitation %s: %d ticks missing, %d gaps longer than one tick\n", seed, missing, long; exit 1
+            }
+            printf "device: excitation %s: %d rows, %d ticks missing (at most 0.1 %%, none two in a row)\n", seed, rows, missing
         }' "$OUT/excite-$SEED.csv"
     awk -v seed="$SEED" '
         /largest tracking error after the blend/ { n++; if ($NF + 0 > 0.02 || $NF + 0 != $NF + 0) bad = bad " " $2 $NF }

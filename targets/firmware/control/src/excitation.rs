@@ -77,7 +77,6 @@ impl<const N: usize> ExcitationParts<N> {
     /// they agree, every value is finite, the period is a whole number of impedance ticks (so
     /// that the series' time can wrap exactly, [`Excitation::time`]), the ramp not negative and
     /// the bandwidth positive.
-    #[inline(always)]
     pub fn playable(&self, impedance_loop_hz: u32) -> Option<Excitation<N>> {
         let trajectory = &self.trajectory;
         let rate = impedance_loop_hz as f32;
@@ -130,7 +129,6 @@ impl<const N: usize> Excitation<N> {
     /// The series' time at the excitation's impedance tick `tick` (1 for the first, at time 0)
     /// at `impedance_loop_hz`: after the blend, wrapped to its first period in whole ticks, so
     /// that an `f32` time stays exact to a tick however long the run.
-    #[inline(always)]
     pub fn time(&self, tick: u32, impedance_loop_hz: u32) -> f32 {
         let elapsed = tick.saturating_sub(1);
         let wrapped = if elapsed >= self.ramp_ticks {
