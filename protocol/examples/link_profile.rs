@@ -13,6 +13,7 @@ fn main() {
         let sample = StateSample {
             tick,
             enabled: true,
+            exciting: false,
             fault: 0,
             encoder_counts: &counts,
             joint_velocity: &v,

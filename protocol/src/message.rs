@@ -13,7 +13,11 @@
 use crate::frame::Received;
 use serde::{Deserialize, Serialize};
 
-/// The protocol version both sides must speak (exchanged in the handshake). Version 6 adds
+/// The protocol version both sides must speak (exchanged in the handshake). Version 7: a device
+/// plays an identification excitation too (the `SetExcitation` messages, in device mode), says
+/// so in the state stream ([`StateFrame::EXCITING`]), and the state frame's motor-current
+/// channels carry the *measured* currents (version 6 sent the current loops' setpoints, which
+/// follow from the commanded torques the frame also carries). Version 6 adds
 /// [`HostMessage::SetExcitation`] and [`PilLaw::Excitation`] (a processor-in-the-loop run
 /// playing an identification excitation on the device). Version 5 adds
 /// [`DeviceMessage::Scene`] (the device answers every `SetObject` with what it did with the
@@ -23,7 +27,7 @@ use serde::{Deserialize, Serialize};
 /// them as `i16`, and the encoder counts modulo 2¹⁶); version 2 added [`HostMessage::PilSetup`]
 /// and made [`DeviceMessage::Actuators`] an [`ActuatorFrame`] (processor in the loop);
 /// version 1 had neither.
-pub const PROTOCOL_VERSION: u16 = 6;
+pub const PROTOCOL_VERSION: u16 = 7;
 
 /// The values a state frame's channel can take: its two bytes on the wire are each from 1 to
 /// 255, the base-255 digits (low first) of the value plus [`CHANNEL_LIMIT`], each plus one.
@@ -66,7 +70,7 @@ pub struct ChannelScales {
     pub task_velocity: f32,
     /// Commanded joint torque, N·m (or N) per step.
     pub joint_torque: f32,
-    /// Commanded motor current, A per step.
+    /// Measured motor current, A per step.
     pub motor_current: f32,
 }
 
@@ -482,6 +486,8 @@ pub struct StateSample<'a> {
     pub tick: u32,
     /// The bridges are enabled.
     pub enabled: bool,
+    /// The device is playing an identification excitation ([`StateFrame::EXCITING`]).
+    pub exciting: bool,
     /// The latched fault's code (0: none), as [`StateFrame::fault`] holds it.
     pub fault: u8,
     /// Encoder counts per joint.
@@ -494,7 +500,7 @@ pub struct StateSample<'a> {
     pub task_velocity: &'a [f32],
     /// Commanded joint torques, N·m.
     pub joint_torque: &'a [f32],
-    /// Commanded motor currents, A.
+    /// Measured motor currents, A (what the current loops read in the tick's period).
     pub motor_current: &'a [f32],
     /// Instructions (or cycles) the last impedance tick took.
     pub tick_instructions: u32,
@@ -506,7 +512,7 @@ pub struct StateFrame {
     /// Impedance ticks since start, modulo 2¹⁶.
     #[serde(with = "two_bytes")]
     pub tick: u16,
-    /// [`StateFrame::ENABLED`], [`StateFrame::SATURATED`].
+    /// [`StateFrame::ENABLED`], [`StateFrame::SATURATED`], [`StateFrame::EXCITING`].
     pub status: u8,
     /// The safety monitor's latched fault's code in the low 7 bits (0: none; `FaultCode::number`),
     /// and [`StateFrame::LINK_FAULT`] while the link's heartbeat fault is latched.
@@ -608,6 +614,9 @@ impl StateFrame {
     pub const ENABLED: u8 = 1;
     /// Status bit: a channel (or the instruction count) did not fit and was sent at its limit.
     pub const SATURATED: u8 = 2;
+    /// Status bit: the device is playing the identification excitation the host sent
+    /// (`SetExcitation`, one per joint); this tick's commanded torques are its tracking law's.
+    pub const EXCITING: u8 = 4;
     /// Bit of [`StateFrame::fault`]: the link's heartbeat watchdog has latched its fault (the
     /// safe state; cleared only by the host's `ResetFault`).
     pub const LINK_FAULT: u8 = 0x80;
@@ -639,8 +648,9 @@ impl StateFrame {
             saturated = true;
             u16::MAX
         });
-        let status =
-            if sample.enabled { Self::ENABLED } else { 0 } | if saturated { Self::SATURATED } else { 0 };
+        let status = if sample.enabled { Self::ENABLED } else { 0 }
+            | if saturated { Self::SATURATED } else { 0 }
+            | if sample.exciting { Self::EXCITING } else { 0 };
         Some(Self {
             tick: sample.tick as u16,
             status,
@@ -688,8 +698,9 @@ impl StateFrame {
             saturated = true;
             u16::MAX
         });
-        let status =
-            if sample.enabled { Self::ENABLED } else { 0 } | if saturated { Self::SATURATED } else { 0 };
+        let status = if sample.enabled { Self::ENABLED } else { 0 }
+            | if saturated { Self::SATURATED } else { 0 }
+            | if sample.exciting { Self::EXCITING } else { 0 };
         let [tick_low, tick_high] = (sample.tick as u16).to_le_bytes();
         let [instructions_low, instructions_high] = tick_instructions.to_le_bytes();
         // postcard: the variant index (a one-byte varint), the fields in order (the two-byte
@@ -753,7 +764,7 @@ impl StateFrame {
         self.scaled(j, self.joints(), 2 * self.joints() + 2 * self.task_dim(), scales.joint_torque)
     }
 
-    /// Commanded current of joint `j`'s motor, A.
+    /// Measured current of joint `j`'s motor, A.
     pub fn motor_current(&self, j: usize, scales: &ChannelScales) -> Option<f32> {
         self.scaled(j, self.joints(), 3 * self.joints() + 2 * self.task_dim(), scales.motor_current)
     }

@@ -166,6 +166,7 @@ fn state_frame(joints: usize, task: usize) -> impl Strategy<Value = StateFrame> 
             let sample = StateSample {
                 tick,
                 enabled,
+                exciting: false,
                 fault,
                 encoder_counts: &counts,
                 joint_velocity: &per_joint[..joints],
@@ -337,6 +338,7 @@ proptest! {
         let sample = StateSample {
             tick,
             enabled,
+            exciting: false,
             fault,
             encoder_counts: &counts[..joints],
             joint_velocity: &per_joint[..joints],
@@ -375,6 +377,7 @@ fn every_one_and_two_bit_error_is_rejected() {
     let sample = StateSample {
         tick: 70_000,
         enabled: true,
+        exciting: false,
         fault: 0,
         encoder_counts: &[12_000, -5, 40_000],
         joint_velocity: &[0.5, -1.25, 3.0],
@@ -478,6 +481,7 @@ fn state_frames_fit_a_megabit_uart_at_one_kilohertz() {
         let sample = StateSample {
             tick: u32::MAX,
             enabled: true,
+            exciting: false,
             fault: u8::MAX,
             encoder_counts: &counts,
             joint_velocity: &widest,
@@ -574,6 +578,7 @@ fn state_channels_round_to_the_nearest_step_and_flag_what_does_not_fit() {
         StateSample {
             tick: 3,
             enabled: false,
+            exciting: false,
             fault: 0,
             encoder_counts: &[123_456, -7],
             joint_velocity,
@@ -634,6 +639,7 @@ fn channel_bytes_are_checked() {
     let sample = StateSample {
         tick: 0,
         enabled: true,
+        exciting: false,
         fault: 0,
         encoder_counts: &[1],
         joint_velocity: &[0.0],
@@ -684,6 +690,7 @@ proptest! {
         let sample = StateSample {
             tick: 0,
             enabled: true,
+            exciting: false,
             fault: 0,
             encoder_counts: &counts,
             joint_velocity: &values[..3],
@@ -724,6 +731,7 @@ fn a_zero_byte_in_the_channels_is_not_a_message() {
     let sample = StateSample {
         tick: 1,
         enabled: true,
+        exciting: false,
         fault: 0,
         encoder_counts: &[5],
         joint_velocity: &[0.0],
@@ -765,4 +773,31 @@ fn scene_answers_round_trip() {
     let mut decoder = FrameDecoder::new();
     assert!(receive::<DeviceMessage>(&mut decoder, &frame_of(&Unknown(4, 0, 4))).is_empty());
     assert_eq!(decoder.counters().not_a_message, 1);
+}
+
+/// The excitation's status bit goes out as the device says, by both encoders, beside the
+/// enabled bit, and nothing else sets it.
+#[test]
+fn the_state_frame_says_when_the_device_plays_an_excitation() {
+    for (enabled, exciting) in [(false, false), (true, false), (false, true), (true, true)] {
+        let sample = StateSample {
+            tick: 12,
+            enabled,
+            exciting,
+            fault: 0,
+            encoder_counts: &[3, -4],
+            joint_velocity: &[0.5, -1.25],
+            task_position: &[0.1, -0.05],
+            task_velocity: &[0.01, 0.0],
+            joint_torque: &[0.25, -0.5],
+            motor_current: &[0.7, -1.4],
+            tick_instructions: 900,
+        };
+        let frame = StateFrame::quantise(&sample, &ChannelScales::DESKTOP).unwrap();
+        assert_eq!(frame.status & StateFrame::EXCITING != 0, exciting);
+        assert_eq!(frame.status & StateFrame::ENABLED != 0, enabled);
+        let mut direct = [0u8; hapticgen_protocol::MAX_FRAME_BYTES];
+        let length = StateFrame::encode_sample(&sample, &ChannelScales::DESKTOP, &mut direct).unwrap();
+        assert_eq!(&direct[..length], &frame_of(&DeviceMessage::State(frame))[..]);
+    }
 }

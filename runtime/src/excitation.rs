@@ -92,6 +92,25 @@ impl<S: Real, const N: usize, const H: usize> FourierTrajectory<S, N, H> {
             return series;
         }
         let start = self.series(S::ZERO).position;
+        self.blend(&start, series, t)
+    }
+
+    /// The reference at `t` for a device that starts at rest at `start` (wherever it is, not
+    /// the series' start): the same quintic blend from `start` into the series over
+    /// [`Self::ramp`], then the series. With `start` the series' start it is
+    /// [`Self::reference`]. Without a blend (`ramp` 0) the series itself from `t = 0`.
+    pub fn reference_from(&self, start: &[S; N], t: S) -> JointReference<S, N> {
+        let series = self.series(t);
+        let in_blend = t < self.ramp && self.ramp > S::ZERO;
+        if !in_blend {
+            return series;
+        }
+        self.blend(start, series, t)
+    }
+
+    /// `series` (the series at `t`, inside the blend) entered from rest at `start`.
+    #[inline(always)]
+    fn blend(&self, start: &[S; N], series: JointReference<S, N>, t: S) -> JointReference<S, N> {
         let u = if t > S::ZERO { t / self.ramp } else { S::ZERO };
         let (u2, u3) = (u * u, u * u * u);
         let c = |x: f64| S::from_f64(x);
@@ -266,6 +285,54 @@ mod tests {
         let (a, b) = (trajectory.reference(1.3), trajectory.reference(5.3));
         for j in 0..2 {
             assert!((a.position[j] - b.position[j]).abs() < 1e-12);
+        }
+    }
+
+    /// From the series' own start, the blend from a given pose is the blend of
+    /// [`FourierTrajectory::reference`], bit for bit; from another pose it starts there at rest,
+    /// its velocity and acceleration are the derivatives of its position, and it joins the
+    /// series at the end of the ramp.
+    #[test]
+    fn the_blend_from_a_given_pose_starts_there_and_joins_the_series() {
+        let trajectory = trajectory();
+        let own = trajectory.series(0.0).position;
+        for t in [0.0, 0.2, 0.5, 0.99, 1.0, 2.5] {
+            assert_eq!(trajectory.reference_from(&own, t), trajectory.reference(t), "t = {t}");
+        }
+        let start = [0.4, 0.3];
+        let at_start = trajectory.reference_from(&start, 0.0);
+        assert_eq!(at_start.position, start);
+        assert_eq!(at_start.velocity, [0.0; 2]);
+        assert_eq!(at_start.acceleration, [0.0; 2]);
+        let h = 1e-5;
+        for t in [0.1, 0.3, 0.77, 0.95] {
+            let (before, now, after) = (
+                trajectory.reference_from(&start, t - h),
+                trajectory.reference_from(&start, t),
+                trajectory.reference_from(&start, t + h),
+            );
+            for j in 0..2 {
+                let velocity = (after.position[j] - before.position[j]) / (2.0 * h);
+                let acceleration = (after.velocity[j] - before.velocity[j]) / (2.0 * h);
+                assert!(
+                    (velocity - now.velocity[j]).abs() < 1e-7,
+                    "t = {t}: {velocity} vs {}",
+                    now.velocity[j]
+                );
+                assert!(
+                    (acceleration - now.acceleration[j]).abs() < 1e-6,
+                    "t = {t}: {acceleration} vs {}",
+                    now.acceleration[j]
+                );
+            }
+        }
+        let (joined, series) = (trajectory.reference_from(&start, 1.0), trajectory.series(1.0));
+        assert_eq!(joined, series);
+        // Just before the end of the ramp: at the series to within its last steps.
+        let almost = trajectory.reference_from(&start, 1.0 - 1e-6);
+        for j in 0..2 {
+            assert!((almost.position[j] - series.position[j]).abs() < 1e-6);
+            assert!((almost.velocity[j] - series.velocity[j]).abs() < 1e-4);
         }
     }
 }

@@ -1177,6 +1177,7 @@ mod tests {
                 &hapticgen_protocol::StateSample {
                     tick: u32::from(tick),
                     enabled: status & StateFrame::ENABLED != 0,
+                    exciting: false,
                     fault,
                     encoder_counts: &[0],
                     joint_velocity: &[0.0],

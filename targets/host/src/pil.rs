@@ -73,6 +73,43 @@ pub fn image_name(model: &Path, variant: Option<&str>) -> Result<String, String>
     })
 }
 
+/// The start pose of the firmware image `name` (its line of `variants.txt`, degrees or mm) in
+/// `model`'s units (rad, m): where a device image is homed (its encoders read 0 there).
+pub fn image_pose(name: &str, model: &hapticgen_codegen::CheckedModel) -> Result<Vec<f64>, String> {
+    let table = variants_file();
+    let text = std::fs::read_to_string(&table)
+        .map_err(|e| format!("error: cannot read the firmware's table of images {}: {e}", table.display()))?;
+    for (index, line) in text.lines().enumerate() {
+        let fields: Vec<&str> = line.split('#').next().unwrap_or("").split_whitespace().collect();
+        if fields.first() != Some(&name) {
+            continue;
+        }
+        let at = format!("{}:{}", table.display(), index + 1);
+        let values = fields
+            .get(4)
+            .ok_or_else(|| format!("error: {at}: no pose column"))?
+            .split(',')
+            .map(|v| v.parse::<f64>().map_err(|_| format!("error: {at}: pose value `{v}` is not a number")))
+            .collect::<Result<Vec<f64>, String>>()?;
+        if values.len() != model.joints.len() {
+            return Err(format!(
+                "error: {at}: the pose has {} values, the model {} joints",
+                values.len(),
+                model.joints.len()
+            ));
+        }
+        return Ok(values
+            .iter()
+            .zip(&model.joints)
+            .map(|(&x, joint)| match joint.kind {
+                hapticgen_codegen::model::JointKind::Revolute => x / 180.0 * std::f64::consts::PI,
+                hapticgen_codegen::model::JointKind::Prismatic => x / 1000.0,
+            })
+            .collect());
+    }
+    Err(format!("error: no image `{name}` in {}", table.display()))
+}
+
 /// The PIL image of `name`: `explicit` if given, else `$HAPTICGEN_PIL_IMAGE`, else
 /// `<target dir>/images/<name>.pil.elf` where `scripts/firmware.sh --only pil` puts it
 /// (`$CARGO_TARGET_DIR`, else the firmware workspace's `target/`). A clear error names every

@@ -748,3 +748,34 @@ fn the_design_walkthrough_quotes_what_the_reports_compute() {
     }
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// `connect --excite` refuses at parse time what it cannot honour beside an excitation run
+/// (a scene, the safety checks, impedance settings: each would replace the excitation's law)
+/// and runs without the model or the log, naming the flag; before any link is opened.
+#[test]
+fn connect_excite_refuses_flags_that_conflict_and_needs_a_model_and_a_log() {
+    let base = ["connect", "--port", "unix:/nonexistent/hapticgen.sock", "--excite", "traj.yaml"];
+    let full = [&base[..], &["--model", "models/parallel_link_2dof.yaml", "--log", "run.csv"]].concat();
+    for (extra, flag) in [
+        (&["--scene", "scenes/device-wall.yaml"][..], "--scene"),
+        (&["--check-safety"][..], "--check-safety"),
+        (&["--impedance", "1500,5"][..], "--impedance"),
+    ] {
+        let output = hapticgen(&[&full[..], extra].concat());
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{stderr}");
+        assert!(stderr.contains("cannot be used with") && stderr.contains(flag), "{stderr}");
+    }
+    for (args, missing) in [
+        ([&base[..], &["--log", "run.csv"]].concat(), "--model"),
+        ([&base[..], &["--model", "models/parallel_link_2dof.yaml"]].concat(), "--log"),
+    ] {
+        let output = hapticgen(&args);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{stderr}");
+        assert!(stderr.contains("required") && stderr.contains(missing), "{stderr}");
+    }
+    // `--model` belongs to `--excite`.
+    let output = hapticgen(&["connect", "--port", "unix:/x", "--model", "models/parallel_link_2dof.yaml"]);
+    assert_eq!(output.status.code(), Some(2));
+}

@@ -14,12 +14,26 @@
 //! change of settings, objects or effect replaces the
 //! reference (the renderer starts afresh at the device point) and keeps the estimator and the
 //! filters running; with every slot empty again, the spring to the start pose is back.
+//!
+//! **Identification excitation.** Once every joint's `SetExcitation` has arrived and they make
+//! a playable excitation ([`ExcitationParts::playable`]), the device holds it, and plays it
+//! from where it is from the first tick its bridges are on ([`DeviceMode::on_current_tick`]:
+//! the runtime's joint-space tracking law in place of the impedance law, the series entered
+//! from the current pose by `FourierTrajectory::reference_from`); its state frames say so
+//! ([`StateFrame::EXCITING`]). A refused excitation (unplayable) is counted
+//! ([`DeviceMode::refused_changes`]) and never played, so the frames never carry the bit. A
+//! new excitation replaces the one before; a `Disable`, `SetImpedance`, `SetObject` or
+//! `SetEffect`, or the bridges going off while it plays, ends it (back to the settings' and the
+//! scene's reference; it must be sent again). The host sends it before `Enable`: a 118-byte
+//! message takes QEMU's UART about 10 ms, longer than the heartbeat timeout of an enabled
+//! device.
 
 use hapticgen_protocol::{
     encode, ChannelScales, DeviceMessage, LinkEffect, SceneAnswer, SceneObject, SceneOutcome, StateFrame,
     StateSample, MAX_FRAME_BYTES, MAX_TASK,
 };
 use hapticgen_runtime::control::{ControlOptions, ImpedanceController, ImpedanceLaw, ImpedanceParameters};
+use hapticgen_runtime::estimation::JointState;
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration};
 use hapticgen_runtime::fused::FusedImpedance;
 use hapticgen_runtime::linalg::mat_vec;
@@ -27,23 +41,38 @@ use hapticgen_runtime::tick::HapticLoopSettings;
 use hapticgen_runtime::tick::ImpedanceReport;
 use hapticgen_runtime::Real;
 
-use crate::app::Controller;
+use crate::app::{Controller, TickOutcome};
+use crate::board::{Board, CycleCounter};
+use crate::excitation::{Excitation, ExcitationParts};
 use crate::link::{DeviceLink, LinkEvent};
 use crate::link_scene::{first, object_outcome, LinkSource, SCENE_OBJECTS};
 use crate::setup::Setup;
 
-/// The host's settings and scene as the device holds them.
+/// The host's settings and scene as the device holds them (a rig of `N` joints and `M` task
+/// axes), and the identification excitation it plays, if any.
 #[derive(Clone, Copy, Debug)]
-pub struct DeviceMode<const M: usize> {
+pub struct DeviceMode<const N: usize, const M: usize> {
     impedance: ImpedanceParameters<f32, MAX_TASK>,
     objects: [SceneObject; SCENE_OBJECTS],
     effect: LinkEffect,
     home: [f32; M],
     grid: f32,
     refused_changes: u32,
+    excitation_parts: ExcitationParts<N>,
+    armed: Option<Excitation<N>>,
+    playing: Option<Playing<N>>,
 }
 
-impl<const M: usize> DeviceMode<M> {
+/// An excitation being played: from `start` (the joint angles when it began), its first tick
+/// the controller's impedance tick `first_tick`.
+#[derive(Clone, Copy, Debug)]
+struct Playing<const N: usize> {
+    excitation: Excitation<N>,
+    start: [f32; N],
+    first_tick: u32,
+}
+
+impl<const N: usize, const M: usize> DeviceMode<N, M> {
     /// Holding the task point at `home` with `stiffness` and `damping` on every axis (unit
     /// mass), scenes to be drawn on the anti-drift grid `grid` (m); no object yet.
     pub fn new(home: [f32; M], stiffness: f32, damping: f32, grid: f32) -> Self {
@@ -58,7 +87,15 @@ impl<const M: usize> DeviceMode<M> {
             home,
             grid,
             refused_changes: 0,
+            excitation_parts: ExcitationParts::EMPTY,
+            armed: None,
+            playing: None,
         }
+    }
+
+    /// `true` while the device plays an identification excitation (module documentation).
+    pub fn exciting(&self) -> bool {
+        self.playing.is_some()
     }
 
     /// The impedance the controller starts with.
@@ -81,7 +118,8 @@ impl<const M: usize> DeviceMode<M> {
     }
 
     /// Changes the host asked for that could not be applied (a slot out of range, an object or
-    /// a scene the task cannot draw): counted, never acted on.
+    /// a scene the task cannot draw, an excitation that cannot be played): counted, never
+    /// acted on.
     pub fn refused_changes(&self) -> u32 {
         self.refused_changes
     }
@@ -89,7 +127,7 @@ impl<const M: usize> DeviceMode<M> {
     /// Applies `event` (what [`DeviceLink::receive`] returned for a byte) to `control`; returns
     /// the length of a frame to send back, framed into `out` (the answer to `Hello`, the
     /// `Scene` answer to an object), if any.
-    pub fn on_event<R, const N: usize>(
+    pub fn on_event<R>(
         &mut self,
         event: LinkEvent<f32>,
         control: &mut Controller<R, LinkSource<M>, N, M>,
@@ -99,22 +137,42 @@ impl<const M: usize> DeviceMode<M> {
     where
         R: FusedImpedance<N, M, Scalar = f32> + Clone,
     {
+        // Anything the host changes ends an excitation: the settings' and the scene's
+        // reference is given back (rebuilt below, or by `set_object`).
+        let stops = matches!(
+            event,
+            LinkEvent::Impedance(_) | LinkEvent::Object { .. } | LinkEvent::Effect(_) | LinkEvent::Disabled
+        );
+        if stops {
+            self.armed = None;
+        }
+        let stopped = stops && self.playing.take().is_some();
         match event {
             LinkEvent::Hello => return link.hello(out).ok(),
             LinkEvent::Impedance(parameters) => self.impedance = parameters,
+            LinkEvent::ExcitationJoint => {
+                // One that was playing and is not replaced gives its reference back.
+                if self.excitation_joint::<R>(link) && self.armed.is_none() && !self.apply(control) {
+                    self.refused_changes = self.refused_changes.saturating_add(1);
+                }
+                return None;
+            }
             LinkEvent::Object { slot, object } => {
                 let outcome = self.set_object(slot, object, control);
                 if outcome != SceneOutcome::Rendered {
                     self.refused_changes = self.refused_changes.saturating_add(1);
+                    if stopped && !self.apply(control) {
+                        self.refused_changes = self.refused_changes.saturating_add(1);
+                    }
                 }
                 return encode(&DeviceMessage::Scene(SceneAnswer { slot, outcome }), out).ok();
             }
             LinkEvent::Effect(effect) => self.effect = effect,
+            // After an excitation, the reference it replaced.
+            LinkEvent::Disabled if stopped => {}
             // Enable, disable, heartbeats and resets are the link's own; sensor frames and
             // PIL setups are for the PIL image.
-            LinkEvent::Sensors | LinkEvent::PilSetup | LinkEvent::ExcitationJoint | LinkEvent::Disabled => {
-                return None
-            }
+            LinkEvent::Sensors | LinkEvent::PilSetup | LinkEvent::Disabled => return None,
         }
         if !self.apply(control) {
             self.refused_changes = self.refused_changes.saturating_add(1);
@@ -122,9 +180,72 @@ impl<const M: usize> DeviceMode<M> {
         None
     }
 
+    /// Takes one joint of an excitation; once all have arrived, holds it to play from the next
+    /// tick the bridges are on if it is playable (it replaces any excitation before it), else
+    /// counts it refused. Returns whether an excitation that was playing has ended.
+    fn excitation_joint<R>(&mut self, link: &DeviceLink) -> bool
+    where
+        R: FusedImpedance<N, M, Scalar = f32> + Clone,
+    {
+        let Some(part) = link.excitation_joint() else { return false };
+        self.excitation_parts.add(part);
+        if !self.excitation_parts.settled() {
+            return false;
+        }
+        let parts = core::mem::take(&mut self.excitation_parts);
+        self.armed = parts.playable(R::IMPEDANCE_LOOP_HZ);
+        if self.armed.is_none() {
+            self.refused_changes = self.refused_changes.saturating_add(1);
+        }
+        self.playing.take().is_some()
+    }
+
+    /// The interrupt body of device mode, once per current-loop period
+    /// ([`Controller::on_current_tick`]); while an excitation plays, its tracking law takes the
+    /// impedance law's place ([`Controller::on_current_tick_joint`]). `open`: the link lets the
+    /// bridges on this period (an excitation held starts when they are, one playing ends when
+    /// they are not).
+    pub fn on_current_tick<R, B, C>(
+        &mut self,
+        control: &mut Controller<R, LinkSource<M>, N, M>,
+        board: &mut B,
+        clock: &C,
+        open: bool,
+    ) -> TickOutcome<f32, N>
+    where
+        R: FusedImpedance<N, M, Scalar = f32> + Clone,
+        B: Board<f32, N, M>,
+        C: CycleCounter,
+    {
+        if !open && self.playing.take().is_some() && !self.apply(control) {
+            self.refused_changes = self.refused_changes.saturating_add(1);
+        }
+        if let (true, Some(excitation)) = (open, self.armed) {
+            self.armed = None;
+            self.playing = Some(Playing {
+                excitation,
+                start: control.haptic.joint_state().position,
+                first_tick: control.impedance_ticks().wrapping_add(1),
+            });
+        }
+        match &self.playing {
+            Some(play) => control.on_current_tick_joint(board, clock, |tick| {
+                let excitation = &play.excitation;
+                let t =
+                    excitation.time(tick.wrapping_sub(play.first_tick).wrapping_add(1), R::IMPEDANCE_LOOP_HZ);
+                let reference = excitation.trajectory.reference_from(&play.start, t);
+                let tracking = excitation.tracking;
+                move |rig: &R, terms: &_, state: &JointState<f32, N>| {
+                    tracking.torque(rig, terms, &state.position, &state.velocity, &reference)
+                }
+            }),
+            None => control.on_current_tick(board, clock),
+        }
+    }
+
     /// Puts `object` in `slot` if the device renders it there, and says what became of it (a
     /// refused object leaves the slot and the controller as they were).
-    fn set_object<R, const N: usize>(
+    fn set_object<R>(
         &mut self,
         slot: u8,
         object: SceneObject,
@@ -158,7 +279,7 @@ impl<const M: usize> DeviceMode<M> {
 
     /// Gives `control` the settings and the reference the device now holds; `false` (and
     /// `control`'s reference unchanged) if that reference cannot be built.
-    fn apply<R, const N: usize>(&self, control: &mut Controller<R, LinkSource<M>, N, M>) -> bool
+    fn apply<R>(&self, control: &mut Controller<R, LinkSource<M>, N, M>) -> bool
     where
         R: FusedImpedance<N, M, Scalar = f32> + Clone,
     {
@@ -207,16 +328,27 @@ pub fn loop_settings<S: Real, const N: usize, const M: usize>(
     }
 }
 
+/// What a board's sensors read in the period of an impedance tick, for its state frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TickSensors<const N: usize> {
+    /// The encoders' counts.
+    pub counts: [i32; N],
+    /// The measured motor currents, A.
+    pub currents: [f32; N],
+}
+
 /// Frames the state of the impedance tick that produced `report` into `out` (a `State`
-/// message in [`ChannelScales::DESKTOP`] units): `counts` as the encoders read, the
-/// estimator's joint velocities, the task position and velocity through `rig`, the commanded
-/// torques and motor currents, the safety monitor's fault and the link's
+/// message in [`ChannelScales::DESKTOP`] units): the encoders' counts and the measured motor
+/// currents of `sensors`, the estimator's joint velocities, the task position and velocity
+/// through `rig`, the commanded torques, whether an excitation plays (`exciting`,
+/// [`StateFrame::EXCITING`]), the safety monitor's fault and the link's
 /// ([`StateFrame::LINK_FAULT`]), the largest impedance-tick cost so far. Returns its length.
 pub fn state_frame<R, const N: usize, const M: usize>(
     control: &Controller<R, LinkSource<M>, N, M>,
     rig: &R,
     link: &DeviceLink,
-    counts: &[i32; N],
+    sensors: &TickSensors<N>,
+    exciting: bool,
     report: &ImpedanceReport<f32, N>,
     out: &mut [u8; MAX_FRAME_BYTES],
 ) -> Option<usize>
@@ -231,13 +363,14 @@ where
     let sample = StateSample {
         tick: control.impedance_ticks(),
         enabled: link.outputs_allowed(),
+        exciting,
         fault: safety_fault | link_fault,
-        encoder_counts: counts,
+        encoder_counts: &sensors.counts,
         joint_velocity: &state.velocity,
         task_position: &position,
         task_velocity: &velocity,
         joint_torque: &report.command.torque,
-        motor_current: control.haptic.current_setpoints(),
+        motor_current: &sensors.currents,
         tick_instructions: control.impedance_cost.max,
     };
     StateFrame::encode_sample(&sample, &ChannelScales::DESKTOP, out)

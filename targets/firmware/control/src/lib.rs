@@ -10,6 +10,9 @@
 //!   the impedance tick on a copy of the state ([`app::Profile`]).
 //! * [`device`]: device mode, the part every board does the same: the host's settings and
 //!   scene applied to the controller, the state stream framed.
+//! * [`excitation`]: an identification excitation as the host sends it, joint by joint,
+//!   assembled and checked ([`excitation::ExcitationParts`]) before the PIL image or device
+//!   mode plays it.
 //! * [`link`]: the device's end of the host link (`hapticgen-protocol`): handshake,
 //!   heartbeat watchdog that disables the bridges ([`link::Gated`]), commands, counters.
 //! * [`link_scene`]: what a linked image's controller follows: a fixed reference or the
@@ -30,6 +33,7 @@
 pub mod app;
 pub mod board;
 pub mod device;
+pub mod excitation;
 pub mod link;
 pub mod link_scene;
 pub mod probe;

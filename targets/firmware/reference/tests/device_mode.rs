@@ -4,15 +4,16 @@
 //! QEMU run (`scripts/device-run.sh`) drives the same code over a UART; this checks it value
 //! by value.
 
-use hapticgen_fw_control::device::{loop_settings, state_frame, DeviceMode};
+use hapticgen_fw_control::device::{loop_settings, state_frame, DeviceMode, TickSensors};
 use hapticgen_fw_control::link::{DeviceLink, LinkSettings};
 use hapticgen_fw_control::link_scene::{device_info, LinkSource, Reference};
 use hapticgen_fw_control::{Controller, CycleCounter};
 use hapticgen_fw_reference::variants::horizontal_f32 as image;
 use hapticgen_fw_sim::plant::SimBoard;
 use hapticgen_protocol::{
-    encode, DeviceMessage, FrameDecoder, HostMessage, ImpedanceSettings, LinkEffect, SceneAnswer,
-    SceneObject, SceneOutcome, StateFrame, MAX_FRAME_BYTES, PROTOCOL_VERSION,
+    encode, DeviceMessage, ExcitationJoint, FrameDecoder, HostMessage, ImpedanceSettings, LinkEffect,
+    SceneAnswer, SceneObject, SceneOutcome, StateFrame, EXCITATION_HARMONICS, MAX_FRAME_BYTES,
+    PROTOCOL_VERSION,
 };
 use hapticgen_runtime::control::{ImpedanceLaw, ImpedanceParameters};
 use hapticgen_runtime::estimation::ForceSensorCalibration;
@@ -31,7 +32,7 @@ impl CycleCounter for NoClock {
 /// A device at the image's start pose: its link, its mode, its controller, its plant.
 struct Device {
     link: DeviceLink,
-    mode: DeviceMode<2>,
+    mode: DeviceMode<2, 2>,
     control: Control,
     board: SimBoard<image::Rig, 2, 2>,
 }
@@ -77,13 +78,18 @@ impl Device {
         loop {
             let open = self.link.on_current_tick();
             let mut gated = hapticgen_fw_control::link::Gated { board: &mut self.board, open };
-            let outcome = self.control.on_current_tick(&mut gated, &NoClock);
+            let outcome = self.mode.on_current_tick(&mut self.control, &mut gated, &NoClock, open);
+            let sensors = TickSensors {
+                counts: hapticgen_fw_control::Encoders::counts(&mut self.board),
+                currents: hapticgen_fw_control::CurrentSense::currents(&mut self.board),
+            };
             self.board.advance(&[0.0; 2]);
             if let Some(report) = outcome.impedance {
-                let counts = hapticgen_fw_control::Encoders::counts(&mut self.board);
                 let mut out = [0u8; MAX_FRAME_BYTES];
                 let rig = image::Rig::NOMINAL;
-                let n = state_frame(&self.control, &rig, &self.link, &counts, &report, &mut out).unwrap();
+                let exciting = self.mode.exciting();
+                let n = state_frame(&self.control, &rig, &self.link, &sensors, exciting, &report, &mut out)
+                    .unwrap();
                 match decode(&out[..n]) {
                     DeviceMessage::State(frame) => return frame,
                     other => panic!("not a state frame: {other:?}"),
@@ -262,4 +268,136 @@ fn the_state_frame_carries_the_task_velocity_of_the_estimated_joint_velocities()
         speed = speed.max(tick_speed);
     }
     assert!(speed > 0.05, "the device should have moved: largest |J q̇| = {speed} m/s");
+}
+
+/// The device's excitation: `period` s, `ramp` s of blend, one harmonic per joint.
+fn excitation(period: f32, ramp: f32) -> Vec<HostMessage> {
+    (0..2u8)
+        .map(|joint| {
+            let mut sine = [0.0; EXCITATION_HARMONICS];
+            sine[0] = 0.3;
+            HostMessage::SetExcitation(ExcitationJoint {
+                joint,
+                period,
+                ramp,
+                tracking_hz: 8.0,
+                offset: image::setup().start[usize::from(joint)] + 0.1,
+                sine,
+                cosine: [0.0; EXCITATION_HARMONICS],
+            })
+        })
+        .collect()
+}
+
+impl Device {
+    /// Hello, a heartbeat and Enable: the bridges on for the next few ticks.
+    fn enable(&mut self) {
+        self.feed(&HostMessage::Hello { version: PROTOCOL_VERSION });
+        self.feed(&HostMessage::Heartbeat { sequence: 1 });
+        self.feed(&HostMessage::Enable);
+    }
+
+    /// `ticks` state frames, a heartbeat before each (the link stays open).
+    fn states(&mut self, ticks: usize) -> Vec<StateFrame> {
+        (0..ticks)
+            .map(|i| {
+                self.feed(&HostMessage::Heartbeat { sequence: 2 + i as u16 });
+                self.state()
+            })
+            .collect()
+    }
+}
+
+/// A complete excitation sent to an enabled device is played from where the device is: the
+/// frames say so from the next tick, the device follows the blend out of its start pose and
+/// then the series, and the frames' currents are the measured ones (the torque they stand for
+/// follows the commanded one); `Disable` stops it and gives the spring back.
+#[test]
+fn a_complete_excitation_is_played_from_where_the_device_is_until_disabled() {
+    let mut device = Device::new();
+    device.enable();
+    let start = image::setup().start;
+    device.states(5);
+    let messages = excitation(1.0, 0.5);
+    device.feed(&messages[0]);
+    assert!(!device.states(3).iter().any(|f| f.status & StateFrame::EXCITING != 0), "half an excitation");
+    device.feed(&messages[1]);
+    let frames = device.states(1500);
+    assert!(frames.iter().all(|f| f.status & StateFrame::EXCITING != 0 && f.fault == 0));
+    assert_eq!(device.mode.refused_changes(), 0);
+    let scales = hapticgen_protocol::ChannelScales::DESKTOP;
+    // Where the tracking law wants the device: the blend from the start pose into the series
+    // (offset start + 0.1, 0.3 rad of the first harmonic, period 1 s). The tick is 1 ms.
+    let series = |t: f32, j: usize| start[j] + 0.1 + 0.3 * (core::f32::consts::TAU * t).sin();
+    let q = device.control.haptic.joint_state().position;
+    for (j, &angle) in q.iter().enumerate() {
+        let wanted = series(1.5, j);
+        assert!((angle - wanted).abs() < 0.01, "joint {j}: {angle} vs {wanted} rad at 1.5 s");
+    }
+    // Measured against commanded current, in blocks of 50 ticks (the commanded torque carries
+    // the velocity estimate's tick-to-tick noise, which the current loop and the current
+    // sense filter out): the measured currents follow the commanded ones, and are not them.
+    let (mut difference, mut size, mut equal) = (0.0f32, 0.0f32, 0);
+    for block in frames[500..].chunks_exact(50) {
+        for j in 0..2 {
+            let (mut measured, mut commanded) = (0.0f32, 0.0f32);
+            for frame in block {
+                let current = frame.motor_current(j, &scales).unwrap();
+                let from_torque = frame.joint_torque(j, &scales).unwrap() / image_torque_per_amp(j);
+                equal += usize::from((current - from_torque).abs() < scales.motor_current);
+                measured += current / 50.0;
+                commanded += from_torque / 50.0;
+            }
+            difference += (measured - commanded).powi(2);
+            size += measured.powi(2);
+        }
+    }
+    assert!(size > 0.0 && difference < 0.05 * size, "measured vs commanded currents: {difference} vs {size}");
+    assert!(equal < 500, "{equal} of 2000 measured currents are the commanded ones");
+    device.feed(&HostMessage::Disable);
+    let after = device.states(3);
+    assert!(after.iter().all(|f| f.status & (StateFrame::EXCITING | StateFrame::ENABLED) == 0));
+    assert!(matches!(device.control.haptic.source.reference, Reference::Fixed(_)));
+}
+
+/// The joint torque one ampere of joint `j`'s motor stands for (`k_t N η`).
+fn image_torque_per_amp(j: usize) -> f32 {
+    let drive = hapticgen_runtime::RigModel::drives(&image::Rig::NOMINAL)[j];
+    drive.torque_constant * drive.gear_ratio * drive.efficiency
+}
+
+/// An excitation is never claimed that is not played: held while the bridges are off (it
+/// plays from the first tick they are on), refused with a period that is not a whole number of
+/// ticks (counted), stopped by new settings; the frames carry the bit exactly while it plays.
+#[test]
+fn an_excitation_that_is_not_played_is_never_claimed() {
+    let mut device = Device::new();
+    device.feed(&HostMessage::Hello { version: PROTOCOL_VERSION });
+    for message in excitation(2.0, 0.5) {
+        device.feed(&message);
+    }
+    assert!(!device.states(3).iter().any(|f| f.status & StateFrame::EXCITING != 0), "the bridges are off");
+    device.enable();
+    assert!(device.states(3).iter().all(|f| f.status & StateFrame::EXCITING != 0), "held until enabled");
+    assert_eq!(device.mode.refused_changes(), 0);
+    for message in excitation(2.0005, 0.5) {
+        device.feed(&message);
+    }
+    assert_eq!(device.mode.refused_changes(), 1, "not a whole number of ticks");
+    assert!(
+        !device.states(3).iter().any(|f| f.status & StateFrame::EXCITING != 0),
+        "and it ends the one before"
+    );
+    assert!(matches!(device.control.haptic.source.reference, Reference::Fixed(_)));
+    for message in excitation(2.0, 0.5) {
+        device.feed(&message);
+    }
+    assert!(device.states(3).iter().all(|f| f.status & StateFrame::EXCITING != 0));
+    let settings = ImpedanceSettings { stiffness: [800.0; 3], damping: [2.0; 3], mass: [0.5; 3] };
+    device.feed(&HostMessage::SetImpedance(settings));
+    assert!(
+        !device.states(3).iter().any(|f| f.status & StateFrame::EXCITING != 0),
+        "stopped by new settings"
+    );
+    assert_eq!(device.mode.refused_changes(), 1);
 }

@@ -29,7 +29,7 @@ impl CycleCounter for NoClock {
 
 struct Device {
     link: DeviceLink,
-    mode: DeviceMode<3>,
+    mode: DeviceMode<3, 3>,
     control: Control,
     board: SimBoard<image::Rig, 3, 3>,
     periods: u32,

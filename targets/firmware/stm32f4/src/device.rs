@@ -19,8 +19,8 @@
 use core::cell::RefCell;
 
 use cortex_m::interrupt::Mutex;
-use hapticgen_fw_control::board::Encoders;
-use hapticgen_fw_control::device::{state_frame, DeviceMode, TransmitQueue};
+use hapticgen_fw_control::board::{CurrentSense, Encoders};
+use hapticgen_fw_control::device::{state_frame, DeviceMode, TickSensors, TransmitQueue};
 use hapticgen_fw_control::link::{DeviceLink, Gated};
 use hapticgen_fw_control::link_scene::LinkSource;
 use hapticgen_fw_control::Controller;
@@ -40,7 +40,7 @@ pub struct DeviceState {
     /// The link's state.
     pub link: DeviceLink,
     /// The host's settings and scene.
-    pub mode: DeviceMode<2>,
+    pub mode: DeviceMode<2, 2>,
     /// Bytes for the transmitter.
     pub transmit: TransmitQueue,
     /// Frames dropped because the queue was full.
@@ -87,12 +87,20 @@ pub fn next_byte_to_send(shared: &SharedDevice) -> Option<u8> {
 pub fn on_device_interrupt(shared: &SharedDevice) {
     with_state(shared, |state| {
         let open = state.link.on_current_tick();
-        let outcome = state.app.on_current_tick(&mut Gated { board: &mut state.board, open }, &Cycles);
+        let outcome = state.mode.on_current_tick(
+            &mut state.app,
+            &mut Gated { board: &mut state.board, open },
+            &Cycles,
+            open,
+        );
         if let Some(report) = outcome.impedance {
-            let counts = state.board.counts();
+            let sensors = TickSensors { counts: state.board.counts(), currents: state.board.currents() };
             let mut frame = [0u8; MAX_FRAME_BYTES];
             let rig = image::Rig::NOMINAL;
-            if let Some(length) = state_frame(&state.app, &rig, &state.link, &counts, &report, &mut frame) {
+            let exciting = state.mode.exciting();
+            if let Some(length) =
+                state_frame(&state.app, &rig, &state.link, &sensors, exciting, &report, &mut frame)
+            {
                 state.send(frame.get(..length).unwrap_or(&[]));
             }
         }

@@ -411,10 +411,13 @@ pub struct ConnectArgs {
     /// Clear a latched fault first (a device whose heartbeat was lost stays off until this).
     #[arg(long)]
     pub reset: bool,
-    /// How long to stay connected, s.
-    #[arg(long, default_value_t = 5.0)]
-    pub duration: f64,
-    /// Log every state frame to this CSV file (SI units; a row per impedance tick).
+    /// How long to stay connected, s (default 5); with `--excite`, how long the excitation
+    /// plays, its blend included, in the device's time (default: the blend and four periods,
+    /// as `simulate --scenario excite`).
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Log every state frame to this CSV file (SI units; a row per impedance tick); with
+    /// `--excite`, the identification log `hapticgen identify` reads instead.
     #[arg(long)]
     pub log: Option<PathBuf>,
     /// Try the link's safety rules on the device first (enables it): garbage at full rate,
@@ -422,6 +425,28 @@ pub struct ConnectArgs {
     /// does not hold.
     #[arg(long)]
     pub check_safety: bool,
+    /// Play this identification trajectory (`hapticgen excite -o TRAJ.yaml`) on the device,
+    /// from where it is, and write the identification log of it to `--log` (the columns of
+    /// `simulate --scenario excite`); enables the device. Needs `--model` and `--log`.
+    #[arg(
+        long,
+        value_name = "TRAJ.yaml",
+        requires_all = ["model", "log"],
+        conflicts_with_all = ["scene", "check_safety", "impedance"]
+    )]
+    pub excite: Option<PathBuf>,
+    /// The device's model file (with `--excite`): its joints, gears, encoders and torque
+    /// constants turn the state stream into joint angles and torques.
+    #[arg(long, requires = "excite")]
+    pub model: Option<PathBuf>,
+    /// The model's variant (with `--excite`).
+    #[arg(long, requires = "excite")]
+    pub variant: Option<String>,
+    /// The joint angles (rad, or m) where the device's encoders read 0 (with `--excite`);
+    /// default: the start pose of the firmware image of `--model` (targets/firmware/variants.txt),
+    /// which the device must then be.
+    #[arg(long, requires = "excite", value_delimiter = ',', allow_negative_numbers = true)]
+    pub home: Option<Vec<f64>>,
     /// No live status line.
     #[arg(long)]
     pub quiet: bool,

@@ -105,6 +105,25 @@ pub struct ExciteRun<'a> {
     pub pil: Option<&'a crate::simulation::PilTarget>,
 }
 
+/// Reads the trajectory file at `path` for `model` and checks that the device can play it
+/// (limits, speeds, torques); an error names the file, and the line of the joint that cannot.
+pub fn read_playable(model: &CheckedModel, path: &Path) -> Result<TrajectoryFile, String> {
+    let trajectory = TrajectoryFile::read(path, model)?;
+    if let Err((joint, what)) = super::excite::check_playable(model, &trajectory) {
+        let name = &model.joints[joint].name;
+        let line = std::fs::read_to_string(path)
+            .ok()
+            .and_then(|text| joint_entry_line(&text, name))
+            .map_or_else(String::new, |line| format!("{line}:"));
+        return Err(format!(
+            "error: {}:{line} the trajectory cannot be played on this device: {what} \
+             (design one with `hapticgen excite`, or shrink this joint's coefficients)",
+            path.display()
+        ));
+    }
+    Ok(trajectory)
+}
+
 /// `hapticgen simulate --scenario excite`: plays the trajectory, writes `DIR/log.csv` (and
 /// the full trace as `DIR/trace.csv`); returns what to print.
 pub fn excite_run(
@@ -113,19 +132,7 @@ pub fn excite_run(
     variant: Option<&str>,
     run: ExciteRun,
 ) -> Result<String, String> {
-    let trajectory = TrajectoryFile::read(run.trajectory, &sim.model)?;
-    if let Err((joint, what)) = super::excite::check_playable(&sim.model, &trajectory) {
-        let name = &sim.model.joints[joint].name;
-        let line = std::fs::read_to_string(run.trajectory)
-            .ok()
-            .and_then(|text| joint_entry_line(&text, name))
-            .map_or_else(String::new, |line| format!("{line}:"));
-        return Err(format!(
-            "error: {}:{line} the trajectory cannot be played on this device: {what} \
-             (design one with `hapticgen excite`, or shrink this joint's coefficients)",
-            run.trajectory.display()
-        ));
-    }
+    let trajectory = read_playable(&sim.model, run.trajectory)?;
     let plant = run.plant.map(|path| load(path, variant)).transpose()?;
     let mut cfg = run.cfg;
     cfg.duration = run.duration.unwrap_or(trajectory.ramp + 4.0 * trajectory.period);

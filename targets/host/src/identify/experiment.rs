@@ -12,6 +12,11 @@
 //! host's plant and sensors are the simulator's, and the host logs what the device measured
 //! (the encoder angles, the measured currents as joint torques) and the torques the firmware
 //! commanded: the log `hapticgen identify` reads, from the firmware's control path.
+//!
+//! And on a device over the link (`hapticgen connect --excite`, [`DeviceSample`],
+//! [`Simulation::device_log`]): the device plays the trajectory from where it is, its state
+//! stream carries the encoder counts, the measured motor currents and the commanded torques of
+//! every impedance tick, and the host turns them into the same log.
 
 use std::sync::Arc;
 
@@ -232,6 +237,54 @@ pub fn excitation_messages(
         .collect()
 }
 
+/// One impedance tick of a device's state stream during an excitation (`hapticgen connect
+/// --excite`), in the device's units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeviceSample {
+    /// Since the excitation's first tick, s (from the device's tick counter).
+    pub time: f64,
+    /// The encoders' counts (0 at the device's home pose).
+    pub counts: Vec<i32>,
+    /// The measured motor currents, A.
+    pub currents: Vec<f64>,
+    /// The commanded joint torques, N·m (N).
+    pub torques: Vec<f64>,
+}
+
+struct DeviceLogVisitor<'a> {
+    joints: Vec<String>,
+    samples: &'a [DeviceSample],
+    home: &'a [f64],
+}
+
+impl RigVisitor for DeviceLogVisitor<'_> {
+    type Output = Result<IdentificationLog, String>;
+    fn visit<R: RigModel<N, M, Scalar = f64>, const N: usize, const M: usize>(self, rig: R) -> Self::Output {
+        if self.home.len() != N {
+            return Err(format!("error: a home pose of {} values for {N} joints", self.home.len()));
+        }
+        let (drives, coupling) = (rig.drives(), rig.coupling());
+        let meter = TorqueMeter::new(&drives, coupling);
+        let mut log = IdentificationLog::new(self.joints);
+        for sample in self.samples {
+            let array = |values: &[f64]| -> Result<[f64; N], String> {
+                values
+                    .try_into()
+                    .map_err(|_| format!("error: a state frame of {} joints, not {N}", values.len()))
+            };
+            let counts: [i32; N] =
+                sample.counts.as_slice().try_into().map_err(|_| {
+                    format!("error: a state frame of {} joints, not {N}", sample.counts.len())
+                })?;
+            let angles = closed_loop::joint_angles_at_counts(&counts, &drives, coupling.as_ref());
+            let q: [f64; N] = std::array::from_fn(|j| self.home[j] + angles[j]);
+            let measured = meter.joint_torques(&array(&sample.currents)?);
+            log.push(sample.time, &q, &measured, &array(&sample.torques)?);
+        }
+        Ok(log)
+    }
+}
+
 struct ExcitePilVisitor<'a> {
     plant: Arc<CompiledModel>,
     simulation: &'a Simulation,
@@ -304,6 +357,15 @@ impl Simulation {
         Ok((plant, series, cfg))
     }
 
+    /// The identification log of an excitation played on a device (`hapticgen connect
+    /// --excite`): each sample's counts decoded into joint angles from `home` (the joint
+    /// angles where the device's counts are 0) through the drives and the transmission, its
+    /// measured currents into joint torques ([`TorqueMeter`]), its commanded torques as sent.
+    pub fn device_log(&self, samples: &[DeviceSample], home: &[f64]) -> Result<IdentificationLog, String> {
+        let joints = self.model.joints.iter().map(|j| j.name.clone()).collect();
+        self.dispatch(DeviceLogVisitor { joints, samples, home })
+    }
+
     /// [`Self::run_excitation`] with the rig's firmware image under QEMU as the controller
     /// ([`PilExcitation`]); also returns the image's report.
     pub fn run_pil_excitation(
@@ -353,5 +415,35 @@ mod tests {
         let refused = excitation_messages(&series(2.0005, 5), 2, 1000, 8.0).unwrap_err();
         assert!(refused.contains("not a whole number of the firmware's impedance ticks"), "{refused}");
         assert!(excitation_messages(&series(2.0, 5), 7, 1000, 8.0).is_err());
+    }
+
+    /// A device's samples become the log `simulate --scenario excite` writes: counts decoded
+    /// from the home pose through the gears (the parallel link: 12:1, 2,000 counts per turn of
+    /// the motor), currents through `k_t N η`; a frame of the wrong size is an error.
+    #[test]
+    fn a_device_s_state_stream_becomes_an_identification_log() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let sim = Simulation::load(&root.join("models/parallel_link_2dof.yaml"), Some("horizontal")).unwrap();
+        let home = [std::f64::consts::FRAC_PI_2, 0.0];
+        let samples = vec![
+            DeviceSample { time: 0.0, counts: vec![0, 0], currents: vec![0.0, 0.0], torques: vec![0.0, 0.0] },
+            DeviceSample {
+                time: 0.001,
+                counts: vec![100, -50],
+                currents: vec![1.0, -0.5],
+                torques: vec![0.3, -0.2],
+            },
+        ];
+        let log = sim.device_log(&samples, &home).unwrap();
+        assert_eq!(log.joints.len(), 2);
+        assert_eq!((log.time.clone(), log.q[0].clone()), (vec![0.0, 0.001], home.to_vec()));
+        let per_count = std::f64::consts::TAU / (2000.0 * 12.0);
+        assert!((log.q[1][0] - (home[0] + 100.0 * per_count)).abs() < 1e-12, "{:?}", log.q[1]);
+        assert!((log.q[1][1] - (-50.0 * per_count)).abs() < 1e-12, "{:?}", log.q[1]);
+        assert!((log.tau[1][0] - 30.2e-3 * 12.0).abs() < 1e-12, "{:?}", log.tau[1]);
+        assert!((log.tau[1][1] + 0.5 * 30.2e-3 * 12.0).abs() < 1e-12, "{:?}", log.tau[1]);
+        assert_eq!(log.tau_command[1], vec![0.3, -0.2]);
+        let short = [DeviceSample { time: 0.0, counts: vec![0], currents: vec![0.0], torques: vec![0.0] }];
+        assert!(sim.device_log(&short, &home).unwrap_err().contains("1 joints, not 2"));
     }
 }

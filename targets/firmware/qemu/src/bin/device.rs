@@ -35,9 +35,13 @@
 //!   runtime's planar proxy renderer; on a 3-D task spheres, boxes and half-spaces are the
 //!   runtime's god object's; every object is answered (`DeviceMessage::Scene`), refused if the
 //!   task cannot render it.
+//! * **Excitation**: the host's `SetExcitation` messages, one per joint, played from where
+//!   the device is with the runtime's joint-space tracking law while the bridges are on
+//!   (`hapticgen_fw_control::device`; `hapticgen connect --excite`).
 //! * **State stream**: after each impedance tick, a `State` frame
-//!   (`hapticgen_fw_control::device::state_frame`: encoder counts, joint velocities, task
-//!   position and velocity, commanded torques and motor currents, the safety monitor's fault
+//!   (`hapticgen_fw_control::device::state_frame`: encoder counts and measured motor currents
+//!   as the tick read them, joint velocities, task position and velocity, commanded torques,
+//!   whether an excitation plays, the safety monitor's fault
 //!   and the link's, the tick's cost in timer ticks: 25 MHz, the count of instructions only
 //!   under `-icount`); every
 //!   [`COUNTERS_TICKS`] ticks, the link's receive counters (`Link`).
@@ -57,8 +61,8 @@ mod qemu;
 mod uart;
 
 use cortex_m_rt::{entry, exception};
-use hapticgen_fw_control::board::{CycleCounter, Encoders, TickTimer};
-use hapticgen_fw_control::device::{loop_settings, state_frame, DeviceMode};
+use hapticgen_fw_control::board::{CurrentSense, CycleCounter, Encoders, TickTimer};
+use hapticgen_fw_control::device::{loop_settings, state_frame, DeviceMode, TickSensors};
 use hapticgen_fw_control::link::{DeviceLink, Gated, LinkSettings};
 use hapticgen_fw_control::link_scene::{device_info, LinkSource};
 use hapticgen_fw_control::report::Line;
@@ -141,7 +145,7 @@ fn timeout_ms(line: &str) -> u32 {
 
 /// The controller at start, as `mode` says (a spring to the start pose); `None` if the rig's
 /// rates are unusable.
-fn build(mode: &DeviceMode<M>) -> Option<Control> {
+fn build(mode: &DeviceMode<N, M>) -> Option<Control> {
     let calibration = ForceSensorCalibration { scale: [1.0; M], offset: [0.0; M] };
     let settings =
         loop_settings(&image::setup(), mode.parameters(), image::IMPEDANCE_LOOP_HZ, [0; N], calibration);
@@ -240,7 +244,11 @@ fn main() -> ! {
         next = next.wrapping_add(period_ticks);
         periods = periods.wrapping_add(1);
         let open = link.on_current_tick();
-        let outcome = control.on_current_tick(&mut Gated { board: &mut board, open }, &counter);
+        let outcome =
+            mode.on_current_tick(&mut control, &mut Gated { board: &mut board, open }, &counter, open);
+        // What the tick read (the sensors before the plant moves on), for its state frame.
+        let sensors =
+            outcome.impedance.map(|_| TickSensors { counts: board.counts(), currents: board.currents() });
         // The hand holds the grip while the bridges are on.
         let force = match (&hand, open) {
             (Some(force), true) => *force,
@@ -248,9 +256,11 @@ fn main() -> ! {
         };
         board.advance(&force);
         board.stop_at_limits();
-        if let Some(report) = outcome.impedance {
-            let counts = board.counts();
-            if let Some(length) = state_frame(&control, &Rig::NOMINAL, &link, &counts, &report, &mut buffer) {
+        if let (Some(report), Some(sensors)) = (outcome.impedance, sensors) {
+            let exciting = mode.exciting();
+            if let Some(length) =
+                state_frame(&control, &Rig::NOMINAL, &link, &sensors, exciting, &report, &mut buffer)
+            {
                 uart_dropped += uart.write(buffer.get(..length).unwrap_or(&[]));
             }
             if control.impedance_ticks().is_multiple_of(COUNTERS_TICKS) {

@@ -103,6 +103,7 @@ fn encode_state<const N: usize, const M: usize>(
     let sample = StateSample {
         tick,
         enabled,
+        exciting: false,
         fault: 0,
         encoder_counts: counts,
         joint_velocity: per_joint,

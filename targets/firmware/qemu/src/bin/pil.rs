@@ -19,7 +19,7 @@
 //! **Identification runs.** Before `PilSetup`, the host may send an excitation, one
 //! `SetExcitation` per joint (a Fourier series, its period, blend and tracking bandwidth);
 //! a `PilSetup` with `PilLaw::Excitation` then makes every impedance tick play it with the
-//! runtime's joint-space tracking law ([`Excitation`], `hapticgen pil --scenario excite`)
+//! runtime's joint-space tracking law (`hapticgen_fw_control::excitation`, `hapticgen pil --scenario excite`)
 //! instead of an impedance law. The host logs what the device measured and commanded
 //! for `hapticgen identify`.
 //!
@@ -54,21 +54,20 @@ mod uart;
 
 use cortex_m_rt::entry;
 use hapticgen_fw_control::board::{CurrentSense, CycleCounter, Encoders, ForceSense, VoltageOutput};
+use hapticgen_fw_control::excitation::{Excitation, ExcitationParts};
 use hapticgen_fw_control::link::{DeviceLink, Gated, LinkEvent, LinkSettings};
 use hapticgen_fw_control::link_scene::{device_info, first, LinkSource, SCENE_OBJECTS};
 use hapticgen_fw_control::report::Line;
 use hapticgen_fw_control::{Controller, CostStats};
 use hapticgen_protocol::{
-    encode, ActuatorFrame, DeviceMessage, ExcitationJoint, PilLaw, PilSetup, SceneObject, SensorFrame,
-    EXCITATION_HARMONICS, MAX_FRAME_BYTES, MAX_TASK,
+    encode, ActuatorFrame, DeviceMessage, PilLaw, PilSetup, SceneObject, SensorFrame, MAX_FRAME_BYTES,
+    MAX_TASK,
 };
 use hapticgen_runtime::control::{
     ControlOptions, ControlStatus, ImpedanceController, ImpedanceLaw, ImpedanceParameters,
 };
 use hapticgen_runtime::estimation::{EstimatorSettings, ForceSensorCalibration, JointState};
-use hapticgen_runtime::excitation::{FourierTrajectory, JointTracking};
 use hapticgen_runtime::tick::HapticLoopSettings;
-use hapticgen_runtime::Real;
 use uart::Uart0;
 
 #[allow(clippy::all, dead_code)]
@@ -94,117 +93,6 @@ const WAIT_TICKS: u32 = 250_000_000;
 /// The heartbeat timeout of the link (the link's 10 ms safe-state bound, docs/link.md, with a
 /// margin), ms.
 const LINK_TIMEOUT_MS: u32 = 5;
-
-/// An identification excitation as the host sent it, joint by joint.
-struct ExcitationParts {
-    trajectory: FourierTrajectory<f32, N, EXCITATION_HARMONICS>,
-    tracking_hz: f32,
-    /// Which joints have arrived.
-    received: [bool; N],
-    /// A joint's period, ramp or bandwidth differed from the first's, or a joint was out of
-    /// range.
-    inconsistent: bool,
-}
-
-impl ExcitationParts {
-    const EMPTY: Self = Self {
-        trajectory: FourierTrajectory {
-            period: 0.0,
-            ramp: 0.0,
-            offset: [0.0; N],
-            sine: [[0.0; EXCITATION_HARMONICS]; N],
-            cosine: [[0.0; EXCITATION_HARMONICS]; N],
-        },
-        tracking_hz: 0.0,
-        received: [false; N],
-        inconsistent: false,
-    };
-
-    fn add(&mut self, part: &ExcitationJoint) {
-        let joint = usize::from(part.joint);
-        let first = !self.received.iter().any(|&r| r);
-        if first {
-            self.trajectory.period = part.period;
-            self.trajectory.ramp = part.ramp;
-            self.tracking_hz = part.tracking_hz;
-        } else if (part.period, part.ramp, part.tracking_hz)
-            != (self.trajectory.period, self.trajectory.ramp, self.tracking_hz)
-        {
-            self.inconsistent = true;
-        }
-        match self.received.get_mut(joint) {
-            Some(received) => *received = true,
-            None => {
-                self.inconsistent = true;
-                return;
-            }
-        }
-        if let (Some(offset), Some(sine), Some(cosine)) = (
-            self.trajectory.offset.get_mut(joint),
-            self.trajectory.sine.get_mut(joint),
-            self.trajectory.cosine.get_mut(joint),
-        ) {
-            *offset = part.offset;
-            *sine = part.sine;
-            *cosine = part.cosine;
-        }
-    }
-
-    /// The excitation to play, if every joint arrived, they agree, every value is finite, the
-    /// period is a whole number of impedance ticks (so that the series' time can wrap
-    /// exactly, [`Excitation::time`]), the ramp not negative and the bandwidth positive.
-    fn playable(&self) -> Option<Excitation> {
-        let trajectory = &self.trajectory;
-        let rate = image::IMPEDANCE_LOOP_HZ as f32;
-        let finite = [trajectory.period, trajectory.ramp, self.tracking_hz]
-            .iter()
-            .chain(&trajectory.offset)
-            .chain(trajectory.sine.iter().flatten())
-            .chain(trajectory.cosine.iter().flatten())
-            .all(|v| v.is_finite());
-        let period_ticks = trajectory.period * rate;
-        let whole = Real::round(period_ticks);
-        let usable = finite
-            && !self.inconsistent
-            && self.received.iter().all(|&r| r)
-            && (1.0..1.0e9).contains(&whole)
-            && Real::abs(period_ticks - whole) <= 1.0e-3 * whole
-            && (0.0..1.0e5).contains(&trajectory.ramp)
-            && self.tracking_hz > 0.0;
-        usable.then(|| Excitation {
-            trajectory: *trajectory,
-            tracking: JointTracking::critically_damped(self.tracking_hz),
-            period_ticks: whole as u32,
-            ramp_ticks: -Real::floor(-trajectory.ramp * rate) as u32,
-        })
-    }
-}
-
-/// The excitation a run plays (`PilLaw::Excitation`).
-#[derive(Clone, Copy)]
-struct Excitation {
-    trajectory: FourierTrajectory<f32, N, EXCITATION_HARMONICS>,
-    tracking: JointTracking<f32, N>,
-    /// The period in impedance ticks.
-    period_ticks: u32,
-    /// The blend, rounded up to whole impedance ticks.
-    ramp_ticks: u32,
-}
-
-impl Excitation {
-    /// The series' time at impedance tick `tick` (1 for the first, at time 0): after the blend,
-    /// wrapped to its first period in whole ticks, so that an `f32` time stays exact to a tick
-    /// however long the run.
-    fn time(&self, tick: u32) -> f32 {
-        let elapsed = tick.saturating_sub(1);
-        let wrapped = if elapsed >= self.ramp_ticks {
-            self.ramp_ticks + (elapsed - self.ramp_ticks) % self.period_ticks.max(1)
-        } else {
-            elapsed
-        };
-        wrapped as f32 / image::IMPEDANCE_LOOP_HZ as f32
-    }
-}
 
 /// The board of a PIL run: its sensors are the last sensor frame's, its voltages go back to
 /// the host.
@@ -400,8 +288,8 @@ fn main() -> ! {
     let mut impedance: Option<ImpedanceParameters<f32, MAX_TASK>> = None;
     let mut objects = [SceneObject::Empty; SCENE_OBJECTS];
     let mut control: Option<Control> = None;
-    let mut excitation_parts = ExcitationParts::EMPTY;
-    let mut excitation: Option<Excitation> = None;
+    let mut excitation_parts = ExcitationParts::<N>::EMPTY;
+    let mut excitation: Option<Excitation<N>> = None;
     let mut torque = [0.0f32; N];
     let mut tally = Tally {
         periods: 0,
@@ -456,7 +344,7 @@ fn main() -> ! {
                             excitation = None;
                             if link.pil_setup().map(|setup| setup.law) == Some(PilLaw::Excitation) {
                                 // An excitation run needs a playable excitation.
-                                excitation = excitation_parts.playable();
+                                excitation = excitation_parts.playable(image::IMPEDANCE_LOOP_HZ);
                                 if excitation.is_none() {
                                     control = None;
                                 }
@@ -515,7 +403,7 @@ fn main() -> ! {
                 let mut gated = Gated { board: &mut board, open };
                 let outcome = match &excitation {
                     Some(play) => control.on_current_tick_joint(&mut gated, &counter, |tick| {
-                        let reference = play.trajectory.reference(play.time(tick));
+                        let reference = play.trajectory.reference(play.time(tick, image::IMPEDANCE_LOOP_HZ));
                         let tracking = play.tracking;
                         move |rig: &Rig, terms: &_, state: &JointState<f32, N>| {
                             tracking.torque(rig, terms, &state.position, &state.velocity, &reference)
