@@ -5,7 +5,7 @@
 # `hapticgen check` of the same model (loading and analysing it, which both commands do first)
 # as the baseline, alternating round by round so that the shared machine's load falls on all
 # alike. Prints the median of each, the ratio to the baseline, and the targets (excite ≤ 10 s,
-# identify ≤ 2 s on a 2-core machine; docs/identification.md).
+# identify ≤ 2 s on a 2-core machine; docs/identification-figures.md).
 #
 #   bench/identify.sh [ROUNDS]     (default 5; builds the CLI in release first)
 set -euo pipefail

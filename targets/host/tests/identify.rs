@@ -186,7 +186,7 @@ fn identifies_the_true_device(
         cfg.seed = design_seed;
         // Every sensor effect and friction on; the gearheads' backlash off: a rigid-body model
         // cannot describe a link that lags its encoder by up to 0.4° (with it, the joystick's
-        // D is identified 2.2 % off: docs/identification.md).
+        // D is identified 2.2 % off: docs/identification-figures.md).
         cfg.effects.backlash = false;
         let (trace, log) =
             sim.run_excitation(&trajectory, Some(&truth), &cfg).unwrap_or_else(|e| panic!("{e}"));
@@ -490,7 +490,7 @@ fn the_identified_model_controls_the_true_device_better_than_the_estimates() {
 }
 
 // The 3-joint rigs' runs take minutes in a debug build: these two are in release test builds
-// only, `cargo test --release -p hapticgen --test host identifies_the_` (docs/identification.md
+// only, `cargo test --release -p hapticgen --test host identifies_the_` (docs/identification-figures.md
 // quotes their output).
 #[cfg(not(debug_assertions))]
 #[test]
@@ -502,7 +502,7 @@ fn identifies_the_phantom_premium_from_a_simulated_run() {
 #[test]
 fn identifies_the_falcon_delta_from_a_simulated_run() {
     // D and g within the targets; C q̇ and one viscous friction short of them, measured and
-    // stated in docs/identification.md (C q̇ 4.2 %, the viscous friction of theta3 15 % off:
+    // stated in docs/identification-figures.md (C q̇ 4.2 %, the viscous friction of theta3 15 % off:
     // the encoders' quantisation, amplified by the regressor's conditioning). Bounded here a
     // little above what is measured.
     identifies_the_true_device(
