@@ -2,7 +2,7 @@
 //! link itself, the session and the safety checks are [`crate::connect`]): the settings and
 //! the scene sent after each handshake, heartbeats, a live status line, the state stream
 //! logged to CSV, a device that starts again handled. With `--excite`, an identification run
-//! on the device instead ([`connect_excite`]).
+//! on the device instead (`connect_excite`).
 
 use std::path::Path;
 use std::time::Duration;
