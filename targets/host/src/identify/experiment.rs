@@ -360,7 +360,7 @@ impl Simulation {
     /// The identification log of an excitation played on a device (`hapticgen connect
     /// --excite`): each sample's counts decoded into joint angles from `home` (the joint
     /// angles where the device's counts are 0) through the drives and the transmission, its
-    /// measured currents into joint torques ([`TorqueMeter`]), its commanded torques as sent.
+    /// measured currents into joint torques (`TorqueMeter`), its commanded torques as sent.
     pub fn device_log(&self, samples: &[DeviceSample], home: &[f64]) -> Result<IdentificationLog, String> {
         let joints = self.model.joints.iter().map(|j| j.name.clone()).collect();
         self.dispatch(DeviceLogVisitor { joints, samples, home })
