@@ -197,14 +197,12 @@ mod tests {
         }
     }
 
-    #[test]
-    fn velocity_and_acceleration_are_the_derivatives_of_the_position() {
-        let trajectory = trajectory();
+    /// `reference`'s velocity and acceleration against central differences of its position
+    /// and velocity at each of `times`.
+    fn assert_derivatives(reference: impl Fn(f64) -> JointReference<f64, 2>, times: &[f64]) {
         let h = 1e-5;
-        // Inside the blend and after it.
-        for t in [0.3, 0.77, 1.5, 3.9] {
-            let (before, now, after) =
-                (trajectory.reference(t - h), trajectory.reference(t), trajectory.reference(t + h));
+        for &t in times {
+            let (before, now, after) = (reference(t - h), reference(t), reference(t + h));
             for j in 0..2 {
                 let velocity = (after.position[j] - before.position[j]) / (2.0 * h);
                 let acceleration = (after.velocity[j] - before.velocity[j]) / (2.0 * h);
@@ -220,6 +218,13 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn velocity_and_acceleration_are_the_derivatives_of_the_position() {
+        let trajectory = trajectory();
+        // Inside the blend and after it.
+        assert_derivatives(|t| trajectory.reference(t), &[0.3, 0.77, 1.5, 3.9]);
     }
 
     /// The recurrence gives each harmonic's sine and cosine as evaluating them directly does,
@@ -304,28 +309,7 @@ mod tests {
         assert_eq!(at_start.position, start);
         assert_eq!(at_start.velocity, [0.0; 2]);
         assert_eq!(at_start.acceleration, [0.0; 2]);
-        let h = 1e-5;
-        for t in [0.1, 0.3, 0.77, 0.95] {
-            let (before, now, after) = (
-                trajectory.reference_from(&start, t - h),
-                trajectory.reference_from(&start, t),
-                trajectory.reference_from(&start, t + h),
-            );
-            for j in 0..2 {
-                let velocity = (after.position[j] - before.position[j]) / (2.0 * h);
-                let acceleration = (after.velocity[j] - before.velocity[j]) / (2.0 * h);
-                assert!(
-                    (velocity - now.velocity[j]).abs() < 1e-7,
-                    "t = {t}: {velocity} vs {}",
-                    now.velocity[j]
-                );
-                assert!(
-                    (acceleration - now.acceleration[j]).abs() < 1e-6,
-                    "t = {t}: {acceleration} vs {}",
-                    now.acceleration[j]
-                );
-            }
-        }
+        assert_derivatives(|t| trajectory.reference_from(&start, t), &[0.1, 0.3, 0.77, 0.95]);
         let (joined, series) = (trajectory.reference_from(&start, 1.0), trajectory.series(1.0));
         assert_eq!(joined, series);
         // Just before the end of the ramp: at the series to within its last steps.

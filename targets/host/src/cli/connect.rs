@@ -12,7 +12,7 @@ use hapticgen_protocol::{CountUnwrapper, HostMessage, StateFrame};
 use super::args::ConnectArgs;
 use super::CliError;
 use crate::connect::{self as link, ArrivedState, Event, Session};
-use crate::identify::experiment::{excitation_messages, DeviceSample, TRACKING_HZ};
+use crate::identify::experiment::{excitation_messages, tracking_errors, DeviceSample, TRACKING_HZ};
 use crate::simulation::Simulation;
 
 /// `hapticgen connect`: opens the link, configures the device, stays connected for
@@ -366,15 +366,7 @@ fn connect_excite(args: &ConnectArgs, trajectory_path: &Path) -> Result<(), CliE
             c.dropped()
         ))
     );
-    let mut worst = vec![0.0_f64; n];
-    for (t, q) in log.time.iter().zip(&log.q) {
-        if *t >= trajectory.ramp {
-            let reference = series.reference(*t).position;
-            for j in 0..n {
-                worst[j] = worst[j].max((reference[j] - q[j]).abs());
-            }
-        }
-    }
+    let worst = tracking_errors(&series, trajectory.ramp, &log, n);
     for (joint, error) in sim.model.joints.iter().zip(&worst) {
         println!("  joint {}: largest tracking error after the blend {error:.3e}", joint.name);
     }

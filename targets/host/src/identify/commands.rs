@@ -154,15 +154,7 @@ pub fn excite_run(
     // Tracking: the encoder angle against the reference, after the blend.
     let series = trajectory.series();
     let n = sim.joints();
-    let mut worst = vec![0.0_f64; n];
-    for (t, q) in log.time.iter().zip(&log.q) {
-        if *t >= trajectory.ramp {
-            let reference = series.reference(*t).position;
-            for j in 0..n {
-                worst[j] = worst[j].max((reference[j] - q[j]).abs());
-            }
-        }
-    }
+    let worst = super::experiment::tracking_errors(&series, trajectory.ramp, &log, n);
     let mut text = format!(
         "simulated {:.2} s of {} playing {} in {:.2} s, controller on {}, device {}; wrote {} ({} samples)\n",
         trace.duration(),

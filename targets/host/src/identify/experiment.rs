@@ -382,6 +382,21 @@ impl Simulation {
     }
 }
 
+/// Per joint, the largest distance of a log's angle from the trajectory's reference after the
+/// blend (`ramp` s): how well a run tracked what it was asked to play.
+pub fn tracking_errors(series: &Series, ramp: f64, log: &IdentificationLog, joints: usize) -> Vec<f64> {
+    let mut worst = vec![0.0_f64; joints];
+    for (t, q) in log.time.iter().zip(&log.q) {
+        if *t >= ramp {
+            let reference = series.reference(*t).position;
+            for j in 0..joints {
+                worst[j] = worst[j].max((reference[j] - q[j]).abs());
+            }
+        }
+    }
+    worst
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -81,9 +81,8 @@ pub enum TorqueSource {
 }
 
 /// How many periods of the filter's cutoff a row keeps from a slow stretch of its joint
-/// ([`FitSettings::slow_guard`]): 0.1 s at 15 Hz. On the simulated identifications
-/// (docs/identification.md) it took the joystick's `D` error from 0.73 % to 0.08 % and the
-/// parallel link's `C q̇` from 0.94 % to 0.11 %.
+/// ([`FitSettings::slow_guard`]): 0.1 s at 15 Hz, about where the filter's impulse response has
+/// died out.
 pub const SLOW_GUARD_PERIODS: f64 = 1.5;
 
 impl FitSettings {
@@ -472,10 +471,11 @@ pub fn fit(regressor: &RegressorTape, segments: &[Segment], settings: &FitSettin
     }
     if w.nrows() < 2 * p {
         return Err(format!(
-            "error: {} usable rows (joints moving faster than {} rad/s) for {p} base parameters; a fit needs \
+            "error: {} usable rows (joints moving faster than {} rad/s, and for {} s either side) for {p} base parameters; a fit needs \
              at least {} (a longer log, or a trajectory that moves every joint)",
             w.nrows(),
             settings.min_speed,
+            settings.slow_guard,
             2 * p
         ));
     }
