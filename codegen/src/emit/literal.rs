@@ -1,6 +1,7 @@
 //! Literals of the emitted code: the scalar type ([`Scalar`]), float literals of that type
 //! (named `core` constants where a value is exactly one, `NAN`/`INFINITY` where it is not
-//! finite) and unsuffixed integer literals for array lengths and indices.
+//! finite, the short decimal a folded product of the model's numbers stands for: see
+//! [`short_decimal`]) and unsuffixed integer literals for array lengths and indices.
 
 use proc_macro2::{Span, TokenStream};
 use quote::quote;
@@ -51,7 +52,7 @@ impl Scalar {
                 quote!(#ty::NEG_INFINITY)
             };
         }
-        let magnitude = value.abs();
+        let magnitude = short_decimal(value.abs());
         if let Some(name) = named_constant(magnitude) {
             let ident = syn::Ident::new(name, Span::call_site());
             let ty = self.tokens();
@@ -69,6 +70,47 @@ impl Scalar {
             quote!(#lit)
         }
     }
+}
+
+/// Significant digits of the decimals [`short_decimal`] restores.
+pub(crate) const SHORT_DECIMAL_DIGITS: usize = 8;
+
+/// How many units in the last place a folded value may lie from the decimal
+/// [`short_decimal`] restores.
+pub(crate) const SHORT_DECIMAL_ULPS: u64 = 4;
+
+/// `x`, or the decimal of at most [`SHORT_DECIMAL_DIGITS`] significant digits within
+/// [`SHORT_DECIMAL_ULPS`] units in the last place of it.
+///
+/// Why: the model file's numbers are short decimals, and the generator folds products and sums
+/// of them in binary floating point, which leaves rounding noise in the last bits
+/// (`0.0024 × 1.2` folds to `0.0028799999999999997`). The exact value of such a product is a
+/// short decimal, and the literal of that decimal is its correctly rounded value: the code shows
+/// the number a reviewer can check against the file, and is no less accurate. A value that is
+/// not such a product lands this close to a short decimal by chance with a probability of about
+/// 1e-7 (8-digit decimals are 1e-8 apart relative to the value, 4 ulps are 9e-16), so nothing
+/// computed from angles, square roots or quotients is moved.
+pub(crate) fn short_decimal(x: f64) -> f64 {
+    if !x.is_finite() || x == 0.0 {
+        return x;
+    }
+    let rounded: f64 = match format!("{x:.*e}", SHORT_DECIMAL_DIGITS - 1).parse() {
+        Ok(parsed) => parsed,
+        Err(_) => return x,
+    };
+    if rounded != x && ulps_apart(x, rounded) <= SHORT_DECIMAL_ULPS {
+        rounded
+    } else {
+        x
+    }
+}
+
+/// How many representable `f64`s lie between `a` and `b` (both finite, of the same sign).
+fn ulps_apart(a: f64, b: f64) -> u64 {
+    if a.is_sign_negative() != b.is_sign_negative() {
+        return u64::MAX;
+    }
+    a.to_bits().abs_diff(b.to_bits())
 }
 
 /// The name of the `core::f64::consts` constant equal to `x`, if any.
@@ -99,4 +141,30 @@ fn named_constant(x: f64) -> Option<&'static str> {
 /// An integer literal without a type suffix (`2`, not `2usize`).
 pub(crate) fn unsuffixed(n: usize) -> proc_macro2::Literal {
     proc_macro2::Literal::usize_unsuffixed(n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_folded_product_of_short_decimals_is_written_as_its_exact_decimal() {
+        // Products and sums of model numbers whose binary folding leaves noise.
+        assert_eq!(0.0024_f64 * 1.2, 0.0028799999999999997);
+        assert_eq!(short_decimal(0.0024 * 1.2), 0.00288);
+        assert_eq!(short_decimal(0.1025 * 0.1025), 0.01050625);
+        assert_eq!(short_decimal(0.1 + 0.2), 0.3);
+        assert_eq!(short_decimal(2.5 * 9.81), 24.525);
+        // Exact values, and values far from any short decimal, are kept bit for bit.
+        for kept in [0.00288, 1.0 / 3.0, std::f64::consts::SQRT_2 / 2.0, 1.0 / 0.1025, 1e-300, 0.0] {
+            assert_eq!(short_decimal(kept).to_bits(), kept.to_bits(), "{kept:e}");
+        }
+        // The bound is four units in the last place: five away is not noise of a fold.
+        let five_away = f64::from_bits(0.00288_f64.to_bits() + 5);
+        assert_eq!(short_decimal(five_away), five_away);
+        let four_away = f64::from_bits(0.00288_f64.to_bits() - 4);
+        assert_eq!(short_decimal(four_away), 0.00288);
+        assert!(short_decimal(f64::NAN).is_nan());
+        assert_eq!(short_decimal(f64::INFINITY), f64::INFINITY);
+    }
 }
