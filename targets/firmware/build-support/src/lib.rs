@@ -203,7 +203,8 @@ pub fn override_model(
     }
     if !path.is_absolute() {
         return Err(format!(
-            "{MODEL_ENV}={shown}: not an absolute path (build scripts run in their crate's directory);              give the model file's absolute path, e.g. \"$PWD/{shown}\""
+            "{MODEL_ENV}={shown}: not an absolute path (build scripts run in their crate's directory); \
+             give the model file's absolute path, e.g. \"$PWD/{shown}\""
         ));
     }
     match std::fs::metadata(&path) {
@@ -469,7 +470,8 @@ mod tests {
         let e = refused(Some("a"), OsStr::new(""));
         assert!(e.contains("HAPTICGEN_FW_MODEL is set but empty"), "{e}");
         let e = refused(Some("a"), OsStr::new("identified.yaml"));
-        assert!(e.contains("HAPTICGEN_FW_MODEL=identified.yaml: not an absolute path"), "{e}");
+        assert!(e.starts_with("HAPTICGEN_FW_MODEL=identified.yaml: not an absolute path"), "{e}");
+        assert!(e.ends_with("directory); give the model file's absolute path, e.g. \"$PWD/identified.yaml\""), "{e}");
         let missing = manifest.join("no-such-model.yaml");
         let e = refused(Some("a"), missing.as_os_str());
         assert!(e.contains(&format!("{}: cannot read the model file", missing.display())), "{e}");
