@@ -471,7 +471,10 @@ mod tests {
         assert!(e.contains("HAPTICGEN_FW_MODEL is set but empty"), "{e}");
         let e = refused(Some("a"), OsStr::new("identified.yaml"));
         assert!(e.starts_with("HAPTICGEN_FW_MODEL=identified.yaml: not an absolute path"), "{e}");
-        assert!(e.ends_with("directory); give the model file's absolute path, e.g. \"$PWD/identified.yaml\""), "{e}");
+        assert!(
+            e.ends_with("directory); give the model file's absolute path, e.g. \"$PWD/identified.yaml\""),
+            "{e}"
+        );
         let missing = manifest.join("no-such-model.yaml");
         let e = refused(Some("a"), missing.as_os_str());
         assert!(e.contains(&format!("{}: cannot read the model file", missing.display())), "{e}");
