@@ -12,7 +12,9 @@
 #                                        host-side lint and unit tests stay in the full run; `stm32f4` is the board image, `link` the
 #                                        host link's cost image: state frames to UART0, checked on the host;
 #                                        `pil` the joystick's processor-in-the-loop image, run by `hapticgen pil`
-#                                        against the host's plant and compared with `hapticgen simulate`;
+#                                        against the host's plant and compared with `hapticgen simulate`,
+#                                        then identification under QEMU and the joystick's image built from
+#                                        the identified model file (HAPTICGEN_FW_MODEL) and run;
 #                                        `pil-fig7` the parallel link's, tracing the circle of Fig. 7 (its first half: ~5 min);
 #                                        `device` the device-mode image, driven by `hapticgen connect`;
 #                                        `device-3d` the Delta's device-mode image, a hand pushing it into
@@ -20,6 +22,10 @@
 #   HAPTICGEN_FW_OPT_LEVEL=s scripts/firmware.sh   another opt-level (the measurement in the docs)
 #   HAPTICGEN_FW_FMA=1 scripts/firmware.sh         generated code with fused multiply-adds (vfma.f32)
 #   HAPTICGEN_PIL_FIG7_SECONDS=8.8 scripts/firmware.sh --only pil-fig7   the whole Fig. 7 lap under PIL
+#
+# HAPTICGEN_FW_MODEL (one image from another model file, docs/firmware.md) is refused: every
+# image here is built from its line's own model (the identified joystick's, `--only pil`, sets
+# it for that one build).
 #
 # HAPTICGEN_HOST_TARGET_DIR: where the root workspace's `hapticgen` is built for the runs it
 # drives (default: CARGO_TARGET_DIR, else <target dir>/host); CI points it at the target
@@ -33,6 +39,12 @@
 # target and llvm-tools (rustup) and qemu-system-arm (apt-get).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Every image here is its line's own model; HAPTICGEN_FW_MODEL (one image from another model
+# file, docs/firmware.md) is for building by hand, and this script sets it for one build only.
+if [ -n "${HAPTICGEN_FW_MODEL+set}" ]; then
+    echo "FAIL HAPTICGEN_FW_MODEL is set ($HAPTICGEN_FW_MODEL): scripts/firmware.sh builds every image from its line's own model; unset it" >&2
+    exit 1
+fi
 ROOT=$PWD
 FW=$ROOT/targets/firmware
 TARGET=thumbv7em-none-eabihf
@@ -108,7 +120,7 @@ plan_image() {
         "$PIL_FIG7") echo "image $1 ($PIL_FIG7_VARIANT): lint, build, build hapticgen, hapticgen pil (Fig. 7 circle) vs simulate, in the background" ;;
         "$DEVICE") echo "image $1 ($DEVICE_VARIANT): lint, build, build hapticgen, scripts/device-run.sh (hapticgen connect under QEMU)" ;;
         "$DEVICE3D") echo "image $1 (the Falcon-like Delta): lint, build, build hapticgen, scripts/device-run-3d.sh (a hand pushed into a half-space and a box, held at F/K)" ;;
-        "$PIL") echo "image $1 ($PIL_VARIANT): lint, build (image and probe), panic check, build hapticgen, hapticgen pil (Fig. 4 and fault tests) vs simulate, identification under QEMU (scripts/pil-identify.sh), in the background" ;;
+        "$PIL") echo "image $1 ($PIL_VARIANT): lint, build (image and probe), panic check, build hapticgen, hapticgen pil (Fig. 4 and fault tests) vs simulate, identification under QEMU (scripts/pil-identify.sh), in the background; then image $PIL_VARIANT built from the identified model file, run under QEMU, its own checks and limits" ;;
         "$BOARD") echo "image $1 ($BOARD_VARIANT): lint, layering (cargo tree), build (image, device image, probes), panic checks" ;;
         *) echo "image $1: lint, build (image and control-path probe), panic check, run under QEMU, compare with the host reference and check limits" ;;
     esac
@@ -275,6 +287,38 @@ build_hapticgen() {
     (cd "$ROOT" && cargo build --locked -p hapticgen --target-dir "$HOST_TARGET_DIR") || die "building hapticgen failed"
     HAPTICGEN=$HOST_TARGET_DIR/debug/hapticgen
     [ -x "$HAPTICGEN" ] || die "hapticgen was built but is not at $HAPTICGEN"
+}
+
+# The line `$PIL_VARIANT`'s image built from the model file identified under QEMU
+# (scripts/pil-identify.sh's `identified.yaml`) instead of its line's: its build script
+# generates the rig from HAPTICGEN_FW_MODEL (the crate's `generate` feature, the pre-generated
+# images unset: they are the lines' own models); run under QEMU; `check-other-model`: the run's
+# own checks and the line's limits (the host reference runs the line's own model, so the
+# comparisons with it are printed, not bounded). Adds its row to ROWS; fails if a step fails.
+identified_image() {
+    local name=$PIL_VARIANT model=$OUT/pil-identify/identified.yaml started=$SECONDS
+    local elf=$OUT/$name.identified.elf status=0 row
+    step "image $name from the identified model file ($model): build (its rig generated from HAPTICGEN_FW_MODEL)"
+    [ -f "$model" ] || { echo "no identified model file at $model" >&2; return 1; }
+    env -u HAPTICGEN_FW_GENERATED HAPTICGEN_FW_VARIANT="$name" HAPTICGEN_FW_MODEL="$model" \
+        cargo build --locked --release --target "$TARGET" -p hapticgen-fw-qemu --bin hapticgen-fw-qemu || return 1
+    cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu" "$elf"
+    step "image $name from the identified model file: run under QEMU, its own checks, the line's limits"
+    timeout "$QEMU_TIMEOUT" qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic \
+        -icount shift=10 -semihosting-config enable=on,target=native -kernel "$elf" \
+        >"$OUT/$name.identified.out" 2>"$OUT/$name.identified.err" || status=$?
+    grep -v '^S ' "$OUT/$name.identified.out" || true
+    if [ "$status" -ne 0 ]; then
+        cat "$OUT/$name.identified.err" >&2
+        echo "QEMU exit status $status" >&2
+        return 1
+    fi
+    status=0
+    row=$("$REF" check-other-model "$name" "$OUT/$name.identified.out" "$elf" "${LIMITS[@]}") || status=$?
+    printf '%s\n' "$row"
+    ROWS+=("$(sed "1s/^| $name |/| $name (identified model) |/" <<<"$row")")
+    echo "image $name from the identified model file: $((SECONDS - started)) s"
+    return "$status"
 }
 
 ROWS=()
@@ -471,7 +515,11 @@ for i in "${!BACKGROUND_PIDS[@]}"; do
     step "background run $NAME: waiting for it (pid ${BACKGROUND_PIDS[$i]})"
     if wait "${BACKGROUND_PIDS[$i]}"; then
         cat "$OUT/$NAME.background.log"
-        CHECKED+=("$NAME")
+        if [ "$NAME" = "$PIL" ] && ! identified_image; then
+            FAILED+=("$NAME: the $PIL_VARIANT image built from the identified model file (above)")
+        else
+            CHECKED+=("$NAME")
+        fi
     else
         cat "$OUT/$NAME.background.log"
         FAILED+=("$NAME: run or comparison (its log is above)")

@@ -3,6 +3,8 @@
 //! simulated board), generated here (feature `generate`, the default) or copied from
 //! `$HAPTICGEN_FW_GENERATED` (see `hapticgen_fw_build::copy_pregenerated`); and `memory.x` for
 //! the MPS2-AN386. Both binaries, the image and its control-path probe, include the glue.
+//! `HAPTICGEN_FW_MODEL` (an absolute path) builds the image from that model file in place of
+//! its line's (`hapticgen_fw_build::MODEL_ENV`).
 use std::path::{Path, PathBuf};
 
 use hapticgen_fw_build::{Glue, Variant};
@@ -11,7 +13,9 @@ fn main() {
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"));
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
     let firmware = hapticgen_fw_build::firmware_dir(&manifest);
-    let table = hapticgen_fw_build::read_table(&firmware).unwrap_or_else(|e| panic!("{e}"));
+    let table = hapticgen_fw_build::read_table(&firmware)
+        .and_then(hapticgen_fw_build::apply_model_override)
+        .unwrap_or_else(|e| panic!("{e}"));
     println!("cargo:rerun-if-env-changed=HAPTICGEN_FW_VARIANT");
     let wanted = std::env::var("HAPTICGEN_FW_VARIANT").ok();
     let variant = match &wanted {
@@ -21,7 +25,7 @@ fn main() {
         }),
         None => table.first().expect("variants.txt lists at least one image"),
     };
-    match hapticgen_fw_build::copy_pregenerated(&variant.name, Glue::Simulation, &out) {
+    match hapticgen_fw_build::copy_pregenerated(variant, Glue::Simulation, &out) {
         Some(copied) => copied.unwrap_or_else(|e| panic!("{e}")),
         None => generate(variant, &firmware, &out),
     }

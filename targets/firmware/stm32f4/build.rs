@@ -2,6 +2,8 @@
 //! board wiring has two joints) and its board glue module `image` (no simulated scenario),
 //! generated here (feature `generate`, the default) or copied from `$HAPTICGEN_FW_GENERATED`
 //! (see `hapticgen_fw_build::copy_pregenerated`); and memory.x for the STM32F407VG.
+//! `HAPTICGEN_FW_MODEL` (an absolute path) builds the image from that model file in place of
+//! its line's (`hapticgen_fw_build::MODEL_ENV`).
 use std::path::{Path, PathBuf};
 
 use hapticgen_fw_build::{Glue, Variant};
@@ -10,14 +12,16 @@ fn main() {
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"));
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
     let firmware = hapticgen_fw_build::firmware_dir(&manifest);
-    let table = hapticgen_fw_build::read_table(&firmware).unwrap_or_else(|e| panic!("{e}"));
+    let table = hapticgen_fw_build::read_table(&firmware)
+        .and_then(hapticgen_fw_build::apply_model_override)
+        .unwrap_or_else(|e| panic!("{e}"));
     println!("cargo:rerun-if-env-changed=HAPTICGEN_FW_VARIANT");
     let name = std::env::var("HAPTICGEN_FW_VARIANT").unwrap_or_else(|_| "horizontal".into());
     let variant = table
         .iter()
         .find(|v| v.name == name)
         .unwrap_or_else(|| panic!("HAPTICGEN_FW_VARIANT={name} is not in variants.txt"));
-    match hapticgen_fw_build::copy_pregenerated(&variant.name, Glue::Board, &out) {
+    match hapticgen_fw_build::copy_pregenerated(variant, Glue::Board, &out) {
         Some(copied) => copied.unwrap_or_else(|e| panic!("{e}")),
         None => generate(variant, &firmware, &out),
     }

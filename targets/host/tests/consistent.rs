@@ -391,3 +391,91 @@ fn missing_keys_are_added() {
     assert!((damping - fitted.joints[0].damping).abs() < 1e-12, "{damping} {:?}", fitted.joints[0]);
     check_comments_kept(&text, &written);
 }
+
+/// The identified model file `rig!` is tested on (`macros/tests/rig_identified.rs`), committed
+/// because the macro reads its file at compile time.
+const MACRO_FIXTURE: &str = "macros/tests/models/joystick_identified.yaml";
+
+/// `a` and `b` line by line, their numbers within `1e-9` of each other (relative) and
+/// everything else the same; the first difference otherwise.
+fn same_up_to_rounding(a: &str, b: &str) -> Result<(), String> {
+    let (la, lb): (Vec<&str>, Vec<&str>) = (a.lines().collect(), b.lines().collect());
+    if la.len() != lb.len() {
+        return Err(format!("{} lines against {}", la.len(), lb.len()));
+    }
+    let tokens = |line: &str| -> Vec<String> {
+        line.split(|c: char| c.is_whitespace() || "[]{},:()".contains(c))
+            .filter(|t| !t.is_empty())
+            .map(str::to_string)
+            .collect()
+    };
+    for (k, (x, y)) in la.iter().zip(&lb).enumerate() {
+        let (tx, ty) = (tokens(x), tokens(y));
+        let same = tx.len() == ty.len()
+            && tx.iter().zip(&ty).all(|(p, q)| match (p.parse::<f64>(), q.parse::<f64>()) {
+                (Ok(u), Ok(v)) => (u - v).abs() <= 1e-9 * u.abs().max(v.abs()),
+                _ => p == q,
+            });
+        if !same {
+            return Err(format!("line {}:\n  {x}\n  {y}", k + 1));
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn numbers_are_compared_up_to_rounding_and_everything_else_exactly() {
+    assert_eq!(
+        same_up_to_rounding("a: 1.0  # x\nb: [2, 3]\n", "a: 1.0000000000001  # x\nb: [2, 3]\n"),
+        Ok(())
+    );
+    assert!(same_up_to_rounding("a: 1.0\n", "a: 1.001\n").unwrap_err().starts_with("line 1"));
+    assert!(same_up_to_rounding("a: 1.0  # x\n", "a: 1.0  # y\n").is_err());
+    assert!(same_up_to_rounding("a: 1.0\n", "a: 1.0\nb: 2\n").is_err());
+}
+
+/// `rig!`'s identified fixture is what `identify -o` writes (the consistent fit and the
+/// writer) for the joystick whose base parameters are those of `scripts/pil-identify.sh`'s
+/// "true" joystick (the stick 40 % heavier, its centre of mass 20 % further out, the grip 36 %
+/// heavier, 30 % more friction). `HAPTICGEN_BLESS=1` rewrites the fixture after a deliberate
+/// change of the writer or of the joystick's file.
+#[test]
+fn the_rig_macro_s_identified_fixture_is_what_identify_writes() {
+    let file = "joystick_1dof.yaml";
+    let text = read(file);
+    let mut truth_text = text.clone();
+    for (from, to) in [
+        ("    mass: 0.020358\n", "    mass: 0.0285\n"),
+        ("    com: [0.0, 0.075]\n", "    com: [0.0, 0.09]\n"),
+        ("    mass: 0.05\n", "    mass: 0.068\n"),
+        ("    damping: 1.0e-3\n", "    damping: 1.3e-3\n"),
+        ("    coulomb_friction: 0.01 ", "    coulomb_friction: 0.013 "),
+    ] {
+        assert_eq!(truth_text.matches(from).count(), 1, "`{from}` in {file} (did the model file change?)");
+        truth_text = truth_text.replace(from, to);
+    }
+    let model = load(file, &text, None);
+    let truth = load("true.yaml", &truth_text, None);
+    let regressor = regressor(&model);
+    let beta = regressor.base_values(&regressor.standard_values(&truth.model));
+    let fitted = fit(&model, &regressor, &beta, None, &FitOptions::default()).expect("the fit starts");
+    let written = write_model_file(&text, &model, &fitted).unwrap_or_else(|e| panic!("{e}"));
+    let path = format!("{}/../../{MACRO_FIXTURE}", env!("CARGO_MANIFEST_DIR"));
+    if std::env::var("HAPTICGEN_BLESS").as_deref() == Ok("1") {
+        std::fs::write(&path, &written).unwrap_or_else(|e| panic!("{path}: {e}"));
+        eprintln!("wrote {path}");
+    }
+    let committed = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    if let Err(difference) = same_up_to_rounding(&committed, &written) {
+        panic!(
+            "{MACRO_FIXTURE} is not what identify writes now ({difference}); if the change is meant, \
+             rewrite it: HAPTICGEN_BLESS=1 cargo test -p hapticgen --test host consistent::the_rig_macro\n{written}"
+        );
+    }
+    // The file is the true joystick's dynamics: its base parameters are the truth's.
+    let reloaded = load(MACRO_FIXTURE, &committed, None);
+    let beta_file = regressor.base_values(&regressor.standard_values(&reloaded.model));
+    for ((b, t), base) in beta_file.iter().zip(&beta).zip(&regressor.base) {
+        assert!((b - t).abs() <= 1e-6 * t.abs().max(1e-9), "{}: file {b:e}, truth {t:e}", base.name);
+    }
+}

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use hapticgen_codegen::{emit, model, EmitOptions, Scalar};
 
-use crate::{Glue, Variant};
+use crate::{Glue, ModelShape, Variant};
 
 fn literal(value: f64) -> String {
     // `{:?}` prints the shortest representation that round-trips, always with a `.` or `e`.
@@ -82,7 +82,17 @@ pub fn generate_rig(
     rig_file: &Path,
 ) -> Result<GeneratedRig, String> {
     let repo_root = firmware_dir.join("../..");
-    let model_path = repo_root.join(&v.model);
+    let model_path = v.model_path(&repo_root);
+    let model_name = v.model_name();
+    let load = |path: &Path, name: &str| {
+        hapticgen_codegen::load_file(path, name, v.variant.as_deref()).map_err(|e| e.to_string())
+    };
+    let loaded = load(&model_path, &model_name)?;
+    if v.replaced_by.is_some() {
+        // The replacing file (HAPTICGEN_FW_MODEL) must be the line's rig with other numbers.
+        let line = load(&repo_root.join(&v.model), &v.model)?;
+        crate::check_same_shape(v, &shape(&line), &shape(&loaded))?;
+    }
     hapticgen_codegen::build::generate_with(
         &model_path,
         v.variant.as_deref(),
@@ -91,25 +101,22 @@ pub fn generate_rig(
         rig_file,
     )
     .map_err(|e| e.to_string())?;
-    let loaded = hapticgen_codegen::load_file(&model_path, &v.model, v.variant.as_deref())
-        .map_err(|e| e.to_string())?;
     let (n, m) = (loaded.joints.len(), loaded.task_dim());
     if n == 0 {
-        return Err(format!("{}: the model has no joints", v.model));
+        return Err(format!("{model_name}: the model has no joints"));
     }
     if v.pose.len() != n {
         return Err(format!(
-            "image `{}`: the pose has {} values, `{}` has {n} joints",
+            "image `{}`: the pose has {} values, `{model_name}` has {n} joints",
             v.name,
             v.pose.len(),
-            v.model
         ));
     }
     // The model's own per-joint designs (the generated `CURRENT_LOOP_GAINS`), in f64; the
     // glue converts them with `from_f64`, as the scenario converts everything else.
     let designs = &loaded.analyses.current_loop_designs;
     if designs.len() != n {
-        return Err(format!("{}: {} current-loop designs for {n} joints", v.model, designs.len()));
+        return Err(format!("{model_name}: {} current-loop designs for {n} joints", designs.len()));
     }
     let type_name = emit::rig_type_name(&loaded);
     let s = scalar.name();
@@ -176,9 +183,8 @@ pub fn generate_rig(
         if loaded.measured.len() != GIMBAL_JOINTS || !loaded.frames.iter().any(|f| f.name == STYLUS_FRAME) {
             return Err(format!(
                 "image `{}`: the scenario `stylus_cavity` reads a gimbal of {GIMBAL_JOINTS} measured joints into the \
-                 frame `{STYLUS_FRAME}`; `{}` has {} measured joints and frames {:?}",
+                 frame `{STYLUS_FRAME}`; `{model_name}` has {} measured joints and frames {:?}",
                 v.name,
-                v.model,
                 loaded.measured.len(),
                 loaded.frames.iter().map(|f| f.name.as_str()).collect::<Vec<_>>()
             ));
@@ -190,8 +196,12 @@ pub fn generate_rig(
     Ok(GeneratedRig {
         name: v.name.clone(),
         description: format!(
-            "`{}`{}, scenario `{}`",
-            v.model,
+            "`{}`{}{}, scenario `{}`",
+            model_name,
+            match &v.replaced_by {
+                Some(_) => format!(" (in place of `{}`)", v.model),
+                None => String::new(),
+            },
             v.variant.as_ref().map(|x| format!(" variant `{x}`")).unwrap_or_default(),
             v.scenario
         ),
@@ -210,6 +220,25 @@ pub fn generate_rig(
         scene,
         stylus_frame,
     })
+}
+
+/// The structure of a loaded model that [`crate::check_same_shape`] compares.
+fn shape(model: &hapticgen_codegen::CheckedModel) -> ModelShape {
+    ModelShape {
+        joints: model
+            .joints
+            .iter()
+            .map(|j| {
+                let kind = match j.kind {
+                    model::JointKind::Revolute => "revolute",
+                    model::JointKind::Prismatic => "prismatic",
+                };
+                (j.name.clone(), kind.to_string())
+            })
+            .collect(),
+        task_dim: model.task_dim(),
+        measured: model.measured.iter().map(|j| j.name.clone()).collect(),
+    }
 }
 
 /// The most objects the scenario `scene_contact` renders (its god object's capacity,

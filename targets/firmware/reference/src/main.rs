@@ -6,6 +6,7 @@
 //! hapticgen-fw-reference size <elf>                 flash and static RAM of an image
 //! hapticgen-fw-reference push <image>               the operator's push (N) of a `wall_contact` image
 //! hapticgen-fw-reference check <image> <qemu-output> <elf> [--limits=warn]
+//! hapticgen-fw-reference check-other-model <image> <qemu-output> <elf> [--limits=warn]
 //! hapticgen-fw-reference panics <probe-elf>         the panic paths left in a control-path probe
 //! hapticgen-fw-reference generated                  the directory of pre-generated images
 //! hapticgen-fw-reference link-stream <uart> <qemu-output>   the link-cost image's UART frames
@@ -13,12 +14,17 @@
 //!
 //! `check` compares the QEMU run with the host runs of the same scenario and enforces the
 //! limits; it prints one result row and exits non-zero, naming every violation, on failure.
+//! `check-other-model` does the same for an image built from another model file than its
+//! line's (`HAPTICGEN_FW_MODEL`): the checks that hold for any model of the line's shape, and
+//! the limits (`check_other_model`).
 //! `panics` exits non-zero, naming the panic symbols, when a control-path probe (see
 //! `hapticgen_fw_control::probe`) still holds a panic path.
 
 use std::process::ExitCode;
 
-use hapticgen_fw_reference::{check, elf, link_stream, panics, variants, Stdout, GENERATED_IMAGES};
+use hapticgen_fw_reference::{
+    check, check_other_model, elf, link_stream, panics, variants, Stdout, GENERATED_IMAGES,
+};
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -85,6 +91,19 @@ fn main() -> ExitCode {
                 }
             }
         }
+        ["check-other-model", name, output, elf_path, rest @ ..]
+            if rest.is_empty() || rest == ["--limits=warn"] =>
+        {
+            match check_other_model(name, output, elf_path, !rest.is_empty()) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(errors) => {
+                    for e in errors {
+                        eprintln!("FAIL {e}");
+                    }
+                    ExitCode::FAILURE
+                }
+            }
+        }
         ["link-stream", uart, output] => {
             let read = std::fs::read(uart).map_err(|e| format!("{uart}: {e}"));
             let text = std::fs::read_to_string(output).map_err(|e| format!("{output}: {e}"));
@@ -110,7 +129,7 @@ fn main() -> ExitCode {
             }
         }
         _ => {
-            eprintln!("usage: hapticgen-fw-reference list | run <image> <f32|f64> | size <elf> | push <image> | check <image> <qemu-output> <elf> [--limits=warn] | panics <probe-elf> | generated | link-stream <uart> <qemu-output>");
+            eprintln!("usage: hapticgen-fw-reference list | run <image> <f32|f64> | size <elf> | push <image> | check <image> <qemu-output> <elf> [--limits=warn] | check-other-model <image> <qemu-output> <elf> [--limits=warn] | panics <probe-elf> | generated | link-stream <uart> <qemu-output>");
             ExitCode::from(2)
         }
     }
