@@ -73,6 +73,29 @@ pub fn image_name(model: &Path, variant: Option<&str>) -> Result<String, String>
     })
 }
 
+/// The image name to run: `given` (`--image-name`, for a model file no line of `variants.txt`
+/// is built from, such as an identified one: the line the image was built from with
+/// `HAPTICGEN_FW_MODEL`), which must be a line of the table; else [`image_name`] of `model`.
+pub fn chosen_image_name(given: Option<&str>, model: &Path, variant: Option<&str>) -> Result<String, String> {
+    let Some(name) = given else { return image_name(model, variant) };
+    let table = variants_file();
+    let text = std::fs::read_to_string(&table)
+        .map_err(|e| format!("error: cannot read the firmware's table of images {}: {e}", table.display()))?;
+    let names: Vec<&str> = text
+        .lines()
+        .filter_map(|line| line.split('#').next().unwrap_or("").split_whitespace().next())
+        .collect();
+    if names.contains(&name) {
+        Ok(name.to_string())
+    } else {
+        Err(format!(
+            "error: --image-name {name}: no such line in {} (known: {})",
+            table.display(),
+            names.join(", ")
+        ))
+    }
+}
+
 /// The start pose of the firmware image `name` (its line of `variants.txt`, degrees or mm) in
 /// `model`'s units (rad, m): where a device image is homed (its encoders read 0 there).
 pub fn image_pose(name: &str, model: &hapticgen_codegen::CheckedModel) -> Result<Vec<f64>, String> {
@@ -668,6 +691,19 @@ mod tests {
         );
         let unknown = image_name(Path::new("models/nothing.yaml"), None).unwrap_err();
         assert!(unknown.contains("no firmware image"), "{unknown}");
+        // An identified file is run as the line it was built from; a name that is no line is refused.
+        let identified = Path::new("out/identified.yaml");
+        assert!(image_name(identified, None).is_err());
+        assert_eq!(chosen_image_name(Some("joystick"), identified, None), Ok("joystick".to_string()));
+        assert_eq!(
+            chosen_image_name(None, Path::new("models/joystick_1dof.yaml"), None),
+            Ok("joystick".to_string())
+        );
+        let refused = chosen_image_name(Some("joystik"), identified, None).unwrap_err();
+        assert!(
+            refused.contains("--image-name joystik: no such line") && refused.contains("joystick,"),
+            "{refused}"
+        );
     }
 
     /// The report's `key=value` lines are read back.

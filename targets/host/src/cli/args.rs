@@ -357,6 +357,11 @@ pub struct PilArgs {
     /// as `scripts/firmware.sh --only pil` builds it).
     #[arg(long)]
     pub image: Option<PathBuf>,
+    /// The line of targets/firmware/variants.txt the image was built from (default: the line
+    /// whose model file has the model's file name and variant); for a model file no line names,
+    /// such as an identified one built in with `HAPTICGEN_FW_MODEL` (docs/firmware.md).
+    #[arg(long)]
+    pub image_name: Option<String>,
     /// qemu-system-arm (default: the first on PATH).
     #[arg(long)]
     pub qemu: Option<PathBuf>,
@@ -447,6 +452,11 @@ pub struct ConnectArgs {
     /// which the device must then be.
     #[arg(long, requires = "excite", value_delimiter = ',', allow_negative_numbers = true)]
     pub home: Option<Vec<f64>>,
+    /// The line of targets/firmware/variants.txt whose start pose is the home (with `--excite`,
+    /// without `--home`); default: the line whose model file has `--model`'s file name, which an
+    /// identified file has not.
+    #[arg(long, requires = "excite", conflicts_with = "home")]
+    pub image_name: Option<String>,
     /// No live status line.
     #[arg(long)]
     pub quiet: bool,

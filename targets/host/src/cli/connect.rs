@@ -239,8 +239,12 @@ fn connect_excite(args: &ConnectArgs, trajectory_path: &Path) -> Result<(), CliE
             (home.clone(), None)
         }
         None => {
-            let name = crate::pil::image_name(model_path, sim.model.variant.as_deref())
-                .map_err(CliError::Simulation)?;
+            let name = crate::pil::chosen_image_name(
+                args.image_name.as_deref(),
+                model_path,
+                sim.model.variant.as_deref(),
+            )
+            .map_err(CliError::Simulation)?;
             (crate::pil::image_pose(&name, &sim.model).map_err(CliError::Simulation)?, Some(name))
         }
     };

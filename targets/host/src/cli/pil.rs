@@ -21,7 +21,8 @@ pub fn pil(args: PilArgs) -> Result<(), CliError> {
     let run = &args.run;
     // The variant applied: the one asked for, else the model's default.
     let name =
-        crate::pil::image_name(&run.model, sim.model.variant.as_deref()).map_err(CliError::Simulation)?;
+        crate::pil::chosen_image_name(args.image_name.as_deref(), &run.model, sim.model.variant.as_deref())
+            .map_err(CliError::Simulation)?;
     let image = crate::pil::locate_image(&name, args.image.as_deref()).map_err(CliError::Simulation)?;
     let qemu = crate::pil::locate_qemu(args.qemu.as_deref()).map_err(CliError::Simulation)?;
     let period = 1.0 / f64::from(sim.data.current_loop_hz);

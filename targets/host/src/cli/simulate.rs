@@ -297,8 +297,12 @@ pub(super) fn excite_run(args: &SimulateArgs, pil: Option<&super::args::PilArgs>
         None => None,
         Some(pil) => {
             // The variant applied: the one asked for, else the model's default.
-            let name = crate::pil::image_name(&args.model, sim.model.variant.as_deref())
-                .map_err(CliError::Simulation)?;
+            let name = crate::pil::chosen_image_name(
+                pil.image_name.as_deref(),
+                &args.model,
+                sim.model.variant.as_deref(),
+            )
+            .map_err(CliError::Simulation)?;
             let image =
                 crate::pil::locate_image(&name, pil.image.as_deref()).map_err(CliError::Simulation)?;
             let qemu = crate::pil::locate_qemu(pil.qemu.as_deref()).map_err(CliError::Simulation)?;
