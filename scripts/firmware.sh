@@ -289,6 +289,17 @@ build_hapticgen() {
     [ -x "$HAPTICGEN" ] || die "hapticgen was built but is not at $HAPTICGEN"
 }
 
+# Runs image ELF under QEMU (exact instruction counts) into OUT_BASE.out and OUT_BASE.err,
+# prints its report without the trace lines (`S …`) and returns QEMU's exit status.
+run_image() {
+    local status=0
+    timeout "$QEMU_TIMEOUT" qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic \
+        -icount shift=10 -semihosting-config enable=on,target=native -kernel "$1" \
+        >"$2.out" 2>"$2.err" || status=$?
+    grep -v '^S ' "$2.out" || true
+    return "$status"
+}
+
 # The line `$PIL_VARIANT`'s image built from the model file identified under QEMU
 # (scripts/pil-identify.sh's `identified.yaml`) instead of its line's: its build script
 # generates the rig from HAPTICGEN_FW_MODEL (the crate's `generate` feature, the pre-generated
@@ -304,10 +315,7 @@ identified_image() {
         cargo build --locked --release --target "$TARGET" -p hapticgen-fw-qemu --bin hapticgen-fw-qemu || return 1
     cp "$TARGET_DIR/$TARGET/release/hapticgen-fw-qemu" "$elf"
     step "image $name from the identified model file: run under QEMU, its own checks, the line's limits"
-    timeout "$QEMU_TIMEOUT" qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic \
-        -icount shift=10 -semihosting-config enable=on,target=native -kernel "$elf" \
-        >"$OUT/$name.identified.out" 2>"$OUT/$name.identified.err" || status=$?
-    grep -v '^S ' "$OUT/$name.identified.out" || true
+    run_image "$elf" "$OUT/$name.identified" || status=$?
     if [ "$status" -ne 0 ]; then
         cat "$OUT/$name.identified.err" >&2
         echo "QEMU exit status $status" >&2
@@ -485,10 +493,7 @@ for NAME in "${SELECTED[@]}"; do
 
     step "image $NAME: run under QEMU"
     STATUS=0
-    timeout "$QEMU_TIMEOUT" qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic \
-        -icount shift=10 -semihosting-config enable=on,target=native -kernel "$ELF" \
-        >"$OUT/$NAME.out" 2>"$OUT/$NAME.err" || STATUS=$?
-    grep -v '^S ' "$OUT/$NAME.out" || true
+    run_image "$ELF" "$OUT/$NAME" || STATUS=$?
     if [ "$STATUS" -ne 0 ]; then
         cat "$OUT/$NAME.err" >&2
         if [ "$STATUS" -eq 124 ]; then

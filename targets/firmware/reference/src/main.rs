@@ -81,28 +81,12 @@ fn main() -> ExitCode {
             }
         },
         ["check", name, output, elf_path, rest @ ..] if rest.is_empty() || rest == ["--limits=warn"] => {
-            match check(name, output, elf_path, !rest.is_empty()) {
-                Ok(()) => ExitCode::SUCCESS,
-                Err(errors) => {
-                    for e in errors {
-                        eprintln!("FAIL {e}");
-                    }
-                    ExitCode::FAILURE
-                }
-            }
+            verdict(check(name, output, elf_path, !rest.is_empty()))
         }
         ["check-other-model", name, output, elf_path, rest @ ..]
             if rest.is_empty() || rest == ["--limits=warn"] =>
         {
-            match check_other_model(name, output, elf_path, !rest.is_empty()) {
-                Ok(()) => ExitCode::SUCCESS,
-                Err(errors) => {
-                    for e in errors {
-                        eprintln!("FAIL {e}");
-                    }
-                    ExitCode::FAILURE
-                }
-            }
+            verdict(check_other_model(name, output, elf_path, !rest.is_empty()))
         }
         ["link-stream", uart, output] => {
             let read = std::fs::read(uart).map_err(|e| format!("{uart}: {e}"));
@@ -131,6 +115,19 @@ fn main() -> ExitCode {
         _ => {
             eprintln!("usage: hapticgen-fw-reference list | run <image> <f32|f64> | size <elf> | push <image> | check <image> <qemu-output> <elf> [--limits=warn] | check-other-model <image> <qemu-output> <elf> [--limits=warn] | panics <probe-elf> | generated | link-stream <uart> <qemu-output>");
             ExitCode::from(2)
+        }
+    }
+}
+
+/// A check's exit status: success, or a `FAIL …` line per error and failure.
+fn verdict(checked: Result<(), Vec<String>>) -> ExitCode {
+    match checked {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(errors) => {
+            for e in errors {
+                eprintln!("FAIL {e}");
+            }
+            ExitCode::FAILURE
         }
     }
 }
