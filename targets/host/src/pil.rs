@@ -40,22 +40,38 @@ pub fn variants_file() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware/variants.txt")
 }
 
-/// The image name (a line of `variants.txt`) for `model` and `variant`: the line whose model
-/// file has the same name and whose variant is `variant` (`-` for none).
-pub fn image_name(model: &Path, variant: Option<&str>) -> Result<String, String> {
+/// A line of `variants.txt` that holds an image: its number (1-based) and its fields.
+type TableLine = (usize, Vec<String>);
+
+/// The lines of `variants.txt` that hold an image, comments dropped; and the table's path, for
+/// messages.
+fn table_lines() -> Result<(PathBuf, Vec<TableLine>), String> {
     let table = variants_file();
     let text = std::fs::read_to_string(&table)
         .map_err(|e| format!("error: cannot read the firmware's table of images {}: {e}", table.display()))?;
+    let lines = text
+        .lines()
+        .enumerate()
+        .map(|(index, line)| {
+            (index + 1, line.split('#').next().unwrap_or("").split_whitespace().map(str::to_string).collect())
+        })
+        .filter(|(_, fields): &TableLine| !fields.is_empty())
+        .collect();
+    Ok((table, lines))
+}
+
+/// The image name (a line of `variants.txt`) for `model` and `variant`: the line whose model
+/// file has the same name and whose variant is `variant` (`-` for none).
+pub fn image_name(model: &Path, variant: Option<&str>) -> Result<String, String> {
+    let (table, lines) = table_lines()?;
     let file = model.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
     let wanted = variant.unwrap_or("-");
     let mut candidates = Vec::new();
-    for line in text.lines() {
-        let line = line.split('#').next().unwrap_or("");
-        let fields: Vec<&str> = line.split_whitespace().collect();
+    for (_, fields) in &lines {
         if fields.len() < 3 {
             continue;
         }
-        let (name, model_path, line_variant) = (fields[0], fields[1], fields[2]);
+        let (name, model_path, line_variant) = (&fields[0], &fields[1], &fields[2]);
         if Path::new(model_path).file_name().map(|f| f.to_string_lossy().into_owned()) == Some(file.clone()) {
             if line_variant == wanted {
                 return Ok(name.to_string());
@@ -78,13 +94,8 @@ pub fn image_name(model: &Path, variant: Option<&str>) -> Result<String, String>
 /// `HAPTICGEN_FW_MODEL`), which must be a line of the table; else [`image_name`] of `model`.
 pub fn chosen_image_name(given: Option<&str>, model: &Path, variant: Option<&str>) -> Result<String, String> {
     let Some(name) = given else { return image_name(model, variant) };
-    let table = variants_file();
-    let text = std::fs::read_to_string(&table)
-        .map_err(|e| format!("error: cannot read the firmware's table of images {}: {e}", table.display()))?;
-    let names: Vec<&str> = text
-        .lines()
-        .filter_map(|line| line.split('#').next().unwrap_or("").split_whitespace().next())
-        .collect();
+    let (table, lines) = table_lines()?;
+    let names: Vec<&str> = lines.iter().map(|(_, fields)| fields[0].as_str()).collect();
     if names.contains(&name) {
         Ok(name.to_string())
     } else {
@@ -99,15 +110,12 @@ pub fn chosen_image_name(given: Option<&str>, model: &Path, variant: Option<&str
 /// The start pose of the firmware image `name` (its line of `variants.txt`, degrees or mm) in
 /// `model`'s units (rad, m): where a device image is homed (its encoders read 0 there).
 pub fn image_pose(name: &str, model: &hapticgen_codegen::CheckedModel) -> Result<Vec<f64>, String> {
-    let table = variants_file();
-    let text = std::fs::read_to_string(&table)
-        .map_err(|e| format!("error: cannot read the firmware's table of images {}: {e}", table.display()))?;
-    for (index, line) in text.lines().enumerate() {
-        let fields: Vec<&str> = line.split('#').next().unwrap_or("").split_whitespace().collect();
-        if fields.first() != Some(&name) {
+    let (table, lines) = table_lines()?;
+    for (number, fields) in &lines {
+        if fields[0] != name {
             continue;
         }
-        let at = format!("{}:{}", table.display(), index + 1);
+        let at = format!("{}:{number}", table.display());
         let values = fields
             .get(4)
             .ok_or_else(|| format!("error: {at}: no pose column"))?
